@@ -1,0 +1,1 @@
+//! The frontseat runtime.

@@ -1,0 +1,1 @@
+//! The interface compiler (see README).

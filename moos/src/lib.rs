@@ -1,0 +1,1 @@
+//! MOOS wire protocol.

@@ -1,1 +1,123 @@
-//! Typed configuration.
+//! Typed TOML configuration for the frontseat services (`interface`, `sim`, `moos-gateway`):
+//! defaults, validation with field paths, the commented example config and the JSON Schema.
+//!
+//! The doc comments on the config structs are the single source of field descriptions: schemars
+//! turns them into the schema, and [`example`] walks that schema to comment the example file.
+#![forbid(unsafe_code)]
+
+mod check;
+mod error;
+mod example;
+mod gateway;
+mod interface;
+mod sections;
+mod sim;
+
+use std::io::Read;
+use std::path::Path;
+
+use schemars::JsonSchema;
+use serde::Serialize;
+use serde::de::DeserializeOwned;
+
+pub use error::{ConfigError, FieldError};
+pub use gateway::GatewayConfig;
+pub use interface::{
+    BASIC_SIMULATOR, BasicSimulatorConfig, BusConfig, ChaosConfig, DriverConfig, InterfaceConfig,
+    MAX_QUEUE_CAPACITY, SimStartConfig, SimVehicleConfig, SupervisionConfig, VehicleType,
+};
+pub use sections::{
+    DEFAULT_ORIGIN_LAT, DEFAULT_ORIGIN_LON, InterprocessConfig, InterprocessMode, LatLonConfig,
+    MoosConfig, TelemetryConfig,
+};
+pub use sim::{CurrentConfig, FaultKind, MAX_LINE_BYTES_LIMIT, ScheduledFaultConfig, SimConfig};
+
+/// Largest accepted time warp (sim_warp_factor, moos.time_warp).
+pub const MAX_WARP: f64 = 10_000.0;
+
+/// Largest config file [`load`] reads; a config is a few kilobytes, so anything bigger is a
+/// mistake (wrong file) and must not be read into memory whole.
+pub const MAX_FILE_BYTES: u64 = 1 << 20;
+
+/// A service's configuration: its TOML shape (serde), its schema (schemars) and its rules.
+pub trait ServiceConfig: Serialize + DeserializeOwned + JsonSchema + Default {
+    /// The subcommand this configures: "interface", "sim", "moos-gateway".
+    const SERVICE: &'static str;
+
+    /// Every broken rule; empty means valid.
+    fn validate(&self) -> Vec<FieldError>;
+}
+
+/// Read, parse and validate a config file.
+pub fn load<T: ServiceConfig>(path: &Path) -> Result<T, ConfigError> {
+    let file = path.display().to_string();
+    let io = |source| ConfigError::Io {
+        file: file.clone(),
+        source,
+    };
+    let f = std::fs::File::open(path).map_err(io)?;
+    let mut bytes = Vec::new();
+    f.take(MAX_FILE_BYTES + 1)
+        .read_to_end(&mut bytes)
+        .map_err(io)?;
+    if bytes.len() as u64 > MAX_FILE_BYTES {
+        return Err(io(std::io::Error::new(
+            std::io::ErrorKind::InvalidData,
+            format!("larger than {MAX_FILE_BYTES} bytes; not a config file"),
+        )));
+    }
+    let text = String::from_utf8(bytes)
+        .map_err(|e| io(std::io::Error::new(std::io::ErrorKind::InvalidData, e)))?;
+    parse(&text, &file)
+}
+
+/// Parse and validate TOML text; `file_name` only labels the errors.
+pub fn parse<T: ServiceConfig>(text: &str, file_name: &str) -> Result<T, ConfigError> {
+    let cfg: T = toml::from_str(text).map_err(|e| parse_error(&e, text, file_name))?;
+    let errors = cfg.validate();
+    if errors.is_empty() {
+        Ok(cfg)
+    } else {
+        Err(ConfigError::Invalid {
+            file: file_name.to_owned(),
+            errors,
+        })
+    }
+}
+
+/// The complete example config of `T`: every field with its default value, each preceded by
+/// its description and unit. Optional sections and settings that are off by default are printed
+/// commented out (`#[moos]`, `#server = …`), so the text loads as it is and equals
+/// `T::default()`.
+pub fn example<T: ServiceConfig>() -> String {
+    example::render::<T>()
+}
+
+/// The JSON Schema of `T`, pretty-printed.
+pub fn schema<T: ServiceConfig>() -> String {
+    let schema = schemars::schema_for!(T);
+    // A Schema is a serde_json::Value underneath; serializing it cannot fail.
+    serde_json::to_string_pretty(&schema).unwrap_or_default()
+}
+
+fn parse_error(e: &toml::de::Error, text: &str, file: &str) -> ConfigError {
+    let (line, column) = e
+        .span()
+        .and_then(|span| line_column(text, span.start))
+        .unwrap_or((0, 0));
+    ConfigError::Parse {
+        file: file.to_owned(),
+        line,
+        column,
+        message: e.message().trim().to_owned(),
+    }
+}
+
+/// 1-based line and character column of byte `offset`.
+fn line_column(text: &str, offset: usize) -> Option<(usize, usize)> {
+    let before = text.get(..offset)?;
+    let line_start = before.rfind('\n').map_or(0, |i| i + 1);
+    let line = before.matches('\n').count() + 1;
+    let column = before[line_start..].chars().count() + 1;
+    Some((line, column))
+}

@@ -1,0 +1,210 @@
+//! Sections shared by several services: geographic origin, MOOS connection, inter-process
+//! (Zenoh) transport and OpenTelemetry export.
+//!
+//! Each section validates itself under a path prefix so its errors carry the full dotted path
+//! wherever it is embedded.
+
+use schemars::JsonSchema;
+use serde::{Deserialize, Serialize};
+
+use crate::check::{Checker, at};
+
+/// Latitude of the default origin: the example origin Goby3's course uses (MIT, Boston).
+pub const DEFAULT_ORIGIN_LAT: f64 = 42.358456;
+/// Longitude of the default origin (see [`DEFAULT_ORIGIN_LAT`]).
+pub const DEFAULT_ORIGIN_LON: f64 = -71.087589;
+
+/// A geographic point: the datum of the local x/y grid.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields, default)]
+pub struct LatLonConfig {
+    /// Latitude of the origin. Unit: decimal degrees (WGS-84), -90 to 90. Goby3 requires it; our
+    /// default is the example origin so that a fresh example config loads.
+    pub lat: f64,
+    /// Longitude of the origin. Unit: decimal degrees (WGS-84), -180 to 180.
+    pub lon: f64,
+    /// Depth of the origin below the surface. Unit: m.
+    pub depth: f64,
+    /// Altitude of the origin above the sea floor; unset means unknown (Goby3: nan). Unit: m.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    #[schemars(example = 0.0)]
+    pub altitude: Option<f64>,
+}
+
+impl Default for LatLonConfig {
+    fn default() -> Self {
+        Self {
+            lat: DEFAULT_ORIGIN_LAT,
+            lon: DEFAULT_ORIGIN_LON,
+            depth: 0.0,
+            altitude: None,
+        }
+    }
+}
+
+impl LatLonConfig {
+    pub(crate) fn check(&self, prefix: &str, c: &mut Checker) {
+        c.latitude(&at(prefix, "lat"), self.lat);
+        c.longitude(&at(prefix, "lon"), self.lon);
+        c.finite(&at(prefix, "depth"), self.depth);
+        if let Some(a) = self.altitude {
+            c.finite(&at(prefix, "altitude"), a);
+        }
+    }
+}
+
+/// Connection to a MOOSDB, for the FrontSeatTranslation bridge to pHelmIvP.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields, default)]
+pub struct MoosConfig {
+    /// Host name or IP address of the MOOSDB.
+    pub server: String,
+    /// TCP port of the MOOSDB (MOOS default 9000).
+    pub port: u16,
+    /// MOOS community name the DB is expected to announce; empty = accept any.
+    pub community: String,
+    /// Name this client registers under at the MOOSDB (Goby3's is iFrontSeat).
+    pub app_name: String,
+    /// MOOSTimeWarp of the community: every MOOS timestamp is Unix time times this. Must match
+    /// the MOOSDB's. Unit: factor, greater than 0.
+    pub time_warp: f64,
+    /// Report the helm as stale on our status group when no DESIRED_* has arrived for this long;
+    /// 0 = never report. Unit: s.
+    pub desired_timeout_s: f64,
+}
+
+impl Default for MoosConfig {
+    fn default() -> Self {
+        Self {
+            server: "127.0.0.1".into(),
+            port: 9000,
+            community: String::new(),
+            app_name: "iFrontSeat".into(),
+            time_warp: 1.0,
+            desired_timeout_s: 5.0,
+        }
+    }
+}
+
+impl MoosConfig {
+    pub(crate) fn check(&self, prefix: &str, c: &mut Checker) {
+        c.non_empty(&at(prefix, "server"), &self.server);
+        c.port(&at(prefix, "port"), self.port);
+        c.non_empty(&at(prefix, "app_name"), &self.app_name);
+        c.positive_up_to(&at(prefix, "time_warp"), self.time_warp, crate::MAX_WARP);
+        c.non_negative(&at(prefix, "desired_timeout_s"), self.desired_timeout_s);
+    }
+}
+
+/// How the Zenoh session joins the network.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "lowercase")]
+pub enum InterprocessMode {
+    /// Peer to peer: talks directly to other peers; no router needed on one host.
+    #[default]
+    Peer,
+    /// Client of a Zenoh router given in `connect`.
+    Client,
+}
+
+/// Inter-process and multi-host publish/subscribe over Zenoh.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields, default)]
+pub struct InterprocessConfig {
+    /// Export and import the interface's interprocess groups over Zenoh.
+    pub enabled: bool,
+    /// Zenoh session mode: "peer" or "client".
+    pub mode: InterprocessMode,
+    /// Zenoh endpoints to listen on, e.g. "tcp/127.0.0.1:7447". The default touches only loopback.
+    pub listen: Vec<String>,
+    /// Zenoh endpoints to connect to (a router, or other peers), e.g. "tcp/10.0.0.2:7447".
+    pub connect: Vec<String>,
+    /// Platform name, the first element of every key expression
+    /// (`<platform>/goby/middleware/frontseat/node_status`); empty = use the top-level `name`.
+    pub platform: String,
+}
+
+impl Default for InterprocessConfig {
+    fn default() -> Self {
+        Self {
+            enabled: false,
+            mode: InterprocessMode::Peer,
+            listen: vec!["tcp/127.0.0.1:7447".into()],
+            connect: Vec::new(),
+            platform: String::new(),
+        }
+    }
+}
+
+impl InterprocessConfig {
+    pub(crate) fn check(&self, prefix: &str, c: &mut Checker) {
+        for (field, list) in [("listen", &self.listen), ("connect", &self.connect)] {
+            for (i, ep) in list.iter().enumerate() {
+                // Zenoh locators are `<protocol>/<address>`; catching a bare "host:port" here
+                // gives a better message than Zenoh's at start-up.
+                let ok = ep
+                    .split_once('/')
+                    .is_some_and(|(proto, addr)| !proto.is_empty() && !addr.is_empty());
+                if !ok {
+                    c.push(crate::FieldError::new(
+                        format!("{}[{i}]", at(prefix, field)),
+                        format!("{ep:?}"),
+                        "not a Zenoh endpoint like \"tcp/127.0.0.1:7447\"",
+                    ));
+                }
+            }
+        }
+        if self.enabled && self.mode == InterprocessMode::Client && self.connect.is_empty() {
+            c.push(crate::FieldError::new(
+                at(prefix, "connect"),
+                "[]",
+                "mode \"client\" needs at least one router endpoint to connect to",
+            ));
+        }
+        if self.platform.contains(['/', '*', '$', '?', '#']) {
+            c.push(crate::FieldError::new(
+                at(prefix, "platform"),
+                format!("{:?}", self.platform),
+                "must not contain '/', '*', '$', '?' or '#' (it becomes a key expression chunk)",
+            ));
+        }
+    }
+}
+
+/// OpenTelemetry trace export over OTLP/HTTP (protobuf).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields, default)]
+pub struct TelemetryConfig {
+    /// Export traces. The standard OTEL_EXPORTER_OTLP_ENDPOINT variable also turns export on.
+    pub enabled: bool,
+    /// OTLP/HTTP collector base URL; traces go to `<endpoint>/v1/traces`.
+    pub endpoint: String,
+    /// service.name resource attribute; empty = the service role plus the platform name.
+    pub service_name: String,
+    /// Fraction of traces sampled. Unit: ratio, 0 to 1.
+    pub sampling_ratio: f64,
+}
+
+impl Default for TelemetryConfig {
+    fn default() -> Self {
+        Self {
+            enabled: false,
+            endpoint: "http://127.0.0.1:4318".into(),
+            service_name: String::new(),
+            sampling_ratio: 1.0,
+        }
+    }
+}
+
+impl TelemetryConfig {
+    pub(crate) fn check(&self, prefix: &str, c: &mut Checker) {
+        if !(self.endpoint.starts_with("http://") || self.endpoint.starts_with("https://")) {
+            c.push(crate::FieldError::new(
+                at(prefix, "endpoint"),
+                format!("{:?}", self.endpoint),
+                "must be an http:// or https:// URL",
+            ));
+        }
+        c.within(&at(prefix, "sampling_ratio"), self.sampling_ratio, 0.0, 1.0);
+    }
+}

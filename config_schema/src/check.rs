@@ -73,7 +73,11 @@ impl Checker {
 
     pub(crate) fn port(&mut self, path: &str, p: u16) {
         if p == 0 {
-            self.push(FieldError::new(path, p, "port 0 is not allowed; use 1-65535"));
+            self.push(FieldError::new(
+                path,
+                p,
+                "port 0 is not allowed; use 1-65535",
+            ));
         }
     }
 

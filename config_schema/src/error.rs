@@ -20,7 +20,11 @@ pub struct FieldError {
 
 impl FieldError {
     /// A rule failure for `path`, whose current value is `value`.
-    pub fn new(path: impl Into<String>, value: impl fmt::Display, reason: impl fmt::Display) -> Self {
+    pub fn new(
+        path: impl Into<String>,
+        value: impl fmt::Display,
+        reason: impl fmt::Display,
+    ) -> Self {
         Self {
             path: path.into(),
             message: format!("{value}: {reason}"),

@@ -57,14 +57,13 @@ enum Sub<'a> {
 impl<'a> Writer<'a> {
     /// Follows `$ref` and unwraps `Option<T>` (anyOf/oneOf with a null branch).
     fn resolve(&self, s: &'a Value) -> &'a Value {
-        if let Some(name) = s
+        let target = s
             .get("$ref")
             .and_then(Value::as_str)
             .and_then(|r| r.strip_prefix("#/$defs/"))
-        {
-            if let Some(d) = self.defs.and_then(|defs| defs.get(name)) {
-                return self.resolve(d);
-            }
+            .and_then(|name| self.defs?.get(name));
+        if let Some(d) = target {
+            return self.resolve(d);
         }
         for key in ["anyOf", "oneOf"] {
             if let Some(branches) = s.get(key).and_then(Value::as_array) {
@@ -133,7 +132,8 @@ impl<'a> Writer<'a> {
                 // Doc-comment lines are soft-wrapped; only indented lines (enum lists) keep
                 // their own line.
                 let keep = raw.starts_with("  ");
-                let words: Vec<&str> = raw.split_whitespace().collect();
+                let words = glue_units(raw);
+                let words: Vec<&str> = words.iter().map(String::as_str).collect();
                 if words.is_empty() {
                     continue;
                 }
@@ -337,4 +337,20 @@ fn toml_value(v: &Value) -> String {
 /// Enum values as written in TOML (quoted strings).
 fn plain(v: &Value) -> String {
     toml_value(v)
+}
+
+/// Splits a line into words, keeping "Unit:" with the unit after it so a wrap never leaves a
+/// dangling "Unit:" at a line end.
+fn glue_units(line: &str) -> Vec<String> {
+    let mut out: Vec<String> = Vec::new();
+    for w in line.split_whitespace() {
+        match out.last_mut() {
+            Some(prev) if prev == "Unit:" => {
+                prev.push(' ');
+                prev.push_str(w);
+            }
+            _ => out.push(w.to_owned()),
+        }
+    }
+    out
 }

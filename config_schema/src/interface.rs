@@ -90,17 +90,22 @@ pub struct InterfaceConfig {
     pub require_helm: bool,
     /// If require_helm, how long to wait for the helm to start before moving to the helm error
     /// state. Unit: s.
+    #[schemars(range(min = 0.0))]
     pub helm_running_timeout: f64,
     /// How long to wait for the frontseat to be connected before moving to the frontseat error
     /// state. Unit: s.
+    #[schemars(range(min = 0.0))]
     pub frontseat_connected_timeout: f64,
     /// Time between InterfaceStatus publications (also published at every state change);
     /// 0 = no periodic status. Unit: s.
+    #[schemars(range(min = 0.0))]
     pub status_period: f64,
     /// Exit the service (non-zero) when it enters an error state.
     pub exit_on_error: bool,
     /// Simulation time warp: every timer runs this many times faster, and the basic simulator is
     /// told WARP:<this>. Unit: factor, greater than 0 and at most 10000.
+    #[schemars(extend("exclusiveMinimum" = 0.0))]
+    #[schemars(range(max = 10000.0))]
     pub sim_warp_factor: f64,
     /// The frontseat driver.
     pub driver: DriverConfig,
@@ -150,7 +155,10 @@ impl ServiceConfig for InterfaceConfig {
         let mut c = Checker::default();
         self.origin.check("origin", &mut c);
         c.non_negative("helm_running_timeout", self.helm_running_timeout);
-        c.non_negative("frontseat_connected_timeout", self.frontseat_connected_timeout);
+        c.non_negative(
+            "frontseat_connected_timeout",
+            self.frontseat_connected_timeout,
+        );
         c.non_negative("status_period", self.status_period);
         c.positive_up_to("sim_warp_factor", self.sim_warp_factor, MAX_WARP);
         self.driver.check("driver", &mut c);
@@ -216,15 +224,19 @@ pub struct BasicSimulatorConfig {
     /// Host name or IP address of the simulator.
     pub tcp_address: String,
     /// TCP port of the simulator.
+    #[schemars(range(min = 1))]
     pub tcp_port: u16,
     /// Sent to the simulator as START on every (re)connect.
     pub start: SimStartConfig,
     /// First delay before reconnecting after a failed connect or a lost connection; doubles per
     /// failure up to reconnect_max_ms. Unit: ms.
+    #[schemars(range(min = 1))]
     pub reconnect_initial_ms: u64,
     /// Cap of the reconnect delay. Unit: ms.
+    #[schemars(range(min = 1))]
     pub reconnect_max_ms: u64,
     /// The frontseat stops providing data after this long without a NAV line. Unit: s.
+    #[schemars(extend("exclusiveMinimum" = 0.0))]
     pub nav_timeout: f64,
 }
 
@@ -251,7 +263,12 @@ impl BasicSimulatorConfig {
         // 0 would never grow under doubling: a reconnect storm against a dead simulator.
         c.at_least(&initial, self.reconnect_initial_ms, 1);
         c.at_least(&max, self.reconnect_max_ms, 1);
-        c.ordered(&initial, self.reconnect_initial_ms, &max, self.reconnect_max_ms);
+        c.ordered(
+            &initial,
+            self.reconnect_initial_ms,
+            &max,
+            self.reconnect_max_ms,
+        );
         c.positive(&at(prefix, "nav_timeout"), self.nav_timeout);
     }
 }
@@ -261,13 +278,18 @@ impl BasicSimulatorConfig {
 #[serde(deny_unknown_fields, default)]
 pub struct SimStartConfig {
     /// Start latitude (START LAT, sent at full precision). Unit: decimal degrees, -90 to 90.
+    #[schemars(range(min = -90.0, max = 90.0))]
     pub lat: f64,
     /// Start longitude (START LON). Unit: decimal degrees, -180 to 180.
+    #[schemars(range(min = -180.0, max = 180.0))]
     pub lon: f64,
     /// How long the simulator stays in PAYLOAD before going IDLE (START DURATION); 0 = forever.
     /// Unit: s.
+    #[schemars(range(min = 0.0))]
     pub duration: f64,
     /// Simulator update rate (START FREQ). Unit: Hz, greater than 0 and at most 1000.
+    #[schemars(extend("exclusiveMinimum" = 0.0))]
+    #[schemars(range(max = 1000.0))]
     pub control_freq: f64,
     /// Vehicle dynamics limits.
     pub vehicle: SimVehicleConfig,
@@ -300,10 +322,13 @@ impl SimStartConfig {
 #[serde(deny_unknown_fields, default)]
 pub struct SimVehicleConfig {
     /// Maximum acceleration (START ACCEL). Unit: m/s².
+    #[schemars(range(min = 0.0))]
     pub accel: f64,
     /// Maximum turn rate (START HDG_RATE). Unit: deg/s.
+    #[schemars(range(min = 0.0))]
     pub hdg_rate: f64,
     /// Maximum vertical speed (START Z_RATE). Unit: m/s.
+    #[schemars(range(min = 0.0))]
     pub z_rate: f64,
 }
 
@@ -330,13 +355,16 @@ impl SimVehicleConfig {
 #[serde(deny_unknown_fields, default)]
 pub struct SupervisionConfig {
     /// Delay before the first restart; doubles per restart up to restart_max_delay_ms. Unit: ms.
+    #[schemars(range(min = 1))]
     pub restart_initial_delay_ms: u64,
     /// Cap of the restart delay. Unit: ms.
+    #[schemars(range(min = 1))]
     pub restart_max_delay_ms: u64,
     /// Restarts allowed within restart_window_s; one more failure ends the service (non-zero exit,
     /// so systemd restarts it). 0 = never restart the driver: its first failure ends the service.
     pub max_restarts: u32,
     /// Sliding window over which restarts are counted. Unit: s.
+    #[schemars(extend("exclusiveMinimum" = 0.0))]
     pub restart_window_s: f64,
 }
 
@@ -381,6 +409,7 @@ pub struct ChaosConfig {
 pub struct BusConfig {
     /// Capacity of each subscriber's queue; when full, new messages for that subscriber are
     /// dropped and counted. Unit: messages, 1 to 1048576.
+    #[schemars(range(min = 1, max = 1048576))]
     pub queue_capacity: usize,
 }
 

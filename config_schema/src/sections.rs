@@ -20,8 +20,10 @@ pub const DEFAULT_ORIGIN_LON: f64 = -71.087589;
 pub struct LatLonConfig {
     /// Latitude of the origin. Unit: decimal degrees (WGS-84), -90 to 90. Goby3 requires it; our
     /// default is the example origin so that a fresh example config loads.
+    #[schemars(range(min = -90.0, max = 90.0))]
     pub lat: f64,
     /// Longitude of the origin. Unit: decimal degrees (WGS-84), -180 to 180.
+    #[schemars(range(min = -180.0, max = 180.0))]
     pub lon: f64,
     /// Depth of the origin below the surface. Unit: m.
     pub depth: f64,
@@ -60,6 +62,7 @@ pub struct MoosConfig {
     /// Host name or IP address of the MOOSDB.
     pub server: String,
     /// TCP port of the MOOSDB (MOOS default 9000).
+    #[schemars(range(min = 1))]
     pub port: u16,
     /// MOOS community name the DB is expected to announce; empty = accept any.
     pub community: String,
@@ -67,9 +70,12 @@ pub struct MoosConfig {
     pub app_name: String,
     /// MOOSTimeWarp of the community: every MOOS timestamp is Unix time times this. Must match
     /// the MOOSDB's. Unit: factor, greater than 0.
+    #[schemars(extend("exclusiveMinimum" = 0.0))]
+    #[schemars(range(max = 10000.0))]
     pub time_warp: f64,
     /// Report the helm as stale on our status group when no DESIRED_* has arrived for this long;
     /// 0 = never report. Unit: s.
+    #[schemars(range(min = 0.0))]
     pub desired_timeout_s: f64,
 }
 
@@ -113,7 +119,7 @@ pub enum InterprocessMode {
 pub struct InterprocessConfig {
     /// Export and import the interface's interprocess groups over Zenoh.
     pub enabled: bool,
-    /// Zenoh session mode: "peer" or "client".
+    /// Zenoh session mode.
     pub mode: InterprocessMode,
     /// Zenoh endpoints to listen on, e.g. "tcp/127.0.0.1:7447". The default touches only loopback.
     pub listen: Vec<String>,
@@ -182,6 +188,7 @@ pub struct TelemetryConfig {
     /// service.name resource attribute; empty = the service role plus the platform name.
     pub service_name: String,
     /// Fraction of traces sampled. Unit: ratio, 0 to 1.
+    #[schemars(range(min = 0.0, max = 1.0))]
     pub sampling_ratio: f64,
 }
 

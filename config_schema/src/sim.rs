@@ -18,11 +18,14 @@ pub struct SimConfig {
     /// IP address to listen on (an address, not a host name). Loopback by default.
     pub bind: String,
     /// TCP port to listen on; 0 is refused here (tests pick ephemeral ports in code).
+    #[schemars(range(min = 1))]
     pub port: u16,
     /// Longest accepted line from a client, without its line ending; longer lines are discarded
     /// and counted. Unit: bytes, 16 to 1048576.
+    #[schemars(range(min = 16, max = 1048576))]
     pub max_line_bytes: usize,
     /// Most vehicles (client connections) simulated at once; more are refused. Unit: connections.
+    #[schemars(range(min = 1))]
     pub max_vehicles: usize,
     /// Constant water current that drifts every vehicle.
     pub current: CurrentConfig,
@@ -138,6 +141,7 @@ pub enum FaultKind {
 #[serde(deny_unknown_fields)]
 pub struct ScheduledFaultConfig {
     /// When to inject, after the vehicle's START (simulation time). Unit: s.
+    #[schemars(range(min = 0.0))]
     pub at: f64,
     /// What to inject.
     pub kind: FaultKind,
@@ -146,6 +150,7 @@ pub struct ScheduledFaultConfig {
     pub seconds: Option<f64>,
     /// For garbage: how many garbage lines (default 1). Unit: lines, 1 to 10000.
     #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schemars(range(min = 1, max = 10000))]
     pub lines: Option<u32>,
 }
 

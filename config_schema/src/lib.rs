@@ -105,12 +105,40 @@ fn parse_error(e: &toml::de::Error, text: &str, file: &str) -> ConfigError {
         .span()
         .and_then(|span| line_column(text, span.start))
         .unwrap_or((0, 0));
+    let mut message = e.message().trim().to_owned();
+    // serde's type errors ("invalid type: string \"x\", expected f64") do not say which key;
+    // the source does, so name it.
+    if let Some(path) = e.span().and_then(|span| value_path(text, span.start)) {
+        message = format!("{path}: {message}");
+    }
     ConfigError::Parse {
         file: file.to_owned(),
         line,
         column,
-        message: e.message().trim().to_owned(),
+        message,
     }
+}
+
+/// Dotted path of the key whose value starts before `offset` on the same line, using the last
+/// `[table]` header above it; None when `offset` is not inside a `key = value` line's value.
+fn value_path(text: &str, offset: usize) -> Option<String> {
+    let before = text.get(..offset)?;
+    let line_start = before.rfind('\n').map_or(0, |i| i + 1);
+    let (key, _) = before[line_start..].split_once('=')?;
+    let key = key.trim();
+    if key.is_empty() || key.starts_with('#') || key.starts_with('[') {
+        return None;
+    }
+    let header = before[..line_start].lines().rev().find_map(|l| {
+        let l = l.trim();
+        let inner = l.strip_prefix("[[").and_then(|r| r.split_once("]]"));
+        let inner = inner.or_else(|| l.strip_prefix('[').and_then(|r| r.split_once(']')));
+        inner.map(|(name, _)| name.trim().to_owned())
+    });
+    Some(match header {
+        Some(h) if !h.is_empty() => format!("{h}.{key}"),
+        _ => key.to_owned(),
+    })
 }
 
 /// 1-based line and character column of byte `offset`.

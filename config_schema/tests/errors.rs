@@ -70,6 +70,18 @@ fn wrong_types_and_enum_names_are_parse_errors_with_position() {
     let (line, _, message, _) =
         parse_err::<InterfaceConfig>("[driver.basic_simulator]\ntcp_port = 70000\n");
     assert_eq!(line, 2, "{message}");
+    assert!(
+        message.starts_with("driver.basic_simulator.tcp_port: "),
+        "names the key: {message}"
+    );
+    let (_, _, message, shown) = parse_err::<SimConfig>(
+        "[[faults]]\nat = 1\nkind = \"garbage\"\n[[faults]]\nat = \"soon\"\nkind = \"garbage\"\n",
+    );
+    assert!(message.starts_with("faults.at: "), "{message}");
+    assert!(
+        shown.starts_with("cfg.toml:5:6: faults.at: invalid type"),
+        "{shown}"
+    );
     let (line, _, message, _) = parse_err::<InterfaceConfig>("\ntype = \"SUBMARINE\"\n");
     assert_eq!(line, 2);
     assert!(message.contains("SUBMARINE"), "{message}");

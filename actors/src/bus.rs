@@ -106,6 +106,19 @@ pub struct Envelope<T> {
 }
 
 impl<T> Envelope<T> {
+    /// The same delivery carrying another message (e.g. a DesiredCourse wrapped into a
+    /// CommandRequest): keeps the trace, origin, publish time and the queue slot.
+    pub fn rewrap<U>(env: Envelope<T>, msg: U) -> Envelope<U> {
+        Envelope {
+            group: env.group,
+            msg: Arc::new(msg),
+            published_at: env.published_at,
+            trace: env.trace,
+            origin: env.origin,
+            _ticket: env._ticket,
+        }
+    }
+
     /// The publish metadata, to pass the trace on when re-publishing.
     pub fn meta(&self) -> PublishMeta {
         PublishMeta {
@@ -288,7 +301,10 @@ impl Bus {
         // The generated groups give one type per name, so this only fails if two hand-made
         // groups disagree; such a publish reaches nobody rather than the wrong type.
         let Some(slot) = slot.as_any().downcast_ref::<Slot<T>>() else {
-            tracing::error!(group = group.name, "publish with a type other than the group's");
+            tracing::error!(
+                group = group.name,
+                "publish with a type other than the group's"
+            );
             return report;
         };
         let published_at = Instant::now();
@@ -322,7 +338,11 @@ impl Bus {
             }
         }
         for id in gone {
-            tracing::debug!(group = group.name, id, "removing subscriber whose receiver is gone");
+            tracing::debug!(
+                group = group.name,
+                id,
+                "removing subscriber whose receiver is gone"
+            );
             slot.remove(id);
         }
         report
@@ -351,7 +371,10 @@ impl Bus {
                 deliver: Box::new(deliver),
             }));
         } else {
-            tracing::error!(group = group.name, "subscribe with a type other than the group's");
+            tracing::error!(
+                group = group.name,
+                "subscribe with a type other than the group's"
+            );
         }
         Subscription {
             bus: Arc::downgrade(&self.inner),
@@ -411,7 +434,13 @@ mod tests {
         let (_a, mut ra) = bus.subscribe_channel(&PING, "a", 4);
         let (_b, mut rb) = bus.subscribe_channel(&PING, "b", 4);
         let r = bus.publish(&PING, Ping { n: 7 });
-        assert_eq!(r, PublishReport { delivered: 2, dropped: 0 });
+        assert_eq!(
+            r,
+            PublishReport {
+                delivered: 2,
+                dropped: 0
+            }
+        );
         let ea = ra.recv().await.unwrap();
         let eb = rb.recv().await.unwrap();
         assert!(Arc::ptr_eq(&ea.msg, &eb.msg));

@@ -4,6 +4,16 @@
 #![forbid(unsafe_code)]
 
 pub mod bus;
+pub mod clock;
+pub mod demo_helm;
+pub mod driver;
+pub mod driver_actor;
+pub mod drivers;
 pub mod generated;
+pub mod geodesy;
+pub mod interface;
+pub mod link;
+// pub mod sim_glue; (enabled once sim exposes SimHandle)
+pub mod state_machine;
 
 pub use generated::{groups, ports, proto};

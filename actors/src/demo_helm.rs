@@ -1,0 +1,302 @@
+//! The example helm of `frontseat demo`: drives the Goby3 course homework path through the same
+//! groups any helm uses (helm_state, desired_course in; node_status, status out) — due east, due
+//! south, then northwest until the vehicle stops closing on its start point — and records the
+//! track for the CSV and SVG the demo writes.
+
+use std::fmt::Write as _;
+use std::time::Duration;
+
+use crate::bus::{Bus, Undeliverable};
+use crate::clock::SimClock;
+use crate::ports::{DemoHelmInbox, DemoHelmPorts};
+use crate::proto::goby::middleware::frontseat::protobuf::{
+    DesiredCourse, HelmState, HelmStateReport, InterfaceState, InterfaceStatus,
+};
+use crate::state_machine::state_words;
+
+#[derive(Clone, Debug)]
+pub struct DemoParams {
+    /// Seconds (sim time) of the east leg.
+    pub east_s: f64,
+    /// Seconds (sim time) of the south leg.
+    pub south_s: f64,
+    pub speed: f64,
+    /// Safety cap on the whole run (sim time).
+    pub max_s: f64,
+}
+
+impl Default for DemoParams {
+    fn default() -> Self {
+        Self {
+            east_s: 60.0,
+            south_s: 60.0,
+            speed: 1.5,
+            max_s: 900.0,
+        }
+    }
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Leg {
+    WaitingForCommand,
+    East,
+    South,
+    NorthWest,
+    Done,
+}
+
+impl Leg {
+    fn heading(self) -> f64 {
+        match self {
+            Leg::East => 90.0,
+            Leg::South => 180.0,
+            Leg::NorthWest => 315.0,
+            _ => 0.0,
+        }
+    }
+    pub fn name(self) -> &'static str {
+        match self {
+            Leg::WaitingForCommand => "waiting",
+            Leg::East => "east",
+            Leg::South => "south",
+            Leg::NorthWest => "northwest",
+            Leg::Done => "done",
+        }
+    }
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct TrackPoint {
+    pub t: f64,
+    pub x: f64,
+    pub y: f64,
+    pub heading: f64,
+    pub speed: f64,
+    pub leg: Leg,
+}
+
+/// What the live status line shows.
+#[derive(Clone, Debug, Default)]
+pub struct LiveStatus {
+    pub interface: String,
+    pub frontseat: String,
+    pub helm: String,
+    pub x: f64,
+    pub y: f64,
+    pub heading: f64,
+    pub speed: f64,
+    pub leg: &'static str,
+    pub t: f64,
+}
+
+impl LiveStatus {
+    pub fn line(&self) -> String {
+        format!(
+            "t={:6.1}s {:<16} fs={:<28} helm={:<10} leg={:<9} x={:8.1} y={:8.1} hdg={:5.1} spd={:4.2}",
+            self.t,
+            self.interface,
+            self.frontseat,
+            self.helm,
+            self.leg,
+            self.x,
+            self.y,
+            self.heading,
+            self.speed
+        )
+    }
+}
+
+#[derive(Clone, Debug)]
+pub struct DemoReport {
+    pub track: Vec<TrackPoint>,
+    pub closest_approach_m: f64,
+    pub reached_command: bool,
+    pub completed: bool,
+}
+
+/// Runs the homework path to its end (or `max_s`). `on_status` is called about once per
+/// second of sim time.
+pub async fn run(
+    bus: &Bus,
+    clock: SimClock,
+    params: DemoParams,
+    mut on_status: impl FnMut(&LiveStatus),
+) -> DemoReport {
+    let ports = DemoHelmPorts::new(bus);
+    let (tx, mut rx) = tokio::sync::mpsc::unbounded_channel();
+    let subs = DemoHelmInbox::subscribe_all(bus, "DemoHelm", 1024, move |m| {
+        tx.send(m).map_err(|_| Undeliverable)
+    });
+    let mut leg = Leg::WaitingForCommand;
+    let mut leg_start = 0.0;
+    let mut track: Vec<TrackPoint> = Vec::new();
+    let mut status = InterfaceStatus::default();
+    let mut live = LiveStatus::default();
+    let mut reached_command = false;
+    let mut min_dist = f64::INFINITY;
+    let mut tick = tokio::time::interval(clock.wall(Duration::from_secs(1)));
+    tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Skip);
+    loop {
+        tokio::select! {
+            _ = tick.tick() => {
+                let t = clock.now().as_secs_f64();
+                ports.publish_helm_state(HelmStateReport { state: HelmState::HelmDrive as i32 });
+                if leg == Leg::WaitingForCommand && status.state == Some(InterfaceState::InterfaceCommand as i32) {
+                    reached_command = true;
+                    leg = Leg::East;
+                    leg_start = t;
+                }
+                let elapsed = t - leg_start;
+                match leg {
+                    Leg::East if elapsed >= params.east_s => { leg = Leg::South; leg_start = t; }
+                    Leg::South if elapsed >= params.south_s => { leg = Leg::NorthWest; leg_start = t; min_dist = f64::INFINITY; }
+                    _ => {}
+                }
+                if leg == Leg::NorthWest {
+                    let d = live.x.hypot(live.y);
+                    if d < min_dist {
+                        min_dist = d;
+                    } else if elapsed > 10.0 && d > min_dist + 0.5 {
+                        leg = Leg::Done;
+                    }
+                }
+                if matches!(leg, Leg::East | Leg::South | Leg::NorthWest) {
+                    ports.publish_desired_course(DesiredCourse {
+                        time: SimClock::unix_now(),
+                        heading: Some(leg.heading()),
+                        speed: Some(params.speed),
+                        depth: Some(0.0),
+                        ..Default::default()
+                    });
+                }
+                live.t = t;
+                live.leg = leg.name();
+                on_status(&live);
+                if leg == Leg::Done || t > params.max_s {
+                    // Stop the vehicle before leaving the helm seat.
+                    ports.publish_desired_course(DesiredCourse {
+                        time: SimClock::unix_now(),
+                        heading: Some(live.heading),
+                        speed: Some(0.0),
+                        depth: Some(0.0),
+                        ..Default::default()
+                    });
+                    break;
+                }
+            }
+            Some(m) = rx.recv() => match m {
+                DemoHelmInbox::NodeStatus(env) => {
+                    let ns = &env.msg;
+                    if let Some(l) = &ns.local_fix {
+                        live.x = l.x;
+                        live.y = l.y;
+                    }
+                    live.heading = ns.pose.heading();
+                    live.speed = ns.speed.over_ground;
+                    track.push(TrackPoint {
+                        t: clock.now().as_secs_f64(),
+                        x: live.x,
+                        y: live.y,
+                        heading: live.heading,
+                        speed: live.speed,
+                        leg,
+                    });
+                }
+                DemoHelmInbox::Status(env) => {
+                    status = (*env.msg).clone();
+                    live.interface = state_words(status.state()).to_string();
+                    live.frontseat = format!("{:?}", status.frontseat_state());
+                    live.helm = format!("{:?}", status.helm_state());
+                }
+            },
+        }
+    }
+    for s in subs {
+        s.cancel();
+    }
+    let closest = track
+        .iter()
+        .filter(|p| p.leg == Leg::NorthWest)
+        .map(|p| p.x.hypot(p.y))
+        .fold(f64::INFINITY, f64::min);
+    DemoReport {
+        completed: leg == Leg::Done,
+        track,
+        closest_approach_m: closest,
+        reached_command,
+    }
+}
+
+pub fn track_csv(track: &[TrackPoint]) -> String {
+    let mut s = String::from("t_s,x_m,y_m,heading_deg,speed_mps,leg\n");
+    for p in track {
+        let _ = writeln!(
+            s,
+            "{:.3},{:.3},{:.3},{:.2},{:.3},{}",
+            p.t,
+            p.x,
+            p.y,
+            p.heading,
+            p.speed,
+            p.leg.name()
+        );
+    }
+    s
+}
+
+/// A self-contained SVG of the track, north up, one colour per leg, the start marked.
+pub fn track_svg(track: &[TrackPoint]) -> String {
+    let (mut minx, mut maxx, mut miny, mut maxy) = (0.0f64, 0.0f64, 0.0f64, 0.0f64);
+    for p in track {
+        minx = minx.min(p.x);
+        maxx = maxx.max(p.x);
+        miny = miny.min(p.y);
+        maxy = maxy.max(p.y);
+    }
+    let span = (maxx - minx).max(maxy - miny).max(10.0);
+    let size = 600.0;
+    let pad = 40.0;
+    let scale = (size - 2.0 * pad) / span;
+    let px = |x: f64| pad + (x - minx) * scale;
+    let py = |y: f64| size - pad - (y - miny) * scale;
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        r#"<svg xmlns="http://www.w3.org/2000/svg" width="{size}" height="{size}" viewBox="0 0 {size} {size}">"#
+    );
+    let _ = writeln!(s, r#"<rect width="100%" height="100%" fill="white"/>"#);
+    let _ = writeln!(
+        s,
+        r#"<text x="10" y="20" font-family="sans-serif" font-size="14">frontseat demo track (x east, y north; {:.0} m across)</text>"#,
+        span
+    );
+    for (leg, colour) in [
+        (Leg::WaitingForCommand, "#999999"),
+        (Leg::East, "#d62728"),
+        (Leg::South, "#1f77b4"),
+        (Leg::NorthWest, "#2ca02c"),
+        (Leg::Done, "#999999"),
+    ] {
+        let pts: Vec<String> = track
+            .iter()
+            .filter(|p| p.leg == leg)
+            .map(|p| format!("{:.1},{:.1}", px(p.x), py(p.y)))
+            .collect();
+        if pts.len() > 1 {
+            let _ = writeln!(
+                s,
+                r#"<polyline fill="none" stroke="{colour}" stroke-width="2" points="{}"><title>{}</title></polyline>"#,
+                pts.join(" "),
+                leg.name()
+            );
+        }
+    }
+    let _ = writeln!(
+        s,
+        r#"<circle cx="{:.1}" cy="{:.1}" r="5" fill="black"><title>start</title></circle>"#,
+        px(0.0),
+        py(0.0)
+    );
+    s.push_str("</svg>\n");
+    s
+}

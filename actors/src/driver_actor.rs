@@ -1,0 +1,175 @@
+//! DriverActor: one driver inside a ractor actor, spawned linked under FrontSeatInterface.
+//!
+//! It turns bus deliveries (what passed the interface's gate) into the driver's operations, the
+//! driver's I/O events into handler calls the moment they arrive, and the driver's signals into
+//! publications on the interthread driver groups. After every message it compares the driver's
+//! state queries with what it last published and publishes a DriverStatus on change, so the
+//! interface's state machine is driven by events, not by polling.
+
+use std::time::Duration;
+
+use ractor::{Actor, ActorProcessingErr, ActorRef};
+
+use crate::bus::{Bus, Subscription, Undeliverable};
+use crate::clock::SimClock;
+use crate::driver::{Driver, DriverContext, DriverFactory, DriverIoEvent, IoSender, SignalSink};
+use crate::ports::{DriverActorInbox, DriverActorPorts};
+use crate::proto::frontseat::protobuf::DriverStatus;
+use crate::proto::goby::middleware::frontseat::protobuf::{
+    CommandResponse, FrontSeatState, InterfaceData, Raw,
+};
+
+pub enum DriverMsg {
+    Bus(DriverActorInbox),
+    Io(DriverIoEvent),
+    Tick,
+    /// Orderly stop: close the frontseat connection, then stop.
+    Stop,
+}
+
+pub struct DriverArgs {
+    pub factory: DriverFactory,
+    pub bus: Bus,
+    pub clock: SimClock,
+    pub restarts: u32,
+    pub queue_capacity: usize,
+}
+
+pub struct DriverActor;
+
+pub struct DriverActorState {
+    driver: Box<dyn Driver>,
+    ports: DriverActorPorts,
+    clock: SimClock,
+    restarts: u32,
+    last: Option<(FrontSeatState, bool)>,
+    subs: Vec<Subscription>,
+    ticker: Option<tokio::task::JoinHandle<()>>,
+}
+
+struct PortSink<'a>(&'a DriverActorPorts);
+
+impl SignalSink for PortSink<'_> {
+    fn command_response(&mut self, response: CommandResponse) {
+        self.0.publish_command_response(response);
+    }
+    fn data_from_frontseat(&mut self, data: InterfaceData) {
+        self.0.publish_data_from_frontseat(data);
+    }
+    fn raw_from_frontseat(&mut self, raw: Raw) {
+        self.0.publish_raw_from_frontseat(raw);
+    }
+    fn raw_to_frontseat(&mut self, raw: Raw) {
+        self.0.publish_raw_to_frontseat(raw);
+    }
+}
+
+impl DriverActorState {
+    fn publish_status_if_changed(&mut self, force: bool) {
+        let now = (
+            self.driver.frontseat_state(),
+            self.driver.frontseat_providing_data(),
+        );
+        if force || self.last != Some(now) {
+            self.last = Some(now);
+            let mut s = DriverStatus {
+                providing_data: Some(now.1),
+                restarts: Some(self.restarts),
+                detail: Some(self.driver.name().to_string()),
+                ..Default::default()
+            };
+            s.set_frontseat_state(now.0);
+            self.ports.publish_status(s);
+        }
+    }
+}
+
+impl Actor for DriverActor {
+    type Msg = DriverMsg;
+    type State = DriverActorState;
+    type Arguments = DriverArgs;
+
+    async fn pre_start(
+        &self,
+        myself: ActorRef<DriverMsg>,
+        args: DriverArgs,
+    ) -> Result<DriverActorState, ActorProcessingErr> {
+        let me = myself.clone();
+        let subs = DriverActorInbox::subscribe_all(
+            &args.bus,
+            "DriverActor",
+            args.queue_capacity,
+            move |m| me.cast(DriverMsg::Bus(m)).map_err(|_| Undeliverable),
+        );
+        let mut driver = (args.factory)();
+        let me = myself.clone();
+        driver.start(DriverContext {
+            io: IoSender::new(move |ev| me.cast(DriverMsg::Io(ev)).is_ok()),
+            clock: args.clock,
+        });
+        let ticker = myself.send_interval(args.clock.wall(Duration::from_millis(100)), || {
+            DriverMsg::Tick
+        });
+        tracing::info!(
+            driver = driver.name(),
+            restarts = args.restarts,
+            "driver started"
+        );
+        let mut state = DriverActorState {
+            driver,
+            ports: DriverActorPorts::new(&args.bus),
+            clock: args.clock,
+            restarts: args.restarts,
+            last: None,
+            subs,
+            ticker: Some(ticker),
+        };
+        state.publish_status_if_changed(true);
+        Ok(state)
+    }
+
+    async fn handle(
+        &self,
+        myself: ActorRef<DriverMsg>,
+        msg: DriverMsg,
+        state: &mut DriverActorState,
+    ) -> Result<(), ActorProcessingErr> {
+        let now = state.clock.now();
+        let mut sink = PortSink(&state.ports);
+        match msg {
+            DriverMsg::Bus(inbox) => match inbox {
+                DriverActorInbox::CommandRequest(env) => state
+                    .driver
+                    .send_command_to_frontseat(&env.msg, now, &mut sink),
+                DriverActorInbox::DataToFrontseat(env) => state
+                    .driver
+                    .send_data_to_frontseat(&env.msg, now, &mut sink),
+                DriverActorInbox::RawSendRequest(env) => {
+                    state.driver.send_raw_to_frontseat(&env.msg, now, &mut sink)
+                }
+            },
+            DriverMsg::Io(ev) => state.driver.handle_io(ev, now, &mut sink),
+            DriverMsg::Tick => state.driver.do_loop(now, &mut sink),
+            DriverMsg::Stop => {
+                state.driver.stop();
+                myself.stop(Some("orderly shutdown".into()));
+            }
+        }
+        state.publish_status_if_changed(false);
+        Ok(())
+    }
+
+    async fn post_stop(
+        &self,
+        _myself: ActorRef<DriverMsg>,
+        state: &mut DriverActorState,
+    ) -> Result<(), ActorProcessingErr> {
+        if let Some(t) = state.ticker.take() {
+            t.abort();
+        }
+        for s in state.subs.drain(..) {
+            s.cancel();
+        }
+        Ok(())
+    }
+}

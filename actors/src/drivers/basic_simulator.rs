@@ -1,0 +1,485 @@
+//! The driver for the basic frontseat simulator protocol (sim/PROTOCOL.md), as Goby3's
+//! `BasicSimulatorFrontSeatInterface` but: connecting never blocks, reconnects back off to a
+//! cap of about a second, START goes out on every (re)connect at full precision, and every line
+//! becomes a signal the moment it is read.
+
+use std::time::Duration;
+
+use frontseat_config::InterfaceConfig;
+
+use crate::clock::SimClock;
+use crate::driver::{Driver, DriverContext, DriverIoEvent, SignalSink, raw_ascii};
+use crate::link::{self, LineWriter, LinkConfig};
+use crate::proto::goby::middleware::frontseat::protobuf::{
+    CommandRequest, CommandResponse, EulerAngles, FrontSeatState, InterfaceData, NodeStatus, Raw,
+    Speed,
+};
+use crate::proto::goby::middleware::protobuf::LatLonPoint;
+
+#[derive(Clone, Debug)]
+pub struct Settings {
+    pub link: LinkConfig,
+    pub start_line: String,
+    pub nav_timeout: Duration,
+}
+
+impl Settings {
+    pub fn from_config(cfg: &InterfaceConfig) -> Self {
+        let b = &cfg.driver.basic_simulator;
+        let s = &b.start;
+        // `{}` prints the shortest string that reads back as the same f64: full precision.
+        let start_line = format!(
+            "START,LAT:{},LON:{},DURATION:{},FREQ:{},ACCEL:{},HDG_RATE:{},Z_RATE:{},WARP:{}",
+            s.lat,
+            s.lon,
+            s.duration,
+            s.control_freq,
+            s.vehicle.accel,
+            s.vehicle.hdg_rate,
+            s.vehicle.z_rate,
+            cfg.sim_warp_factor
+        );
+        Self {
+            link: LinkConfig {
+                host: b.tcp_address.clone(),
+                port: b.tcp_port,
+                backoff_initial: Duration::from_millis(b.reconnect_initial_ms),
+                backoff_max: Duration::from_millis(b.reconnect_max_ms),
+                max_line_bytes: 4096,
+            },
+            start_line,
+            nav_timeout: Duration::from_secs_f64(b.nav_timeout.max(0.0)),
+        }
+    }
+}
+
+pub struct BasicSimulatorDriver {
+    settings: Settings,
+    writer: Option<LineWriter>,
+    link_task: Option<tokio::task::JoinHandle<()>>,
+    state: FrontSeatState,
+    last_nav: Option<Duration>,
+    providing_data: bool,
+    last_request: Option<CommandRequest>,
+    pub bad_lines: u64,
+    pub unknown_lines: u64,
+    pub write_failures: u64,
+}
+
+impl BasicSimulatorDriver {
+    pub fn new(settings: Settings) -> Self {
+        Self {
+            settings,
+            writer: None,
+            link_task: None,
+            state: FrontSeatState::FrontseatNotConnected,
+            last_nav: None,
+            providing_data: false,
+            last_request: None,
+            bad_lines: 0,
+            unknown_lines: 0,
+            write_failures: 0,
+        }
+    }
+
+    fn write(&mut self, line: &str, sig: &mut dyn SignalSink) {
+        let Some(w) = &self.writer else {
+            self.write_failures += 1;
+            tracing::debug!(line, "not connected to the frontseat; line not sent");
+            return;
+        };
+        match w.write_line(line) {
+            Ok(()) => sig.raw_to_frontseat(raw_ascii(line, "")),
+            Err(e) => {
+                self.write_failures += 1;
+                tracing::warn!(line, error = %e, "line to the frontseat not sent");
+            }
+        }
+    }
+
+    fn handle_line(&mut self, line: &str, now: Duration, sig: &mut dyn SignalSink) {
+        sig.raw_from_frontseat(raw_ascii(line, ""));
+        let (kind, fields) = match line.split_once(',') {
+            Some((k, rest)) => (k, rest),
+            None => (line, ""),
+        };
+        match kind {
+            "NAV" => match parse_nav(fields) {
+                Ok(ns) => {
+                    self.last_nav = Some(now);
+                    self.providing_data = true;
+                    sig.data_from_frontseat(InterfaceData {
+                        node_status: Some(ns),
+                        ..Default::default()
+                    });
+                }
+                Err(e) => {
+                    self.bad_lines += 1;
+                    tracing::warn!(line, error = %e, "bad NAV line from the frontseat");
+                }
+            },
+            "CTRL" => {
+                let state = field(fields, "STATE").unwrap_or("");
+                self.state = match state {
+                    "PAYLOAD" => FrontSeatState::FrontseatAcceptingCommands,
+                    "AUV" => FrontSeatState::FrontseatInControl,
+                    _ => FrontSeatState::FrontseatIdle,
+                };
+            }
+            "CMD" => {
+                let ok = field(fields, "RESULT") == Some("OK");
+                if let Some(req) = &self.last_request
+                    && req.response_requested()
+                {
+                    sig.command_response(CommandResponse {
+                        request_successful: Some(ok),
+                        request_id: req.request_id,
+                        error_string: (!ok)
+                            .then(|| "frontseat answered CMD,RESULT:ERROR".to_string()),
+                        ..Default::default()
+                    });
+                }
+            }
+            _ => {
+                self.unknown_lines += 1;
+                tracing::info!(line, "unknown line from the frontseat");
+            }
+        }
+    }
+}
+
+impl Drop for BasicSimulatorDriver {
+    fn drop(&mut self) {
+        if let Some(t) = self.link_task.take() {
+            t.abort();
+        }
+    }
+}
+
+/// The value of `KEY:` in a comma-separated field list.
+fn field<'a>(fields: &'a str, key: &str) -> Option<&'a str> {
+    fields.split(',').find_map(|kv| {
+        let (k, v) = kv.split_once(':')?;
+        (k == key).then_some(v)
+    })
+}
+
+#[derive(Debug, thiserror::Error, PartialEq)]
+pub enum NavError {
+    #[error("missing {0}")]
+    Missing(&'static str),
+    #[error("{0} is not a finite number: `{1}`")]
+    NotANumber(&'static str, String),
+}
+
+fn num(fields: &str, key: &'static str) -> Result<f64, NavError> {
+    let v = field(fields, key).ok_or(NavError::Missing(key))?;
+    match v.trim().parse::<f64>() {
+        Ok(x) if x.is_finite() => Ok(x),
+        _ => Err(NavError::NotANumber(key, v.to_string())),
+    }
+}
+
+/// `LAT:..,LON:..,DEPTH:..,HEADING:..,SPEED:..` → NodeStatus (time and local fix filled later by
+/// compute_missing).
+pub fn parse_nav(fields: &str) -> Result<NodeStatus, NavError> {
+    let lat = num(fields, "LAT")?;
+    let lon = num(fields, "LON")?;
+    let depth = num(fields, "DEPTH")?;
+    let heading = num(fields, "HEADING")?;
+    let speed = num(fields, "SPEED")?;
+    Ok(NodeStatus {
+        time: SimClock::unix_now(),
+        global_fix: LatLonPoint {
+            lat,
+            lon,
+            depth: Some(depth),
+            altitude: None,
+        },
+        pose: EulerAngles {
+            heading: Some(heading),
+            ..Default::default()
+        },
+        speed: Speed {
+            over_ground: speed,
+            over_water: None,
+        },
+        ..Default::default()
+    })
+}
+
+/// `CMD,HEADING:h,SPEED:s,DEPTH:d` for a desired course; None for a request without one.
+pub fn command_line(req: &CommandRequest) -> Option<String> {
+    let c = req.desired_course.as_ref()?;
+    Some(format!(
+        "CMD,HEADING:{},SPEED:{},DEPTH:{}",
+        c.heading(),
+        c.speed(),
+        c.depth()
+    ))
+}
+
+impl Driver for BasicSimulatorDriver {
+    fn name(&self) -> &str {
+        "basic_simulator"
+    }
+
+    fn start(&mut self, ctx: DriverContext) {
+        self.link_task = Some(link::spawn(self.settings.link.clone(), ctx.io));
+    }
+
+    fn handle_io(&mut self, ev: DriverIoEvent, now: Duration, sig: &mut dyn SignalSink) {
+        match ev {
+            DriverIoEvent::Connected(w) => {
+                tracing::info!(
+                    host = %self.settings.link.host,
+                    port = self.settings.link.port,
+                    "connected to the frontseat; sending START"
+                );
+                self.writer = Some(w);
+                // Connected but not yet told its state: IDLE until CTRL says otherwise.
+                self.state = FrontSeatState::FrontseatIdle;
+                let start = self.settings.start_line.clone();
+                self.write(&start, sig);
+            }
+            DriverIoEvent::Line(line) => self.handle_line(&line, now, sig),
+            DriverIoEvent::BadInput(what) => {
+                self.bad_lines += 1;
+                tracing::warn!(%what, "bad input from the frontseat");
+            }
+            DriverIoEvent::Disconnected(reason) => {
+                tracing::warn!(%reason, "frontseat connection lost; reconnecting");
+                self.writer = None;
+                self.state = FrontSeatState::FrontseatNotConnected;
+                self.providing_data = false;
+                self.last_nav = None;
+            }
+        }
+    }
+
+    fn send_command_to_frontseat(
+        &mut self,
+        req: &CommandRequest,
+        _now: Duration,
+        sig: &mut dyn SignalSink,
+    ) {
+        match command_line(req) {
+            Some(line) => {
+                self.last_request = Some(req.clone());
+                self.write(&line, sig);
+            }
+            None => {
+                if req.response_requested() {
+                    sig.command_response(CommandResponse {
+                        request_successful: Some(false),
+                        request_id: req.request_id,
+                        error_code: Some(1),
+                        error_string: Some(
+                            "the basic simulator accepts only desired_course commands".into(),
+                        ),
+                    });
+                }
+            }
+        }
+    }
+
+    fn send_data_to_frontseat(
+        &mut self,
+        _data: &InterfaceData,
+        _now: Duration,
+        _sig: &mut dyn SignalSink,
+    ) {
+        // The basic simulator protocol has no data channel to the frontseat (as in Goby3).
+    }
+
+    fn send_raw_to_frontseat(&mut self, raw: &Raw, _now: Duration, sig: &mut dyn SignalSink) {
+        let bytes = raw.raw.as_deref().unwrap_or_default();
+        match std::str::from_utf8(bytes) {
+            Ok(s) => {
+                let line = s.trim_end_matches(['\r', '\n']).to_string();
+                self.write(&line, sig);
+            }
+            Err(_) => {
+                self.bad_lines += 1;
+                tracing::warn!(
+                    "raw_send_request is not text; the basic simulator protocol is ASCII"
+                );
+            }
+        }
+    }
+
+    fn do_loop(&mut self, now: Duration, _sig: &mut dyn SignalSink) {
+        if let Some(t) = self.last_nav
+            && now.saturating_sub(t) > self.settings.nav_timeout
+            && self.providing_data
+        {
+            tracing::warn!(
+                "no NAV for {:?} (sim time): frontseat not providing data",
+                self.settings.nav_timeout
+            );
+            self.providing_data = false;
+        }
+    }
+
+    fn frontseat_state(&self) -> FrontSeatState {
+        self.state
+    }
+
+    fn frontseat_providing_data(&self) -> bool {
+        self.providing_data
+    }
+
+    fn stop(&mut self) {
+        // Dropping the writer lets the link flush and shut the socket down cleanly.
+        self.writer = None;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::proto::goby::middleware::frontseat::protobuf::DesiredCourse;
+
+    #[derive(Default)]
+    struct Sink {
+        responses: Vec<CommandResponse>,
+        data: Vec<InterfaceData>,
+        raw_in: Vec<Raw>,
+        raw_out: Vec<Raw>,
+    }
+    impl SignalSink for Sink {
+        fn command_response(&mut self, r: CommandResponse) {
+            self.responses.push(r)
+        }
+        fn data_from_frontseat(&mut self, d: InterfaceData) {
+            self.data.push(d)
+        }
+        fn raw_from_frontseat(&mut self, r: Raw) {
+            self.raw_in.push(r)
+        }
+        fn raw_to_frontseat(&mut self, r: Raw) {
+            self.raw_out.push(r)
+        }
+    }
+
+    fn driver() -> BasicSimulatorDriver {
+        BasicSimulatorDriver::new(Settings::from_config(&InterfaceConfig::default()))
+    }
+
+    #[test]
+    fn nav_parses_with_fields_in_any_order() {
+        let ns = parse_nav("SPEED:1.4,HEADING:223,DEPTH:200,LON:-72.5435,LAT:42.1234").unwrap();
+        let g = ns.global_fix;
+        assert_eq!((g.lat, g.lon, g.depth()), (42.1234, -72.5435, 200.0));
+        assert_eq!(ns.pose.heading(), 223.0);
+        assert_eq!(ns.speed.over_ground, 1.4);
+        assert_eq!(
+            parse_nav("LAT:1,LON:2,DEPTH:3,HEADING:4"),
+            Err(NavError::Missing("SPEED"))
+        );
+        assert!(matches!(
+            parse_nav("LAT:nan,LON:2,DEPTH:3,HEADING:4,SPEED:1"),
+            Err(NavError::NotANumber("LAT", _))
+        ));
+    }
+
+    #[test]
+    fn start_line_has_full_precision() {
+        let mut cfg = InterfaceConfig::default();
+        cfg.driver.basic_simulator.start.lat = 42.358456123;
+        cfg.driver.basic_simulator.start.lon = -71.087589987;
+        cfg.sim_warp_factor = 4.0;
+        let s = Settings::from_config(&cfg);
+        assert!(
+            s.start_line
+                .starts_with("START,LAT:42.358456123,LON:-71.087589987,"),
+            "{}",
+            s.start_line
+        );
+        assert!(s.start_line.ends_with(",WARP:4"), "{}", s.start_line);
+    }
+
+    #[test]
+    fn ctrl_maps_to_frontseat_state_and_disconnect_to_not_connected() {
+        let mut d = driver();
+        let mut sink = Sink::default();
+        let (w, mut rx) = LineWriter::for_test();
+        let now = Duration::ZERO;
+        d.handle_io(DriverIoEvent::Connected(w), now, &mut sink);
+        assert!(rx.try_recv().unwrap().starts_with(b"START,LAT:"));
+        for (line, want) in [
+            (
+                "CTRL,STATE:PAYLOAD",
+                FrontSeatState::FrontseatAcceptingCommands,
+            ),
+            ("CTRL,STATE:AUV", FrontSeatState::FrontseatInControl),
+            ("CTRL,STATE:IDLE", FrontSeatState::FrontseatIdle),
+            ("CTRL,STATE:WHATEVER", FrontSeatState::FrontseatIdle),
+        ] {
+            d.handle_io(DriverIoEvent::Line(line.into()), now, &mut sink);
+            assert_eq!(d.frontseat_state(), want, "{line}");
+        }
+        d.handle_io(DriverIoEvent::Disconnected("x".into()), now, &mut sink);
+        assert_eq!(d.frontseat_state(), FrontSeatState::FrontseatNotConnected);
+        assert_eq!(sink.raw_in.len(), 4);
+        assert_eq!(sink.raw_out.len(), 1);
+    }
+
+    #[test]
+    fn command_round_trip_answers_only_when_requested() {
+        let mut d = driver();
+        let mut sink = Sink::default();
+        let (w, mut rx) = LineWriter::for_test();
+        let now = Duration::ZERO;
+        d.handle_io(DriverIoEvent::Connected(w), now, &mut sink);
+        let _start = rx.try_recv().unwrap();
+        let mut req = CommandRequest {
+            desired_course: Some(DesiredCourse {
+                time: 0.0,
+                heading: Some(260.0),
+                speed: Some(1.5),
+                depth: Some(100.0),
+                ..Default::default()
+            }),
+            response_requested: Some(true),
+            request_id: Some(7),
+            ..Default::default()
+        };
+        d.send_command_to_frontseat(&req, now, &mut sink);
+        assert_eq!(
+            rx.try_recv().unwrap(),
+            b"CMD,HEADING:260,SPEED:1.5,DEPTH:100\r\n"
+        );
+        d.handle_io(DriverIoEvent::Line("CMD,RESULT:OK".into()), now, &mut sink);
+        assert_eq!(sink.responses.len(), 1);
+        assert_eq!(sink.responses[0].request_successful, Some(true));
+        assert_eq!(sink.responses[0].request_id, Some(7));
+        req.response_requested = Some(false);
+        d.send_command_to_frontseat(&req, now, &mut sink);
+        d.handle_io(
+            DriverIoEvent::Line("CMD,RESULT:ERROR".into()),
+            now,
+            &mut sink,
+        );
+        assert_eq!(sink.responses.len(), 1);
+    }
+
+    #[test]
+    fn providing_data_times_out_after_nav_stops() {
+        let mut d = driver();
+        let mut sink = Sink::default();
+        let (w, _rx) = LineWriter::for_test();
+        d.handle_io(DriverIoEvent::Connected(w), Duration::ZERO, &mut sink);
+        d.handle_io(
+            DriverIoEvent::Line("NAV,LAT:1,LON:2,DEPTH:0,HEADING:0,SPEED:0".into()),
+            Duration::from_secs(1),
+            &mut sink,
+        );
+        assert!(d.frontseat_providing_data());
+        d.do_loop(Duration::from_secs(10), &mut sink);
+        assert!(d.frontseat_providing_data());
+        d.do_loop(Duration::from_millis(11_100), &mut sink);
+        assert!(!d.frontseat_providing_data());
+        assert_eq!(sink.data.len(), 1);
+    }
+}

@@ -1,0 +1,749 @@
+//! FrontSeatInterface: the state machine, the gate between helm and driver, compute_missing, the
+//! status publications, and the supervisor of the DriverActor.
+//!
+//! Supervision maps driver failures onto Goby3's states: a driver that panics or stops is at once
+//! a frontseat NOT_CONNECTED (→ FS_ERROR by the ordinary rules); it is restarted after a growing
+//! backoff, and the interface climbs back STANDBY → LISTEN → COMMAND by itself once data flows.
+//! More than `max_restarts` restarts within `restart_window` ends the service with an error so
+//! that systemd restarts the whole process.
+
+use std::collections::{HashMap, VecDeque};
+use std::sync::Arc;
+use std::time::Duration;
+
+use frontseat_config::InterfaceConfig;
+use ractor::{Actor, ActorProcessingErr, ActorRef, RpcReplyPort, SupervisionEvent};
+use tokio::sync::watch;
+
+use crate::bus::{Bus, Envelope, Subscription, Undeliverable};
+use crate::clock::SimClock;
+use crate::driver::DriverFactory;
+use crate::driver_actor::{DriverActor, DriverArgs, DriverMsg};
+use crate::geodesy::LocalFrame;
+use crate::ports::{FrontSeatInterfaceInbox, FrontSeatInterfacePorts};
+use crate::proto::frontseat::protobuf::InterfaceDetail;
+use crate::proto::goby::middleware::frontseat::protobuf::{
+    CartesianCoordinate, CommandRequest, CommandResponse, FrontSeatState, InterfaceData,
+    InterfaceState, InterfaceStatus, NodeStatus, VehicleType,
+};
+use crate::proto::goby::middleware::protobuf::LatLonPoint;
+use crate::state_machine::{Inputs, StateMachine, StateMachineConfig, Transition, state_words};
+
+/// Error codes in CommandResponse.error_code for the failures the interface itself answers.
+pub mod error_code {
+    pub const NOT_IN_COMMAND: i32 = 2;
+    pub const TIMEOUT: i32 = 3;
+    pub const DRIVER_FAILED: i32 = 4;
+    pub const SHUTTING_DOWN: i32 = 5;
+}
+
+/// Everything the interface needs, resolved from the config once.
+#[derive(Clone, Debug)]
+pub struct InterfaceSettings {
+    pub name: String,
+    pub vehicle_type: VehicleType,
+    pub origin: (f64, f64),
+    pub sm: StateMachineConfig,
+    pub status_period: Duration,
+    pub exit_on_error: bool,
+    pub warp: f64,
+    pub restart_initial: Duration,
+    pub restart_max: Duration,
+    pub max_restarts: u32,
+    pub restart_window: Duration,
+    pub queue_capacity: usize,
+    /// A command with response_requested that the frontseat has not answered in this long
+    /// (sim time) gets a failed CommandResponse.
+    pub command_timeout: Duration,
+    pub driver_name: String,
+}
+
+impl InterfaceSettings {
+    pub fn from_config(cfg: &InterfaceConfig) -> Self {
+        let secs = |s: f64| Duration::from_secs_f64(s.max(0.0));
+        Self {
+            name: cfg.name.clone(),
+            vehicle_type: VehicleType::try_from(cfg.r#type.proto_value())
+                .unwrap_or(VehicleType::Auv),
+            origin: (cfg.origin.lat, cfg.origin.lon),
+            sm: StateMachineConfig {
+                require_helm: cfg.require_helm,
+                helm_running_timeout: secs(cfg.helm_running_timeout),
+                frontseat_connected_timeout: secs(cfg.frontseat_connected_timeout),
+                ..Default::default()
+            },
+            status_period: secs(cfg.status_period),
+            exit_on_error: cfg.exit_on_error,
+            warp: cfg.sim_warp_factor,
+            restart_initial: Duration::from_millis(cfg.supervision.restart_initial_delay_ms),
+            restart_max: Duration::from_millis(cfg.supervision.restart_max_delay_ms),
+            max_restarts: cfg.supervision.max_restarts,
+            restart_window: secs(cfg.supervision.restart_window_s),
+            queue_capacity: cfg.bus.queue_capacity.max(1),
+            command_timeout: Duration::from_secs(5),
+            driver_name: cfg.driver.name.clone(),
+        }
+    }
+}
+
+/// Why the service ended.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum ServiceExit {
+    /// Orderly shutdown.
+    Clean,
+    /// exit_on_error and an error state was entered.
+    ErrorState(String),
+    /// The driver failed more often than the restart limit allows.
+    RestartLimit(String),
+    /// The interface actor itself failed.
+    Failed(String),
+}
+
+impl ServiceExit {
+    pub fn code(&self) -> i32 {
+        match self {
+            ServiceExit::Clean => 0,
+            ServiceExit::ErrorState(_) => 2,
+            ServiceExit::RestartLimit(_) => 3,
+            ServiceExit::Failed(_) => 4,
+        }
+    }
+}
+
+pub enum FsiMsg {
+    Bus(FrontSeatInterfaceInbox),
+    Tick,
+    StatusTick,
+    RestartDriver,
+    /// Orderly shutdown: refuse further commands, stop the driver, publish a last status.
+    Shutdown(RpcReplyPort<()>),
+    /// A snapshot for tests and the systemd watchdog: answering proves the actor is alive.
+    Snapshot(RpcReplyPort<Snapshot>),
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct Snapshot {
+    pub status: InterfaceStatus,
+    pub providing_data: bool,
+    pub driver_restarts: u32,
+    pub driver_up: bool,
+    pub commands_gated: u64,
+}
+
+#[derive(Default, Clone, Copy, Debug)]
+struct Counters {
+    commands_gated: u64,
+    data_gated: u64,
+    raw_gated: u64,
+    late_responses: u64,
+}
+
+pub struct FsiState {
+    s: InterfaceSettings,
+    bus: Bus,
+    ports: FrontSeatInterfacePorts,
+    factory: DriverFactory,
+    clock: SimClock,
+    sm: StateMachine,
+    inputs: Inputs,
+    frame: Option<LocalFrame>,
+    driver: Option<ActorRef<DriverMsg>>,
+    restarts: u32,
+    restart_times: VecDeque<tokio::time::Instant>,
+    /// request_id → sim-time deadline of commands awaiting the frontseat's answer.
+    pending: HashMap<Option<i32>, Duration>,
+    counters: Counters,
+    shutting_down: bool,
+    exit: watch::Sender<Option<ServiceExit>>,
+    subs: Vec<Subscription>,
+    timers: Vec<tokio::task::JoinHandle<()>>,
+}
+
+pub struct FrontSeatInterface;
+
+pub struct FsiArgs {
+    pub settings: InterfaceSettings,
+    pub bus: Bus,
+    pub factory: DriverFactory,
+    pub exit: watch::Sender<Option<ServiceExit>>,
+}
+
+impl FsiState {
+    fn now(&self) -> Duration {
+        self.clock.now()
+    }
+
+    fn status(&self) -> InterfaceStatus {
+        self.sm.status(&self.inputs)
+    }
+
+    fn publish_status(&self) {
+        let status = self.status();
+        self.ports.publish_status(status.clone());
+        let detail = InterfaceDetail {
+            status: Some(status),
+            frontseat_providing_data: Some(self.inputs.providing_data),
+            driver_restarts: Some(self.restarts),
+            commands_gated: Some(self.counters.commands_gated),
+            data_gated: Some(self.counters.data_gated),
+            raw_gated: Some(self.counters.raw_gated),
+            bus_dropped: Some(self.bus.total_dropped()),
+            uptime_s: Some(self.now().as_secs_f64()),
+            driver: Some(self.s.driver_name.clone()),
+        };
+        self.ports.publish_detail(detail);
+    }
+
+    /// Runs the state machine; publishes status on every change.
+    fn evaluate(&mut self, myself: &ActorRef<FsiMsg>) {
+        let transitions = self.sm.step(&self.inputs, self.now());
+        if transitions.is_empty() {
+            return;
+        }
+        for t in &transitions {
+            log_transition(t);
+        }
+        self.publish_status();
+        if self.s.exit_on_error
+            && matches!(
+                self.sm.state(),
+                InterfaceState::InterfaceHelmError | InterfaceState::InterfaceFsError
+            )
+        {
+            let why = format!("exit_on_error: entered {}", state_words(self.sm.state()));
+            tracing::error!("{why}");
+            self.finish(myself, ServiceExit::ErrorState(why));
+        }
+    }
+
+    fn finish(&mut self, myself: &ActorRef<FsiMsg>, exit: ServiceExit) {
+        self.exit.send_replace(Some(exit));
+        self.shutting_down = true;
+        if let Some(d) = self.driver.take() {
+            d.stop(None);
+        }
+        myself.stop(None);
+    }
+
+    fn refuse(&self, req: &CommandRequest, code: i32, why: String) {
+        if req.response_requested() {
+            self.ports.publish_command_response(CommandResponse {
+                request_successful: Some(false),
+                request_id: req.request_id,
+                error_code: Some(code),
+                error_string: Some(why),
+            });
+        }
+    }
+
+    fn handle_command(&mut self, env: Envelope<CommandRequest>) {
+        let state = self.sm.state();
+        if self.shutting_down {
+            self.counters.commands_gated += 1;
+            self.refuse(
+                &env.msg,
+                error_code::SHUTTING_DOWN,
+                "interface shutting down".into(),
+            );
+        } else if state == InterfaceState::InterfaceCommand {
+            if env.msg.response_requested() {
+                self.pending
+                    .insert(env.msg.request_id, self.now() + self.s.command_timeout);
+            }
+            self.ports
+                .publish_command_request_with(env.msg.clone(), env.meta());
+        } else {
+            self.counters.commands_gated += 1;
+            tracing::debug!(
+                state = state_words(state),
+                "command dropped: not in command state"
+            );
+            self.refuse(
+                &env.msg,
+                error_code::NOT_IN_COMMAND,
+                format!("not in command state (state: {})", state_words(state)),
+            );
+        }
+    }
+
+    fn listen_or_command(&self) -> bool {
+        !self.shutting_down
+            && matches!(
+                self.sm.state(),
+                InterfaceState::InterfaceCommand | InterfaceState::InterfaceListen
+            )
+    }
+
+    /// Goby3's compute_missing: name, type, time, and the local or global fix from the other.
+    fn compute_missing(&self, ns: &mut NodeStatus) {
+        if ns.name.is_none() && !self.s.name.is_empty() {
+            ns.name = Some(self.s.name.clone());
+        }
+        if ns.r#type.is_none() {
+            ns.set_type(self.s.vehicle_type);
+        }
+        if ns.time == 0.0 {
+            ns.time = SimClock::unix_now();
+        }
+        let Some(frame) = &self.frame else { return };
+        // global_fix is `required`, so prost always holds one: a zero fix with a local fix
+        // present is taken as "global missing", as a C++ message would report has_global_fix().
+        let g = &ns.global_fix;
+        let global_missing = g.lat == 0.0 && g.lon == 0.0 && ns.local_fix.is_some();
+        if global_missing {
+            let Some(l) = &ns.local_fix else { return };
+            match frame.to_global(l.x, l.y) {
+                Ok((lat, lon)) => {
+                    ns.global_fix = LatLonPoint {
+                        lat,
+                        lon,
+                        depth: Some(-l.z()),
+                        altitude: None,
+                    }
+                }
+                Err(e) => tracing::warn!(error = %e, "cannot compute global_fix"),
+            }
+        } else if ns.local_fix.is_none() {
+            match frame.to_local(g.lat, g.lon) {
+                Ok((x, y)) => {
+                    ns.local_fix = Some(CartesianCoordinate {
+                        x,
+                        y,
+                        z: Some(-g.depth()),
+                    })
+                }
+                Err(e) => tracing::warn!(error = %e, "cannot compute local_fix"),
+            }
+        }
+    }
+
+    fn handle_data_from_frontseat(&mut self, env: Envelope<InterfaceData>) {
+        let mut data = (*env.msg).clone();
+        if let Some(ns) = data.node_status.as_mut() {
+            self.compute_missing(ns);
+            self.ports
+                .publish_node_status_with(Arc::new(ns.clone()), env.meta());
+        }
+        self.ports
+            .publish_data_from_frontseat_with(Arc::new(data), env.meta());
+    }
+
+    fn handle_driver_response(&mut self, env: Envelope<CommandResponse>) {
+        let key = env.msg.request_id;
+        if self.pending.remove(&key).is_some() {
+            self.sm.command_result(env.msg.request_successful());
+            self.ports
+                .publish_command_response_with(env.msg.clone(), env.meta());
+        } else {
+            // Already answered (timed out, or the driver restarted): exactly one answer per request.
+            self.counters.late_responses += 1;
+            tracing::debug!(request_id = ?key, "late or unknown command response dropped");
+        }
+    }
+
+    fn fail_pending(&mut self, code: i32, why: &str, only_expired: bool) {
+        let now = self.now();
+        let expired: Vec<Option<i32>> = self
+            .pending
+            .iter()
+            .filter(|(_, deadline)| !only_expired || **deadline <= now)
+            .map(|(k, _)| *k)
+            .collect();
+        for k in expired {
+            self.pending.remove(&k);
+            self.ports.publish_command_response(CommandResponse {
+                request_successful: Some(false),
+                request_id: k,
+                error_code: Some(code),
+                error_string: Some(why.to_string()),
+            });
+        }
+    }
+
+    async fn spawn_driver(&mut self, myself: &ActorRef<FsiMsg>) -> Result<(), ActorProcessingErr> {
+        let (actor, _join) = Actor::spawn_linked(
+            None,
+            DriverActor,
+            DriverArgs {
+                factory: self.factory.clone(),
+                bus: self.bus.clone(),
+                clock: self.clock,
+                restarts: self.restarts,
+                queue_capacity: self.s.queue_capacity,
+            },
+            myself.get_cell(),
+        )
+        .await?;
+        self.driver = Some(actor);
+        Ok(())
+    }
+
+    fn driver_down(&mut self, myself: &ActorRef<FsiMsg>, why: String) {
+        self.driver = None;
+        self.inputs.frontseat = FrontSeatState::FrontseatNotConnected;
+        self.inputs.providing_data = false;
+        self.fail_pending(error_code::DRIVER_FAILED, "driver failed", false);
+        if self.shutting_down {
+            return;
+        }
+        tracing::error!(%why, "driver failed: frontseat treated as not connected");
+        self.evaluate(myself);
+        if self.shutting_down {
+            return;
+        }
+        let now = tokio::time::Instant::now();
+        while let Some(t) = self.restart_times.front() {
+            if now.duration_since(*t) > self.s.restart_window {
+                self.restart_times.pop_front();
+            } else {
+                break;
+            }
+        }
+        if self.restart_times.len() as u32 >= self.s.max_restarts {
+            let why = format!(
+                "driver failed {} times within {:?}; giving up so the service manager can restart the process",
+                self.restart_times.len() + 1,
+                self.s.restart_window
+            );
+            tracing::error!("{why}");
+            self.finish(myself, ServiceExit::RestartLimit(why));
+            return;
+        }
+        let n = self.restart_times.len() as u32;
+        let delay = self
+            .s
+            .restart_initial
+            .saturating_mul(2u32.saturating_pow(n))
+            .min(self.s.restart_max);
+        self.restart_times.push_back(now);
+        tracing::warn!(?delay, restart = self.restarts + 1, "restarting driver");
+        myself.send_after(delay, || FsiMsg::RestartDriver);
+    }
+}
+
+fn log_transition(t: &Transition) {
+    tracing::info!(
+        from = state_words(t.from),
+        to = state_words(t.to),
+        helm_error = ?t.helm_error,
+        frontseat_error = ?t.frontseat_error,
+        "{}",
+        t.rule
+    );
+}
+
+impl Actor for FrontSeatInterface {
+    type Msg = FsiMsg;
+    type State = FsiState;
+    type Arguments = FsiArgs;
+
+    async fn pre_start(
+        &self,
+        myself: ActorRef<FsiMsg>,
+        args: FsiArgs,
+    ) -> Result<FsiState, ActorProcessingErr> {
+        let me = myself.clone();
+        let subs = FrontSeatInterfaceInbox::subscribe_all(
+            &args.bus,
+            "FrontSeatInterface",
+            args.settings.queue_capacity,
+            move |m| me.cast(FsiMsg::Bus(m)).map_err(|_| Undeliverable),
+        );
+        let clock = SimClock::new(args.settings.warp);
+        let frame = match LocalFrame::new(args.settings.origin.0, args.settings.origin.1) {
+            Ok(f) => Some(f),
+            Err(e) => {
+                tracing::error!(error = %e, "bad origin: local_fix will not be computed");
+                None
+            }
+        };
+        let mut timers =
+            vec![myself.send_interval(clock.wall(Duration::from_millis(100)), || FsiMsg::Tick)];
+        if !args.settings.status_period.is_zero() {
+            timers.push(
+                myself.send_interval(clock.wall(args.settings.status_period), || {
+                    FsiMsg::StatusTick
+                }),
+            );
+        }
+        let mut state = FsiState {
+            sm: StateMachine::new(args.settings.sm.clone()),
+            ports: FrontSeatInterfacePorts::new(&args.bus),
+            bus: args.bus,
+            factory: args.factory,
+            clock,
+            inputs: Inputs::default(),
+            frame,
+            driver: None,
+            restarts: 0,
+            restart_times: VecDeque::new(),
+            pending: HashMap::new(),
+            counters: Counters::default(),
+            shutting_down: false,
+            exit: args.exit,
+            subs,
+            timers,
+            s: args.settings,
+        };
+        state.spawn_driver(&myself).await?;
+        state.publish_status();
+        tracing::info!(state = "standby", "frontseat interface started");
+        Ok(state)
+    }
+
+    async fn handle(
+        &self,
+        myself: ActorRef<FsiMsg>,
+        msg: FsiMsg,
+        st: &mut FsiState,
+    ) -> Result<(), ActorProcessingErr> {
+        use FrontSeatInterfaceInbox as I;
+        match msg {
+            FsiMsg::Bus(inbox) => match inbox {
+                I::CommandRequest(env) => st.handle_command(env),
+                I::DesiredCourse(env) => {
+                    let req = CommandRequest {
+                        desired_course: Some((*env.msg).clone()),
+                        ..Default::default()
+                    };
+                    let env2 = Envelope::rewrap(env, req);
+                    st.handle_command(env2);
+                }
+                I::DataToFrontseat(env) => {
+                    if st.listen_or_command() {
+                        st.ports
+                            .publish_data_to_frontseat_with(env.msg.clone(), env.meta());
+                    } else {
+                        st.counters.data_gated += 1;
+                        tracing::debug!("data_to_frontseat dropped: not in listen or command");
+                    }
+                }
+                I::RawSendRequest(env) => {
+                    if st.listen_or_command() {
+                        st.ports
+                            .publish_raw_send_request_with(env.msg.clone(), env.meta());
+                    } else {
+                        st.counters.raw_gated += 1;
+                        tracing::debug!("raw_send_request dropped: not in listen or command");
+                    }
+                }
+                I::HelmState(env) => {
+                    let helm = env.msg.state();
+                    if helm != st.inputs.helm {
+                        tracing::info!(?helm, "helm state");
+                    }
+                    st.inputs.helm = helm;
+                    st.evaluate(&myself);
+                }
+                I::DatumUpdate(env) => {
+                    let d = env.msg.datum.clone();
+                    match LocalFrame::new(d.lat, d.lon) {
+                        Ok(f) => {
+                            tracing::info!(lat = d.lat, lon = d.lon, "datum updated");
+                            st.frame = Some(f);
+                        }
+                        Err(e) => tracing::warn!(error = %e, "datum_update refused"),
+                    }
+                }
+                I::CommandResponse(env) => st.handle_driver_response(env),
+                I::DataFromFrontseat(env) => st.handle_data_from_frontseat(env),
+                I::RawFromFrontseat(env) => {
+                    st.ports.publish_raw_in_with(env.msg.clone(), env.meta());
+                }
+                I::RawToFrontseat(env) => {
+                    st.ports.publish_raw_out_with(env.msg.clone(), env.meta());
+                }
+                I::Status(env) => {
+                    // A status from a driver we already consider dead must not revive it.
+                    if st.driver.is_some() {
+                        st.inputs.frontseat = env.msg.frontseat_state();
+                        st.inputs.providing_data = env.msg.providing_data();
+                        st.evaluate(&myself);
+                    }
+                }
+            },
+            FsiMsg::Tick => {
+                st.fail_pending(
+                    error_code::TIMEOUT,
+                    "no answer from the frontseat in time",
+                    true,
+                );
+                st.evaluate(&myself);
+            }
+            FsiMsg::StatusTick => st.publish_status(),
+            FsiMsg::RestartDriver => {
+                if !st.shutting_down && st.driver.is_none() {
+                    st.restarts += 1;
+                    st.spawn_driver(&myself).await?;
+                }
+            }
+            FsiMsg::Shutdown(reply) => {
+                tracing::info!(
+                    "orderly shutdown: refusing commands, closing the frontseat connection"
+                );
+                st.shutting_down = true;
+                st.fail_pending(error_code::SHUTTING_DOWN, "interface shutting down", false);
+                st.publish_status();
+                if let Some(d) = st.driver.take() {
+                    let _ = d.cast(DriverMsg::Stop);
+                    // Give the driver a moment to flush and close its socket.
+                    let _ =
+                        tokio::time::timeout(Duration::from_millis(500), wait_stopped(&d)).await;
+                }
+                st.exit.send_replace(Some(ServiceExit::Clean));
+                let _ = reply.send(());
+                myself.stop(Some("orderly shutdown".into()));
+            }
+            FsiMsg::Snapshot(reply) => {
+                let _ = reply.send(Snapshot {
+                    status: st.status(),
+                    providing_data: st.inputs.providing_data,
+                    driver_restarts: st.restarts,
+                    driver_up: st.driver.is_some(),
+                    commands_gated: st.counters.commands_gated,
+                });
+            }
+        }
+        Ok(())
+    }
+
+    async fn handle_supervisor_evt(
+        &self,
+        myself: ActorRef<FsiMsg>,
+        evt: SupervisionEvent,
+        st: &mut FsiState,
+    ) -> Result<(), ActorProcessingErr> {
+        // ractor's default would stop us with the child; a driver failure is ours to handle.
+        match evt {
+            SupervisionEvent::ActorFailed(cell, err) => {
+                if st.driver.as_ref().map(|d| d.get_id()) == Some(cell.get_id()) {
+                    st.driver_down(&myself, format!("driver panicked or failed: {err}"));
+                }
+            }
+            SupervisionEvent::ActorTerminated(cell, _, reason) => {
+                if st.driver.as_ref().map(|d| d.get_id()) == Some(cell.get_id()) {
+                    st.driver_down(
+                        &myself,
+                        format!("driver stopped: {}", reason.unwrap_or_default()),
+                    );
+                }
+            }
+            _ => {}
+        }
+        Ok(())
+    }
+
+    async fn post_stop(
+        &self,
+        _myself: ActorRef<FsiMsg>,
+        st: &mut FsiState,
+    ) -> Result<(), ActorProcessingErr> {
+        for t in st.timers.drain(..) {
+            t.abort();
+        }
+        for s in st.subs.drain(..) {
+            s.cancel();
+        }
+        if st.exit.borrow().is_none() {
+            st.exit.send_replace(Some(ServiceExit::Clean));
+        }
+        Ok(())
+    }
+}
+
+async fn wait_stopped(actor: &ActorRef<DriverMsg>) {
+    while actor.get_status() != ractor::ActorStatus::Stopped {
+        tokio::time::sleep(Duration::from_millis(5)).await;
+    }
+}
+
+/// The running interface: the actor, and how it ended.
+pub struct InterfaceService {
+    actor: ActorRef<FsiMsg>,
+    join: tokio::task::JoinHandle<()>,
+    exit: watch::Receiver<Option<ServiceExit>>,
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum StartError {
+    #[error("driver: {0}")]
+    Driver(#[from] crate::drivers::DriverSelectError),
+    #[error("could not start the interface actor: {0}")]
+    Spawn(String),
+}
+
+impl InterfaceService {
+    /// Starts the interface with the driver the config names.
+    pub async fn start(cfg: &InterfaceConfig, bus: &Bus) -> Result<Self, StartError> {
+        let factory = crate::drivers::factory(cfg)?;
+        Self::start_with(InterfaceSettings::from_config(cfg), bus, factory).await
+    }
+
+    pub async fn start_with(
+        settings: InterfaceSettings,
+        bus: &Bus,
+        factory: DriverFactory,
+    ) -> Result<Self, StartError> {
+        let (tx, rx) = watch::channel(None);
+        let (actor, join) = Actor::spawn(
+            None,
+            FrontSeatInterface,
+            FsiArgs {
+                settings,
+                bus: bus.clone(),
+                factory,
+                exit: tx,
+            },
+        )
+        .await
+        .map_err(|e| StartError::Spawn(e.to_string()))?;
+        Ok(Self {
+            actor,
+            join,
+            exit: rx,
+        })
+    }
+
+    pub fn actor(&self) -> &ActorRef<FsiMsg> {
+        &self.actor
+    }
+
+    /// A snapshot, or None if the actor did not answer within `within` (a hung actor).
+    pub async fn snapshot(&self, within: Duration) -> Option<Snapshot> {
+        let call = self.actor.call(FsiMsg::Snapshot, Some(within));
+        match call.await {
+            Ok(ractor::rpc::CallResult::Success(s)) => Some(s),
+            _ => None,
+        }
+    }
+
+    /// Resolves when the service ends by itself (error exit, restart limit, actor failure).
+    pub async fn wait(&mut self) -> ServiceExit {
+        loop {
+            if let Some(e) = self.exit.borrow().clone() {
+                return e;
+            }
+            if self.join.is_finished() {
+                return self
+                    .exit
+                    .borrow()
+                    .clone()
+                    .unwrap_or(ServiceExit::Failed("interface actor ended".into()));
+            }
+            tokio::select! {
+                r = self.exit.changed() => if r.is_err() {
+                    return ServiceExit::Failed("interface actor ended".into());
+                },
+                _ = &mut self.join => {}
+            }
+        }
+    }
+
+    /// Orderly shutdown within `within`: stop accepting commands, publish a last status, close
+    /// the frontseat connection.
+    pub async fn shutdown(mut self, within: Duration) -> ServiceExit {
+        let _ = self.actor.call(FsiMsg::Shutdown, Some(within)).await;
+        let _ = tokio::time::timeout(within, &mut self.join).await;
+        self.exit.borrow().clone().unwrap_or(ServiceExit::Clean)
+    }
+}

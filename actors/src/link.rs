@@ -1,0 +1,140 @@
+//! A reconnecting TCP line link for drivers: connects without blocking the driver, retries with
+//! capped exponential backoff, reads `\r\n` (or `\n`) terminated lines with a size bound, and
+//! hands every event to the driver actor the moment it happens.
+
+use std::time::Duration;
+
+use tokio::io::{AsyncBufReadExt, AsyncReadExt, AsyncWriteExt, BufReader};
+use tokio::net::TcpStream;
+use tokio::sync::mpsc;
+
+use crate::driver::{DriverIoEvent, IoSender};
+
+/// Lines waiting to be written before further writes are refused (a stalled frontseat must
+/// not grow our memory).
+const WRITE_QUEUE: usize = 1024;
+
+#[derive(Clone, Debug)]
+pub struct LinkConfig {
+    pub host: String,
+    pub port: u16,
+    pub backoff_initial: Duration,
+    pub backoff_max: Duration,
+    pub max_line_bytes: usize,
+}
+
+/// Writes whole lines to the current connection. Dropped lines (queue full, connection gone)
+/// are reported, not silently lost.
+#[derive(Clone, Debug)]
+pub struct LineWriter {
+    tx: mpsc::Sender<Vec<u8>>,
+}
+
+#[derive(Debug, thiserror::Error, PartialEq, Eq)]
+pub enum WriteError {
+    #[error("write queue full ({WRITE_QUEUE} lines)")]
+    Full,
+    #[error("connection closed")]
+    Closed,
+}
+
+impl LineWriter {
+    /// Queues `line` plus `\r\n`.
+    pub fn write_line(&self, line: &str) -> Result<(), WriteError> {
+        let mut b = Vec::with_capacity(line.len() + 2);
+        b.extend_from_slice(line.as_bytes());
+        b.extend_from_slice(b"\r\n");
+        self.tx.try_send(b).map_err(|e| match e {
+            mpsc::error::TrySendError::Full(_) => WriteError::Full,
+            mpsc::error::TrySendError::Closed(_) => WriteError::Closed,
+        })
+    }
+    /// A writer whose lines go to a channel; for tests of drivers without a socket.
+    pub fn for_test() -> (Self, mpsc::Receiver<Vec<u8>>) {
+        let (tx, rx) = mpsc::channel(WRITE_QUEUE);
+        (Self { tx }, rx)
+    }
+}
+
+/// Runs until the driver actor is gone (or the task is aborted by the driver's drop).
+pub fn spawn(cfg: LinkConfig, io: IoSender) -> tokio::task::JoinHandle<()> {
+    tokio::spawn(async move {
+        let mut delay = cfg.backoff_initial;
+        let addr = format!("{}:{}", cfg.host, cfg.port);
+        loop {
+            match TcpStream::connect(&addr).await {
+                Ok(stream) => {
+                    delay = cfg.backoff_initial;
+                    let _ = stream.set_nodelay(true);
+                    let reason = run_connection(stream, &cfg, &io).await;
+                    if !io.send(DriverIoEvent::Disconnected(reason)) {
+                        return;
+                    }
+                }
+                Err(e) => {
+                    tracing::debug!(%addr, error = %e, "frontseat connect failed; retrying in {:?}", delay);
+                }
+            }
+            // Backoff is wall time: a warped simulation does not reconnect faster.
+            tokio::time::sleep(delay).await;
+            delay = (delay * 2).min(cfg.backoff_max);
+        }
+    })
+}
+
+async fn run_connection(stream: TcpStream, cfg: &LinkConfig, io: &IoSender) -> String {
+    let (rd, mut wr) = stream.into_split();
+    let (tx, mut rx) = mpsc::channel::<Vec<u8>>(WRITE_QUEUE);
+    if !io.send(DriverIoEvent::Connected(LineWriter { tx })) {
+        return "driver gone".into();
+    }
+    let writer = tokio::spawn(async move {
+        while let Some(b) = rx.recv().await {
+            if let Err(e) = wr.write_all(&b).await {
+                return format!("write failed: {e}");
+            }
+        }
+        let _ = wr.shutdown().await;
+        "closed by driver".to_string()
+    });
+    let mut reader = BufReader::new(rd);
+    let mut buf = Vec::with_capacity(256);
+    let reason = loop {
+        buf.clear();
+        // Bound the line: read at most max_line_bytes + 1 before deciding it is oversized.
+        let limit = (cfg.max_line_bytes + 1) as u64;
+        let mut limited = (&mut reader).take(limit);
+        match limited.read_until(b'\n', &mut buf).await {
+            Ok(0) => break "connection closed by frontseat".to_string(),
+            Ok(_) => {
+                if buf.last() != Some(&b'\n') {
+                    if buf.len() as u64 >= limit {
+                        let msg = format!("line over {} bytes", cfg.max_line_bytes);
+                        io.send(DriverIoEvent::BadInput(msg.clone()));
+                        break msg;
+                    }
+                    // EOF in the middle of a line: deliver what we have, then close.
+                }
+                while matches!(buf.last(), Some(b'\n' | b'\r')) {
+                    buf.pop();
+                }
+                match std::str::from_utf8(&buf) {
+                    Ok(line) => {
+                        if !io.send(DriverIoEvent::Line(line.to_string())) {
+                            break "driver gone".to_string();
+                        }
+                    }
+                    Err(_) => {
+                        io.send(DriverIoEvent::BadInput(format!(
+                            "invalid UTF-8 in a {}-byte line",
+                            buf.len()
+                        )));
+                    }
+                }
+            }
+            Err(e) => break format!("read failed: {e}"),
+        }
+    };
+    writer.abort();
+    reason
+}

@@ -333,23 +333,17 @@ impl MoosClient {
         key: &str,
         data_type: DataType,
         double_val: f64,
-        string_val: &[u8],
+        bytes: &[u8],
         time: Option<f64>,
     ) -> Result<()> {
         check_key(key)?;
         let sh = self.shared();
-        let f = Fields {
-            id: 0,
-            msg_type: MsgType::Notify,
-            data_type,
-            source: sh.cfg.name.as_bytes(),
-            source_aux: &[],
-            community: &[],
-            key: key.as_bytes(),
-            time: time.unwrap_or_else(|| sh.now()),
-            double_val,
-            double_val2: -1.0,
-            string_val,
+        let name = sh.cfg.name.as_str();
+        let time = time.unwrap_or_else(|| sh.now());
+        let f = match data_type {
+            DataType::Double => Fields::notify_double(name, key, double_val, time),
+            DataType::Binary => Fields::notify_binary(name, key, bytes, time),
+            _ => Fields::notify_string(name, key, bytes, time),
         };
         let len = f.encoded_len();
         if len + HEADROOM > sh.cfg.max_packet {
@@ -451,22 +445,9 @@ fn check_key(key: &str) -> Result<()> {
 }
 
 fn control_fields<'a>(name: &'a str, key: &'a str, interval: Option<f64>, now: f64) -> Fields<'a> {
-    Fields {
-        id: 0,
-        msg_type: if interval.is_some() {
-            MsgType::Register
-        } else {
-            MsgType::Unregister
-        },
-        data_type: DataType::Double,
-        source: name.as_bytes(),
-        source_aux: &[],
-        community: &[],
-        key: key.as_bytes(),
-        time: now,
-        double_val: interval.unwrap_or(0.0),
-        double_val2: -1.0,
-        string_val: &[],
+    match interval {
+        Some(i) => Fields::register(name, key, i, now),
+        None => Fields::unregister(name, key, now),
     }
 }
 
@@ -703,12 +684,12 @@ async fn write_loop(
             }
             last_timing = Some(Instant::now());
             if batch.is_empty() && cfg.poll_held_mail {
-                let null =
-                    MoosMessage::new(MsgType::Null, DataType::Double, crate::codec::Text::new());
-                let mut null = null;
-                null.source = cfg.name.as_str().into();
-                null.time = shared.now();
-                if null.encode(&mut buf).is_ok() {
+                let null = Fields {
+                    msg_type: MsgType::Null,
+                    key: &[],
+                    ..Fields::notify_double(&cfg.name, "", -1.0, shared.now())
+                };
+                if encode_fields(&mut buf, &null).is_ok() {
                     n += 1;
                 }
             }

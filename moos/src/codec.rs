@@ -407,7 +407,74 @@ pub struct Fields<'a> {
     pub string_val: &'a [u8],
 }
 
-impl Fields<'_> {
+impl<'a> Fields<'a> {
+    fn client(
+        msg_type: MsgType,
+        data_type: DataType,
+        source: &'a str,
+        key: &'a str,
+        time: f64,
+    ) -> Self {
+        Fields {
+            id: -1,
+            msg_type,
+            data_type,
+            source: source.as_bytes(),
+            source_aux: &[],
+            community: &[],
+            key: key.as_bytes(),
+            time,
+            double_val: -1.0,
+            double_val2: -1.0,
+            string_val: &[],
+        }
+    }
+
+    /// NOTIFY of a double, laid out as libMOOS sends it (string empty, `double_val2` -1).
+    pub fn notify_double(source: &'a str, key: &'a str, value: f64, time: f64) -> Self {
+        Fields {
+            double_val: value,
+            ..Fields::client(MsgType::Notify, DataType::Double, source, key, time)
+        }
+    }
+
+    /// NOTIFY of a string (`double_val` -1).
+    pub fn notify_string(source: &'a str, key: &'a str, value: &'a [u8], time: f64) -> Self {
+        Fields {
+            string_val: value,
+            ..Fields::client(MsgType::Notify, DataType::String, source, key, time)
+        }
+    }
+
+    /// NOTIFY of binary data (data type `B`, bytes in `string_val`).
+    pub fn notify_binary(source: &'a str, key: &'a str, value: &'a [u8], time: f64) -> Self {
+        Fields {
+            string_val: value,
+            ..Fields::client(MsgType::Notify, DataType::Binary, source, key, time)
+        }
+    }
+
+    /// REGISTER with a minimum interval in seconds (0 = every write).
+    pub fn register(source: &'a str, key: &'a str, interval: f64, time: f64) -> Self {
+        Fields {
+            double_val: interval,
+            ..Fields::client(MsgType::Register, DataType::Double, source, key, time)
+        }
+    }
+
+    /// UNREGISTER (`double_val` 0).
+    pub fn unregister(source: &'a str, key: &'a str, time: f64) -> Self {
+        Fields {
+            double_val: 0.0,
+            ..Fields::client(MsgType::Unregister, DataType::Double, source, key, time)
+        }
+    }
+
+    /// The same message with another id.
+    pub fn with_id(self, id: i32) -> Self {
+        Fields { id, ..self }
+    }
+
     /// Bytes this message occupies on the wire.
     pub fn encoded_len(&self) -> usize {
         MESSAGE_MIN_LEN

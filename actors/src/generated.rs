@@ -1,0 +1,23 @@
+//! The interface compiler's output (codegen/, run by build.rs from `interface_yaml/`): `proto` (the
+//! prost messages), `groups` (one typed constant per group), `ports` (per actor: its publish
+//! methods and its inbox), the gateway's type-erased helpers for interprocess groups, and
+//! `RESOLVED_INTERFACES_YAML`. Edit the yaml or the .proto files and rebuild; never this output.
+
+// prost's output and the generated wiring are not hand-written code: lints about style there
+// would be noise, so they are allowed here only.
+#[allow(
+    clippy::all,
+    clippy::pedantic,
+    missing_docs,
+    unreachable_pub,
+    dead_code,
+    rustdoc::all
+)]
+mod out {
+    include!(concat!(env!("OUT_DIR"), "/frontseat_interfaces.rs"));
+}
+
+pub use out::{
+    EncodedEnvelope, EncodedError, RESOLVED_INTERFACES_YAML, groups, interprocess_publish_encoded,
+    interprocess_subscribe_encoded, ports, proto,
+};

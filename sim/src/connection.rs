@@ -1,0 +1,452 @@
+//! One connection = one vehicle: the task that owns the socket, the bounded line buffer, the
+//! vehicle run (START parameters, model, tick schedule) and the faults aimed at it.
+//!
+//! The task selects over the tick deadline, its fault mailbox and the socket; everything a
+//! wake-up produces is written in one `write_all`, so a slow reader stalls only its own vehicle
+//! (and its ticks become skipped, not buffered).
+
+use std::net::SocketAddr;
+use std::sync::Arc;
+use std::sync::atomic::Ordering;
+use std::time::Duration;
+
+use tokio::io::{AsyncReadExt, AsyncWriteExt};
+use tokio::net::TcpStream;
+use tokio::sync::mpsc;
+use tokio::time::Instant;
+
+use crate::codec::{self, CtrlState, Inbound, LineError, Nav, StartParams};
+use crate::schedule::{LATE_AFTER, Schedule};
+use crate::server::{Counters, Shared};
+use crate::vehicle::{Limits, Setpoint, Vehicle};
+use crate::{Fault, ScheduledFault, Truth};
+
+/// Problems logged at warn level per connection before the rest go to debug, so a client that
+/// floods garbage cannot flood the log.
+const LOUD_PROBLEMS: u32 = 20;
+/// Size of the line a [`Fault::OversizedLine`] sends.
+pub const OVERSIZED_FAULT_BYTES: usize = 64 * 1024;
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Flow {
+    Continue,
+    Close,
+}
+
+/// A started vehicle.
+struct Run {
+    params: StartParams,
+    vehicle: Vehicle,
+    schedule: Schedule,
+    started: Instant,
+    /// The tick at which DURATION is up (IDLE instead of NAV).
+    end_tick: Option<u64>,
+    ctrl: CtrlState,
+    sim_time: f64,
+    /// NAV is suppressed before this simulated time ([`Fault::StopNav`]).
+    nav_resume_at: f64,
+    faults: Vec<ScheduledFault>,
+    next_fault: usize,
+}
+
+impl Run {
+    fn new(params: StartParams, shared: &Shared, now: Instant) -> Self {
+        let limits = Limits {
+            accel: params.accel,
+            hdg_rate: params.hdg_rate,
+            z_rate: params.z_rate,
+        };
+        let current = (shared.opts.current_east, shared.opts.current_north);
+        let end_tick = (params.duration > 0.0)
+            .then(|| ((params.duration * params.freq - 1e-9).ceil() as u64).max(1));
+        let mut faults = shared.opts.scheduled_faults.clone();
+        faults.sort_by(|a, b| a.at_s.total_cmp(&b.at_s));
+        Self {
+            params,
+            vehicle: Vehicle::new(params.lat, params.lon, limits, current),
+            schedule: Schedule::new(params.freq * params.warp),
+            started: now,
+            end_tick,
+            ctrl: CtrlState::Payload,
+            sim_time: 0.0,
+            nav_resume_at: 0.0,
+            faults,
+            next_fault: 0,
+        }
+    }
+
+    fn next_deadline(&self) -> Instant {
+        self.started + self.schedule.next_deadline()
+    }
+}
+
+pub(crate) struct Connection {
+    stream: TcpStream,
+    faults: mpsc::Receiver<Fault>,
+    session: Session,
+}
+
+/// Everything of a connection but its socket and mailbox, so the select loop can borrow those
+/// while a branch mutates this.
+struct Session {
+    id: u64,
+    peer: SocketAddr,
+    shared: Arc<Shared>,
+    run: Option<Run>,
+    line: Vec<u8>,
+    out: Vec<u8>,
+    scratch: String,
+    problems: u32,
+    fired: Vec<Fault>,
+}
+
+macro_rules! problem {
+    ($self:ident, $($arg:tt)+) => {{
+        $self.problems += 1;
+        if $self.problems <= LOUD_PROBLEMS {
+            tracing::warn!(vehicle = $self.id, peer = %$self.peer, $($arg)+);
+            if $self.problems == LOUD_PROBLEMS {
+                tracing::warn!(vehicle = $self.id, peer = %$self.peer,
+                    "further problems on this connection are logged at debug level");
+            }
+        } else {
+            tracing::debug!(vehicle = $self.id, peer = %$self.peer, $($arg)+);
+        }
+    }};
+}
+
+impl Connection {
+    pub fn new(
+        id: u64,
+        peer: SocketAddr,
+        stream: TcpStream,
+        shared: Arc<Shared>,
+        faults: mpsc::Receiver<Fault>,
+    ) -> Self {
+        Self {
+            stream,
+            faults,
+            session: Session {
+                id,
+                peer,
+                shared,
+                run: None,
+                line: Vec::new(),
+                out: Vec::new(),
+                scratch: String::new(),
+                problems: 0,
+                fired: Vec::new(),
+            },
+        }
+    }
+
+    pub async fn run(self) {
+        let Connection {
+            stream,
+            mut faults,
+            session: mut s,
+        } = self;
+        if let Err(e) = stream.set_nodelay(true) {
+            tracing::debug!(vehicle = s.id, error = %e, "cannot set TCP_NODELAY");
+        }
+        tracing::info!(vehicle = s.id, peer = %s.peer, "vehicle connected");
+        let (mut rd, mut wr) = stream.into_split();
+        let mut buf = vec![0u8; 8192];
+        let far = Duration::from_secs(86_400 * 365);
+        let sleep = tokio::time::sleep_until(Instant::now() + far);
+        tokio::pin!(sleep);
+        let mut armed: Option<Instant> = None;
+        loop {
+            let want = s.run.as_ref().map(Run::next_deadline);
+            if want != armed {
+                sleep.as_mut().reset(want.unwrap_or_else(|| Instant::now() + far));
+                armed = want;
+            }
+            let flow = tokio::select! {
+                biased;
+                () = &mut sleep, if armed.is_some() => {
+                    armed = None;
+                    s.tick(Instant::now())
+                }
+                Some(fault) = faults.recv() => s.apply_fault(fault),
+                read = rd.read(&mut buf) => match read {
+                    Ok(0) => {
+                        tracing::info!(vehicle = s.id, peer = %s.peer, "vehicle disconnected");
+                        Flow::Close
+                    }
+                    Ok(n) => s.on_bytes(&buf[..n]),
+                    Err(e) => {
+                        tracing::info!(vehicle = s.id, peer = %s.peer, error = %e,
+                            "vehicle connection failed");
+                        Flow::Close
+                    }
+                },
+            };
+            if !s.out.is_empty() {
+                if let Err(e) = wr.write_all(&s.out).await {
+                    tracing::info!(vehicle = s.id, peer = %s.peer, error = %e,
+                        "cannot write to vehicle connection");
+                    break;
+                }
+                s.out.clear();
+            }
+            if flow == Flow::Close {
+                break;
+            }
+        }
+        let _ = wr.shutdown().await;
+    }
+}
+
+impl Session {
+    fn push_line(&mut self, line: &str) {
+        self.out.extend_from_slice(line.as_bytes());
+        self.out.extend_from_slice(b"\r\n");
+    }
+
+    fn on_bytes(&mut self, mut bytes: &[u8]) -> Flow {
+        let max = self.shared.opts.max_line_bytes;
+        while let Some(pos) = bytes.iter().position(|&b| b == b'\n') {
+            let (head, rest) = bytes.split_at(pos);
+            bytes = &rest[1..];
+            if self.line.len() + head.len() > max + 1 {
+                return self.oversized(self.line.len() + head.len());
+            }
+            let mut line = std::mem::take(&mut self.line);
+            line.extend_from_slice(head);
+            if line.last() == Some(&b'\r') {
+                line.pop();
+            }
+            if line.len() > max {
+                return self.oversized(line.len());
+            }
+            self.on_line(&line);
+            line.clear();
+            self.line = line;
+            // A START processes its tick 0 at once, so its NAV follows its CTRL line.
+            if self.tick(Instant::now()) == Flow::Close {
+                return Flow::Close;
+            }
+        }
+        if self.line.len() + bytes.len() > max + 1 {
+            return self.oversized(self.line.len() + bytes.len());
+        }
+        self.line.extend_from_slice(bytes);
+        Flow::Continue
+    }
+
+    fn oversized(&mut self, seen: usize) -> Flow {
+        Counters::add(&self.shared.counters.oversized, 1);
+        problem!(self, seen, max = self.shared.opts.max_line_bytes,
+            "input line longer than the limit; closing this connection");
+        Flow::Close
+    }
+
+    fn on_line(&mut self, bytes: &[u8]) {
+        let shared = self.shared.clone();
+        let c = &shared.counters;
+        let Ok(text) = std::str::from_utf8(bytes) else {
+            Counters::add(&c.bad_lines, 1);
+            problem!(self, bytes = bytes.len(), "input line is not valid UTF-8; ignored");
+            match codec::reply_due_for_bytes(bytes) {
+                Some("CMD") => {
+                    Counters::add(&self.shared.counters.cmd_errors, 1);
+                    self.push_line(codec::format_cmd_result(false));
+                }
+                Some(_) => {
+                    Counters::add(&self.shared.counters.start_errors, 1);
+                    self.push_line(&codec::format_error("invalid START: line is not valid UTF-8"));
+                }
+                None => {}
+            }
+            return;
+        };
+        match codec::parse_inbound(text) {
+            Ok(Inbound::Start(p)) => {
+                tracing::info!(vehicle = self.id, peer = %self.peer, line = text, "START");
+                self.run = Some(Run::new(p, &self.shared, Instant::now()));
+                self.push_line(&codec::format_ctrl(CtrlState::Payload));
+            }
+            Ok(Inbound::Cmd(cmd)) => {
+                let refusal = match &self.run {
+                    None => Some("CMD before START (or after the run ended)"),
+                    Some(r) if r.ctrl == CtrlState::Auv => Some("CMD while the frontseat is in control (AUV)"),
+                    Some(_) => None,
+                };
+                if let Some(why) = refusal {
+                    Counters::add(&self.shared.counters.cmd_errors, 1);
+                    problem!(self, why, "CMD refused");
+                    self.push_line(codec::format_cmd_result(false));
+                } else if let Some(run) = self.run.as_mut() {
+                    run.vehicle.set_setpoint(Setpoint {
+                        heading: cmd.heading,
+                        speed: cmd.speed,
+                        depth: cmd.depth,
+                    });
+                    self.push_line(codec::format_cmd_result(true));
+                }
+            }
+            Err(e) => {
+                match &e {
+                    LineError::Empty | LineError::UnknownKey(_) => {
+                        Counters::add(&c.bad_lines, 1);
+                        problem!(self, problem = %e, "input line ignored");
+                    }
+                    LineError::Start(_) => {
+                        Counters::add(&c.start_errors, 1);
+                        problem!(self, problem = %e, "START refused; vehicle unchanged");
+                        self.push_line(&codec::format_error(&e.to_string()));
+                    }
+                    LineError::Cmd(_) => {
+                        Counters::add(&c.cmd_errors, 1);
+                        problem!(self, problem = %e, "CMD refused");
+                        self.push_line(codec::format_cmd_result(false));
+                    }
+                }
+            }
+        }
+    }
+
+    /// Process every tick due at `now`.
+    fn tick(&mut self, now: Instant) -> Flow {
+        let Some(run) = self.run.as_mut() else {
+            return Flow::Continue;
+        };
+        let Some(due) = run.schedule.due(now.saturating_duration_since(run.started)) else {
+            return Flow::Continue;
+        };
+        let shared = self.shared.clone();
+        let c = &shared.counters;
+        Counters::add(&c.skipped_ticks, due.skipped());
+        if due.dropped > 0 {
+            Counters::add(&c.dropped_ticks, due.dropped);
+            tracing::warn!(vehicle = self.id, ticks = due.dropped,
+                "far behind schedule (process suspended?): ticks given up, schedule re-anchored");
+        }
+        let mut navs = 0;
+        for n in due.first..=due.last {
+            let Some(run) = self.run.as_mut() else { break };
+            let dt = 1.0 / run.params.freq;
+            if n > 0 {
+                run.vehicle.step(dt);
+            }
+            run.sim_time = n as f64 * dt;
+            if run.end_tick.is_some_and(|end| n >= end) {
+                tracing::info!(vehicle = self.id, sim_time = run.sim_time, "DURATION is up: IDLE");
+                self.run = None;
+                self.push_line(&codec::format_ctrl(CtrlState::Idle));
+                break;
+            }
+            while run.next_fault < run.faults.len()
+                && run.faults[run.next_fault].at_s <= run.sim_time + 1e-9
+            {
+                self.fired.push(run.faults[run.next_fault].fault.clone());
+                run.next_fault += 1;
+            }
+            if !self.fired.is_empty() {
+                let fired = std::mem::take(&mut self.fired);
+                for f in fired {
+                    if self.apply_fault(f) == Flow::Close {
+                        Counters::add(&self.shared.counters.nav_lines, navs);
+                        return Flow::Close;
+                    }
+                }
+            }
+            if n >= due.report_from && self.report(n, now) {
+                navs += 1;
+            }
+        }
+        Counters::add(&self.shared.counters.nav_lines, navs);
+        Flow::Continue
+    }
+
+    /// Report tick `n`: truth always, NAV unless stopped. True when a NAV line was sent.
+    fn report(&mut self, n: u64, now: Instant) -> bool {
+        let Some(run) = self.run.as_mut() else {
+            return false;
+        };
+        let lateness = now.saturating_duration_since(run.started + run.schedule.deadline(n));
+        let shared = self.shared.clone();
+        let c = &shared.counters;
+        let ns = u64::try_from(lateness.as_nanos()).unwrap_or(u64::MAX);
+        c.worst_lateness_ns.fetch_max(ns, Ordering::Relaxed);
+        if lateness > LATE_AFTER {
+            Counters::add(&c.late_ticks, 1);
+        }
+        let (lat, lon) = run.vehicle.lat_lon();
+        let v = &run.vehicle;
+        if self.shared.truth.receiver_count() > 0 {
+            let _ = self.shared.truth.send(Truth {
+                vehicle: self.id,
+                sim_time: run.sim_time,
+                lat,
+                lon,
+                depth: v.depth,
+                heading: v.heading,
+                speed: v.speed,
+                x: v.x,
+                y: v.y,
+            });
+        }
+        if run.sim_time + 1e-9 < run.nav_resume_at {
+            return false;
+        }
+        let nav = Nav {
+            lat,
+            lon,
+            depth: v.depth,
+            heading: v.heading,
+            speed: v.speed,
+        };
+        self.scratch.clear();
+        codec::push_nav(&mut self.scratch, &nav);
+        self.out.extend_from_slice(self.scratch.as_bytes());
+        self.out.extend_from_slice(b"\r\n");
+        true
+    }
+
+    fn apply_fault(&mut self, fault: Fault) -> Flow {
+        Counters::add(&self.shared.counters.faults, 1);
+        tracing::info!(vehicle = self.id, peer = %self.peer, ?fault, "fault");
+        match fault {
+            Fault::DropConnection => return Flow::Close,
+            Fault::StopNav { seconds } => match self.run.as_mut() {
+                Some(run) if seconds.is_finite() && seconds >= 0.0 => {
+                    run.nav_resume_at = run.sim_time + seconds;
+                }
+                Some(_) => tracing::warn!(vehicle = self.id, seconds, "StopNav needs seconds >= 0"),
+                None => tracing::info!(vehicle = self.id, "StopNav ignored: vehicle not started"),
+            },
+            Fault::Garbage { lines } => {
+                for i in 0..lines {
+                    match i % 4 {
+                        0 => self.out.extend_from_slice(format!("#GARBAGE~{i}~!@$%^&*()\r\n").as_bytes()),
+                        1 => self.out.extend_from_slice(b"NAV,LAT:not-a-number,LON:,DEPTH\r\n"),
+                        2 => self.out.extend_from_slice(b"\xff\xfe\x00\x80GARBAGE\xc3\x28\r\n"),
+                        _ => self.out.extend_from_slice(b"\r\n"),
+                    }
+                }
+            }
+            Fault::OversizedLine => {
+                self.out.resize(self.out.len() + OVERSIZED_FAULT_BYTES, b'X');
+                self.out.extend_from_slice(b"\r\n");
+            }
+            Fault::Ctrl(state) => {
+                self.push_line(&codec::format_ctrl(state));
+                match (state, self.run.as_mut()) {
+                    (CtrlState::Idle, _) => self.run = None,
+                    (s, Some(run)) => run.ctrl = s,
+                    (_, None) => {}
+                }
+            }
+        }
+        Flow::Continue
+    }
+}
+
+/// Tell a connection over `max_vehicles` why, then close it.
+pub(crate) async fn refuse(mut stream: TcpStream, max: usize) {
+    let line = codec::format_error(&format!("too many vehicles (max {max})"));
+    let _ = stream.write_all(format!("{line}\r\n").as_bytes()).await;
+    let _ = stream.shutdown().await;
+}

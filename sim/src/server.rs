@@ -1,0 +1,232 @@
+//! The TCP server: accepts connections, gives each its own vehicle task, and offers the embedding
+//! handle (truth stream, fault injection, vehicle list, counters, shutdown).
+//!
+//! Each connection is an actor in the plain sense: one tokio task owns the socket and the vehicle
+//! and is reached only through its bounded fault mailbox. Plain tasks rather than ractor actors
+//! because a vehicle's tick must be a deadline timer in the same select loop as its socket
+//! reads; as a ractor actor every tick would be a mailbox message from a timer task
+//! (100 000 a second at the capacity target) and the socket would still need a reader task.
+
+use std::collections::HashMap;
+use std::net::SocketAddr;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::{Arc, Mutex};
+use std::time::Duration;
+
+use tokio::net::TcpListener;
+use tokio::sync::{broadcast, mpsc, watch};
+use tokio::task::JoinSet;
+
+use crate::connection::Connection;
+use crate::{Fault, SimError, SimOptions, SimStats, Truth};
+
+/// Truth messages buffered for slow subscribers before they see `Lagged`.
+const TRUTH_CAPACITY: usize = 8192;
+/// Faults queued per vehicle before more are refused (and logged).
+const FAULT_MAILBOX: usize = 64;
+
+#[derive(Default)]
+pub(crate) struct Counters {
+    pub connections: AtomicU64,
+    pub refused: AtomicU64,
+    pub nav_lines: AtomicU64,
+    pub bad_lines: AtomicU64,
+    pub oversized: AtomicU64,
+    pub cmd_errors: AtomicU64,
+    pub start_errors: AtomicU64,
+    pub late_ticks: AtomicU64,
+    pub skipped_ticks: AtomicU64,
+    pub dropped_ticks: AtomicU64,
+    pub worst_lateness_ns: AtomicU64,
+    pub faults: AtomicU64,
+}
+
+impl Counters {
+    pub fn add(c: &AtomicU64, n: u64) {
+        if n > 0 {
+            c.fetch_add(n, Ordering::Relaxed);
+        }
+    }
+}
+
+/// What every connection task shares with the server.
+pub(crate) struct Shared {
+    pub opts: SimOptions,
+    pub counters: Counters,
+    pub truth: broadcast::Sender<Truth>,
+    vehicles: Mutex<HashMap<u64, mpsc::Sender<Fault>>>,
+}
+
+impl Shared {
+    fn vehicles(&self) -> std::sync::MutexGuard<'_, HashMap<u64, mpsc::Sender<Fault>>> {
+        // A poisoned map is still a valid map: no invariant spans a panic here.
+        self.vehicles.lock().unwrap_or_else(|p| p.into_inner())
+    }
+}
+
+/// The simulator server; [`SimServer::bind`] starts it.
+pub struct SimServer;
+
+impl SimServer {
+    /// Bind `addr` and start accepting vehicles. Runs until [`SimHandle::shutdown`].
+    pub async fn bind(addr: SocketAddr, opts: SimOptions) -> Result<SimHandle, SimError> {
+        let listener = TcpListener::bind(addr)
+            .await
+            .map_err(|source| SimError::Bind { addr, source })?;
+        let local = listener.local_addr()?;
+        let (truth, _) = broadcast::channel(TRUTH_CAPACITY);
+        let shared = Arc::new(Shared {
+            opts,
+            counters: Counters::default(),
+            truth,
+            vehicles: Mutex::new(HashMap::new()),
+        });
+        let (stop_tx, stop_rx) = watch::channel(false);
+        let task = tokio::spawn(accept_loop(listener, shared.clone(), stop_rx));
+        tracing::info!(addr = %local, "basic frontseat simulator listening");
+        Ok(SimHandle {
+            local,
+            shared,
+            stop: Arc::new(stop_tx),
+            task: Arc::new(tokio::sync::Mutex::new(Some(task))),
+        })
+    }
+}
+
+/// The embedding handle; cheap to clone.
+#[derive(Clone)]
+pub struct SimHandle {
+    local: SocketAddr,
+    shared: Arc<Shared>,
+    stop: Arc<watch::Sender<bool>>,
+    task: Arc<tokio::sync::Mutex<Option<tokio::task::JoinHandle<()>>>>,
+}
+
+impl SimHandle {
+    pub fn local_addr(&self) -> SocketAddr {
+        self.local
+    }
+
+    /// One [`Truth`] per reported vehicle tick, for every vehicle.
+    pub fn subscribe_truth(&self) -> broadcast::Receiver<Truth> {
+        self.shared.truth.subscribe()
+    }
+
+    /// Make one vehicle (or, with `None`, every vehicle) show `fault` now.
+    pub fn inject(&self, vehicle: Option<u64>, fault: Fault) {
+        let targets: Vec<(u64, mpsc::Sender<Fault>)> = {
+            let map = self.shared.vehicles();
+            match vehicle {
+                Some(id) => map.get(&id).map(|tx| (id, tx.clone())).into_iter().collect(),
+                None => map.iter().map(|(id, tx)| (*id, tx.clone())).collect(),
+            }
+        };
+        if targets.is_empty() {
+            tracing::warn!(?vehicle, ?fault, "fault injection: no such vehicle");
+        }
+        for (id, tx) in targets {
+            if tx.try_send(fault.clone()).is_err() {
+                tracing::warn!(vehicle = id, ?fault, "fault injection: mailbox full or vehicle gone");
+            }
+        }
+    }
+
+    /// Ids of the connected vehicles, ascending.
+    pub fn vehicles(&self) -> Vec<u64> {
+        let mut v: Vec<u64> = self.shared.vehicles().keys().copied().collect();
+        v.sort_unstable();
+        v
+    }
+
+    pub fn stats(&self) -> SimStats {
+        let c = &self.shared.counters;
+        let g = |a: &AtomicU64| a.load(Ordering::Relaxed);
+        SimStats {
+            connections: g(&c.connections),
+            refused: g(&c.refused),
+            nav_lines: g(&c.nav_lines),
+            bad_lines: g(&c.bad_lines),
+            oversized: g(&c.oversized),
+            cmd_errors: g(&c.cmd_errors),
+            start_errors: g(&c.start_errors),
+            late_ticks: g(&c.late_ticks),
+            skipped_ticks: g(&c.skipped_ticks),
+            dropped_ticks: g(&c.dropped_ticks),
+            worst_lateness: Duration::from_nanos(g(&c.worst_lateness_ns)),
+            faults: g(&c.faults),
+        }
+    }
+
+    /// Stop accepting, close every vehicle's connection and wait until they are gone.
+    pub async fn shutdown(&self) {
+        let _ = self.stop.send(true);
+        let task = self.task.lock().await.take();
+        if let Some(task) = task {
+            if let Err(e) = task.await {
+                tracing::error!(error = %e, "simulator accept task failed");
+            }
+        }
+    }
+}
+
+async fn accept_loop(listener: TcpListener, shared: Arc<Shared>, mut stop: watch::Receiver<bool>) {
+    let mut tasks = JoinSet::new();
+    let mut next_id: u64 = 1;
+    let stop_for_tasks = stop.clone();
+    loop {
+        tokio::select! {
+            () = async { let _ = stop.wait_for(|s| *s).await; } => break,
+            Some(done) = tasks.join_next(), if !tasks.is_empty() => {
+                if let Err(e) = done {
+                    tracing::error!(error = %e, "vehicle task failed");
+                }
+            }
+            accepted = listener.accept() => match accepted {
+                Ok((stream, peer)) => {
+                    Counters::add(&shared.counters.connections, 1);
+                    let id = next_id;
+                    next_id += 1;
+                    if shared.vehicles().len() >= shared.opts.max_vehicles {
+                        Counters::add(&shared.counters.refused, 1);
+                        tracing::warn!(vehicle = id, %peer, max = shared.opts.max_vehicles,
+                            "refusing connection: too many vehicles");
+                        tasks.spawn(crate::connection::refuse(stream, shared.opts.max_vehicles));
+                        continue;
+                    }
+                    let (tx, rx) = mpsc::channel(FAULT_MAILBOX);
+                    shared.vehicles().insert(id, tx);
+                    let conn = Connection::new(id, peer, stream, shared.clone(), rx);
+                    let shared2 = shared.clone();
+                    let mut stop2 = stop_for_tasks.clone();
+                    tasks.spawn(async move {
+                        // Deregisters however the task ends, panic included.
+                        let _registered = Registered(shared2, id);
+                        tokio::select! {
+                            _ = conn.run() => {}
+                            () = async { let _ = stop2.wait_for(|s| *s).await; } => {}
+                        }
+                    });
+                }
+                Err(e) => {
+                    // Typically out of file descriptors: back off instead of spinning.
+                    tracing::warn!(error = %e, "accept failed");
+                    tokio::time::sleep(Duration::from_millis(50)).await;
+                }
+            }
+        }
+    }
+    while let Some(done) = tasks.join_next().await {
+        if let Err(e) = done {
+            tracing::error!(error = %e, "vehicle task failed");
+        }
+    }
+    shared.vehicles().clear();
+}
+
+struct Registered(Arc<Shared>, u64);
+
+impl Drop for Registered {
+    fn drop(&mut self) {
+        self.0.vehicles().remove(&self.1);
+    }
+}

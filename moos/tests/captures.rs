@@ -361,15 +361,14 @@ fn builders_reproduce_captured_client_messages() {
         for [c2db, _] in cap.conns.values() {
             for (frame, msgs) in &c2db.packets {
                 // The handshake packet as a whole.
-                if let [m] = msgs.as_slice() {
-                    if m.msg_type == MsgType::Data {
-                        let hs =
-                            handshake_message(std::str::from_utf8(&m.string_val).unwrap(), m.time);
-                        let mut out = BytesMut::new();
-                        codec::encode_packet([&hs], &mut out).unwrap();
-                        assert_eq!(&out[..], &frame[..], "{name} handshake");
-                        checked[0] += 1;
-                    }
+                if let [m] = msgs.as_slice()
+                    && m.msg_type == MsgType::Data
+                {
+                    let hs = handshake_message(std::str::from_utf8(&m.string_val).unwrap(), m.time);
+                    let mut out = BytesMut::new();
+                    codec::encode_packet([&hs], &mut out).unwrap();
+                    assert_eq!(&out[..], &frame[..], "{name} handshake");
+                    checked[0] += 1;
                 }
                 for m in msgs {
                     let mut want = BytesMut::new();
@@ -558,7 +557,7 @@ fn facts_from_the_protocol_notes() {
     let tl: Vec<_> = mail(db)
         .iter()
         .filter(|m| m.key == "TL_VAR")
-        .map(|m| m.value().clone())
+        .map(|m| m.value())
         .collect();
     assert_eq!(
         tl,

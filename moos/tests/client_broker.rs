@@ -54,10 +54,10 @@ async fn wait_disconnected(rx: &mut Receiver<MoosEvent>) -> String {
 
 async fn next_mail(rx: &mut Receiver<MoosEvent>, key: &str) -> MoosMessage {
     loop {
-        if let MoosEvent::Mail(m) = next_event(rx).await {
-            if m.key == key {
-                return m;
-            }
+        if let MoosEvent::Mail(m) = next_event(rx).await
+            && m.key == key
+        {
+            return m;
         }
     }
 }

@@ -170,12 +170,7 @@ pub fn resolve(files: &[InterfaceFile], pool: &DescriptorPool, out: &mut Vec<Dia
                     let hint = if pool.get_enum_by_name(&type_name).is_some() {
                         " (it is an enum; a group carries a message)".to_string()
                     } else {
-                        let short = type_name.rsplit('.').next().unwrap_or(&type_name);
-                        let similar: Vec<String> = pool
-                            .all_messages()
-                            .filter(|m| m.name() == short)
-                            .map(|m| format!("`{}`", m.full_name()))
-                            .collect();
+                        let similar = similar_messages(pool, &type_name);
                         if similar.is_empty() {
                             " (not defined by any .proto under interface_yaml/proto)".to_string()
                         } else {
@@ -428,4 +423,54 @@ pub fn resolve(files: &[InterfaceFile], pool: &DescriptorPool, out: &mut Vec<Dia
 
 fn good_group_name(groups: &[GroupModel], i: usize) -> &str {
     groups.get(i).map_or("?", |g| g.name.as_str())
+}
+
+/// Messages the user may have meant: same short name in another package, or a full name within a
+/// few typos.
+fn similar_messages(pool: &DescriptorPool, wanted: &str) -> Vec<String> {
+    let short = wanted.rsplit('.').next().unwrap_or(wanted);
+    let mut similar: Vec<String> = pool
+        .all_messages()
+        .filter(|m| m.name() == short || edit_distance(m.full_name(), wanted) <= 3)
+        .map(|m| format!("`{}`", m.full_name()))
+        .collect();
+    similar.sort();
+    similar.dedup();
+    similar
+}
+
+fn edit_distance(a: &str, b: &str) -> usize {
+    let b: Vec<char> = b.chars().collect();
+    let mut prev: Vec<usize> = (0..=b.len()).collect();
+    for (i, ca) in a.chars().enumerate() {
+        let mut cur = vec![i + 1; b.len() + 1];
+        for (j, cb) in b.iter().enumerate() {
+            let cost = usize::from(ca != *cb);
+            cur[j + 1] = (prev[j] + cost).min(prev[j + 1] + 1).min(cur[j] + 1);
+        }
+        prev = cur;
+    }
+    prev[b.len()]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn edit_distance_counts_typos() {
+        assert_eq!(edit_distance("NodeStatus", "NodeStatus"), 0);
+        assert_eq!(edit_distance("NodeStatus", "NodeStatsu"), 2);
+        assert_eq!(edit_distance("abc", ""), 3);
+    }
+
+    #[test]
+    fn names() {
+        assert!(valid_group_name("goby::middleware::frontseat::node_status"));
+        assert!(!valid_group_name("frontseat::sim::ground-truth"));
+        assert!(!valid_group_name("a::::b"));
+        assert!(valid_actor_name("FrontSeatInterface"));
+        assert!(!valid_actor_name("front_seat"));
+        assert_eq!(last_segment("a::b::c"), "c");
+    }
 }

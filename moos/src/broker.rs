@@ -593,6 +593,7 @@ async fn read_packet(
             Ok(None) => {}
             Err(e) => {
                 inc(&shared.counters.decode_errors);
+                warn!(error = %e, "malformed packet from a client; closing its connection");
                 return Err(e);
             }
         }

@@ -480,7 +480,15 @@ async fn run(
             }
             Err(e) => {
                 inc(&shared.counters.connect_failures);
-                debug!(name = %cfg.name, server = %cfg.server, error = %e, "MOOSDB connect failed; retrying in {backoff:?}");
+                if matches!(
+                    e,
+                    MoosError::Io(_) | MoosError::Timeout(_) | MoosError::Closed
+                ) {
+                    // Expected while the DB is down: keep it quiet.
+                    debug!(name = %cfg.name, server = %cfg.server, error = %e, "MOOSDB connect failed; retrying in {backoff:?}");
+                } else {
+                    warn!(name = %cfg.name, server = %cfg.server, error = %e, "MOOSDB handshake failed; retrying in {backoff:?}");
+                }
             }
         }
         if *stop.borrow() {

@@ -568,3 +568,70 @@ fn facts_from_the_protocol_notes() {
     );
     assert!(mail(db).iter().all(|m| m.key != "TL_NOSRC"));
 }
+
+/// Replay the type-lock client of cap05 (handshake, TIMING + REGISTERs including one with an
+/// empty source, D 1.5, S on the same variable, D 2.5) into our broker: it must answer with the
+/// same packets MOOSDB did — except the DB's own clock readings (WELCOME time/skew, echo value).
+#[tokio::test]
+async fn broker_answers_the_cap05_replay_like_moosdb() {
+    use tokio::io::{AsyncReadExt, AsyncWriteExt};
+    let cap05 = load("cap05_typelock");
+    let [c, db] = find(&cap05, "rawtype");
+    let b = frontseat_moos::Broker::bind_with(
+        "127.0.0.1:0",
+        frontseat_moos::BrokerConfig {
+            community: "cap".into(),
+            hostname: "vm".into(),
+            ..Default::default()
+        },
+    )
+    .await
+    .unwrap();
+    let mut s = tokio::net::TcpStream::connect(b.local_addr())
+        .await
+        .unwrap();
+    s.write_all(c.banner.as_ref().unwrap()).await.unwrap();
+    for (frame, _) in &c.packets {
+        s.write_all(frame).await.unwrap();
+        tokio::time::sleep(std::time::Duration::from_millis(20)).await;
+    }
+    let dec = PacketDecoder::default();
+    let mut buf = BytesMut::new();
+    let mut got = vec![];
+    while got.len() < db.packets.len() {
+        match dec.decode(&mut buf).unwrap() {
+            Some(m) => got.push(m),
+            None => {
+                let n =
+                    tokio::time::timeout(std::time::Duration::from_secs(5), s.read_buf(&mut buf))
+                        .await
+                        .expect("broker sent fewer packets than MOOSDB")
+                        .unwrap();
+                assert!(n > 0, "broker closed early");
+            }
+        }
+    }
+    // Nothing more than MOOSDB sent.
+    let extra =
+        tokio::time::timeout(std::time::Duration::from_millis(200), s.read_buf(&mut buf)).await;
+    assert!(
+        extra.is_err() && buf.is_empty(),
+        "broker sent more than MOOSDB"
+    );
+    for (i, (mine, (_, theirs))) in got.iter().zip(&db.packets).enumerate() {
+        let clock_free = |m: &MoosMessage| {
+            let mut m = m.clone();
+            match m.msg_type {
+                MsgType::Welcome => (m.time, m.double_val) = (0.0, 0.0),
+                MsgType::Timing => m.double_val = 0.0,
+                _ => {}
+            }
+            render(&m)
+        };
+        let a: Vec<String> = mine.iter().map(clock_free).collect();
+        let b: Vec<String> = theirs.iter().map(clock_free).collect();
+        assert_eq!(a, b, "DB->C packet #{i}");
+    }
+    assert_eq!(b.counters().type_rejected, 1);
+    b.shutdown().await;
+}

@@ -241,9 +241,13 @@ pub struct MoosClient {
 
 impl MoosClient {
     /// Validate `cfg`, spawn the client task on the current tokio runtime and return the handle
-    /// and the event receiver. The first connection attempt starts at once.
+    /// and the event receiver. The first connection attempt starts at once; registrations and
+    /// notifications may be made before it succeeds.
     pub fn start(cfg: MoosClientConfig) -> Result<(MoosClient, mpsc::Receiver<MoosEvent>)> {
         cfg.validate()?;
+        let runtime = tokio::runtime::Handle::try_current().map_err(|_| {
+            MoosError::InvalidArgument("MoosClient::start needs a tokio runtime".into())
+        })?;
         let (tx, rx) = mpsc::channel(cfg.event_capacity);
         let (stop_tx, stop_rx) = watch::channel(false);
         let shared = Arc::new(Shared {
@@ -262,7 +266,7 @@ impl MoosClient {
             connected: AtomicBool::new(false),
             counters: Counters::default(),
         });
-        let task = tokio::spawn(run(shared.clone(), tx, stop_rx));
+        let task = runtime.spawn(run(shared.clone(), tx, stop_rx));
         let inner = Arc::new(Inner {
             shared,
             stop: stop_tx,

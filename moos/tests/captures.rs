@@ -593,7 +593,6 @@ async fn broker_answers_the_cap05_replay_like_moosdb() {
     s.write_all(c.banner.as_ref().unwrap()).await.unwrap();
     for (frame, _) in &c.packets {
         s.write_all(frame).await.unwrap();
-        tokio::time::sleep(std::time::Duration::from_millis(20)).await;
     }
     let dec = PacketDecoder::default();
     let mut buf = BytesMut::new();

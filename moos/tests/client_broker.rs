@@ -437,3 +437,51 @@ async fn malformed_packet_from_db_closes_and_reconnects() {
     }
     c.shutdown().await;
 }
+
+#[test]
+fn start_outside_a_runtime_and_bad_config_are_errors() {
+    assert!(MoosClient::start(MoosClientConfig::new("x")).is_err());
+    let rt = tokio::runtime::Builder::new_current_thread()
+        .enable_all()
+        .build()
+        .unwrap();
+    rt.block_on(async {
+        for bad in [
+            MoosClientConfig::new(""),
+            MoosClientConfig {
+                time_warp: 0.0,
+                ..MoosClientConfig::new("x")
+            },
+            MoosClientConfig {
+                heartbeat: Duration::from_secs(6),
+                ..MoosClientConfig::new("x")
+            },
+            MoosClientConfig {
+                max_packet: 10,
+                ..MoosClientConfig::new("x")
+            },
+            MoosClientConfig {
+                queue_limit: 0,
+                ..MoosClientConfig::new("x")
+            },
+        ] {
+            assert!(matches!(
+                MoosClient::start(bad),
+                Err(frontseat_moos::MoosError::InvalidArgument(_))
+            ));
+        }
+        let (c, _rx) = MoosClient::start(MoosClientConfig {
+            server: "127.0.0.1:1".into(),
+            max_packet: 4096,
+            ..MoosClientConfig::new("x")
+        })
+        .unwrap();
+        assert!(c.notify_double("", 1.0, None).is_err());
+        assert!(c.register("K", -1.0).is_err());
+        assert!(matches!(
+            c.notify_binary("K", &[0u8; 5000], None),
+            Err(frontseat_moos::MoosError::MessageTooLarge { .. })
+        ));
+        c.shutdown().await;
+    });
+}

@@ -7,9 +7,7 @@ use std::time::Duration;
 async fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let arg = |i: usize, default: f64| -> f64 {
-        args.get(i)
-            .and_then(|a| a.parse().ok())
-            .unwrap_or(default)
+        args.get(i).and_then(|a| a.parse().ok()).unwrap_or(default)
     };
     let vehicles = arg(0, 100.0) as usize;
     let (freq, warp, secs) = (arg(1, 10.0), arg(2, 100.0), arg(3, 10.0));

@@ -167,12 +167,7 @@ impl<'a> Fields<'a> {
     }
 }
 
-fn check(
-    field: &'static str,
-    value: f64,
-    ok: bool,
-    rule: &'static str,
-) -> Result<f64, FieldError> {
+fn check(field: &'static str, value: f64, ok: bool, rule: &'static str) -> Result<f64, FieldError> {
     if ok {
         Ok(value)
     } else {
@@ -186,14 +181,34 @@ fn check(
 fn parse_start(fields: &Fields) -> Result<StartParams, FieldError> {
     let d = StartParams::new(0.0, 0.0);
     let lat = fields.required("LAT")?;
-    let lat = check("LAT", lat, (-90.0..=90.0).contains(&lat), "must be in -90..90 degrees")?;
+    let lat = check(
+        "LAT",
+        lat,
+        (-90.0..=90.0).contains(&lat),
+        "must be in -90..90 degrees",
+    )?;
     let lon = fields.required("LON")?;
-    let lon = check("LON", lon, (-180.0..=180.0).contains(&lon), "must be in -180..180 degrees")?;
+    let lon = check(
+        "LON",
+        lon,
+        (-180.0..=180.0).contains(&lon),
+        "must be in -180..180 degrees",
+    )?;
     let opt = |name: &'static str, default: f64| fields.number(name).map(|v| v.unwrap_or(default));
     let duration = opt("DURATION", d.duration)?;
-    let duration = check("DURATION", duration, duration >= 0.0, "must be >= 0 s (0 = never ends)")?;
+    let duration = check(
+        "DURATION",
+        duration,
+        duration >= 0.0,
+        "must be >= 0 s (0 = never ends)",
+    )?;
     let freq = opt("FREQ", d.freq)?;
-    let freq = check("FREQ", freq, freq > 0.0 && freq <= MAX_FREQ, "must be > 0 and <= 1000 Hz")?;
+    let freq = check(
+        "FREQ",
+        freq,
+        freq > 0.0 && freq <= MAX_FREQ,
+        "must be > 0 and <= 1000 Hz",
+    )?;
     let accel = opt("ACCEL", d.accel)?;
     let accel = check("ACCEL", accel, accel >= 0.0, "must be >= 0 m/s^2")?;
     let hdg_rate = opt("HDG_RATE", d.hdg_rate)?;
@@ -201,7 +216,12 @@ fn parse_start(fields: &Fields) -> Result<StartParams, FieldError> {
     let z_rate = opt("Z_RATE", d.z_rate)?;
     let z_rate = check("Z_RATE", z_rate, z_rate >= 0.0, "must be >= 0 m/s")?;
     let warp = opt("WARP", d.warp)?;
-    let warp = check("WARP", warp, warp > 0.0 && warp <= MAX_WARP, "must be > 0 and <= 10000")?;
+    let warp = check(
+        "WARP",
+        warp,
+        warp > 0.0 && warp <= MAX_WARP,
+        "must be > 0 and <= 10000",
+    )?;
     Ok(StartParams {
         lat,
         lon,
@@ -217,9 +237,19 @@ fn parse_start(fields: &Fields) -> Result<StartParams, FieldError> {
 fn parse_cmd(fields: &Fields) -> Result<Command, FieldError> {
     let heading = fields.required("HEADING")?;
     let speed = fields.required("SPEED")?;
-    let speed = check("SPEED", speed, (0.0..=MAX_SPEED).contains(&speed), "must be in 0..100 m/s")?;
+    let speed = check(
+        "SPEED",
+        speed,
+        (0.0..=MAX_SPEED).contains(&speed),
+        "must be in 0..100 m/s",
+    )?;
     let depth = fields.required("DEPTH")?;
-    let depth = check("DEPTH", depth, (0.0..=MAX_DEPTH).contains(&depth), "must be in 0..12000 m")?;
+    let depth = check(
+        "DEPTH",
+        depth,
+        (0.0..=MAX_DEPTH).contains(&depth),
+        "must be in 0..12000 m",
+    )?;
     Ok(Command {
         heading,
         speed,
@@ -237,7 +267,9 @@ pub fn parse_inbound(line: &str) -> Result<Inbound, LineError> {
     let (key, rest) = line.split_once(',').unwrap_or((line, ""));
     let fields = Fields::parse(rest);
     match key.trim() {
-        "START" => parse_start(&fields).map(Inbound::Start).map_err(LineError::Start),
+        "START" => parse_start(&fields)
+            .map(Inbound::Start)
+            .map_err(LineError::Start),
         "CMD" => parse_cmd(&fields).map(Inbound::Cmd).map_err(LineError::Cmd),
         other => Err(LineError::UnknownKey(clean(other))),
     }
@@ -301,7 +333,10 @@ pub fn push_number(out: &mut String, v: f64, decimals: usize) {
     let start = out.len();
     let _ = write!(out, "{v:.decimals$}");
     if out[start..].contains('.') {
-        let trimmed = out[start..].trim_end_matches('0').trim_end_matches('.').len();
+        let trimmed = out[start..]
+            .trim_end_matches('0')
+            .trim_end_matches('.')
+            .len();
         out.truncate(start + trimmed);
     }
     if &out[start..] == "-0" {
@@ -342,7 +377,11 @@ pub fn format_ctrl(state: CtrlState) -> String {
 }
 
 pub fn format_cmd_result(ok: bool) -> &'static str {
-    if ok { "CMD,RESULT:OK" } else { "CMD,RESULT:ERROR" }
+    if ok {
+        "CMD,RESULT:OK"
+    } else {
+        "CMD,RESULT:ERROR"
+    }
 }
 
 /// `ERROR,REASON:<reason>`; commas in the reason become ';' so the line stays one field.
@@ -438,8 +477,10 @@ mod tests {
 
     #[test]
     fn start_full_and_defaults() {
-        let p = start("START,LAT:42.1234,LON:-72,DURATION:600,FREQ:10,ACCEL:0.5,HDG_RATE:45,Z_RATE:1,WARP:1")
-            .unwrap();
+        let p = start(
+            "START,LAT:42.1234,LON:-72,DURATION:600,FREQ:10,ACCEL:0.5,HDG_RATE:45,Z_RATE:1,WARP:1",
+        )
+        .unwrap();
         assert_eq!(
             p,
             StartParams {
@@ -453,12 +494,21 @@ mod tests {
                 warp: 1.0
             }
         );
-        assert_eq!(start("START,LON:3,LAT:4").unwrap(), StartParams::new(4.0, 3.0));
         assert_eq!(
-            start("  START,LAT:1,LON:2,FOO:bar,WARP: 2 ,\t").unwrap().warp,
+            start("START,LON:3,LAT:4").unwrap(),
+            StartParams::new(4.0, 3.0)
+        );
+        assert_eq!(
+            start("  START,LAT:1,LON:2,FOO:bar,WARP: 2 ,\t")
+                .unwrap()
+                .warp,
             2.0
         );
-        assert_eq!(start("START,LAT:1,LAT:5,LON:2").unwrap().lat, 1.0, "first wins");
+        assert_eq!(
+            start("START,LAT:1,LAT:5,LON:2").unwrap().lat,
+            1.0,
+            "first wins"
+        );
     }
 
     #[test]
@@ -481,7 +531,11 @@ mod tests {
             ("START,LAT:42,LON:1,WARP:20000", "WARP", "out of range"),
             ("START,LAT:42,LON:1,DURATION:-1", "DURATION", "out of range"),
             ("START,LAT:42,LON:1,ACCEL:-0.1", "ACCEL", "out of range"),
-            ("START,LAT:42,LON:1,HDG_RATE:-45", "HDG_RATE", "out of range"),
+            (
+                "START,LAT:42,LON:1,HDG_RATE:-45",
+                "HDG_RATE",
+                "out of range",
+            ),
             ("START,LAT:42,LON:1,Z_RATE:-1", "Z_RATE", "out of range"),
             ("START,LAT:42,LON:1,Z_RATE:1x", "Z_RATE", "not a number"),
             ("START", "LAT", "missing"),
@@ -534,7 +588,10 @@ mod tests {
             "CMD,HEADING:inf,SPEED:1,DEPTH:0",
             "CMD,HEADING:90,SPEED:1e300,DEPTH:0",
         ] {
-            assert!(matches!(parse_inbound(bad), Err(LineError::Cmd(_))), "{bad}");
+            assert!(
+                matches!(parse_inbound(bad), Err(LineError::Cmd(_))),
+                "{bad}"
+            );
         }
     }
 
@@ -542,8 +599,16 @@ mod tests {
     fn other_lines() {
         assert_eq!(parse_inbound(""), Err(LineError::Empty));
         assert_eq!(parse_inbound("  \t"), Err(LineError::Empty));
-        for l in ["FOO", "cmd,HEADING:90,SPEED:1.5,DEPTH:0", "CTRL,STATE:PAYLOAD", "NAV,LAT:1"] {
-            assert!(matches!(parse_inbound(l), Err(LineError::UnknownKey(_))), "{l}");
+        for l in [
+            "FOO",
+            "cmd,HEADING:90,SPEED:1.5,DEPTH:0",
+            "CTRL,STATE:PAYLOAD",
+            "NAV,LAT:1",
+        ] {
+            assert!(
+                matches!(parse_inbound(l), Err(LineError::UnknownKey(_))),
+                "{l}"
+            );
         }
         assert_eq!(reply_due_for_bytes(b"CMD,HEADING:\xff"), Some("CMD"));
         assert_eq!(reply_due_for_bytes(b" START,LAT:\xff"), Some("START"));

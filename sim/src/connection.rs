@@ -159,7 +159,9 @@ impl Connection {
         loop {
             let want = s.run.as_ref().map(Run::next_deadline);
             if want != armed {
-                sleep.as_mut().reset(want.unwrap_or_else(|| Instant::now() + far));
+                sleep
+                    .as_mut()
+                    .reset(want.unwrap_or_else(|| Instant::now() + far));
                 armed = want;
             }
             let flow = tokio::select! {
@@ -237,8 +239,12 @@ impl Session {
 
     fn oversized(&mut self, seen: usize) -> Flow {
         Counters::add(&self.shared.counters.oversized, 1);
-        problem!(self, seen, max = self.shared.opts.max_line_bytes,
-            "input line longer than the limit; closing this connection");
+        problem!(
+            self,
+            seen,
+            max = self.shared.opts.max_line_bytes,
+            "input line longer than the limit; closing this connection"
+        );
         Flow::Close
     }
 
@@ -247,7 +253,11 @@ impl Session {
         let c = &shared.counters;
         let Ok(text) = std::str::from_utf8(bytes) else {
             Counters::add(&c.bad_lines, 1);
-            problem!(self, bytes = bytes.len(), "input line is not valid UTF-8; ignored");
+            problem!(
+                self,
+                bytes = bytes.len(),
+                "input line is not valid UTF-8; ignored"
+            );
             match codec::reply_due_for_bytes(bytes) {
                 Some("CMD") => {
                     Counters::add(&self.shared.counters.cmd_errors, 1);
@@ -255,7 +265,9 @@ impl Session {
                 }
                 Some(_) => {
                     Counters::add(&self.shared.counters.start_errors, 1);
-                    self.push_line(&codec::format_error("invalid START: line is not valid UTF-8"));
+                    self.push_line(&codec::format_error(
+                        "invalid START: line is not valid UTF-8",
+                    ));
                 }
                 None => {}
             }
@@ -270,7 +282,9 @@ impl Session {
             Ok(Inbound::Cmd(cmd)) => {
                 let refusal = match &self.run {
                     None => Some("CMD before START (or after the run ended)"),
-                    Some(r) if r.ctrl == CtrlState::Auv => Some("CMD while the frontseat is in control (AUV)"),
+                    Some(r) if r.ctrl == CtrlState::Auv => {
+                        Some("CMD while the frontseat is in control (AUV)")
+                    }
                     Some(_) => None,
                 };
                 if let Some(why) = refusal {
@@ -286,24 +300,22 @@ impl Session {
                     self.push_line(codec::format_cmd_result(true));
                 }
             }
-            Err(e) => {
-                match &e {
-                    LineError::Empty | LineError::UnknownKey(_) => {
-                        Counters::add(&c.bad_lines, 1);
-                        problem!(self, problem = %e, "input line ignored");
-                    }
-                    LineError::Start(_) => {
-                        Counters::add(&c.start_errors, 1);
-                        problem!(self, problem = %e, "START refused; vehicle unchanged");
-                        self.push_line(&codec::format_error(&e.to_string()));
-                    }
-                    LineError::Cmd(_) => {
-                        Counters::add(&c.cmd_errors, 1);
-                        problem!(self, problem = %e, "CMD refused");
-                        self.push_line(codec::format_cmd_result(false));
-                    }
+            Err(e) => match &e {
+                LineError::Empty | LineError::UnknownKey(_) => {
+                    Counters::add(&c.bad_lines, 1);
+                    problem!(self, problem = %e, "input line ignored");
                 }
-            }
+                LineError::Start(_) => {
+                    Counters::add(&c.start_errors, 1);
+                    problem!(self, problem = %e, "START refused; vehicle unchanged");
+                    self.push_line(&codec::format_error(&e.to_string()));
+                }
+                LineError::Cmd(_) => {
+                    Counters::add(&c.cmd_errors, 1);
+                    problem!(self, problem = %e, "CMD refused");
+                    self.push_line(codec::format_cmd_result(false));
+                }
+            },
         }
     }
 
@@ -320,8 +332,11 @@ impl Session {
         Counters::add(&c.skipped_ticks, due.skipped());
         if due.dropped > 0 {
             Counters::add(&c.dropped_ticks, due.dropped);
-            tracing::warn!(vehicle = self.id, ticks = due.dropped,
-                "far behind schedule (process suspended?): ticks given up, schedule re-anchored");
+            tracing::warn!(
+                vehicle = self.id,
+                ticks = due.dropped,
+                "far behind schedule (process suspended?): ticks given up, schedule re-anchored"
+            );
         }
         let mut navs = 0;
         for n in due.first..=due.last {
@@ -332,7 +347,11 @@ impl Session {
             }
             run.sim_time = n as f64 * dt;
             if run.end_tick.is_some_and(|end| n >= end) {
-                tracing::info!(vehicle = self.id, sim_time = run.sim_time, "DURATION is up: IDLE");
+                tracing::info!(
+                    vehicle = self.id,
+                    sim_time = run.sim_time,
+                    "DURATION is up: IDLE"
+                );
                 self.run = None;
                 self.push_line(&codec::format_ctrl(CtrlState::Idle));
                 break;
@@ -420,15 +439,22 @@ impl Session {
             Fault::Garbage { lines } => {
                 for i in 0..lines {
                     match i % 4 {
-                        0 => self.out.extend_from_slice(format!("#GARBAGE~{i}~!@$%^&*()\r\n").as_bytes()),
-                        1 => self.out.extend_from_slice(b"NAV,LAT:not-a-number,LON:,DEPTH\r\n"),
-                        2 => self.out.extend_from_slice(b"\xff\xfe\x00\x80GARBAGE\xc3\x28\r\n"),
+                        0 => self
+                            .out
+                            .extend_from_slice(format!("#GARBAGE~{i}~!@$%^&*()\r\n").as_bytes()),
+                        1 => self
+                            .out
+                            .extend_from_slice(b"NAV,LAT:not-a-number,LON:,DEPTH\r\n"),
+                        2 => self
+                            .out
+                            .extend_from_slice(b"\xff\xfe\x00\x80GARBAGE\xc3\x28\r\n"),
                         _ => self.out.extend_from_slice(b"\r\n"),
                     }
                 }
             }
             Fault::OversizedLine => {
-                self.out.resize(self.out.len() + OVERSIZED_FAULT_BYTES, b'X');
+                self.out
+                    .resize(self.out.len() + OVERSIZED_FAULT_BYTES, b'X');
                 self.out.extend_from_slice(b"\r\n");
             }
             Fault::Ctrl(state) => {

@@ -117,7 +117,11 @@ impl SimHandle {
         let targets: Vec<(u64, mpsc::Sender<Fault>)> = {
             let map = self.shared.vehicles();
             match vehicle {
-                Some(id) => map.get(&id).map(|tx| (id, tx.clone())).into_iter().collect(),
+                Some(id) => map
+                    .get(&id)
+                    .map(|tx| (id, tx.clone()))
+                    .into_iter()
+                    .collect(),
                 None => map.iter().map(|(id, tx)| (*id, tx.clone())).collect(),
             }
         };
@@ -126,7 +130,11 @@ impl SimHandle {
         }
         for (id, tx) in targets {
             if tx.try_send(fault.clone()).is_err() {
-                tracing::warn!(vehicle = id, ?fault, "fault injection: mailbox full or vehicle gone");
+                tracing::warn!(
+                    vehicle = id,
+                    ?fault,
+                    "fault injection: mailbox full or vehicle gone"
+                );
             }
         }
     }

@@ -378,7 +378,10 @@ mod tests {
             let ll = veh.lat_lon();
             let d = haversine((lat, lon), ll);
             // A sphere vs WGS84 over a few hundred metres: agree to a fraction of a percent.
-            assert!((d - want).abs() < want * 0.005, "{d} != {want} at {lat},{lon}");
+            assert!(
+                (d - want).abs() < want * 0.005,
+                "{d} != {want} at {lat},{lon}"
+            );
             assert!((-180.0..180.0).contains(&ll.1));
         }
     }

@@ -44,14 +44,18 @@ async fn bad_start_values_are_refused_and_the_vehicle_stays_as_it_was() {
     assert_eq!(h.stats().start_errors, rows.len() as u64);
 
     // While running, a bad START changes nothing: the vehicle keeps its course and speed.
-    c.send(&format!("START,{POS},FREQ:10,WARP:20,ACCEL:5,HDG_RATE:900")).await;
+    c.send(&format!("START,{POS},FREQ:10,WARP:20,ACCEL:5,HDG_RATE:900"))
+        .await;
     assert_eq!(c.must_line().await, "CTRL,STATE:PAYLOAD");
     c.send("CMD,HEADING:90,SPEED:2,DEPTH:0").await;
     c.expect("CMD,RESULT:OK").await;
     c.others_until_navs(10).await;
     c.send("START,LAT:95,LON:-71").await;
     let l = c.non_nav().await.unwrap();
-    assert!(l.starts_with("ERROR,REASON:LAT") || l.contains("LAT"), "{l}");
+    assert!(
+        l.starts_with("ERROR,REASON:LAT") || l.contains("LAT"),
+        "{l}"
+    );
     let n = c.nav().await;
     assert_eq!((n.heading, n.speed), (90.0, 2.0));
     assert!(n.lon > -71.087589 && n.lat.is_finite());
@@ -70,7 +74,10 @@ async fn freq_2_5_ticks_every_0_4_simulated_seconds() {
     assert_eq!(last, 0.0);
     for _ in 0..5 {
         let t = truth_of(&mut truth, id).await.sim_time;
-        assert!(((t - last) * 2.5 - ((t - last) * 2.5).round()).abs() < 1e-9, "{last} -> {t}");
+        assert!(
+            ((t - last) * 2.5 - ((t - last) * 2.5).round()).abs() < 1e-9,
+            "{last} -> {t}"
+        );
         assert!(t > last);
         last = t;
     }
@@ -88,7 +95,10 @@ async fn duration_is_honoured_to_the_tick() {
     // (DURATION, FREQ, NAV lines before IDLE)
     for (duration, freq, want) in [(1.0, 10.0, 10), (0.25, 10.0, 3), (2.0, 2.5, 5)] {
         let mut c = Client::connect(&h).await;
-        c.send(&format!("START,{POS},DURATION:{duration},FREQ:{freq},WARP:20")).await;
+        c.send(&format!(
+            "START,{POS},DURATION:{duration},FREQ:{freq},WARP:20"
+        ))
+        .await;
         assert_eq!(c.must_line().await, "CTRL,STATE:PAYLOAD");
         let before = h.stats().skipped_ticks;
         let mut navs = 0;
@@ -135,7 +145,10 @@ async fn each_connection_is_its_own_vehicle() {
     let others = b.others_until_navs(20).await;
     assert!(others.is_empty(), "B saw A's lines: {others:?}");
     let nb = b.nav().await;
-    assert_eq!((nb.lat, nb.lon, nb.heading, nb.speed, nb.depth), (-30.0, 150.0, 0.0, 0.0, 0.0));
+    assert_eq!(
+        (nb.lat, nb.lon, nb.heading, nb.speed, nb.depth),
+        (-30.0, 150.0, 0.0, 0.0, 0.0)
+    );
     h.shutdown().await;
 }
 
@@ -156,7 +169,10 @@ async fn a_new_start_resets_the_vehicle_at_rest_at_the_new_position() {
     c.expect("CTRL,STATE:PAYLOAD").await;
     for _ in 0..5 {
         let n = c.nav().await;
-        assert_eq!((n.lat, n.lon, n.depth, n.heading, n.speed), (43.0, -70.0, 0.0, 0.0, 0.0));
+        assert_eq!(
+            (n.lat, n.lon, n.depth, n.heading, n.speed),
+            (43.0, -70.0, 0.0, 0.0, 0.0)
+        );
     }
     h.shutdown().await;
 }
@@ -219,7 +235,8 @@ async fn oversized_line_closes_only_that_connection() {
     a.others_until_navs(3).await;
     assert_eq!((h.stats().oversized, h.stats().bad_lines), (0, 1));
     // One byte over; a second writer with no newline at all must be bounded too.
-    a.try_send_raw(format!("{}\r\n", "A".repeat(1025)).as_bytes()).await;
+    a.try_send_raw(format!("{}\r\n", "A".repeat(1025)).as_bytes())
+        .await;
     assert_eq!(a.until_eof().await, Vec::<String>::new());
     let mut c = Client::connect(&h).await;
     c.try_send_raw(&vec![b'x'; 1 << 20]).await;
@@ -244,7 +261,8 @@ async fn bad_lines_are_counted_and_answered_where_a_reply_is_due() {
     c.expect("CTRL,STATE:PAYLOAD").await;
     c.send_raw(b"\xff\xfe\r\n\r\nFOO,BAR:1\r\nCMD,HEADING:\xff9,SPEED:1,DEPTH:0\r\n")
         .await;
-    c.send_raw(b"START,LAT:\xff\r\nCMD,HEADING:90,SPEED:1,DEPTH:0\n").await;
+    c.send_raw(b"START,LAT:\xff\r\nCMD,HEADING:90,SPEED:1,DEPTH:0\n")
+        .await;
     let mut replies = Vec::new();
     while replies.len() < 3 {
         replies.push(c.non_nav().await.unwrap());
@@ -274,7 +292,10 @@ async fn ocean_current_drifts_the_vehicle() {
     while t.sim_time < 10.0 - 1e-9 {
         t = truth_of(&mut truth, id).await;
     }
-    assert!((t.x - 5.0).abs() < 1e-6 && (t.y + 2.5).abs() < 1e-6, "{t:?}");
+    assert!(
+        (t.x - 5.0).abs() < 1e-6 && (t.y + 2.5).abs() < 1e-6,
+        "{t:?}"
+    );
     assert_eq!(t.speed, 0.0);
     assert!(t.lon > -71.087589 && t.lat < 42.358456);
     assert!((metres((42.358456, -71.087589), (t.lat, t.lon)) - 5.59).abs() < 0.01);

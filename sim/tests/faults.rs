@@ -123,7 +123,10 @@ async fn scheduled_stop_nav_suppresses_exactly_its_ticks() {
     }
     // Ticks 0..=29 ran; 10..=19 sent no NAV, but truth kept flowing for them.
     let skipped = h.stats().skipped_ticks as usize;
-    assert!(navs <= 20 && navs + skipped >= 20, "{navs} NAV, {skipped} skipped");
+    assert!(
+        navs <= 20 && navs + skipped >= 20,
+        "{navs} NAV, {skipped} skipped"
+    );
     let mut truths = 0;
     while let Ok(t) = truth.try_recv() {
         assert_eq!(t.vehicle, id);

@@ -1,4 +1,189 @@
-//! The `frontseat` command line: parses arguments and hands over to the crates. Kept thin on purpose.
-fn main() {
-    println!("frontseat: under construction");
+//! The `frontseat` command line: parses arguments, loads and validates config, composes the
+//! crates, waits for a shutdown signal and drains. Everything with logic lives in the crates.
+#![forbid(unsafe_code)]
+
+mod demo;
+mod service;
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use clap::{Args, Parser, Subcommand};
+
+#[derive(Parser, Debug)]
+#[command(
+    name = "frontseat",
+    version,
+    about = "Frontseat/backseat interface for marine robots, wire-compatible with Goby3",
+    long_about = "Frontseat/backseat interface for marine robots.\n\n\
+        Lets an autonomy engine (the helm, e.g. pHelmIvP) drive a vehicle whose own computer \
+        (the frontseat) steers and navigates. Speaks Goby3's frontseat protobuf messages and \
+        group names.\n\nStart with `frontseat demo`, then `frontseat interface --example_config`."
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+/// Config handling shared by every service subcommand.
+#[derive(Args, Debug, Clone)]
+struct ConfigArgs {
+    /// Configuration file (TOML). `--example_config` prints a complete one.
+    #[arg(short = 'c', long = "config", value_name = "FILE")]
+    config: Option<PathBuf>,
+    /// Print a complete example config (every field, its default, unit and description) and exit.
+    #[arg(long = "example_config", alias = "example-config")]
+    example_config: bool,
+    /// Print the JSON Schema of the config and exit.
+    #[arg(long)]
+    schema: bool,
+    /// Validate the config given with -c and exit: 0 when valid, 2 with the errors otherwise.
+    #[arg(long)]
+    check: bool,
+}
+
+#[derive(Subcommand, Debug)]
+enum Command {
+    /// Run the frontseat interface service (goby_frontseat_interface): driver, state machine,
+    /// status, and the MOOS bridge when the config has a [moos] section.
+    Interface {
+        #[command(flatten)]
+        cfg: ConfigArgs,
+    },
+    /// Run the basic frontseat simulator (TCP server, one vehicle per connection).
+    Sim {
+        #[command(flatten)]
+        cfg: ConfigArgs,
+        /// TCP port to listen on (overrides the config).
+        #[arg(long)]
+        port: Option<u16>,
+        /// Address to bind (overrides the config; default 127.0.0.1, loopback only).
+        #[arg(long, value_name = "ADDR")]
+        bind: Option<String>,
+    },
+    /// Simulator + interface + example helm in one process: drives the homework path east,
+    /// south, then northwest back towards the start, prints a live status line, writes the
+    /// track as CSV and SVG, and exits 0.
+    Demo(demo::DemoArgs),
+    /// Print the resolved interface (application → layer → publishes/subscribes → group, type,
+    /// actor) of every application, as compiled from interface_yaml/.
+    Interfaces,
+}
+
+fn init_logging() {
+    use std::io::IsTerminal;
+    let filter = tracing_subscriber::EnvFilter::try_from_default_env()
+        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("info"));
+    // No colours for journald, pipes and files.
+    let _ = tracing_subscriber::fmt()
+        .with_env_filter(filter)
+        .with_ansi(std::io::stderr().is_terminal())
+        .with_writer(std::io::stderr)
+        .try_init();
+}
+
+/// `--example_config`, `--schema`, `--check`: answered here, before any service starts.
+/// Returns Some(exit code) when one of them was asked for.
+fn config_commands<T: frontseat_config::ServiceConfig>(a: &ConfigArgs) -> Option<ExitCode> {
+    if a.example_config {
+        print!("{}", frontseat_config::example::<T>());
+        return Some(ExitCode::SUCCESS);
+    }
+    if a.schema {
+        println!("{}", frontseat_config::schema::<T>());
+        return Some(ExitCode::SUCCESS);
+    }
+    if a.check {
+        let Some(path) = &a.config else {
+            eprintln!("--check needs a config file: --check -c FILE");
+            return Some(ExitCode::from(2));
+        };
+        return Some(match frontseat_config::load::<T>(path) {
+            Ok(_) => {
+                println!("{}: ok ({} config)", path.display(), T::SERVICE);
+                ExitCode::SUCCESS
+            }
+            Err(e) => {
+                eprintln!("{e}");
+                ExitCode::from(2)
+            }
+        });
+    }
+    None
+}
+
+/// Loads the config named by -c, or the defaults when `optional` and none is given.
+fn load_config<T: frontseat_config::ServiceConfig>(
+    a: &ConfigArgs,
+    optional: bool,
+) -> Result<T, ExitCode> {
+    match &a.config {
+        Some(path) => frontseat_config::load::<T>(path).map_err(|e| {
+            eprintln!("{e}");
+            ExitCode::from(2)
+        }),
+        None if optional => Ok(T::default()),
+        None => {
+            eprintln!(
+                "frontseat {}: a config file is required: -c FILE (see --example_config)",
+                T::SERVICE
+            );
+            Err(ExitCode::from(2))
+        }
+    }
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    match cli.command {
+        Command::Interfaces => {
+            print!("{}", frontseat_actors::generated::RESOLVED_INTERFACES_YAML);
+            ExitCode::SUCCESS
+        }
+        Command::Interface { cfg } => {
+            if let Some(code) = config_commands::<frontseat_config::InterfaceConfig>(&cfg) {
+                return code;
+            }
+            let config = match load_config::<frontseat_config::InterfaceConfig>(&cfg, false) {
+                Ok(c) => c,
+                Err(code) => return code,
+            };
+            init_logging();
+            run(service::interface(config))
+        }
+        Command::Sim { cfg, port, bind } => {
+            if let Some(code) = config_commands::<frontseat_config::SimConfig>(&cfg) {
+                return code;
+            }
+            let mut config = match load_config::<frontseat_config::SimConfig>(&cfg, true) {
+                Ok(c) => c,
+                Err(code) => return code,
+            };
+            if let Some(p) = port {
+                config.port = p;
+            }
+            if let Some(b) = bind {
+                config.bind = b;
+            }
+            init_logging();
+            run(service::sim(config))
+        }
+        Command::Demo(args) => {
+            init_logging();
+            run(demo::run(args))
+        }
+    }
+}
+
+fn run(fut: impl std::future::Future<Output = ExitCode>) -> ExitCode {
+    match tokio::runtime::Builder::new_multi_thread()
+        .enable_all()
+        .build()
+    {
+        Ok(rt) => rt.block_on(fut),
+        Err(e) => {
+            eprintln!("cannot start the async runtime: {e}");
+            ExitCode::from(1)
+        }
+    }
 }

@@ -23,8 +23,8 @@ use crate::geodesy::LocalFrame;
 use crate::ports::{FrontSeatInterfaceInbox, FrontSeatInterfacePorts};
 use crate::proto::frontseat::protobuf::InterfaceDetail;
 use crate::proto::goby::middleware::frontseat::protobuf::{
-    CartesianCoordinate, CommandRequest, CommandResponse, FrontSeatState, InterfaceData,
-    InterfaceState, InterfaceStatus, NodeStatus, VehicleType,
+    CartesianCoordinate, CommandRequest, CommandResponse, FrontSeatError, FrontSeatState,
+    HelmError, InterfaceData, InterfaceState, InterfaceStatus, NodeStatus, VehicleType,
 };
 use crate::proto::goby::middleware::protobuf::LatLonPoint;
 use crate::state_machine::{Inputs, StateMachine, StateMachineConfig, Transition, state_words};
@@ -177,8 +177,25 @@ impl FsiState {
         self.sm.status(&self.inputs)
     }
 
+    fn publish_status_for(&self, t: &Transition) {
+        let mut status = self.status();
+        status.set_state(t.to);
+        status.helm_error = None;
+        status.frontseat_error = None;
+        if t.helm_error != HelmError::ErrorHelmNone {
+            status.set_helm_error(t.helm_error);
+        }
+        if t.frontseat_error != FrontSeatError::ErrorFrontseatNone {
+            status.set_frontseat_error(t.frontseat_error);
+        }
+        self.publish(status);
+    }
+
     fn publish_status(&self) {
-        let status = self.status();
+        self.publish(self.status());
+    }
+
+    fn publish(&self, status: InterfaceStatus) {
         self.ports.publish_status(status.clone());
         let detail = InterfaceDetail {
             status: Some(status),
@@ -200,10 +217,12 @@ impl FsiState {
         if transitions.is_empty() {
             return;
         }
+        // One status per transition, so every state the interface passes through is published
+        // (STANDBY → LISTEN → COMMAND in one evaluation gives three statuses, not one).
         for t in &transitions {
             log_transition(t);
+            self.publish_status_for(t);
         }
-        self.publish_status();
         if self.s.exit_on_error
             && matches!(
                 self.sm.state(),

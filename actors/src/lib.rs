@@ -13,7 +13,7 @@ pub mod generated;
 pub mod geodesy;
 pub mod interface;
 pub mod link;
-// pub mod sim_glue; (enabled once sim exposes SimHandle)
+pub mod sim_glue;
 pub mod state_machine;
 
 pub use generated::{groups, ports, proto};

@@ -64,9 +64,9 @@ pub fn fault_from_proto(f: &SimFault) -> Option<Fault> {
         sim_fault::Fault::GarbageLines(n) => Fault::Garbage { lines: *n },
         sim_fault::Fault::OversizedLine(_) => Fault::OversizedLine,
         sim_fault::Fault::Ctrl(c) => match sim_fault::Ctrl::try_from(*c).ok()? {
-            sim_fault::Ctrl::CtrlPayload => Fault::Ctrl(CtrlState::Payload),
-            sim_fault::Ctrl::CtrlAuv => Fault::Ctrl(CtrlState::Auv),
-            sim_fault::Ctrl::CtrlIdle => Fault::Ctrl(CtrlState::Idle),
+            sim_fault::Ctrl::Payload => Fault::Ctrl(CtrlState::Payload),
+            sim_fault::Ctrl::Auv => Fault::Ctrl(CtrlState::Auv),
+            sim_fault::Ctrl::Idle => Fault::Ctrl(CtrlState::Idle),
         },
     })
 }

@@ -1,0 +1,124 @@
+//! `frontseat demo`: the simulator (real TCP on an ephemeral loopback port), the interface with
+//! the basic simulator driver, and the example helm, in one process with no external service.
+
+use std::io::{IsTerminal, Write};
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use clap::Args;
+use frontseat_actors::bus::Bus;
+use frontseat_actors::clock::SimClock;
+use frontseat_actors::demo_helm::{self, DemoParams};
+use frontseat_actors::interface::InterfaceService;
+use frontseat_config::InterfaceConfig;
+use frontseat_sim::{SimOptions, SimServer};
+
+use crate::service::SHUTDOWN_BOUND;
+
+#[derive(Args, Debug, Clone)]
+pub struct DemoArgs {
+    /// Run faster than real time: simulator ticks and every interface timer speed up N times.
+    #[arg(long, default_value_t = 10.0)]
+    pub warp: f64,
+    /// Where the track CSV and SVG go.
+    #[arg(long, value_name = "DIR", default_value = "demo-out")]
+    pub out: PathBuf,
+    /// Seconds (simulated) of the east leg.
+    #[arg(long, default_value_t = 60.0)]
+    pub east: f64,
+    /// Seconds (simulated) of the south leg.
+    #[arg(long, default_value_t = 60.0)]
+    pub south: f64,
+    /// Print one status line per simulated second instead of a live line.
+    #[arg(long)]
+    pub lines: bool,
+}
+
+pub async fn run(args: DemoArgs) -> ExitCode {
+    if !(args.warp.is_finite() && args.warp > 0.0 && args.warp <= 1000.0) {
+        eprintln!("--warp must be in (0, 1000]");
+        return ExitCode::from(2);
+    }
+    let sim = match SimServer::bind(([127, 0, 0, 1], 0).into(), SimOptions::default()).await {
+        Ok(s) => s,
+        Err(e) => {
+            eprintln!("cannot start the simulator: {e}");
+            return ExitCode::from(1);
+        }
+    };
+    let bus = Bus::new();
+    let _embedded = frontseat_actors::sim_glue::embed(&sim, &bus);
+    let mut cfg = InterfaceConfig::default();
+    cfg.name = "demo-auv".into();
+    cfg.sim_warp_factor = args.warp;
+    cfg.driver.basic_simulator.tcp_port = sim.local_addr().port();
+    cfg.driver.basic_simulator.start.lat = cfg.origin.lat;
+    cfg.driver.basic_simulator.start.lon = cfg.origin.lon;
+    let service = match InterfaceService::start(&cfg, &bus).await {
+        Ok(s) => s,
+        Err(e) => {
+            eprintln!("cannot start the interface: {e}");
+            return ExitCode::from(1);
+        }
+    };
+    eprintln!(
+        "frontseat demo: simulator on {}, warp {}, homework path east {} s, south {} s, then northwest",
+        sim.local_addr(),
+        args.warp,
+        args.east,
+        args.south
+    );
+    let live = std::io::stdout().is_terminal() && !args.lines;
+    let params = DemoParams {
+        east_s: args.east,
+        south_s: args.south,
+        ..Default::default()
+    };
+    let report = demo_helm::run(&bus, SimClock::new(args.warp), params, |s| {
+        let mut out = std::io::stdout().lock();
+        if live {
+            let _ = write!(out, "\r{}", s.line());
+        } else {
+            let _ = writeln!(out, "{}", s.line());
+        }
+        let _ = out.flush();
+    })
+    .await;
+    if live {
+        println!();
+    }
+    service.shutdown(SHUTDOWN_BOUND).await;
+    sim.shutdown().await;
+
+    if let Err(e) = std::fs::create_dir_all(&args.out) {
+        eprintln!("cannot create {}: {e}", args.out.display());
+        return ExitCode::from(1);
+    }
+    let csv = args.out.join("track.csv");
+    let svg = args.out.join("track.svg");
+    for (path, text) in [
+        (&csv, demo_helm::track_csv(&report.track)),
+        (&svg, demo_helm::track_svg(&report.track)),
+    ] {
+        if let Err(e) = std::fs::write(path, text) {
+            eprintln!("cannot write {}: {e}", path.display());
+            return ExitCode::from(1);
+        }
+    }
+    println!(
+        "track: {} points; closest approach to the start on the way back: {:.1} m; wrote {} and {}",
+        report.track.len(),
+        report.closest_approach_m,
+        csv.display(),
+        svg.display()
+    );
+    if report.completed {
+        ExitCode::SUCCESS
+    } else {
+        eprintln!(
+            "demo did not complete the path (reached command: {})",
+            report.reached_command
+        );
+        ExitCode::from(1)
+    }
+}

@@ -1,0 +1,124 @@
+//! The long-running services: `frontseat interface` and `frontseat sim`. Each one builds its
+//! parts, waits for SIGTERM/SIGINT or for its own end, and drains within a bound.
+
+use std::net::SocketAddr;
+use std::process::ExitCode;
+use std::time::Duration;
+
+use frontseat_actors::bus::Bus;
+use frontseat_actors::interface::{InterfaceService, ServiceExit};
+use frontseat_config::{FaultKind, InterfaceConfig, SimConfig};
+use frontseat_sim::{CtrlState, Fault, ScheduledFault, SimOptions, SimServer};
+
+/// How long an orderly shutdown may take before we give up waiting.
+pub const SHUTDOWN_BOUND: Duration = Duration::from_secs(3);
+
+/// Resolves on SIGTERM or SIGINT.
+pub async fn shutdown_signal() {
+    #[cfg(unix)]
+    {
+        use tokio::signal::unix::{SignalKind, signal};
+        match signal(SignalKind::terminate()) {
+            Ok(mut term) => {
+                tokio::select! {
+                    _ = term.recv() => tracing::info!("SIGTERM received"),
+                    _ = tokio::signal::ctrl_c() => tracing::info!("SIGINT received"),
+                }
+            }
+            Err(e) => {
+                tracing::warn!(error = %e, "cannot listen for SIGTERM; only SIGINT stops the service");
+                let _ = tokio::signal::ctrl_c().await;
+            }
+        }
+    }
+    #[cfg(not(unix))]
+    {
+        let _ = tokio::signal::ctrl_c().await;
+    }
+}
+
+pub fn exit_code(exit: &ServiceExit) -> ExitCode {
+    match exit {
+        ServiceExit::Clean => ExitCode::SUCCESS,
+        other => {
+            tracing::error!(?other, "service ended with an error");
+            ExitCode::from(other.code() as u8)
+        }
+    }
+}
+
+pub async fn interface(config: InterfaceConfig) -> ExitCode {
+    let bus = Bus::new();
+    let mut service = match InterfaceService::start(&config, &bus).await {
+        Ok(s) => s,
+        Err(e) => {
+            tracing::error!(error = %e, "cannot start the frontseat interface");
+            return ExitCode::from(2);
+        }
+    };
+    tracing::info!(
+        driver = %config.driver.name,
+        frontseat = %format!("{}:{}", config.driver.basic_simulator.tcp_address, config.driver.basic_simulator.tcp_port),
+        "frontseat interface running"
+    );
+    let exit = tokio::select! {
+        e = service.wait() => e,
+        _ = shutdown_signal() => service.shutdown(SHUTDOWN_BOUND).await,
+    };
+    exit_code(&exit)
+}
+
+pub fn sim_options(config: &SimConfig) -> SimOptions {
+    let scheduled_faults = config
+        .faults
+        .iter()
+        .map(|f| ScheduledFault {
+            at_s: f.at,
+            fault: match f.kind {
+                FaultKind::DropConnection => Fault::DropConnection,
+                FaultKind::StopNav => Fault::StopNav {
+                    seconds: f.seconds.unwrap_or(10.0),
+                },
+                FaultKind::Garbage => Fault::Garbage {
+                    lines: f.lines.unwrap_or(1),
+                },
+                FaultKind::OversizedLine => Fault::OversizedLine,
+                FaultKind::CtrlPayload => Fault::Ctrl(CtrlState::Payload),
+                FaultKind::CtrlAuv => Fault::Ctrl(CtrlState::Auv),
+                FaultKind::CtrlIdle => Fault::Ctrl(CtrlState::Idle),
+            },
+        })
+        .collect();
+    SimOptions {
+        max_line_bytes: config.max_line_bytes,
+        current_east: config.current.east,
+        current_north: config.current.north,
+        scheduled_faults,
+        max_vehicles: config.max_vehicles,
+    }
+}
+
+pub async fn sim(config: SimConfig) -> ExitCode {
+    let addr: SocketAddr = match format!("{}:{}", config.bind, config.port).parse() {
+        Ok(a) => a,
+        Err(_) => match format!("[{}]:{}", config.bind, config.port).parse() {
+            Ok(a) => a,
+            Err(e) => {
+                eprintln!("bind address `{}`: {e}", config.bind);
+                return ExitCode::from(2);
+            }
+        },
+    };
+    let sim = match SimServer::bind(addr, sim_options(&config)).await {
+        Ok(s) => s,
+        Err(e) => {
+            tracing::error!(error = %e, %addr, "cannot start the simulator");
+            return ExitCode::from(2);
+        }
+    };
+    tracing::info!(addr = %sim.local_addr(), "basic frontseat simulator listening");
+    shutdown_signal().await;
+    sim.shutdown().await;
+    tracing::info!(stats = ?sim.stats(), "simulator stopped");
+    ExitCode::SUCCESS
+}

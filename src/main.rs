@@ -2,6 +2,7 @@
 //! crates, waits for a shutdown signal and drains. Everything with logic lives in the crates.
 #![forbid(unsafe_code)]
 
+mod bench;
 mod demo;
 mod service;
 
@@ -65,6 +66,9 @@ enum Command {
     /// south, then northwest back towards the start, prints a live status line, writes the
     /// track as CSV and SVG, and exits 0.
     Demo(demo::DemoArgs),
+    /// Measure latency, throughput, capacity and footprint; prints one table (`--quick` runs in
+    /// seconds).
+    Bench(bench::BenchArgs),
     /// Print the resolved interface (application → layer → publishes/subscribes → group, type,
     /// actor) of every application, as compiled from interface_yaml/.
     Interfaces,
@@ -171,6 +175,10 @@ fn main() -> ExitCode {
         Command::Demo(args) => {
             init_logging();
             run(demo::run(args))
+        }
+        Command::Bench(args) => {
+            init_logging();
+            run(bench::run(args))
         }
     }
 }

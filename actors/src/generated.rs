@@ -3,16 +3,7 @@
 //! methods and its inbox), the gateway's type-erased helpers for interprocess groups, and
 //! `RESOLVED_INTERFACES_YAML`. Edit the yaml or the .proto files and rebuild; never this output.
 
-// prost's output and the generated wiring are not hand-written code: lints about style there
-// would be noise, so they are allowed here only.
-#[allow(
-    clippy::all,
-    clippy::pedantic,
-    missing_docs,
-    unreachable_pub,
-    dead_code,
-    rustdoc::all
-)]
+// The generated wiring is clippy-clean; only prost's `proto` module allows lints, inside the file.
 mod out {
     include!(concat!(env!("OUT_DIR"), "/frontseat_interfaces.rs"));
 }

@@ -349,7 +349,7 @@ pub fn push_number(out: &mut String, v: f64, decimals: usize) {
 fn wire_heading(h: f64) -> f64 {
     let scale = 10f64.powi(VALUE_DECIMALS as i32);
     let r = (h * scale).round() / scale;
-    if r >= 360.0 || r < 0.0 { 0.0 } else { r }
+    if (0.0..360.0).contains(&r) { r } else { 0.0 }
 }
 
 /// Append the NAV line for `nav` to `out`.

@@ -169,10 +169,10 @@ impl SimHandle {
     pub async fn shutdown(&self) {
         let _ = self.stop.send(true);
         let task = self.task.lock().await.take();
-        if let Some(task) = task {
-            if let Err(e) = task.await {
-                tracing::error!(error = %e, "simulator accept task failed");
-            }
+        if let Some(task) = task
+            && let Err(e) = task.await
+        {
+            tracing::error!(error = %e, "simulator accept task failed");
         }
     }
 }

@@ -62,7 +62,12 @@ fn decode_escaped(s: &str) -> Vec<u8> {
 fn decode_repr(body: &str) -> Vec<u8> {
     if let Some(a) = body.find("...<") {
         let b = body[a..].find(">...").unwrap() + a;
-        let total: usize = body[a + 4..b].split_whitespace().next().unwrap().parse().unwrap();
+        let total: usize = body[a + 4..b]
+            .split_whitespace()
+            .next()
+            .unwrap()
+            .parse()
+            .unwrap();
         let prefix = decode_escaped(&body[..a]);
         let suffix = decode_escaped(&body[b + 4..]);
         let fill = *prefix.last().unwrap();
@@ -110,10 +115,10 @@ fn parse_transcript(text: &str) -> Vec<Event> {
             } else {
                 events.push(Event::Note(client));
             }
-        } else if let Some(c) = t.chars().next().filter(|c| c.is_ascii_uppercase()) {
-            if t.len() > 1 && t.as_bytes()[1] == b' ' {
-                events.push(Event::Note(c));
-            }
+        } else if let Some(c) = t.chars().next().filter(|c| c.is_ascii_uppercase())
+            && t.as_bytes().get(1) == Some(&b' ')
+        {
+            events.push(Event::Note(c));
         }
     }
     events
@@ -244,7 +249,11 @@ async fn replay_goby3_transcript() {
     );
     let text = std::fs::read_to_string(path).unwrap();
     let events = parse_transcript(&text);
-    assert!(events.len() > 300, "transcript parsed to {} events", events.len());
+    assert!(
+        events.len() > 300,
+        "transcript parsed to {} events",
+        events.len()
+    );
 
     let h = sim(SimOptions::default()).await;
     let mut known = Vec::new();
@@ -409,7 +418,10 @@ async fn replay_goby3_transcript() {
                 // Nothing more than expected: a few more ticks bring no other line.
                 if p.running {
                     let extra = p.client.others_until_navs(3).await;
-                    assert!(extra.is_empty(), "send {sends} ({comment}): extra {extra:?}");
+                    assert!(
+                        extra.is_empty(),
+                        "send {sends} ({comment}): extra {extra:?}"
+                    );
                 }
             }
             Event::Recv(..) | Event::Note(_) => {}

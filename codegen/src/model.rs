@@ -79,8 +79,14 @@ impl Diags<'_> {
     }
 }
 
-fn at(file: &std::path::Path, pos: Pos) -> String {
-    format!("{}:{}:{}", file.display(), pos.line, pos.column)
+/// Where another declaration is, as seen from a diagnostic in `here`: just the line when it is in
+/// the same file.
+fn at(here: &std::path::Path, file: &std::path::Path, pos: Pos) -> String {
+    if here == file {
+        format!("line {}", pos.line)
+    } else {
+        format!("{}:{}:{}", file.display(), pos.line, pos.column)
+    }
 }
 
 fn valid_group_name(name: &str) -> bool {
@@ -118,7 +124,7 @@ pub fn resolve(files: &[InterfaceFile], pool: &DescriptorPool, out: &mut Vec<Dia
                 format!(
                     "application `{}` is already declared at {}",
                     f.application.value,
-                    at(file, *pos)
+                    at(&f.path, file, *pos)
                 ),
             );
         } else {
@@ -268,7 +274,7 @@ pub fn resolve(files: &[InterfaceFile], pool: &DescriptorPool, out: &mut Vec<Dia
                                 g.type_name,
                                 d.actor,
                                 d.type_name,
-                                at(d.file, d.pos)
+                                at(g.file, d.file, d.pos)
                             ),
                         );
                     } else {
@@ -277,10 +283,10 @@ pub fn resolve(files: &[InterfaceFile], pool: &DescriptorPool, out: &mut Vec<Dia
                             g.entry.type_name.pos,
                             Rule::TwoTypes,
                             format!(
-                                "group `{group}` carries two types: `{}` here and `{}` at {}",
+                                "group `{group}` carries two types: `{}` here and `{}` ({})",
                                 g.type_name,
                                 d.type_name,
-                                at(d.file, d.pos)
+                                at(g.file, d.file, d.pos)
                             ),
                         );
                     }
@@ -375,7 +381,7 @@ pub fn resolve(files: &[InterfaceFile], pool: &DescriptorPool, out: &mut Vec<Dia
                         e.actor.value,
                         e.group.value,
                         good_group_name(&groups, *other),
-                        at(file, *pos)
+                        at(g.file, file, *pos)
                     ),
                 );
             }

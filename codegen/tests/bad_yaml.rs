@@ -36,7 +36,7 @@ const CASES: &[(&str, Rule, u64, &str)] = &[
         "two_types.yaml",
         Rule::TwoTypes,
         11,
-        "group `goby::middleware::frontseat::status` carries two types: `frontseat.protobuf.DriverStatus` here and `goby.middleware.frontseat.protobuf.InterfaceStatus` at ",
+        "group `goby::middleware::frontseat::status` carries two types: `frontseat.protobuf.DriverStatus` here and `goby.middleware.frontseat.protobuf.InterfaceStatus` (line 6)",
     ),
     (
         "duplicate.yaml",
@@ -110,6 +110,7 @@ fn every_rule_fails_with_file_line_and_message() {
         assert_eq!(d.line, line, "{fixture}: {d}");
         assert_eq!(d.file, path, "{fixture}: {d}");
         let text = d.to_string();
+        eprintln!("{text}");
         assert!(
             text.starts_with(&format!("{}:{line}:", path.display())),
             "{fixture}: `{text}` does not start with file:line"

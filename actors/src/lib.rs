@@ -15,5 +15,6 @@ pub mod interface;
 pub mod link;
 pub mod sim_glue;
 pub mod state_machine;
+pub mod translation;
 
 pub use generated::{groups, ports, proto};

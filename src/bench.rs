@@ -1,18 +1,197 @@
-//! `frontseat bench`: reproducible latency, throughput, capacity and footprint figures.
-//! (Being written; see issue 10.)
+//! `frontseat bench`: reproducible latency, throughput, capacity and footprint figures, printed
+//! as one Markdown table (or JSON) with the machine and build profile in its header.
+//!
+//! Rows P1, P2, P6 run the real interface in this process against a scripted loopback frontseat
+//! (`frontseat`), P3 is the simulator's own capacity bench, P4 and P5 run this very binary as
+//! child processes (`procs`). Figures are measured, never asserted: no test checks a timing.
 
+mod frontseat;
+mod inproc;
+mod procs;
+mod report;
+
+use std::io::Write;
 use std::process::ExitCode;
+use std::time::{Duration, Instant};
 
 use clap::Args;
+use serde_json::json;
+
+use report::{Figures, Machine, Row, fmt_count, fmt_duration};
 
 #[derive(Args, Debug, Clone)]
 pub struct BenchArgs {
     /// Run in seconds, to prove the benchmark runs (CI); figures are rough.
     #[arg(long)]
     pub quick: bool,
+    /// Print the results as JSON instead of the Markdown table.
+    #[arg(long)]
+    pub json: bool,
 }
 
-pub async fn run(_args: BenchArgs) -> ExitCode {
-    eprintln!("frontseat bench: not implemented yet");
-    ExitCode::from(1)
+/// How long and how hard each row runs.
+#[derive(Clone, Copy, Debug)]
+struct Plan {
+    inproc: inproc::Plan,
+    capacity: (usize, f64, f64, Duration),
+    start_runs: usize,
+    settle: Duration,
+    footprint_window: Duration,
+}
+
+impl Plan {
+    fn full() -> Self {
+        Self {
+            inproc: inproc::Plan {
+                p1_count: 10_000,
+                p1_rate_hz: 500.0,
+                p2_count: 10_000,
+                p2_rate_hz: 500.0,
+                p6_rate_hz: 10_000.0,
+                p6_duration: Duration::from_secs(5),
+            },
+            capacity: (100, 10.0, 100.0, Duration::from_secs(10)),
+            start_runs: 20,
+            settle: Duration::from_secs(2),
+            footprint_window: Duration::from_secs(10),
+        }
+    }
+
+    fn quick() -> Self {
+        Self {
+            inproc: inproc::Plan {
+                p1_count: 200,
+                p1_rate_hz: 1000.0,
+                p2_count: 200,
+                p2_rate_hz: 1000.0,
+                p6_rate_hz: 10_000.0,
+                p6_duration: Duration::from_millis(300),
+            },
+            capacity: (10, 10.0, 10.0, Duration::from_millis(500)),
+            start_runs: 2,
+            settle: Duration::from_millis(200),
+            footprint_window: Duration::from_millis(500),
+        }
+    }
+}
+
+const P3: &str = "simulator capacity: vehicles × FREQ × WARP sustained";
+
+async fn capacity(plan: &Plan) -> Row {
+    let (vehicles, freq, warp, window) = plan.capacity;
+    let r = frontseat_sim::capacity_bench(vehicles, freq, warp, window).await;
+    let what = format!("{P3} ({vehicles} × {freq} × {warp})");
+    if r.failed_vehicles == vehicles || r.window.is_zero() {
+        return Row::failed("P3", what, "no vehicle started");
+    }
+    let pct = |v: f64| 100.0 * v / r.expected_nav_per_s.max(f64::MIN_POSITIVE);
+    let cpu = r
+        .cpu_percent
+        .map(|c| format!("{c:.0} % of one core"))
+        .unwrap_or_else(|| "CPU unknown".into());
+    Row {
+        id: "P3",
+        what,
+        figures: Figures::Result(format!(
+            "{} NAV/s expected; ticks {:.2} %, sent {:.2} %, received {:.2} %; worst tick lateness {}; late {} skipped {} failed vehicles {}; {cpu}",
+            fmt_count(r.expected_nav_per_s),
+            pct(r.ticks_per_s),
+            pct(r.sent_nav_per_s),
+            pct(r.received_nav_per_s),
+            fmt_duration(r.worst_lateness),
+            r.late_ticks,
+            r.skipped_ticks,
+            r.failed_vehicles,
+        )),
+        detail: format!(
+            "frontseat_sim::capacity_bench over {}, clients in the same process over loopback",
+            fmt_duration(r.window)
+        ),
+        extra: json!({
+            "vehicles": r.vehicles,
+            "freq": r.freq,
+            "warp": r.warp,
+            "expected_nav_per_s": r.expected_nav_per_s,
+            "ticks_per_s": r.ticks_per_s,
+            "sent_nav_per_s": r.sent_nav_per_s,
+            "received_nav_per_s": r.received_nav_per_s,
+            "worst_lateness_us": r.worst_lateness.as_secs_f64() * 1e6,
+            "late_ticks": r.late_ticks,
+            "skipped_ticks": r.skipped_ticks,
+            "failed_vehicles": r.failed_vehicles,
+            "cpu_percent": r.cpu_percent,
+        }),
+    }
+}
+
+/// The rows of capabilities that do not exist yet; each becomes a measurement when its code
+/// lands.
+fn not_yet() -> Vec<Row> {
+    let na = |id, what: &str| Row {
+        id,
+        what: what.into(),
+        figures: Figures::NotAvailable("not built yet"),
+        detail: String::new(),
+        extra: serde_json::Value::Null,
+    };
+    vec![
+        na("Z1", "P1 across processes over Zenoh"),
+        na("Z2", "P2 across processes over Zenoh"),
+        na("M1", "NAV → MOOS NAV_* variables through MOOSDB"),
+        na("M2", "MOOS DESIRED_* → CMD line through MOOSDB"),
+        na("T1", "P1 / P2 with telemetry (OpenTelemetry export) on vs off"),
+    ]
+}
+
+pub async fn run(args: BenchArgs) -> ExitCode {
+    let plan = if args.quick {
+        Plan::quick()
+    } else {
+        Plan::full()
+    };
+    let machine = Machine::detect();
+    let started = Instant::now();
+    eprintln!(
+        "frontseat bench{}: {} build on {} ({} cores); this takes {}",
+        if args.quick { " --quick" } else { "" },
+        machine.profile,
+        machine.cpu,
+        machine.cores,
+        if args.quick {
+            "a few seconds"
+        } else {
+            "about two minutes"
+        }
+    );
+    // One after the other: on a small machine the rows must not disturb each other.
+    let mut inproc_rows = inproc::run(plan.inproc).await.into_iter();
+    let p3 = capacity(&plan).await;
+    let mut proc_rows = procs::run(plan.start_runs, plan.settle, plan.footprint_window)
+        .await
+        .into_iter();
+    let mut rows = Vec::new();
+    rows.extend(inproc_rows.next()); // P1
+    rows.extend(inproc_rows.next()); // P2
+    rows.push(p3);
+    rows.extend(proc_rows.next()); // P4
+    rows.extend(proc_rows.next()); // P5
+    rows.extend(inproc_rows.next()); // P6
+    rows.extend(not_yet());
+    let elapsed = started.elapsed();
+
+    let out = if args.json {
+        let v = report::json(&machine, args.quick, elapsed, &rows);
+        serde_json::to_string_pretty(&v).unwrap_or_else(|e| format!("{{\"error\":\"{e}\"}}"))
+    } else {
+        report::markdown(&machine, args.quick, elapsed, &rows)
+    };
+    let mut stdout = std::io::stdout().lock();
+    if writeln!(stdout, "{out}").is_err() {
+        return ExitCode::from(1);
+    }
+    if rows.iter().any(Row::is_failed) {
+        ExitCode::from(1)
+    } else {
+        ExitCode::SUCCESS
+    }
 }

@@ -1,0 +1,292 @@
+//! Rows P1, P2 and P6: the real interface (basic simulator driver, bus, state machine) in this
+//! process, connected over loopback TCP to the scripted frontseat, with a helm heartbeat so the
+//! interface reaches COMMAND and passes desired courses on.
+
+use std::time::{Duration, Instant};
+
+use frontseat_actors::bus::Bus;
+use frontseat_actors::groups;
+use frontseat_actors::interface::InterfaceService;
+use frontseat_actors::proto::goby::middleware::frontseat::protobuf::{
+    DesiredCourse, HelmState, HelmStateReport, InterfaceState,
+};
+use frontseat_config::InterfaceConfig;
+use serde_json::json;
+
+use super::frontseat::{ScriptedFrontseat, Stamps, seq_of};
+use super::report::{Figures, Hist, Row, fmt_count};
+
+/// How much each row measures.
+#[derive(Clone, Copy, Debug)]
+pub struct Plan {
+    pub p1_count: usize,
+    pub p1_rate_hz: f64,
+    pub p2_count: usize,
+    pub p2_rate_hz: f64,
+    pub p6_rate_hz: f64,
+    pub p6_duration: Duration,
+}
+
+impl Plan {
+    fn p6_count(&self) -> usize {
+        (self.p6_rate_hz * self.p6_duration.as_secs_f64()).round() as usize
+    }
+}
+
+const P1: &str = "NAV line written by the frontseat → node_status delivered to a bus subscriber";
+const P2: &str = "desired_course published → CMD line read at the frontseat";
+const P6: &str = "raw_in throughput at 10 000 NAV lines/s";
+
+/// Time for the last deliveries of a burst to arrive before counting them lost.
+const GRACE: Duration = Duration::from_millis(300);
+
+/// Runs P1, P2 and P6 on one interface; returns their rows in that order.
+pub async fn run(plan: Plan) -> Vec<Row> {
+    match run_inner(plan).await {
+        Ok(rows) => rows,
+        Err(why) => vec![
+            Row::failed("P1", P1, why.clone()),
+            Row::failed("P2", P2, why.clone()),
+            Row::failed("P6", P6, why),
+        ],
+    }
+}
+
+async fn run_inner(plan: Plan) -> Result<Vec<Row>, String> {
+    let base = Instant::now();
+    let navs = plan.p1_count + plan.p6_count();
+    let nav_written = Stamps::new(base, navs);
+    let node_status_at = Stamps::new(base, navs);
+    let raw_in_at = Stamps::new(base, navs);
+    let cmd_sent = Stamps::new(base, plan.p2_count);
+    let cmd_read = Stamps::new(base, plan.p2_count);
+
+    let fs = ScriptedFrontseat::start(nav_written.clone(), cmd_read.clone())
+        .map_err(|e| format!("scripted frontseat: {e}"))?;
+
+    let mut cfg = InterfaceConfig::default();
+    cfg.name = "bench-auv".into();
+    cfg.driver.basic_simulator.tcp_port = fs.port();
+    let capacity = cfg.bus.queue_capacity;
+
+    let bus = Bus::new();
+    let mut tasks = Vec::new();
+    let (_ns_sub, mut ns_rx) = bus.subscribe_channel(
+        &groups::GOBY_MIDDLEWARE_FRONTSEAT_NODE_STATUS,
+        "bench",
+        capacity,
+    );
+    let at = node_status_at.clone();
+    tasks.push(tokio::spawn(async move {
+        while let Some(env) = ns_rx.recv().await {
+            let now = Instant::now();
+            let depth = env.msg.global_fix.depth();
+            if depth >= 1.0 && depth.fract() == 0.0 {
+                at.set(depth as usize - 1, now);
+            }
+        }
+    }));
+    let (_raw_sub, mut raw_rx) =
+        bus.subscribe_channel(&groups::GOBY_MIDDLEWARE_FRONTSEAT_RAW_IN, "bench", capacity);
+    let at = raw_in_at.clone();
+    tasks.push(tokio::spawn(async move {
+        while let Some(env) = raw_rx.recv().await {
+            let now = Instant::now();
+            if let Some(seq) = env.msg.raw.as_deref().and_then(seq_of) {
+                at.set(seq, now);
+            }
+        }
+    }));
+    let (_st_sub, mut st_rx) =
+        bus.subscribe_channel(&groups::GOBY_MIDDLEWARE_FRONTSEAT_STATUS, "bench", capacity);
+    let helm_bus = bus.clone();
+    tasks.push(tokio::spawn(async move {
+        loop {
+            helm_bus.publish(
+                &groups::GOBY_MIDDLEWARE_FRONTSEAT_HELM_STATE,
+                HelmStateReport {
+                    state: HelmState::HelmDrive as i32,
+                },
+            );
+            tokio::time::sleep(Duration::from_millis(100)).await;
+        }
+    }));
+
+    let service = InterfaceService::start(&cfg, &bus)
+        .await
+        .map_err(|e| format!("interface: {e}"))?;
+    let reached = tokio::time::timeout(Duration::from_secs(10), async {
+        while let Some(env) = st_rx.recv().await {
+            if env.msg.state() == InterfaceState::InterfaceCommand {
+                return true;
+            }
+        }
+        false
+    })
+    .await;
+    let rows = if matches!(reached, Ok(true)) {
+        let p1 = p1(&plan, &fs, &nav_written, &node_status_at).await;
+        let p2 = p2(&plan, &bus, &fs, &cmd_sent, &cmd_read).await;
+        let p6 = p6(&plan, &bus, &fs, &nav_written, &node_status_at, &raw_in_at).await;
+        Ok(vec![p1, p2, p6])
+    } else {
+        Err("the interface did not reach running:command within 10 s".to_string())
+    };
+    let _ = service.shutdown(Duration::from_secs(2)).await;
+    for t in tasks {
+        t.abort();
+    }
+    fs.stop();
+    rows
+}
+
+/// Latency of every index in `range` stamped in both; and how many were written but never
+/// delivered.
+fn match_up(
+    sent: &Stamps,
+    got: &Stamps,
+    range: std::ops::Range<usize>,
+) -> (Hist, usize, usize) {
+    let mut h = Hist::new();
+    let (mut written, mut lost) = (0, 0);
+    for i in range {
+        let Some(s) = sent.get(i) else { continue };
+        written += 1;
+        match got.get(i) {
+            Some(g) => h.record(g.saturating_duration_since(s)),
+            None => lost += 1,
+        }
+    }
+    (h, written, lost)
+}
+
+async fn p1(plan: &Plan, fs: &ScriptedFrontseat, written: &Stamps, got: &Stamps) -> Row {
+    let report = match fs.burst(0, plan.p1_count, plan.p1_rate_hz, false).await {
+        Ok(r) => r,
+        Err(_) => return Row::failed("P1", P1, "the scripted frontseat stopped"),
+    };
+    tokio::time::sleep(GRACE).await;
+    let (h, n, lost) = match_up(written, got, 0..plan.p1_count);
+    let detail = format!(
+        "{} NAV lines at {} Hz, one write each (scripted loopback frontseat, stamp before write(2)); lost {lost}",
+        fmt_count(n as f64),
+        plan.p1_rate_hz
+    );
+    latency_row("P1", P1, &h, detail, report.written, lost)
+}
+
+async fn p2(
+    plan: &Plan,
+    bus: &Bus,
+    fs: &ScriptedFrontseat,
+    sent: &Stamps,
+    read: &Stamps,
+) -> Row {
+    let start = tokio::time::Instant::now();
+    let period = Duration::from_secs_f64(1.0 / plan.p2_rate_hz);
+    for i in 0..plan.p2_count {
+        tokio::time::sleep_until(start + period.mul_f64(i as f64)).await;
+        let course = DesiredCourse {
+            time: 0.0,
+            heading: Some(90.0),
+            speed: Some(1.5),
+            depth: Some((i + 1) as f64),
+            ..Default::default()
+        };
+        sent.set(i, Instant::now());
+        bus.publish(&groups::GOBY_MIDDLEWARE_FRONTSEAT_DESIRED_COURSE, course);
+    }
+    let deadline = tokio::time::Instant::now() + GRACE;
+    while fs.cmds_read() < plan.p2_count as u64 && tokio::time::Instant::now() < deadline {
+        tokio::time::sleep(Duration::from_millis(5)).await;
+    }
+    let (h, n, lost) = match_up(sent, read, 0..plan.p2_count);
+    let detail = format!(
+        "{} desired_course at {} Hz (sequence in DEPTH); lost {lost}",
+        fmt_count(n as f64),
+        plan.p2_rate_hz
+    );
+    latency_row("P2", P2, &h, detail, n, lost)
+}
+
+fn latency_row(
+    id: &'static str,
+    what: &str,
+    h: &Hist,
+    detail: String,
+    written: usize,
+    lost: usize,
+) -> Row {
+    let extra = json!({ "written": written, "lost": lost });
+    match h.latency() {
+        Some(l) => Row {
+            id,
+            what: what.into(),
+            figures: Figures::Latency(l),
+            detail,
+            extra,
+        },
+        None => Row {
+            extra,
+            ..Row::failed(id, what, format!("nothing delivered; {detail}"))
+        },
+    }
+}
+
+async fn p6(
+    plan: &Plan,
+    bus: &Bus,
+    fs: &ScriptedFrontseat,
+    written: &Stamps,
+    node_status: &Stamps,
+    raw_in: &Stamps,
+) -> Row {
+    let first = plan.p1_count;
+    let count = plan.p6_count();
+    let dropped0 = bus.total_dropped();
+    let report = match fs.burst(first, count, plan.p6_rate_hz, true).await {
+        Ok(r) => r,
+        Err(_) => return Row::failed("P6", P6, "the scripted frontseat stopped"),
+    };
+    tokio::time::sleep(GRACE).await;
+    let range = first..first + count;
+    let (h_raw, n, raw_lost) = match_up(written, raw_in, range.clone());
+    let (_, _, ns_lost) = match_up(written, node_status, range);
+    let bus_dropped = bus.total_dropped().saturating_sub(dropped0);
+    let secs = report.elapsed.as_secs_f64().max(1e-9);
+    let rate = n as f64 / secs;
+    let delivered = n - raw_lost;
+    let mut result = format!(
+        "{} lines/s written for {:.1} s: raw_in delivered {} ({:.2} %), lost {raw_lost}; node_status lost {ns_lost}; bus drops {bus_dropped}",
+        fmt_count(rate),
+        secs,
+        fmt_count(delivered as f64),
+        100.0 * delivered as f64 / (n.max(1)) as f64,
+    );
+    if let Some(l) = h_raw.latency() {
+        result.push_str(&format!(
+            "; write → raw_in p50 {} p99 {} max {}",
+            super::report::fmt_duration(l.p50),
+            super::report::fmt_duration(l.p99),
+            super::report::fmt_duration(l.max)
+        ));
+    }
+    Row {
+        id: "P6",
+        what: P6.into(),
+        figures: if n == 0 {
+            Figures::Failed("no line written".into())
+        } else {
+            Figures::Result(result)
+        },
+        detail: "lines written in batches every 1 ms, as a fast frontseat's lines arrive".into(),
+        extra: json!({
+            "written": n,
+            "rate_per_s": rate,
+            "raw_in_delivered": delivered,
+            "raw_in_lost": raw_lost,
+            "node_status_lost": ns_lost,
+            "bus_dropped": bus_dropped,
+        }),
+    }
+}

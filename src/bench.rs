@@ -1,9 +1,10 @@
 //! `frontseat bench`: reproducible latency, throughput, capacity and footprint figures, printed
 //! as one Markdown table (or JSON) with the machine and build profile in its header.
 //!
-//! Rows P1, P2, P6 run the real interface in this process against a scripted loopback frontseat
-//! (`frontseat`), P3 is the simulator's own capacity bench, P4 and P5 run this very binary as
-//! child processes (`procs`). Figures are measured, never asserted: no test checks a timing.
+//! Rows P1, P2, P6, M1, M2 run the real interface (and for M1, M2 the MOOS translation and a
+//! MOOSDB) in this process against a scripted loopback frontseat (`frontseat`), P3 is the
+//! simulator's own capacity bench, P4 and P5 run this very binary as child processes (`procs`).
+//! Figures are measured, never asserted: no test checks a timing.
 
 mod frontseat;
 mod inproc;
@@ -49,6 +50,10 @@ impl Plan {
                 p2_rate_hz: 500.0,
                 p6_rate_hz: 10_000.0,
                 p6_duration: Duration::from_secs(5),
+                m1_count: 5_000,
+                m1_rate_hz: 500.0,
+                m2_count: 5_000,
+                m2_rate_hz: 500.0,
             },
             capacity: (100, 10.0, 100.0, Duration::from_secs(10)),
             start_runs: 20,
@@ -66,6 +71,10 @@ impl Plan {
                 p2_rate_hz: 1000.0,
                 p6_rate_hz: 10_000.0,
                 p6_duration: Duration::from_millis(300),
+                m1_count: 100,
+                m1_rate_hz: 1000.0,
+                m2_count: 100,
+                m2_rate_hz: 1000.0,
             },
             capacity: (10, 10.0, 10.0, Duration::from_millis(500)),
             start_runs: 2,
@@ -137,9 +146,10 @@ fn not_yet() -> Vec<Row> {
     vec![
         na("Z1", "P1 across processes over Zenoh"),
         na("Z2", "P2 across processes over Zenoh"),
-        na("M1", "NAV → MOOS NAV_* variables through MOOSDB"),
-        na("M2", "MOOS DESIRED_* → CMD line through MOOSDB"),
-        na("T1", "P1 / P2 with telemetry (OpenTelemetry export) on vs off"),
+        na(
+            "T1",
+            "P1 / P2 with telemetry (OpenTelemetry export) on vs off",
+        ),
     ]
 }
 
@@ -176,6 +186,7 @@ pub async fn run(args: BenchArgs) -> ExitCode {
     rows.extend(proc_rows.next()); // P4
     rows.extend(proc_rows.next()); // P5
     rows.extend(inproc_rows.next()); // P6
+    rows.extend(inproc_rows); // M1, M2
     rows.extend(not_yet());
     let elapsed = started.elapsed();
 

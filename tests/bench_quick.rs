@@ -5,7 +5,7 @@ use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
 const ROWS: [&str; 11] = [
-    "P1", "P2", "P3", "P4", "P5", "P6", "Z1", "Z2", "M1", "M2", "T1",
+    "P1", "P2", "P3", "P4", "P5", "P6", "M1", "M2", "Z1", "Z2", "T1",
 ];
 
 /// Runs the binary with a deadline (it spawns children of its own; a hang must fail the test).
@@ -56,7 +56,7 @@ fn quick_bench_prints_every_row_and_exits_0() {
             assert!(row.chars().any(|c| c.is_ascii_digit()), "{row}");
         }
     }
-    for id in ["P1", "P2", "P5"] {
+    for id in ["P1", "P2", "P5", "M1", "M2"] {
         let row = stdout
             .lines()
             .find(|l| l.starts_with(&format!("| {id} |")))
@@ -75,7 +75,10 @@ fn quick_bench_prints_every_row_and_exits_0() {
 #[test]
 fn quick_bench_json_has_every_row() {
     let (ok, stdout, stderr) = run_bench(&["--quick", "--json"]);
-    assert!(ok, "bench --json failed\nstdout:\n{stdout}\nstderr:\n{stderr}");
+    assert!(
+        ok,
+        "bench --json failed\nstdout:\n{stdout}\nstderr:\n{stderr}"
+    );
     let v: serde_json::Value = serde_json::from_str(&stdout).unwrap();
     assert!(v["machine"]["cores"].as_u64().unwrap() >= 1);
     assert_eq!(v["quick"], true);

@@ -10,7 +10,9 @@ use frontseat_actors::interface::InterfaceService;
 use frontseat_actors::proto::goby::middleware::frontseat::protobuf::{
     DesiredCourse, HelmState, HelmStateReport, InterfaceState,
 };
-use frontseat_config::InterfaceConfig;
+use frontseat_actors::translation;
+use frontseat_config::{InterfaceConfig, MoosConfig};
+use frontseat_moos::{Broker, MoosClient, MoosClientConfig, MoosEvent};
 use serde_json::json;
 
 use super::frontseat::{ScriptedFrontseat, Stamps, seq_of};
@@ -25,6 +27,10 @@ pub struct Plan {
     pub p2_rate_hz: f64,
     pub p6_rate_hz: f64,
     pub p6_duration: Duration,
+    pub m1_count: usize,
+    pub m1_rate_hz: f64,
+    pub m2_count: usize,
+    pub m2_rate_hz: f64,
 }
 
 impl Plan {
@@ -36,30 +42,37 @@ impl Plan {
 const P1: &str = "NAV line written by the frontseat → node_status delivered to a bus subscriber";
 const P2: &str = "desired_course published → CMD line read at the frontseat";
 const P6: &str = "raw_in throughput at 10 000 NAV lines/s";
+const M1: &str =
+    "NAV line written → NAV_DEPTH mail at a MOOS client (FrontSeatTranslation, MOOSDB)";
+const M2: &str =
+    "DESIRED_* posted by a MOOS client → CMD line read at the frontseat (through MOOSDB)";
 
 /// Time for the last deliveries of a burst to arrive before counting them lost.
 const GRACE: Duration = Duration::from_millis(300);
 
-/// Runs P1, P2 and P6 on one interface; returns their rows in that order.
+/// Runs P1, P2, P6, then M1 and M2 on one interface; returns their rows in that order.
 pub async fn run(plan: Plan) -> Vec<Row> {
     match run_inner(plan).await {
         Ok(rows) => rows,
         Err(why) => vec![
             Row::failed("P1", P1, why.clone()),
             Row::failed("P2", P2, why.clone()),
-            Row::failed("P6", P6, why),
+            Row::failed("P6", P6, why.clone()),
+            Row::failed("M1", M1, why.clone()),
+            Row::failed("M2", M2, why),
         ],
     }
 }
 
 async fn run_inner(plan: Plan) -> Result<Vec<Row>, String> {
     let base = Instant::now();
-    let navs = plan.p1_count + plan.p6_count();
+    let navs = plan.p1_count + plan.p6_count() + plan.m1_count;
     let nav_written = Stamps::new(base, navs);
     let node_status_at = Stamps::new(base, navs);
     let raw_in_at = Stamps::new(base, navs);
-    let cmd_sent = Stamps::new(base, plan.p2_count);
-    let cmd_read = Stamps::new(base, plan.p2_count);
+    let cmds = plan.p2_count + plan.m2_count;
+    let cmd_sent = Stamps::new(base, cmds);
+    let cmd_read = Stamps::new(base, cmds);
 
     let fs = ScriptedFrontseat::start(nav_written.clone(), cmd_read.clone())
         .map_err(|e| format!("scripted frontseat: {e}"))?;
@@ -128,7 +141,9 @@ async fn run_inner(plan: Plan) -> Result<Vec<Row>, String> {
         let p1 = p1(&plan, &fs, &nav_written, &node_status_at).await;
         let p2 = p2(&plan, &bus, &fs, &cmd_sent, &cmd_read).await;
         let p6 = p6(&plan, &bus, &fs, &nav_written, &node_status_at, &raw_in_at).await;
-        Ok(vec![p1, p2, p6])
+        let mut rows = vec![p1, p2, p6];
+        rows.extend(moos_rows(&plan, &bus, &fs, &nav_written, &cmd_sent, &cmd_read, base).await);
+        Ok(rows)
     } else {
         Err("the interface did not reach running:command within 10 s".to_string())
     };
@@ -142,11 +157,7 @@ async fn run_inner(plan: Plan) -> Result<Vec<Row>, String> {
 
 /// Latency of every index in `range` stamped in both; and how many were written but never
 /// delivered.
-fn match_up(
-    sent: &Stamps,
-    got: &Stamps,
-    range: std::ops::Range<usize>,
-) -> (Hist, usize, usize) {
+fn match_up(sent: &Stamps, got: &Stamps, range: std::ops::Range<usize>) -> (Hist, usize, usize) {
     let mut h = Hist::new();
     let (mut written, mut lost) = (0, 0);
     for i in range {
@@ -175,13 +186,7 @@ async fn p1(plan: &Plan, fs: &ScriptedFrontseat, written: &Stamps, got: &Stamps)
     latency_row("P1", P1, &h, detail, report.written, lost)
 }
 
-async fn p2(
-    plan: &Plan,
-    bus: &Bus,
-    fs: &ScriptedFrontseat,
-    sent: &Stamps,
-    read: &Stamps,
-) -> Row {
+async fn p2(plan: &Plan, bus: &Bus, fs: &ScriptedFrontseat, sent: &Stamps, read: &Stamps) -> Row {
     let start = tokio::time::Instant::now();
     let period = Duration::from_secs_f64(1.0 / plan.p2_rate_hz);
     for i in 0..plan.p2_count {
@@ -289,4 +294,155 @@ async fn p6(
             "bus_dropped": bus_dropped,
         }),
     }
+}
+
+/// M1 and M2: a MOOSDB (the in-crate broker) on loopback, the FrontSeatTranslation between it and
+/// the bus, and one MOOS client playing pHelmIvP (registers NAV_DEPTH, posts DESIRED_*).
+async fn moos_rows(
+    plan: &Plan,
+    bus: &Bus,
+    fs: &ScriptedFrontseat,
+    nav_written: &Stamps,
+    cmd_sent: &Stamps,
+    cmd_read: &Stamps,
+    base: Instant,
+) -> Vec<Row> {
+    let fail = |why: String| {
+        vec![
+            Row::failed("M1", M1, why.clone()),
+            Row::failed("M2", M2, why),
+        ]
+    };
+    let broker = match Broker::bind("127.0.0.1:0").await {
+        Ok(b) => b,
+        Err(e) => return fail(format!("MOOSDB: {e}")),
+    };
+    let moos_cfg = MoosConfig {
+        port: broker.local_addr().port(),
+        ..MoosConfig::default()
+    };
+    let translation = match translation::spawn(&moos_cfg, "bench-auv", bus).await {
+        Ok(t) => t,
+        Err(e) => {
+            broker.shutdown().await;
+            return fail(format!("FrontSeatTranslation: {e}"));
+        }
+    };
+    let helm_cfg = MoosClientConfig {
+        server: broker.local_addr().to_string(),
+        ..MoosClientConfig::new("bench-helm")
+    };
+    let rows = match MoosClient::start(helm_cfg) {
+        Ok((helm, events)) => {
+            let rows = moos_measure(
+                plan,
+                fs,
+                nav_written,
+                cmd_sent,
+                cmd_read,
+                base,
+                &helm,
+                events,
+            )
+            .await
+            .unwrap_or_else(fail);
+            helm.shutdown().await;
+            rows
+        }
+        Err(e) => fail(format!("MOOS client: {e}")),
+    };
+    translation.shutdown().await;
+    broker.shutdown().await;
+    rows
+}
+
+#[allow(clippy::too_many_arguments)]
+async fn moos_measure(
+    plan: &Plan,
+    fs: &ScriptedFrontseat,
+    nav_written: &Stamps,
+    cmd_sent: &Stamps,
+    cmd_read: &Stamps,
+    base: Instant,
+    helm: &MoosClient,
+    mut events: tokio::sync::mpsc::Receiver<MoosEvent>,
+) -> Result<Vec<Row>, String> {
+    helm.register("NAV_DEPTH", 0.0)
+        .map_err(|e| format!("MOOS register: {e}"))?;
+    let first = plan.p1_count + plan.p6_count();
+    let mail_at = Stamps::new(base, first + plan.m1_count);
+    let (up_tx, up_rx) = tokio::sync::oneshot::channel::<()>();
+    let at = mail_at.clone();
+    let collector = tokio::spawn(async move {
+        let mut up = Some(up_tx);
+        while let Some(ev) = events.recv().await {
+            let now = Instant::now();
+            if let MoosEvent::Mail(m) = ev
+                && let Some(d) = m.as_double()
+            {
+                // The first NAV_DEPTH (a keep-alive, DEPTH 0) proves the whole chain is up.
+                if let Some(tx) = up.take() {
+                    let _ = tx.send(());
+                }
+                if d >= 1.0 && d.fract() == 0.0 {
+                    at.set(d as usize - 1, now);
+                }
+            }
+        }
+    });
+    let result = async {
+        tokio::time::timeout(Duration::from_secs(10), up_rx)
+            .await
+            .map_err(|_| "no NAV_DEPTH reached the MOOS client within 10 s".to_string())?
+            .map_err(|_| "MOOS client events ended".to_string())?;
+
+        // M1: the same NAV stream as P1, now also translated to NAV_* and posted to the DB.
+        let report = fs
+            .burst(first, plan.m1_count, plan.m1_rate_hz, false)
+            .await
+            .map_err(|_| "the scripted frontseat stopped".to_string())?;
+        tokio::time::sleep(GRACE).await;
+        let (h, n, lost) = match_up(nav_written, &mail_at, first..first + plan.m1_count);
+        let detail = format!(
+            "{} NAV lines at {} Hz; NAV_DEPTH carries the sequence; MOOSDB = frontseat-moos broker on loopback; lost {lost}",
+            fmt_count(n as f64),
+            plan.m1_rate_hz
+        );
+        let m1 = latency_row("M1", M1, &h, detail, report.written, lost);
+
+        // M2: DESIRED_HEADING, DESIRED_DEPTH (the sequence), then DESIRED_SPEED, which makes the
+        // translation publish the desired_course.
+        let off = plan.p2_count;
+        let start = tokio::time::Instant::now();
+        let period = Duration::from_secs_f64(1.0 / plan.m2_rate_hz);
+        let before = fs.cmds_read();
+        for i in 0..plan.m2_count {
+            tokio::time::sleep_until(start + period.mul_f64(i as f64)).await;
+            cmd_sent.set(off + i, Instant::now());
+            let posted = helm
+                .notify_double("DESIRED_HEADING", 90.0, None)
+                .and_then(|()| helm.notify_double("DESIRED_DEPTH", (off + i + 1) as f64, None))
+                .and_then(|()| helm.notify_double("DESIRED_SPEED", 1.5, None));
+            if let Err(e) = posted {
+                return Err(format!("MOOS notify: {e}"));
+            }
+        }
+        let deadline = tokio::time::Instant::now() + GRACE;
+        while fs.cmds_read() < before + plan.m2_count as u64
+            && tokio::time::Instant::now() < deadline
+        {
+            tokio::time::sleep(Duration::from_millis(5)).await;
+        }
+        let (h, n, lost) = match_up(cmd_sent, cmd_read, off..off + plan.m2_count);
+        let detail = format!(
+            "{} DESIRED_* triples at {} Hz (sequence in DESIRED_DEPTH), stamped before the first post; lost {lost}",
+            fmt_count(n as f64),
+            plan.m2_rate_hz
+        );
+        let m2 = latency_row("M2", M2, &h, detail, n, lost);
+        Ok(vec![m1, m2])
+    }
+    .await;
+    collector.abort();
+    result
 }

@@ -13,7 +13,8 @@ use tokio::sync::mpsc::{UnboundedReceiver, unbounded_channel};
 
 use super::report::{Figures, Hist, Row, fmt_duration};
 
-const P5: &str = "process start → running:command (`frontseat interface` child, `frontseat sim` child)";
+const P5: &str =
+    "process start → running:command (`frontseat interface` child, `frontseat sim` child)";
 const P4: &str = "CPU and RSS at steady state, WARP 1, FREQ 10 (`frontseat sim` + `frontseat interface` children)";
 
 /// How long a child may take to say what we wait for.
@@ -133,7 +134,10 @@ fn status_kib(pid: u32, key: &str) -> Option<u64> {
 pub async fn run(runs: usize, settle: Duration, window: Duration) -> Vec<Row> {
     match run_inner(runs, settle, window).await {
         Ok(rows) => rows,
-        Err(why) => vec![Row::failed("P4", P4, why.clone()), Row::failed("P5", P5, why)],
+        Err(why) => vec![
+            Row::failed("P4", P4, why.clone()),
+            Row::failed("P5", P5, why),
+        ],
     }
 }
 

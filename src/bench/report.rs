@@ -189,7 +189,9 @@ pub fn markdown(machine: &Machine, quick: bool, elapsed: Duration, rows: &[Row])
                 r.detail.clone(),
             ),
             Figures::Result(text) => ("–".into(), "–".into(), "–".into(), join(text, &r.detail)),
-            Figures::NotAvailable(why) => ("–".into(), "–".into(), "–".into(), format!("n/a ({why})")),
+            Figures::NotAvailable(why) => {
+                ("–".into(), "–".into(), "–".into(), format!("n/a ({why})"))
+            }
             Figures::Failed(why) => (
                 "–".into(),
                 "–".into(),
@@ -264,7 +266,10 @@ mod tests {
         }
         let l = h.latency().unwrap();
         assert_eq!(l.samples, 100);
-        assert!((49_900..=50_100).contains(&(l.p50.as_nanos() as i64)), "{l:?}");
+        assert!(
+            (49_900..=50_100).contains(&(l.p50.as_nanos() as i64)),
+            "{l:?}"
+        );
         assert!(l.max >= Duration::from_micros(100));
         h.record(Duration::from_secs(7200));
         assert!(h.latency().unwrap().max >= Duration::from_secs(3599));

@@ -76,14 +76,26 @@ pub async fn moos_gateway(cfg: GatewayConfig) -> ExitCode {
             return ExitCode::from(2);
         }
     };
-    let translation = frontseat_actors::translation::spawn(&cfg.moos, &platform, &bus);
+    let vehicle = if cfg.name.is_empty() {
+        &platform
+    } else {
+        &cfg.name
+    };
+    let translation = match frontseat_actors::translation::spawn(&cfg.moos, vehicle, &bus).await {
+        Ok(t) => t,
+        Err(e) => {
+            tracing::error!(error = %e, "cannot start the FrontSeatTranslation");
+            gateway.close().await;
+            return ExitCode::from(2);
+        }
+    };
     tracing::info!(
         platform = %platform,
         moosdb = %format!("{}:{}", cfg.moos.server, cfg.moos.port),
         "MOOS gateway running"
     );
     crate::service::shutdown_signal().await;
-    drop(translation);
+    translation.shutdown().await;
     let stats = gateway.stats();
     gateway.close().await;
     tracing::info!(?stats, "MOOS gateway stopped");

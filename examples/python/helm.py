@@ -3,8 +3,9 @@
 
 helm_state DRIVE at 1 Hz; once the interface reports COMMAND, 1.5 m/s due east for T1 s, due south
 for T2 s, then northwest until the vehicle stops closing on its start, reading node_status for the
-position. Legs are timed on the vehicle's clock (node_status.time), so a warped simulator runs them
-faster. Each desired_course carries a fresh W3C traceparent in the Zenoh attachment.
+position. Leg times are vehicle seconds: wall seconds times --warp, which must match the
+interface's sim_warp_factor when the simulator runs warped. Each desired_course carries a fresh W3C
+traceparent in the Zenoh attachment.
 
     pip install -r examples/python/requirements.txt
     examples/python/gen_protos.sh
@@ -58,6 +59,7 @@ def main():
     p.add_argument("--t1", type=float, default=60.0, help="east leg, vehicle seconds")
     p.add_argument("--t2", type=float, default=60.0, help="south leg, vehicle seconds")
     p.add_argument("--speed", type=float, default=1.5)
+    p.add_argument("--warp", type=float, default=1.0, help="the interface's sim_warp_factor")
     p.add_argument("--timeout", type=float, default=600.0, help="wall seconds")
     a = p.parse_args()
 
@@ -88,10 +90,11 @@ def main():
     drive = fs.HelmStateReport(state=fs.HELM_DRIVE).SerializeToString()
 
     def course(t, heading, speed):
-        dc = fs.DesiredCourse(time=t, heading=heading, speed=speed, depth=0.0)
+        dc = fs.DesiredCourse(time=time.time(), heading=heading, speed=speed, depth=0.0)
         course_pub.put(dc.SerializeToString(), attachment=traceparent())
 
-    deadline = time.monotonic() + a.timeout
+    t_start = time.monotonic()
+    deadline = t_start + a.timeout
     next_beat = 0.0
     leg, in_command = "waiting", False
     start, leg_t0, min_d = (0.0, 0.0), 0.0, math.inf
@@ -113,7 +116,7 @@ def main():
             continue
         if not msg.HasField("local_fix"):
             continue
-        pos, t = (msg.local_fix.x, msg.local_fix.y), msg.time
+        pos, t = (msg.local_fix.x, msg.local_fix.y), (time.monotonic() - t_start) * a.warp
         nxt = None
         if leg == "waiting" and in_command:
             start, nxt = pos, "east"

@@ -1,10 +1,11 @@
 //! A helm in its own process, talking to `frontseat interface` over Zenoh only: the Goby3 course
 //! homework. helm_state DRIVE at 1 Hz; once the interface reports COMMAND, 1.5 m/s due east for
-//! T1 s, due south for T2 s, then northwest until the vehicle stops closing on its start; legs
-//! are timed on the vehicle's clock (node_status.time), so a warped simulator runs them faster.
+//! T1 s, due south for T2 s, then northwest until the vehicle stops closing on its start. Leg
+//! times are vehicle seconds: wall seconds times --warp, which must match the interface's
+//! sim_warp_factor when the simulator runs warped.
 //!
 //! cargo run -p frontseat-gateway --example helm -- [--connect tcp/127.0.0.1:7447]
-//!     [--platform auv1] [--t1 60] [--t2 60] [--speed 1.5] [--timeout 600]
+//!     [--platform auv1] [--t1 60] [--t2 60] [--speed 1.5] [--warp 1] [--timeout 600]
 //! Exits 0 when the triangle is done, 1 on timeout, 2 on bad arguments.
 
 use std::process::ExitCode;
@@ -23,6 +24,7 @@ struct Args {
     t1: f64,
     t2: f64,
     speed: f64,
+    warp: f64,
     timeout: f64,
 }
 
@@ -33,6 +35,7 @@ fn parse_args() -> Result<Args, String> {
         t1: 60.0,
         t2: 60.0,
         speed: 1.5,
+        warp: 1.0,
         timeout: 600.0,
     };
     let mut it = std::env::args().skip(1);
@@ -45,6 +48,7 @@ fn parse_args() -> Result<Args, String> {
             "--t1" => a.t1 = num(val()?)?,
             "--t2" => a.t2 = num(val()?)?,
             "--speed" => a.speed = num(val()?)?,
+            "--warp" => a.warp = num(val()?)?,
             "--timeout" => a.timeout = num(val()?)?,
             other => return Err(format!("unknown argument {other:?}")),
         }
@@ -115,6 +119,7 @@ async fn main() -> ExitCode {
         state: HelmState::HelmDrive as i32,
     };
 
+    let t_start = std::time::Instant::now();
     let mut heartbeat = tokio::time::interval(Duration::from_secs(1));
     let deadline = tokio::time::sleep(Duration::from_secs_f64(args.timeout));
     tokio::pin!(deadline);
@@ -143,7 +148,7 @@ async fn main() -> ExitCode {
                 }
                 Some(In::Nav(ns)) => {
                     let Some(p) = ns.local_fix.as_ref().map(|f| (f.x, f.y)) else { continue };
-                    let t = ns.time;
+                    let t = t_start.elapsed().as_secs_f64() * args.warp;
                     let next = match leg {
                         Leg::Waiting if in_command => { start = p; Some(Leg::East) }
                         Leg::East if t - leg_t0 >= args.t1 => Some(Leg::South),
@@ -154,7 +159,7 @@ async fn main() -> ExitCode {
                                 min_d = d;
                             } else if t - leg_t0 > 10.0 && d > min_d + 0.5 {
                                 println!("triangle done: closest approach {min_d:.1} m from the start at ({:.1}, {:.1})", p.0, p.1);
-                                let stop = DesiredCourse { time: t, heading: Some(315.0), speed: Some(0.0), ..Default::default() };
+                                let stop = DesiredCourse { time: ns.time, heading: Some(315.0), speed: Some(0.0), ..Default::default() };
                                 let _ = put_message(&session, &course_key, course_type, &stop, None);
                                 let _ = session.close().await;
                                 return ExitCode::SUCCESS;
@@ -174,7 +179,7 @@ async fn main() -> ExitCode {
                         Leg::South => 180.0,
                         Leg::NorthWest => 315.0,
                     };
-                    let dc = DesiredCourse { time: t, heading: Some(heading), speed: Some(args.speed), depth: Some(0.0), ..Default::default() };
+                    let dc = DesiredCourse { time: ns.time, heading: Some(heading), speed: Some(args.speed), depth: Some(0.0), ..Default::default() };
                     if let Err(e) = put_message(&session, &course_key, course_type, &dc, None) {
                         eprintln!("helm: desired_course: {e}");
                     }

@@ -1,0 +1,380 @@
+//! Across real processes over Zenoh: `frontseat sim` and `frontseat interface` (interprocess
+//! enabled on a free loopback port) run as children; a client in this test process — or the
+//! Python helm in a third process — drives the vehicle through Zenoh only. Every wait has a
+//! deadline; children are killed when the test ends, pass or fail.
+
+use std::io::{BufRead, BufReader};
+use std::path::PathBuf;
+use std::process::{Child, Command, Stdio};
+use std::time::Duration;
+
+use frontseat_actors::groups;
+use frontseat_actors::proto::goby::middleware::frontseat::protobuf::{
+    DesiredCourse, HelmState, HelmStateReport, InterfaceState, InterfaceStatus, NodeStatus,
+};
+use frontseat_gateway::zenoh::{self, Wait};
+use frontseat_gateway::{client_config, key_for, put_message};
+use prost::Message;
+
+const WARP: f64 = 10.0;
+const LONG: Duration = Duration::from_secs(60);
+const BIN: &str = env!("CARGO_BIN_EXE_frontseat");
+
+/// Kills its child on drop, so a failing assertion never leaves a process behind.
+struct Kill(Child, &'static str);
+
+impl Drop for Kill {
+    fn drop(&mut self) {
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+    }
+}
+
+fn free_port() -> u16 {
+    std::net::TcpListener::bind("127.0.0.1:0")
+        .unwrap()
+        .local_addr()
+        .unwrap()
+        .port()
+}
+
+fn scratch(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("frontseat-zenoh-{}-{name}", std::process::id()));
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+async fn wait_for_tcp(port: u16) {
+    let deadline = tokio::time::Instant::now() + Duration::from_secs(20);
+    while tokio::net::TcpStream::connect(("127.0.0.1", port))
+        .await
+        .is_err()
+    {
+        assert!(
+            tokio::time::Instant::now() < deadline,
+            "nothing listens on {port}"
+        );
+        tokio::time::sleep(Duration::from_millis(20)).await;
+    }
+}
+
+/// A running sim + interface pair; `zenoh` is the interface's Zenoh listen port.
+struct Stack {
+    zenoh: u16,
+    dir: PathBuf,
+    _sim: Kill,
+    _interface: Kill,
+}
+
+async fn start_stack(name: &str, platform: &str) -> Stack {
+    let dir = scratch(name);
+    let sim_port = free_port();
+    let sim = Kill(
+        Command::new(BIN)
+            .args(["sim", "--port", &sim_port.to_string()])
+            .stdout(Stdio::null())
+            .stderr(std::fs::File::create(dir.join("sim.log")).unwrap())
+            .spawn()
+            .unwrap(),
+        "sim",
+    );
+    wait_for_tcp(sim_port).await;
+    let zport = free_port();
+    let cfg = format!(
+        r#"name = "{platform}"
+sim_warp_factor = {WARP}
+status_period = 0.5
+helm_running_timeout = 5.0
+[driver]
+name = "basic_simulator"
+[driver.basic_simulator]
+tcp_port = {sim_port}
+[interprocess]
+enabled = true
+listen = ["tcp/127.0.0.1:{zport}"]
+"#
+    );
+    let cfg_path = dir.join("interface.toml");
+    std::fs::write(&cfg_path, cfg).unwrap();
+    let interface = Kill(
+        Command::new(BIN)
+            .arg("interface")
+            .arg("-c")
+            .arg(&cfg_path)
+            .env("RUST_LOG", "info")
+            .stdout(Stdio::null())
+            .stderr(std::fs::File::create(dir.join("interface.log")).unwrap())
+            .spawn()
+            .unwrap(),
+        "interface",
+    );
+    wait_for_tcp(zport).await;
+    Stack {
+        zenoh: zport,
+        dir,
+        _sim: sim,
+        _interface: interface,
+    }
+}
+
+impl Stack {
+    fn log(&self) -> String {
+        std::fs::read_to_string(self.dir.join("interface.log")).unwrap_or_default()
+    }
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_client_in_another_process_commands_the_interface_over_zenoh() {
+    let stack = start_stack("client", "zauv").await;
+    let session = zenoh::open(client_config(&[format!("tcp/127.0.0.1:{}", stack.zenoh)]).unwrap())
+        .await
+        .unwrap();
+    let key = |g: &str| key_for("zauv", g);
+    let (ntx, mut nav) = tokio::sync::mpsc::unbounded_channel();
+    let _n = session
+        .declare_subscriber(key(groups::GOBY_MIDDLEWARE_FRONTSEAT_NODE_STATUS.name()))
+        .callback(move |s| {
+            let enc = s.encoding().to_string();
+            let _ = ntx.send((enc, NodeStatus::decode(&*s.payload().to_bytes()).unwrap()));
+        })
+        .await
+        .unwrap();
+    let (stx, mut status) = tokio::sync::mpsc::unbounded_channel();
+    let _s = session
+        .declare_subscriber(key(groups::GOBY_MIDDLEWARE_FRONTSEAT_STATUS.name()))
+        .callback(move |s| {
+            let _ = stx.send(InterfaceStatus::decode(&*s.payload().to_bytes()).unwrap());
+        })
+        .await
+        .unwrap();
+
+    // The helm: DRIVE every 100 ms, and a course due east.
+    let helm_key = key(groups::GOBY_MIDDLEWARE_FRONTSEAT_HELM_STATE.name());
+    let course_key = key(groups::GOBY_MIDDLEWARE_FRONTSEAT_DESIRED_COURSE.name());
+    let hb_session = session.clone();
+    let heartbeat = tokio::spawn(async move {
+        loop {
+            let drive = HelmStateReport {
+                state: HelmState::HelmDrive as i32,
+            };
+            put_message(
+                &hb_session,
+                &helm_key,
+                groups::GOBY_MIDDLEWARE_FRONTSEAT_HELM_STATE.type_name(),
+                &drive,
+                None,
+            )
+            .unwrap();
+            tokio::time::sleep(Duration::from_millis(100)).await;
+        }
+    });
+
+    // Status arrives over Zenoh and reaches COMMAND.
+    let mut states = Vec::new();
+    let deadline = tokio::time::Instant::now() + LONG;
+    loop {
+        let s = match tokio::time::timeout_at(deadline, status.recv()).await {
+            Ok(Some(s)) => s,
+            _ => panic!(
+                "no COMMAND over Zenoh; states {states:?}\ninterface log:\n{}",
+                stack.log()
+            ),
+        };
+        if states.last() != Some(&s.state()) {
+            states.push(s.state());
+        }
+        if s.state() == InterfaceState::InterfaceCommand {
+            break;
+        }
+    }
+
+    // The vehicle turns to the commanded heading: node_status over Zenoh shows it.
+    let deadline = tokio::time::Instant::now() + LONG;
+    let mut first_heading = None;
+    loop {
+        let dc = DesiredCourse {
+            heading: Some(90.0),
+            speed: Some(1.5),
+            depth: Some(0.0),
+            ..Default::default()
+        };
+        put_message(
+            &session,
+            &course_key,
+            groups::GOBY_MIDDLEWARE_FRONTSEAT_DESIRED_COURSE.type_name(),
+            &dc,
+            Some("00-0af7651916cd43dd8448eb211c80319c-b7ad6b7169203331-01"),
+        )
+        .unwrap();
+        let (enc, ns) = match tokio::time::timeout_at(deadline, nav.recv()).await {
+            Ok(Some(v)) => v,
+            _ => panic!("vehicle did not turn east\ninterface log:\n{}", stack.log()),
+        };
+        assert_eq!(
+            enc,
+            "application/protobuf;goby.middleware.frontseat.protobuf.NodeStatus"
+        );
+        assert_eq!(ns.name.as_deref(), Some("zauv"));
+        first_heading.get_or_insert(ns.pose.heading());
+        if (ns.pose.heading() - 90.0).abs() < 1.0 && ns.speed.over_ground > 1.4 {
+            break;
+        }
+    }
+    assert!(
+        (first_heading.unwrap() - 90.0).abs() > 1.0,
+        "it started elsewhere and turned"
+    );
+    heartbeat.abort();
+    session.close().await.unwrap();
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn garbage_on_an_imported_key_is_counted_and_survived() {
+    let stack = start_stack("garbage", "gauv").await;
+    let session = zenoh::open(client_config(&[format!("tcp/127.0.0.1:{}", stack.zenoh)]).unwrap())
+        .await
+        .unwrap();
+    let course_key = key_for(
+        "gauv",
+        groups::GOBY_MIDDLEWARE_FRONTSEAT_DESIRED_COURSE.name(),
+    );
+    let helm_key = key_for("gauv", groups::GOBY_MIDDLEWARE_FRONTSEAT_HELM_STATE.name());
+    let (stx, mut status) = tokio::sync::mpsc::unbounded_channel();
+    let _s = session
+        .declare_subscriber(key_for(
+            "gauv",
+            groups::GOBY_MIDDLEWARE_FRONTSEAT_STATUS.name(),
+        ))
+        .callback(move |s| {
+            let _ = stx.send(InterfaceStatus::decode(&*s.payload().to_bytes()).unwrap());
+        })
+        .await
+        .unwrap();
+    // Let the routes settle: the first status over Zenoh proves the link works.
+    tokio::time::timeout(LONG, status.recv())
+        .await
+        .expect("a status over Zenoh")
+        .unwrap();
+    for _ in 0..50 {
+        session
+            .put(&course_key, vec![0x0f, 0xff, 0xff])
+            .wait()
+            .unwrap();
+        session.put(&helm_key, vec![0x08]).wait().unwrap(); // truncated varint
+        session
+            .put(&course_key, "not protobuf")
+            .encoding("text/plain")
+            .wait()
+            .unwrap();
+        session.put(&course_key, vec![0u8; 200_000]).wait().unwrap();
+    }
+    // Survived: still answering, and the helm can still bring it to COMMAND.
+    let drive = HelmStateReport {
+        state: HelmState::HelmDrive as i32,
+    };
+    let deadline = tokio::time::Instant::now() + LONG;
+    loop {
+        put_message(
+            &session,
+            &helm_key,
+            groups::GOBY_MIDDLEWARE_FRONTSEAT_HELM_STATE.type_name(),
+            &drive,
+            None,
+        )
+        .unwrap();
+        match tokio::time::timeout_at(deadline, status.recv()).await {
+            Ok(Some(s)) if s.state() == InterfaceState::InterfaceCommand => break,
+            Ok(Some(_)) => {}
+            _ => panic!("interface stopped answering\n{}", stack.log()),
+        }
+    }
+    session.close().await.unwrap();
+    // The refusals are logged naming key and type, with their counts.
+    let log = stack.log();
+    for what in [
+        "undecodable Zenoh payload refused",
+        "Zenoh payload of another type refused",
+        "oversized Zenoh payload refused",
+    ] {
+        assert!(log.contains(what), "no {what:?} in the log:\n{log}");
+    }
+    assert!(log.contains("gauv/goby/middleware/frontseat/desired_course"));
+    assert!(log.contains("goby.middleware.frontseat.protobuf.DesiredCourse"));
+}
+
+fn python_has_zenoh() -> bool {
+    Command::new("python3")
+        .args(["-c", "import zenoh, google.protobuf, grpc_tools"])
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .status()
+        .is_ok_and(|s| s.success())
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn python_helm_completes_its_triangle() {
+    if !python_has_zenoh() {
+        println!(
+            "SKIPPED python_helm_completes_its_triangle: python3 cannot import zenoh/protobuf/grpc_tools \
+             (pip install -r examples/python/requirements.txt)"
+        );
+        return;
+    }
+    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
+    let stack = start_stack("python", "pyauv").await;
+    let gen_dir = stack.dir.join("gen");
+    let st = Command::new("bash")
+        .arg(root.join("examples/python/gen_protos.sh"))
+        .arg(&gen_dir)
+        .status()
+        .unwrap();
+    assert!(st.success(), "gen_protos.sh failed");
+    let mut helm = Kill(
+        Command::new("python3")
+            .arg(root.join("examples/python/helm.py"))
+            .args(["--connect", &format!("tcp/127.0.0.1:{}", stack.zenoh)])
+            .args(["--platform", "pyauv", "--t1", "60", "--t2", "60"])
+            .args(["--warp", &WARP.to_string()])
+            .args(["--timeout", "90"])
+            .env("FRONTSEAT_PY_GEN", &gen_dir)
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap(),
+        "python helm",
+    );
+    let stdout = helm.0.stdout.take().unwrap();
+    let lines = tokio::task::spawn_blocking(move || {
+        BufReader::new(stdout)
+            .lines()
+            .map_while(Result::ok)
+            .collect::<Vec<_>>()
+    });
+    // The helm bounds itself (--timeout 90); this bounds the test if it hangs anyway.
+    let lines = tokio::time::timeout(Duration::from_secs(120), lines)
+        .await
+        .expect("python helm finished")
+        .unwrap();
+    let status = helm.0.wait().unwrap();
+    let mut err = String::new();
+    if let Some(mut e) = helm.0.stderr.take() {
+        let _ = std::io::Read::read_to_string(&mut e, &mut err);
+    }
+    let out = lines.join("\n");
+    assert!(
+        status.success(),
+        "python helm failed: {status}\n{out}\n{err}\ninterface log:\n{}",
+        stack.log()
+    );
+    for leg in ["leg east", "leg south", "leg northwest", "triangle done"] {
+        assert!(out.contains(leg), "no {leg:?} in:\n{out}");
+    }
+    // Equal legs at 1.5 m/s: the northwest leg passes near the start.
+    let closest: f64 = out
+        .lines()
+        .find_map(|l| l.strip_prefix("triangle done: closest approach "))
+        .and_then(|r| r.split(' ').next())
+        .and_then(|v| v.parse().ok())
+        .expect("closest approach printed");
+    assert!(closest < 15.0, "closest approach {closest} m:\n{out}");
+}

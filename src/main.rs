@@ -74,16 +74,27 @@ enum Command {
     Interfaces,
 }
 
-fn init_logging() {
-    use std::io::IsTerminal;
-    let filter = tracing_subscriber::EnvFilter::try_from_default_env()
-        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("info"));
-    // No colours for journald, pipes and files.
-    let _ = tracing_subscriber::fmt()
-        .with_env_filter(filter)
-        .with_ansi(std::io::stderr().is_terminal())
-        .with_writer(std::io::stderr)
-        .try_init();
+/// Console logs always (no colours off a TTY, so journald and files stay clean); OTLP traces when
+/// `[telemetry]` or the OTEL_* environment asks. Returns the handle that flushes on shutdown.
+fn init_telemetry(
+    cfg: &frontseat_config::TelemetryConfig,
+    role: &str,
+    platform: &str,
+) -> frontseat_actors::telemetry::Telemetry {
+    frontseat_actors::telemetry::init(cfg, role, platform)
+}
+
+/// Runs a service with telemetry, and flushes the last spans before exiting.
+fn run_traced(
+    cfg: &frontseat_config::TelemetryConfig,
+    role: &str,
+    platform: &str,
+    fut: impl std::future::Future<Output = ExitCode>,
+) -> ExitCode {
+    let mut telemetry = init_telemetry(cfg, role, platform);
+    let code = run(fut);
+    telemetry.shutdown();
+    code
 }
 
 /// `--example_config`, `--schema`, `--check`: answered here, before any service starts.
@@ -152,8 +163,9 @@ fn main() -> ExitCode {
                 Ok(c) => c,
                 Err(code) => return code,
             };
-            init_logging();
-            run(service::interface(config))
+            let tel = config.telemetry.clone();
+            let name = config.name.clone();
+            run_traced(&tel, "interface", &name, service::interface(config))
         }
         Command::Sim { cfg, port, bind } => {
             if let Some(code) = config_commands::<frontseat_config::SimConfig>(&cfg) {
@@ -169,17 +181,11 @@ fn main() -> ExitCode {
             if let Some(b) = bind {
                 config.bind = b;
             }
-            init_logging();
-            run(service::sim(config))
+            let tel = config.telemetry.clone();
+            run_traced(&tel, "sim", "", service::sim(config))
         }
-        Command::Demo(args) => {
-            init_logging();
-            run(demo::run(args))
-        }
-        Command::Bench(args) => {
-            init_logging();
-            run(bench::run(args))
-        }
+        Command::Demo(args) => run_traced(&Default::default(), "demo", "", demo::run(args)),
+        Command::Bench(args) => run_traced(&Default::default(), "bench", "", bench::run(args)),
     }
 }
 

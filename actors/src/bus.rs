@@ -309,6 +309,22 @@ impl Bus {
         };
         let published_at = Instant::now();
         let mut gone = Vec::new();
+        // Hop spans exist only while traces are exported; otherwise the envelope just passes
+        // on whatever context the publisher was given (e.g. imported from another process).
+        let telemetry = crate::telemetry::enabled();
+        let publish_span = telemetry.then(|| {
+            let s = tracing::trace_span!(
+                target: "frontseat_actors",
+                "bus.publish",
+                group = group.name,
+                message_type = group.type_name,
+            );
+            if tracing::Span::current().is_none() {
+                crate::telemetry::set_parent(&s, meta.trace.as_ref());
+            }
+            s
+        });
+        let _publish_guard = publish_span.as_ref().map(|s| s.enter());
         {
             let subs = slot.subs.read().unwrap_or_else(|p| p.into_inner());
             for sub in subs.iter() {
@@ -320,11 +336,26 @@ impl Bus {
                     report.dropped += 1;
                     continue;
                 }
+                let deliver_span = telemetry.then(|| {
+                    tracing::trace_span!(
+                        target: "frontseat_actors",
+                        "bus.deliver",
+                        group = group.name,
+                        message_type = group.type_name,
+                        subscriber = sub.name.as_str(),
+                    )
+                });
+                let _deliver_guard = deliver_span.as_ref().map(|s| s.enter());
+                let trace = if telemetry {
+                    crate::telemetry::current_trace()
+                } else {
+                    meta.trace.clone()
+                };
                 let env = Envelope {
                     group: group.name,
                     msg: msg.clone(),
                     published_at,
-                    trace: meta.trace.clone(),
+                    trace,
                     origin: meta.origin,
                     _ticket: Ticket(sub.in_flight.clone()),
                 };

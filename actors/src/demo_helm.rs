@@ -203,7 +203,7 @@ pub async fn run(
                     });
                 }
                 DemoHelmInbox::Status(env) => {
-                    status = (*env.msg).clone();
+                    status = *env.msg;
                     live.interface = state_words(status.state()).to_string();
                     live.frontseat = format!("{:?}", status.frontseat_state());
                     live.helm = format!("{:?}", status.helm_state());

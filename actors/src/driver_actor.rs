@@ -27,6 +27,18 @@ pub enum DriverMsg {
     Stop,
 }
 
+impl DriverMsg {
+    fn kind(&self) -> &'static str {
+        match self {
+            DriverMsg::Bus(m) => m.group(),
+            DriverMsg::Io(DriverIoEvent::Line(_)) => "io.line",
+            DriverMsg::Io(_) => "io.event",
+            DriverMsg::Tick => "tick",
+            DriverMsg::Stop => "stop",
+        }
+    }
+}
+
 pub struct DriverArgs {
     pub factory: DriverFactory,
     pub bus: Bus,
@@ -136,6 +148,13 @@ impl Actor for DriverActor {
     ) -> Result<(), ActorProcessingErr> {
         let now = state.clock.now();
         let mut sink = PortSink(&state.ports);
+        let _span = tracing::trace_span!(
+            target: "frontseat_actors",
+            "actor.handle",
+            actor = "DriverActor",
+            message = msg.kind(),
+        )
+        .entered();
         match msg {
             DriverMsg::Bus(inbox) => match inbox {
                 DriverActorInbox::CommandRequest(env) => state

@@ -121,6 +121,19 @@ pub enum FsiMsg {
     Snapshot(RpcReplyPort<Snapshot>),
 }
 
+impl FsiMsg {
+    fn kind(&self) -> &'static str {
+        match self {
+            FsiMsg::Bus(m) => m.group(),
+            FsiMsg::Tick => "tick",
+            FsiMsg::StatusTick => "status_tick",
+            FsiMsg::RestartDriver => "restart_driver",
+            FsiMsg::Shutdown(_) => "shutdown",
+            FsiMsg::Snapshot(_) => "snapshot",
+        }
+    }
+}
+
 #[derive(Clone, Debug, PartialEq)]
 pub struct Snapshot {
     pub status: InterfaceStatus,
@@ -196,7 +209,7 @@ impl FsiState {
     }
 
     fn publish(&self, status: InterfaceStatus) {
-        self.ports.publish_status(status.clone());
+        self.ports.publish_status(status);
         let detail = InterfaceDetail {
             status: Some(status),
             frontseat_providing_data: Some(self.inputs.providing_data),
@@ -516,13 +529,48 @@ impl Actor for FrontSeatInterface {
         msg: FsiMsg,
         st: &mut FsiState,
     ) -> Result<(), ActorProcessingErr> {
+        use tracing::Instrument;
+        let span = tracing::trace_span!(
+            target: "frontseat_actors",
+            "actor.handle",
+            actor = "FrontSeatInterface",
+            message = msg.kind(),
+        );
+        self.handle_inner(myself, msg, st).instrument(span).await
+    }
+
+    async fn handle_supervisor_evt(
+        &self,
+        myself: ActorRef<FsiMsg>,
+        evt: SupervisionEvent,
+        st: &mut FsiState,
+    ) -> Result<(), ActorProcessingErr> {
+        self.supervise(myself, evt, st).await
+    }
+
+    async fn post_stop(
+        &self,
+        myself: ActorRef<FsiMsg>,
+        st: &mut FsiState,
+    ) -> Result<(), ActorProcessingErr> {
+        self.cleanup(myself, st).await
+    }
+}
+
+impl FrontSeatInterface {
+    async fn handle_inner(
+        &self,
+        myself: ActorRef<FsiMsg>,
+        msg: FsiMsg,
+        st: &mut FsiState,
+    ) -> Result<(), ActorProcessingErr> {
         use FrontSeatInterfaceInbox as I;
         match msg {
             FsiMsg::Bus(inbox) => match inbox {
                 I::CommandRequest(env) => st.handle_command(env),
                 I::DesiredCourse(env) => {
                     let req = CommandRequest {
-                        desired_course: Some((*env.msg).clone()),
+                        desired_course: Some(*env.msg),
                         ..Default::default()
                     };
                     let env2 = Envelope::rewrap(env, req);
@@ -555,7 +603,7 @@ impl Actor for FrontSeatInterface {
                     st.evaluate(&myself);
                 }
                 I::DatumUpdate(env) => {
-                    let d = env.msg.datum.clone();
+                    let d = env.msg.datum;
                     match LocalFrame::new(d.lat, d.lon) {
                         Ok(f) => {
                             tracing::info!(lat = d.lat, lon = d.lon, "datum updated");
@@ -626,7 +674,7 @@ impl Actor for FrontSeatInterface {
         Ok(())
     }
 
-    async fn handle_supervisor_evt(
+    async fn supervise(
         &self,
         myself: ActorRef<FsiMsg>,
         evt: SupervisionEvent,
@@ -634,25 +682,25 @@ impl Actor for FrontSeatInterface {
     ) -> Result<(), ActorProcessingErr> {
         // ractor's default would stop us with the child; a driver failure is ours to handle.
         match evt {
-            SupervisionEvent::ActorFailed(cell, err) => {
-                if st.driver.as_ref().map(|d| d.get_id()) == Some(cell.get_id()) {
-                    st.driver_down(&myself, format!("driver panicked or failed: {err}"));
-                }
+            SupervisionEvent::ActorFailed(cell, err)
+                if st.driver.as_ref().map(|d| d.get_id()) == Some(cell.get_id()) =>
+            {
+                st.driver_down(&myself, format!("driver panicked or failed: {err}"));
             }
-            SupervisionEvent::ActorTerminated(cell, _, reason) => {
-                if st.driver.as_ref().map(|d| d.get_id()) == Some(cell.get_id()) {
-                    st.driver_down(
-                        &myself,
-                        format!("driver stopped: {}", reason.unwrap_or_default()),
-                    );
-                }
+            SupervisionEvent::ActorTerminated(cell, _, reason)
+                if st.driver.as_ref().map(|d| d.get_id()) == Some(cell.get_id()) =>
+            {
+                st.driver_down(
+                    &myself,
+                    format!("driver stopped: {}", reason.unwrap_or_default()),
+                );
             }
             _ => {}
         }
         Ok(())
     }
 
-    async fn post_stop(
+    async fn cleanup(
         &self,
         _myself: ActorRef<FsiMsg>,
         st: &mut FsiState,

@@ -107,20 +107,28 @@ async fn run_connection(stream: TcpStream, cfg: &LinkConfig, io: &IoSender) -> S
         match limited.read_until(b'\n', &mut buf).await {
             Ok(0) => break "connection closed by frontseat".to_string(),
             Ok(_) => {
-                if buf.last() != Some(&b'\n') {
-                    if buf.len() as u64 >= limit {
-                        let msg = format!("line over {} bytes", cfg.max_line_bytes);
-                        io.send(DriverIoEvent::BadInput(msg.clone()));
-                        break msg;
-                    }
-                    // EOF in the middle of a line: deliver what we have, then close.
+                // Without a newline: either oversized (close) or EOF mid-line (deliver it).
+                if buf.last() != Some(&b'\n') && buf.len() as u64 >= limit {
+                    let msg = format!("line over {} bytes", cfg.max_line_bytes);
+                    io.send(DriverIoEvent::BadInput(msg.clone()));
+                    break msg;
                 }
                 while matches!(buf.last(), Some(b'\n' | b'\r')) {
                     buf.pop();
                 }
                 match std::str::from_utf8(&buf) {
                     Ok(line) => {
-                        if !io.send(DriverIoEvent::Line(line.to_string())) {
+                        // The root of a NAV line's trace: the actor handling this event continues
+                        // in this span (ractor carries the sender's span with the message).
+                        let span = tracing::trace_span!(
+                            target: "frontseat_actors",
+                            "frontseat.socket_read",
+                            bytes = buf.len(),
+                            line = crate::telemetry::truncate(line),
+                            peer = %cfg.host,
+                        );
+                        let sent = span.in_scope(|| io.send(DriverIoEvent::Line(line.to_string())));
+                        if !sent {
                             break "driver gone".to_string();
                         }
                     }

@@ -88,6 +88,13 @@ impl BasicSimulatorDriver {
             tracing::debug!(line, "not connected to the frontseat; line not sent");
             return;
         };
+        let _span = tracing::trace_span!(
+            target: "frontseat_actors",
+            "frontseat.socket_write",
+            bytes = line.len() + 2,
+            line = crate::telemetry::truncate(line),
+        )
+        .entered();
         match w.write_line(line) {
             Ok(()) => sig.raw_to_frontseat(raw_ascii(line, "")),
             Err(e) => {
@@ -103,6 +110,13 @@ impl BasicSimulatorDriver {
             Some((k, rest)) => (k, rest),
             None => (line, ""),
         };
+        let _span = tracing::trace_span!(
+            target: "frontseat_actors",
+            "frontseat.decode",
+            kind,
+            bytes = line.len(),
+        )
+        .entered();
         match kind {
             "NAV" => match parse_nav(fields) {
                 Ok(ns) => {
@@ -265,7 +279,7 @@ impl Driver for BasicSimulatorDriver {
     ) {
         match command_line(req) {
             Some(line) => {
-                self.last_request = Some(req.clone());
+                self.last_request = Some(*req);
                 self.write(&line, sig);
             }
             None => {

@@ -1,0 +1,222 @@
+//! Traces end to end with the SDK's in-memory exporter: the real simulator over loopback, the
+//! real interface, a helm on the bus. One NAV line must form one trace from the socket read to
+//! the node_status subscriber; one setpoint one trace from the helm to the socket write.
+
+mod common;
+
+use std::collections::HashMap;
+use std::time::Duration;
+
+use common::*;
+use frontseat_actors::bus::Bus;
+use frontseat_actors::groups;
+use frontseat_actors::interface::InterfaceService;
+use frontseat_actors::proto::goby::middleware::frontseat::protobuf::{
+    DesiredCourse, HelmState, InterfaceState,
+};
+use opentelemetry::trace::{SpanId, TraceId};
+use opentelemetry_sdk::trace::{InMemorySpanExporter, SpanData};
+
+fn attr(s: &SpanData, key: &str) -> Option<String> {
+    s.attributes
+        .iter()
+        .find(|kv| kv.key.as_str() == key)
+        .map(|kv| kv.value.as_str().to_string())
+}
+
+/// The chain of span names from `leaf` up to the root of its trace.
+fn ancestry(spans: &[SpanData], leaf: &SpanData) -> Vec<SpanData> {
+    let by_id: HashMap<SpanId, &SpanData> = spans
+        .iter()
+        .filter(|s| s.span_context.trace_id() == leaf.span_context.trace_id())
+        .map(|s| (s.span_context.span_id(), s))
+        .collect();
+    let mut chain = vec![leaf.clone()];
+    let mut cur = leaf;
+    while cur.parent_span_id != SpanId::INVALID {
+        match by_id.get(&cur.parent_span_id) {
+            Some(p) => {
+                chain.push((*p).clone());
+                cur = p;
+            }
+            None => break,
+        }
+    }
+    chain.reverse();
+    chain
+}
+
+fn trace_id_of(traceparent: &str) -> TraceId {
+    let hex = traceparent
+        .split('-')
+        .nth(1)
+        .expect("traceparent has a trace id");
+    TraceId::from_hex(hex).expect("valid trace id")
+}
+
+async fn spans_until(
+    exporter: &InMemorySpanExporter,
+    what: &str,
+    pred: impl Fn(&[SpanData]) -> bool,
+) -> Vec<SpanData> {
+    let deadline = tokio::time::Instant::now() + Duration::from_secs(10);
+    loop {
+        let spans = exporter.get_finished_spans().unwrap_or_default();
+        if pred(&spans) {
+            return spans;
+        }
+        assert!(
+            tokio::time::Instant::now() < deadline,
+            "timed out waiting for {what}; have {} spans",
+            spans.len()
+        );
+        // Spans are exported as they end, on other tasks: poll the exporter briefly.
+        tokio::time::sleep(Duration::from_millis(20)).await;
+    }
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn one_nav_line_and_one_setpoint_each_form_one_trace() {
+    let exporter = InMemorySpanExporter::default();
+    let mut telemetry =
+        frontseat_actors::telemetry::init_with_exporter(exporter.clone(), "frontseat-test");
+    assert!(frontseat_actors::telemetry::enabled());
+
+    let sim = start_sim().await;
+    let bus = Bus::new();
+    let mut status = StatusWatch::new(&bus);
+    let (_s, mut nav) = bus.subscribe_channel(
+        &groups::GOBY_MIDDLEWARE_FRONTSEAT_NODE_STATUS,
+        "test-helm",
+        1000,
+    );
+    let helm = helm_heartbeat(&bus, HelmState::HelmDrive);
+    let service = InterfaceService::start(&config_for(&sim, WARP), &bus)
+        .await
+        .unwrap();
+    status
+        .until_state(InterfaceState::InterfaceCommand, Duration::from_secs(20))
+        .await;
+
+    // --- one NAV line: socket read → driver → interface → node_status subscriber
+    let env = tokio::time::timeout(Duration::from_secs(10), nav.recv())
+        .await
+        .unwrap()
+        .unwrap();
+    let tp = env
+        .trace
+        .clone()
+        .expect("the envelope carries the publisher's trace context");
+    let nav_trace = trace_id_of(&tp.traceparent);
+    let spans = spans_until(&exporter, "the NAV trace", |spans| {
+        spans.iter().any(|s| {
+            s.span_context.trace_id() == nav_trace
+                && s.name == "bus.deliver"
+                && attr(s, "subscriber").as_deref() == Some("test-helm")
+        })
+    })
+    .await;
+    let leaf = spans
+        .iter()
+        .find(|s| {
+            s.span_context.trace_id() == nav_trace
+                && s.name == "bus.deliver"
+                && attr(s, "subscriber").as_deref() == Some("test-helm")
+        })
+        .unwrap();
+    let chain = ancestry(&spans, leaf);
+    let names: Vec<&str> = chain.iter().map(|s| s.name.as_ref()).collect();
+    assert_eq!(
+        names,
+        vec![
+            "frontseat.socket_read",
+            "actor.handle",
+            "frontseat.decode",
+            "bus.publish",
+            "bus.deliver",
+            "actor.handle",
+            "bus.publish",
+            "bus.deliver",
+        ],
+        "NAV span tree"
+    );
+    assert!(
+        attr(&chain[0], "line").unwrap().starts_with("NAV,"),
+        "raw line on the read span"
+    );
+    assert_eq!(attr(&chain[1], "actor").as_deref(), Some("DriverActor"));
+    assert_eq!(
+        attr(&chain[3], "group").as_deref(),
+        Some("frontseat::driver::data_from_frontseat")
+    );
+    assert_eq!(
+        attr(&chain[4], "subscriber").as_deref(),
+        Some("FrontSeatInterface")
+    );
+    assert_eq!(
+        attr(&chain[5], "actor").as_deref(),
+        Some("FrontSeatInterface")
+    );
+    assert_eq!(
+        attr(&chain[6], "group").as_deref(),
+        Some("goby::middleware::frontseat::node_status")
+    );
+    assert_eq!(
+        attr(&chain[6], "message_type").as_deref(),
+        Some("goby.middleware.frontseat.protobuf.NodeStatus")
+    );
+
+    // --- one setpoint: helm → interface → driver → socket write
+    let root = tracing::trace_span!(target: "frontseat", "helm.setpoint");
+    root.in_scope(|| {
+        bus.publish(
+            &groups::GOBY_MIDDLEWARE_FRONTSEAT_DESIRED_COURSE,
+            DesiredCourse {
+                time: 0.0,
+                heading: Some(123.0),
+                speed: Some(1.0),
+                ..Default::default()
+            },
+        );
+    });
+    drop(root);
+    let is_cmd_write = |s: &SpanData| {
+        s.name == "frontseat.socket_write"
+            && attr(s, "line").is_some_and(|l| l.starts_with("CMD,HEADING:123,"))
+    };
+    let spans = spans_until(&exporter, "the setpoint's socket write", |spans| {
+        spans.iter().any(is_cmd_write)
+    })
+    .await;
+    let leaf = spans.iter().find(|s| is_cmd_write(s)).unwrap();
+    let chain = ancestry(&spans, leaf);
+    let names: Vec<&str> = chain.iter().map(|s| s.name.as_ref()).collect();
+    assert_eq!(
+        names,
+        vec![
+            "helm.setpoint",
+            "bus.publish",
+            "bus.deliver",
+            "actor.handle",
+            "bus.publish",
+            "bus.deliver",
+            "actor.handle",
+            "frontseat.socket_write",
+        ],
+        "setpoint span tree"
+    );
+    assert_eq!(
+        attr(&chain[1], "group").as_deref(),
+        Some("goby::middleware::frontseat::desired_course")
+    );
+    assert_eq!(
+        attr(&chain[4], "group").as_deref(),
+        Some("frontseat::driver::command_request")
+    );
+    assert_eq!(attr(&chain[6], "actor").as_deref(), Some("DriverActor"));
+
+    helm.abort();
+    service.shutdown(Duration::from_secs(3)).await;
+    sim.shutdown().await;
+    telemetry.shutdown();
+}

@@ -15,6 +15,7 @@ pub mod interface;
 pub mod link;
 pub mod sim_glue;
 pub mod state_machine;
+pub mod telemetry;
 pub mod translation;
 
 pub use generated::{groups, ports, proto};

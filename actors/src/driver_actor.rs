@@ -25,6 +25,8 @@ pub enum DriverMsg {
     Tick,
     /// Orderly stop: close the frontseat connection, then stop.
     Stop,
+    /// Chaos testing only: panic in the handler, as a buggy driver would.
+    ChaosPanic,
 }
 
 impl DriverMsg {
@@ -35,6 +37,7 @@ impl DriverMsg {
             DriverMsg::Io(_) => "io.event",
             DriverMsg::Tick => "tick",
             DriverMsg::Stop => "stop",
+            DriverMsg::ChaosPanic => "chaos_panic",
         }
     }
 }
@@ -173,6 +176,7 @@ impl Actor for DriverActor {
                 state.driver.stop();
                 myself.stop(Some("orderly shutdown".into()));
             }
+            DriverMsg::ChaosPanic => panic!("chaos: injected driver panic"),
         }
         state.publish_status_if_changed(false);
         Ok(())

@@ -119,6 +119,8 @@ pub enum FsiMsg {
     Shutdown(RpcReplyPort<()>),
     /// A snapshot for tests and the systemd watchdog: answering proves the actor is alive.
     Snapshot(RpcReplyPort<Snapshot>),
+    /// From the ChaosAgent only (never constructed unless `[chaos] enabled = true`).
+    Chaos(crate::proto::frontseat::protobuf::ChaosFault),
 }
 
 impl FsiMsg {
@@ -130,6 +132,7 @@ impl FsiMsg {
             FsiMsg::RestartDriver => "restart_driver",
             FsiMsg::Shutdown(_) => "shutdown",
             FsiMsg::Snapshot(_) => "snapshot",
+            FsiMsg::Chaos(_) => "chaos",
         }
     }
 }
@@ -660,6 +663,21 @@ impl FrontSeatInterface {
                 st.exit.send_replace(Some(ServiceExit::Clean));
                 let _ = reply.send(());
                 myself.stop(Some("orderly shutdown".into()));
+            }
+            FsiMsg::Chaos(fault) => {
+                use crate::proto::frontseat::protobuf::chaos_fault::Fault;
+                match (fault.fault, &st.driver) {
+                    (Some(Fault::DriverPanic(_)), Some(d)) => {
+                        tracing::warn!("chaos: making the driver panic");
+                        let _ = d.cast(DriverMsg::ChaosPanic);
+                    }
+                    (Some(Fault::KillDriver(_)), Some(d)) => {
+                        tracing::warn!("chaos: killing the driver actor");
+                        d.kill();
+                    }
+                    (_, None) => tracing::info!("chaos: no driver running; fault ignored"),
+                    (None, _) => tracing::warn!("chaos: empty fault ignored"),
+                }
             }
             FsiMsg::Snapshot(reply) => {
                 let _ = reply.send(Snapshot {

@@ -4,6 +4,7 @@
 #![forbid(unsafe_code)]
 
 pub mod bus;
+pub mod chaos;
 pub mod clock;
 pub mod demo_helm;
 pub mod driver;

@@ -205,8 +205,16 @@ fn ports_module(model: &Model, bus: &TokenStream) -> TokenStream {
              listed here has no publish method. Holds the bus privately.",
             a.name
         );
+        // An actor that only subscribes still gets a ports struct (so every actor has one), but
+        // its bus field is then never read.
+        let allow_unused = if a.publishes.is_empty() {
+            quote!(#[allow(dead_code)])
+        } else {
+            quote!()
+        };
         let ports_item = quote! {
             #[doc = #ports_doc]
+            #allow_unused
             #[derive(Clone, Debug)]
             pub struct #ports {
                 bus: Bus,

@@ -8,7 +8,10 @@ fn main() {
     let manifest = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
     let proto_dir = manifest.join("../../interface_yaml/proto");
     let main_proto = "goby/middleware/frontseat/frontseat.proto";
-    println!("cargo:rerun-if-changed={}", proto_dir.join("goby").display());
+    println!(
+        "cargo:rerun-if-changed={}",
+        proto_dir.join("goby").display()
+    );
     let mut compiler = match protox::Compiler::new([&proto_dir]) {
         Ok(c) => c,
         Err(e) => panic!("cannot read {}: {e}", proto_dir.display()),

@@ -112,8 +112,10 @@ impl Conn {
             }
             Err(e) => {
                 drop(s);
-                self.host
-                    .log(LogLevel::Warn, &format!("write to the frontseat failed: {e}"));
+                self.host.log(
+                    LogLevel::Warn,
+                    &format!("write to the frontseat failed: {e}"),
+                );
             }
         }
     }
@@ -147,7 +149,7 @@ impl Conn {
             }
             "CMD" => {
                 let ok = field(fields, "RESULT") == Some("OK");
-                let req = self.lock().last_request.clone();
+                let req = self.lock().last_request;
                 if let Some(req) = req
                     && req.response_requested()
                 {
@@ -160,9 +162,10 @@ impl Conn {
                     });
                 }
             }
-            _ => self
-                .host
-                .log(LogLevel::Info, &format!("unknown line from the frontseat: {line}")),
+            _ => self.host.log(
+                LogLevel::Info,
+                &format!("unknown line from the frontseat: {line}"),
+            ),
         }
     }
 }
@@ -227,14 +230,18 @@ fn run_link(conn: Arc<Conn>, settings: Arc<Settings>, stop: mpsc::Receiver<()>) 
             .and_then(|mut a| a.next())
             .ok_or_else(|| format!("cannot resolve {}", settings.addr))
             .and_then(|a| {
-                TcpStream::connect_timeout(&a, Duration::from_millis(500)).map_err(|e| e.to_string())
+                TcpStream::connect_timeout(&a, Duration::from_millis(500))
+                    .map_err(|e| e.to_string())
             });
         match stream.and_then(|s| s.try_clone().map(|w| (s, w)).map_err(|e| e.to_string())) {
             Ok((reader, writer)) => {
                 backoff = settings.backoff_initial;
                 conn.host.log(
                     LogLevel::Info,
-                    &format!("connected to the frontseat at {}; sending START", settings.addr),
+                    &format!(
+                        "connected to the frontseat at {}; sending START",
+                        settings.addr
+                    ),
                 );
                 let mut stopping = false;
                 conn.set_state(|s| {
@@ -274,10 +281,14 @@ fn read_lines(conn: &Conn, stream: TcpStream) {
     let mut buf = Vec::new();
     loop {
         buf.clear();
-        match (&mut r).take(MAX_LINE as u64 + 1).read_until(b'\n', &mut buf) {
+        match (&mut r)
+            .take(MAX_LINE as u64 + 1)
+            .read_until(b'\n', &mut buf)
+        {
             Ok(0) | Err(_) => return,
             Ok(_) if buf.len() > MAX_LINE => {
-                conn.host.log(LogLevel::Warn, "line over 4096 bytes dropped");
+                conn.host
+                    .log(LogLevel::Warn, "line over 4096 bytes dropped");
             }
             Ok(_) => match std::str::from_utf8(&buf) {
                 Ok(s) => {
@@ -371,7 +382,9 @@ impl FrontseatDriver for BasicSimPlugin {
             && now.saturating_sub(t) > self.settings.nav_timeout
         {
             self.last_nav = None;
-            self.conn.host.log(LogLevel::Warn, "no NAV: frontseat not providing data");
+            self.conn
+                .host
+                .log(LogLevel::Warn, "no NAV: frontseat not providing data");
             self.conn.set_state(|s| s.providing = false);
         }
         Ok(())

@@ -109,7 +109,12 @@ pub fn run(args: &HostArgs) -> ExitCode {
 }
 
 /// The protocol loop, on any reader (tests use it without a process).
-pub fn serve(library: &Path, check: bool, frames_in: &mut impl std::io::Read, send: Send) -> ExitCode {
+pub fn serve(
+    library: &Path,
+    check: bool,
+    frames_in: &mut impl std::io::Read,
+    send: Send,
+) -> ExitCode {
     let plugin = match Plugin::open(library) {
         Ok(p) => p,
         Err(e) => return fail(&send, &e),

@@ -52,7 +52,14 @@ impl Emit for CHost {
     fn log(&self, level: LogLevel, msg: &str) {
         if let Some(f) = self.table.log {
             // SAFETY: the header's contract; `msg` is valid UTF-8 for the call.
-            unsafe { f(self.table.ctx, level.to_abi(), msg.as_ptr().cast(), msg.len()) }
+            unsafe {
+                f(
+                    self.table.ctx,
+                    level.to_abi(),
+                    msg.as_ptr().cast(),
+                    msg.len(),
+                )
+            }
         }
     }
 }
@@ -150,12 +157,18 @@ pub unsafe fn load<D: FrontseatDriver>(
 }
 
 /// Runs `f` on the driver, mapping failures and panics onto the ABI's return codes.
-fn guarded<D>(slot: &mut Slot<D>, what: &str, f: impl FnOnce(&mut D) -> Result<(), DriverFailure>) -> i32 {
+fn guarded<D>(
+    slot: &mut Slot<D>,
+    what: &str,
+    f: impl FnOnce(&mut D) -> Result<(), DriverFailure>,
+) -> i32 {
     match catch_unwind(AssertUnwindSafe(|| f(&mut slot.driver))) {
         Ok(Ok(())) => abi::OK,
         Ok(Err(DriverFailure(reason))) => {
-            slot.host
-                .log(LogLevel::Error, &format!("driver failed in {what}: {reason}"));
+            slot.host.log(
+                LogLevel::Error,
+                &format!("driver failed in {what}: {reason}"),
+            );
             abi::ERR_FATAL
         }
         Err(p) => {
@@ -273,9 +286,7 @@ macro_rules! export_driver {
             error: *mut ::std::ffi::c_char,
             error_cap: usize,
         ) -> *mut ::std::ffi::c_void {
-            unsafe {
-                $crate::export::load::<$driver>(host, config, config_len, error, error_cap)
-            }
+            unsafe { $crate::export::load::<$driver>(host, config, config_len, error, error_cap) }
         }
 
         /// # Safety

@@ -304,10 +304,16 @@ mod tests {
             path: "/x/lib.so".into(),
             symbol: "frontseat_driver_loop".into(),
         };
-        assert_eq!(LoadFailed::from_error(&e).to_error().to_string(), e.to_string());
+        assert_eq!(
+            LoadFailed::from_error(&e).to_error().to_string(),
+            e.to_string()
+        );
         let e = Error::ConfigRejected {
             reason: "no port".into(),
         };
-        assert_eq!(LoadFailed::from_error(&e).to_error().to_string(), e.to_string());
+        assert_eq!(
+            LoadFailed::from_error(&e).to_error().to_string(),
+            e.to_string()
+        );
     }
 }

@@ -28,7 +28,10 @@ pub enum HostEvent {
     Loaded,
     LoadFailed(Error),
     Signal(Signal),
-    OpFailed { op: String, code: i32 },
+    OpFailed {
+        op: String,
+        code: i32,
+    },
     TickDone(u64),
     /// Bytes on the pipe that were not a frame; the host is killed after this.
     ProtocolError(String),
@@ -41,7 +44,9 @@ fn event(e: Event) -> HostEvent {
     match e {
         Event::Loaded(_) => HostEvent::Loaded,
         Event::LoadFailed(f) => HostEvent::LoadFailed(f.to_error()),
-        Event::CommandResponse(b) => HostEvent::Signal(Signal::Bytes(SignalKind::CommandResponse, b)),
+        Event::CommandResponse(b) => {
+            HostEvent::Signal(Signal::Bytes(SignalKind::CommandResponse, b))
+        }
         Event::DataFromFrontseat(b) => {
             HostEvent::Signal(Signal::Bytes(SignalKind::DataFromFrontseat, b))
         }
@@ -192,8 +197,18 @@ pub fn probe(host_exe: &Path, library: &Path, within: Duration) -> Result<(), Er
             buf
         })
     };
-    let out = drain(child.stdout.take().map(|s| Box::new(s) as Box<dyn Read + Send>));
-    let err = drain(child.stderr.take().map(|s| Box::new(s) as Box<dyn Read + Send>));
+    let out = drain(
+        child
+            .stdout
+            .take()
+            .map(|s| Box::new(s) as Box<dyn Read + Send>),
+    );
+    let err = drain(
+        child
+            .stderr
+            .take()
+            .map(|s| Box::new(s) as Box<dyn Read + Send>),
+    );
     let deadline = Instant::now() + within;
     let status = loop {
         if let Some(s) = child.try_wait()? {

@@ -69,12 +69,11 @@ impl Plugin {
         }
         // SAFETY: this runs the library's initialisers; see the module comment for why that is
         // acceptable here.
-        let lib = unsafe { libloading::Library::new(path) }.map_err(|e| {
-            Error::LibraryNotLoadable {
+        let lib =
+            unsafe { libloading::Library::new(path) }.map_err(|e| Error::LibraryNotLoadable {
                 path: path.to_path_buf(),
                 reason: e.to_string(),
-            }
-        })?;
+            })?;
         let version: abi::AbiVersionFn = symbol(&lib, path, symbols::ABI_VERSION)?;
         // SAFETY: frontseat_driver_abi_version takes nothing and returns a u32 in every version.
         let found = unsafe { version() };

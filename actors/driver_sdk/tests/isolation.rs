@@ -34,7 +34,14 @@ fn check_of_an_abi_mismatch_exits_5_with_the_documented_error() {
         .err()
         .unwrap();
     assert!(
-        matches!(e, Error::AbiMismatch { found: 99, expected: abi::ABI_VERSION, .. }),
+        matches!(
+            e,
+            Error::AbiMismatch {
+                found: 99,
+                expected: abi::ABI_VERSION,
+                ..
+            }
+        ),
         "{e}"
     );
 }

@@ -7,14 +7,16 @@ use std::sync::{Arc, Mutex};
 
 use common::*;
 use frontseat_driver_sdk::driver::SignalKind;
-use frontseat_driver_sdk::loader::{Plugin, Signal};
+use frontseat_driver_sdk::loader::{Plugin, Signal, SignalSink};
 use frontseat_driver_sdk::proto::goby::middleware::frontseat::protobuf::DesiredCourse;
 use frontseat_driver_sdk::{
     CommandRequest, CommandResponse, Error, FrontSeatState, InterfaceData, Raw, abi,
 };
 use prost::Message;
 
-fn collector() -> (Arc<Mutex<Vec<Signal>>>, Arc<dyn Fn(Signal) + Send + Sync>) {
+type Collected = Arc<Mutex<Vec<Signal>>>;
+
+fn collector() -> (Collected, SignalSink) {
     let got = Arc::new(Mutex::new(Vec::new()));
     let g = got.clone();
     (got, Arc::new(move |s| g.lock().unwrap().push(s)))
@@ -69,8 +71,14 @@ fn c_driver_speaks_the_abi_both_ways() {
     assert!(d.frontseat_providing_data());
     let data = bytes_of(&got, SignalKind::DataFromFrontseat);
     assert_eq!(data.len(), 2);
-    let a = InterfaceData::decode(&data[0][..]).unwrap().node_status.unwrap();
-    let b = InterfaceData::decode(&data[1][..]).unwrap().node_status.unwrap();
+    let a = InterfaceData::decode(&data[0][..])
+        .unwrap()
+        .node_status
+        .unwrap();
+    let b = InterfaceData::decode(&data[1][..])
+        .unwrap()
+        .node_status
+        .unwrap();
     assert_eq!(b.time, 2.0);
     assert_eq!(b.pose.heading, Some(90.0));
     assert_eq!(b.speed.over_ground, 2.0);
@@ -78,10 +86,12 @@ fn c_driver_speaks_the_abi_both_ways() {
     assert!((b.global_fix.lat - a.global_fix.lat).abs() < 1e-9);
 
     assert_eq!(d.send_command(&[0xff, 0xff]), abi::ERR_BAD_MESSAGE);
-    assert!(got.lock().unwrap().iter().any(|s| matches!(
-        s,
-        Signal::State { state: 2, .. }
-    )));
+    assert!(
+        got.lock()
+            .unwrap()
+            .iter()
+            .any(|s| matches!(s, Signal::State { state: 2, .. }))
+    );
     assert!(got.lock().unwrap().iter().any(|s| matches!(
         s,
         Signal::Log { message, .. } if message.contains("C example driver loaded")
@@ -112,7 +122,14 @@ fn abi_mismatch_is_refused_before_any_other_symbol() {
     let lib = build_c_plugin("example_abi99", &["-DFSD_EXAMPLE_ABI_VERSION=99"]);
     let e = Plugin::open(&lib).err().unwrap();
     assert!(
-        matches!(e, Error::AbiMismatch { found: 99, expected: abi::ABI_VERSION, .. }),
+        matches!(
+            e,
+            Error::AbiMismatch {
+                found: 99,
+                expected: abi::ABI_VERSION,
+                ..
+            }
+        ),
         "{e}"
     );
     let msg = e.to_string();
@@ -123,7 +140,10 @@ fn abi_mismatch_is_refused_before_any_other_symbol() {
 
 #[test]
 fn missing_symbol_file_and_garbage_library_are_told_apart() {
-    let lib = build_c_plugin("example_noloop", &["-DFSD_EXAMPLE_OMIT_LOOP", "-Wno-unused-function"]);
+    let lib = build_c_plugin(
+        "example_noloop",
+        &["-DFSD_EXAMPLE_OMIT_LOOP", "-Wno-unused-function"],
+    );
     let e = Plugin::open(&lib).err().unwrap();
     assert!(
         matches!(&e, Error::SymbolMissing { symbol, .. } if symbol == "frontseat_driver_loop"),

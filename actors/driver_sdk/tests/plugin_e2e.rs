@@ -29,16 +29,22 @@ async fn start_sim() -> SimHandle {
 }
 
 fn config(port: u16) -> InterfaceConfig {
-    let mut cfg = InterfaceConfig::default();
-    cfg.name = "plugin-auv".into();
-    cfg.sim_warp_factor = 10.0;
-    cfg.status_period = 0.0;
-    cfg.driver.basic_simulator.tcp_port = port;
-    cfg.driver.basic_simulator.start.lat = cfg.origin.lat;
-    cfg.driver.basic_simulator.start.lon = cfg.origin.lon;
-    cfg.supervision.restart_initial_delay_ms = 20;
-    cfg.supervision.restart_max_delay_ms = 200;
-    cfg
+    let d = InterfaceConfig::default();
+    let mut driver = d.driver.clone();
+    driver.basic_simulator.tcp_port = port;
+    driver.basic_simulator.start.lat = d.origin.lat;
+    driver.basic_simulator.start.lon = d.origin.lon;
+    let mut supervision = d.supervision.clone();
+    supervision.restart_initial_delay_ms = 20;
+    supervision.restart_max_delay_ms = 200;
+    InterfaceConfig {
+        name: "plugin-auv".into(),
+        sim_warp_factor: 10.0,
+        status_period: 0.0,
+        driver,
+        supervision,
+        ..d
+    }
 }
 
 fn helm_drive(bus: &Bus) -> tokio::task::JoinHandle<()> {
@@ -70,8 +76,11 @@ async fn basic_sim_plugin_reaches_command(isolation: &str) {
     let sim = start_sim().await;
     let bus = Bus::new();
     let mut status = StatusWatch::new(&bus);
-    let (_s, mut nav) =
-        bus.subscribe_channel(&groups::GOBY_MIDDLEWARE_FRONTSEAT_NODE_STATUS, "test", 100_000);
+    let (_s, mut nav) = bus.subscribe_channel(
+        &groups::GOBY_MIDDLEWARE_FRONTSEAT_NODE_STATUS,
+        "test",
+        100_000,
+    );
     let cfg = config(sim.local_addr().port());
     let env = env_with(vec![
         ("FRONTSEAT_DRIVER_LIBRARY", path_str(&rust_plugin())),
@@ -97,7 +106,10 @@ async fn basic_sim_plugin_reaches_command(isolation: &str) {
     // Steer east through the plugin; the simulator's NAV (back through the plugin) turns there.
     let deadline = tokio::time::Instant::now() + LONG;
     loop {
-        bus.publish(&groups::GOBY_MIDDLEWARE_FRONTSEAT_DESIRED_COURSE, course(90.0));
+        bus.publish(
+            &groups::GOBY_MIDDLEWARE_FRONTSEAT_DESIRED_COURSE,
+            course(90.0),
+        );
         let env = tokio::time::timeout_at(deadline, nav.recv())
             .await
             .expect("NAV keeps coming while steering")
@@ -190,7 +202,10 @@ fn abi_mismatch_is_refused_before_the_interface_starts() {
     ]);
     let e = factory_with_env(&cfg, &env).err().unwrap();
     assert!(
-        matches!(e, DriverSelectError::Plugin(Error::AbiMismatch { found: 99, .. })),
+        matches!(
+            e,
+            DriverSelectError::Plugin(Error::AbiMismatch { found: 99, .. })
+        ),
         "{e}"
     );
     assert!(e.to_string().contains("ABI version mismatch"), "{e}");

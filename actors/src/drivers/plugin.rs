@@ -23,9 +23,9 @@ use frontseat_driver_sdk::isolate::{self, HostEvent, HostProcess, SendError};
 use frontseat_driver_sdk::loader::{Instance, Plugin, Signal};
 use prost::Message;
 
-pub use frontseat_driver_sdk::Error as PluginError;
 /// The SDK, for the `frontseat driver-host` subcommand (its child side lives there).
 pub use frontseat_driver_sdk as sdk;
+pub use frontseat_driver_sdk::Error as PluginError;
 
 use crate::driver::{Driver, DriverContext, DriverIoEvent, IoSender, SignalSink};
 use crate::proto::goby::middleware::frontseat::protobuf::{

@@ -33,13 +33,15 @@ pub fn build_c_plugin(name: &str, flags: &[&str]) -> PathBuf {
         .try_get_compiler()
         .expect("a C compiler");
     let mut cmd = compiler.to_command();
-    cmd.args(["-shared", "-fPIC", "-std=c11", "-Wall", "-Wextra", "-Werror"])
-        .arg("-I")
-        .arg(manifest().join("include"))
-        .arg(manifest().join("c_example/example_driver.c"))
-        .arg("-o")
-        .arg(&out)
-        .arg("-lm");
+    cmd.args([
+        "-shared", "-fPIC", "-std=c11", "-Wall", "-Wextra", "-Werror",
+    ])
+    .arg("-I")
+    .arg(manifest().join("include"))
+    .arg(manifest().join("c_example/example_driver.c"))
+    .arg("-o")
+    .arg(&out)
+    .arg("-lm");
     cmd.args(flags);
     let status = cmd.status().expect("run the C compiler");
     assert!(status.success(), "compiling the C example failed: {cmd:?}");
@@ -58,7 +60,14 @@ fn example(file: &str) -> PathBuf {
         // `cargo test --test x` does not build examples; build them once here.
         let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
         let status = std::process::Command::new(cargo)
-            .args(["build", "-p", "frontseat-driver-sdk", "--features", "host", "--examples"])
+            .args([
+                "build",
+                "-p",
+                "frontseat-driver-sdk",
+                "--features",
+                "host",
+                "--examples",
+            ])
             .current_dir(manifest())
             .status()
             .unwrap();
@@ -111,8 +120,8 @@ impl StatusWatch {
         loop {
             match tokio::time::timeout_at(deadline, self.rx.recv()).await {
                 Ok(Some(env)) => {
-                    let s = (*env.msg).clone();
-                    self.seen.push(s.clone());
+                    let s = *env.msg;
+                    self.seen.push(s);
                     if pred(&s) {
                         return s;
                     }
@@ -126,7 +135,11 @@ impl StatusWatch {
         }
     }
 
-    pub async fn until_state(&mut self, state: InterfaceState, within: Duration) -> InterfaceStatus {
+    pub async fn until_state(
+        &mut self,
+        state: InterfaceState,
+        within: Duration,
+    ) -> InterfaceStatus {
         self.until(&format!("{state:?}"), within, |s| s.state() == state)
             .await
     }

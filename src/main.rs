@@ -4,7 +4,10 @@
 
 mod bench;
 mod demo;
+mod driver_host;
+mod gateway_cmd;
 mod service;
+mod systemd;
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -62,6 +65,15 @@ enum Command {
         #[arg(long, value_name = "ADDR")]
         bind: Option<String>,
     },
+    /// The MOOS bridge alone (Goby3's goby_moos_gateway): FrontSeatTranslation between a MOOSDB
+    /// (pHelmIvP) and the interface, reached over Zenoh.
+    MoosGateway {
+        #[command(flatten)]
+        cfg: ConfigArgs,
+    },
+    /// Internal: the child process a driver plugin runs in (started by the interface).
+    #[command(hide = true)]
+    DriverHost(driver_host::DriverHostArgs),
     /// Simulator + interface + example helm in one process: drives the homework path east,
     /// south, then northwest back towards the start, prints a live status line, writes the
     /// track as CSV and SVG, and exits 0.
@@ -184,6 +196,25 @@ fn main() -> ExitCode {
             let tel = config.telemetry.clone();
             run_traced(&tel, "sim", "", service::sim(config))
         }
+        Command::MoosGateway { cfg } => {
+            if let Some(code) = config_commands::<frontseat_config::GatewayConfig>(&cfg) {
+                return code;
+            }
+            let config = match load_config::<frontseat_config::GatewayConfig>(&cfg, false) {
+                Ok(c) => c,
+                Err(code) => return code,
+            };
+            let tel = config.telemetry.clone();
+            let name = config.name.clone();
+            run_traced(
+                &tel,
+                "moos-gateway",
+                &name,
+                gateway_cmd::moos_gateway(config),
+            )
+        }
+        // No logging set-up: stdout carries the frames to the interface.
+        Command::DriverHost(args) => driver_host::run(args),
         Command::Demo(args) => run_traced(&Default::default(), "demo", "", demo::run(args)),
         Command::Bench(args) => run_traced(&Default::default(), "bench", "", bench::run(args)),
     }

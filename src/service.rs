@@ -3,12 +3,15 @@
 
 use std::net::SocketAddr;
 use std::process::ExitCode;
+use std::sync::Arc;
 use std::time::Duration;
 
 use frontseat_actors::bus::Bus;
 use frontseat_actors::interface::{InterfaceService, ServiceExit};
 use frontseat_config::{FaultKind, InterfaceConfig, SimConfig};
 use frontseat_sim::{CtrlState, Fault, ScheduledFault, SimOptions, SimServer};
+
+use crate::systemd::{self, Notifier};
 
 /// How long an orderly shutdown may take before we give up waiting.
 pub const SHUTDOWN_BOUND: Duration = Duration::from_secs(3);
@@ -48,7 +51,17 @@ pub fn exit_code(exit: &ServiceExit) -> ExitCode {
 }
 
 pub async fn interface(config: InterfaceConfig) -> ExitCode {
+    let notifier = Arc::new(Notifier::from_env());
     let bus = Bus::new();
+    // The gateway first, so the interface's first statuses are already exported.
+    let gateway = match crate::gateway_cmd::start_for_interface(&config, &bus).await {
+        Ok(g) => g,
+        Err(e) => {
+            tracing::error!(error = %e, "cannot start the Zenoh gateway");
+            return ExitCode::from(2);
+        }
+    };
+    let reporter = systemd::spawn_status_reporter(notifier.clone(), &bus);
     let mut service = match InterfaceService::start(&config, &bus).await {
         Ok(s) => s,
         Err(e) => {
@@ -56,15 +69,47 @@ pub async fn interface(config: InterfaceConfig) -> ExitCode {
             return ExitCode::from(2);
         }
     };
+    let translation = match &config.moos {
+        Some(moos) => match frontseat_actors::translation::spawn(moos, &config.name, &bus).await {
+            Ok(t) => Some(t),
+            Err(e) => {
+                tracing::error!(error = %e, "cannot start the MOOS bridge (FrontSeatTranslation)");
+                service.shutdown(SHUTDOWN_BOUND).await;
+                return ExitCode::from(2);
+            }
+        },
+        None => None,
+    };
+    // READY only now: the driver actor has started and the bus is up.
+    notifier.ready();
+    let watchdog = notifier.watchdog_period().and_then(|period| {
+        systemd::spawn_watchdog(notifier.clone(), systemd::interface_probe(&service, period))
+    });
     tracing::info!(
         driver = %config.driver.name,
         frontseat = %format!("{}:{}", config.driver.basic_simulator.tcp_address, config.driver.basic_simulator.tcp_port),
+        moos = config.moos.is_some(),
+        interprocess = config.interprocess.enabled,
         "frontseat interface running"
     );
     let exit = tokio::select! {
         e = service.wait() => e,
-        _ = shutdown_signal() => service.shutdown(SHUTDOWN_BOUND).await,
+        _ = shutdown_signal() => {
+            notifier.stopping();
+            service.shutdown(SHUTDOWN_BOUND).await
+        }
     };
+    notifier.stopping();
+    if let Some(w) = watchdog {
+        w.abort();
+    }
+    if let Some(t) = translation {
+        let _ = tokio::time::timeout(SHUTDOWN_BOUND, t.shutdown()).await;
+    }
+    if let Some(g) = gateway {
+        let _ = tokio::time::timeout(SHUTDOWN_BOUND, g.close()).await;
+    }
+    reporter.abort();
     exit_code(&exit)
 }
 
@@ -117,7 +162,23 @@ pub async fn sim(config: SimConfig) -> ExitCode {
         }
     };
     tracing::info!(addr = %sim.local_addr(), "basic frontseat simulator listening");
+    let notifier = Arc::new(Notifier::from_env());
+    notifier.ready();
+    notifier.status(&format!("listening on {}", sim.local_addr()));
+    let probe_sim = sim.clone();
+    let watchdog = systemd::spawn_watchdog(notifier.clone(), move || {
+        // The simulator's tasks share the runtime with this probe: answering proves it runs.
+        let s = probe_sim.clone();
+        async move {
+            let _ = s.stats();
+            true
+        }
+    });
     shutdown_signal().await;
+    notifier.stopping();
+    if let Some(w) = watchdog {
+        w.abort();
+    }
     sim.shutdown().await;
     tracing::info!(stats = ?sim.stats(), "simulator stopped");
     ExitCode::SUCCESS

@@ -42,13 +42,21 @@ impl Notifier {
     /// WATCHDOG_PID, if given, is this process).
     pub fn from_env() -> Self {
         let enabled = std::env::var_os("NOTIFY_SOCKET").is_some_and(|s| !s.is_empty());
+        let watchdog = if enabled {
+            sd_notify::watchdog_enabled().filter(|d| !d.is_zero())
+        } else {
+            None
+        };
+        if enabled {
+            tracing::info!(
+                watchdog_usec = ?watchdog,
+                "reporting to systemd (READY, STATUS, STOPPING{})",
+                if watchdog.is_some() { ", WATCHDOG" } else { "" }
+            );
+        }
         Self {
             sink: if enabled { Sink::Systemd } else { Sink::Off },
-            watchdog: if enabled {
-                sd_notify::watchdog_enabled().filter(|d| !d.is_zero())
-            } else {
-                None
-            },
+            watchdog,
             failing: AtomicBool::new(false),
         }
     }
@@ -71,6 +79,7 @@ impl Notifier {
     }
 
     /// Whether messages go anywhere.
+    #[allow(dead_code)] // used by tests/deploy.rs
     pub fn enabled(&self) -> bool {
         !matches!(self.sink, Sink::Off)
     }

@@ -309,47 +309,8 @@ impl FsiState {
             )
     }
 
-    /// Goby3's compute_missing: name, type, time, and the local or global fix from the other.
     fn compute_missing(&self, ns: &mut NodeStatus) {
-        if ns.name.is_none() && !self.s.name.is_empty() {
-            ns.name = Some(self.s.name.clone());
-        }
-        if ns.r#type.is_none() {
-            ns.set_type(self.s.vehicle_type);
-        }
-        if ns.time == 0.0 {
-            ns.time = SimClock::unix_now();
-        }
-        let Some(frame) = &self.frame else { return };
-        // global_fix is `required`, so prost always holds one: a zero fix with a local fix
-        // present is taken as "global missing", as a C++ message would report has_global_fix().
-        let g = &ns.global_fix;
-        let global_missing = g.lat == 0.0 && g.lon == 0.0 && ns.local_fix.is_some();
-        if global_missing {
-            let Some(l) = &ns.local_fix else { return };
-            match frame.to_global(l.x, l.y) {
-                Ok((lat, lon)) => {
-                    ns.global_fix = LatLonPoint {
-                        lat,
-                        lon,
-                        depth: Some(-l.z()),
-                        altitude: None,
-                    }
-                }
-                Err(e) => tracing::warn!(error = %e, "cannot compute global_fix"),
-            }
-        } else if ns.local_fix.is_none() {
-            match frame.to_local(g.lat, g.lon) {
-                Ok((x, y)) => {
-                    ns.local_fix = Some(CartesianCoordinate {
-                        x,
-                        y,
-                        z: Some(-g.depth()),
-                    })
-                }
-                Err(e) => tracing::warn!(error = %e, "cannot compute local_fix"),
-            }
-        }
+        compute_missing(ns, &self.s.name, self.s.vehicle_type, self.frame.as_ref());
     }
 
     fn handle_data_from_frontseat(&mut self, env: Envelope<InterfaceData>) {
@@ -453,6 +414,55 @@ impl FsiState {
         self.restart_times.push_back(now);
         tracing::warn!(?delay, restart = self.restarts + 1, "restarting driver");
         myself.send_after(delay, || FsiMsg::RestartDriver);
+    }
+}
+
+/// Goby3's compute_missing: name, type and time when absent, and the local fix (x east, y north,
+/// z = −depth) from the global one around the datum — or the global from the local.
+pub fn compute_missing(
+    ns: &mut NodeStatus,
+    name: &str,
+    vehicle_type: VehicleType,
+    frame: Option<&LocalFrame>,
+) {
+    if ns.name.is_none() && !name.is_empty() {
+        ns.name = Some(name.to_string());
+    }
+    if ns.r#type.is_none() {
+        ns.set_type(vehicle_type);
+    }
+    if ns.time == 0.0 {
+        ns.time = SimClock::unix_now();
+    }
+    let Some(frame) = frame else { return };
+    // global_fix is `required`, so prost always holds one: a zero fix with a local fix present
+    // is taken as "global missing", as a C++ message would report !has_global_fix().
+    let g = ns.global_fix;
+    let global_missing = g.lat == 0.0 && g.lon == 0.0 && ns.local_fix.is_some();
+    if global_missing {
+        let Some(l) = ns.local_fix else { return };
+        match frame.to_global(l.x, l.y) {
+            Ok((lat, lon)) => {
+                ns.global_fix = LatLonPoint {
+                    lat,
+                    lon,
+                    depth: Some(-l.z()),
+                    altitude: None,
+                }
+            }
+            Err(e) => tracing::warn!(error = %e, "cannot compute global_fix"),
+        }
+    } else if ns.local_fix.is_none() {
+        match frame.to_local(g.lat, g.lon) {
+            Ok((x, y)) => {
+                ns.local_fix = Some(CartesianCoordinate {
+                    x,
+                    y,
+                    z: Some(-g.depth()),
+                })
+            }
+            Err(e) => tracing::warn!(error = %e, "cannot compute local_fix"),
+        }
     }
 }
 
@@ -830,5 +840,83 @@ impl InterfaceService {
         let _ = self.actor.call(FsiMsg::Shutdown, Some(within)).await;
         let _ = tokio::time::timeout(within, &mut self.join).await;
         self.exit.borrow().clone().unwrap_or(ServiceExit::Clean)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn frame() -> LocalFrame {
+        LocalFrame::new(42.358456, -71.087589).unwrap()
+    }
+
+    #[test]
+    fn fills_name_type_time_and_local_fix_from_global() {
+        let f = frame();
+        let (lat, lon) = f.to_global(100.0, -50.0).unwrap();
+        let mut ns = NodeStatus {
+            global_fix: LatLonPoint {
+                lat,
+                lon,
+                depth: Some(12.5),
+                altitude: None,
+            },
+            ..Default::default()
+        };
+        compute_missing(&mut ns, "auv1", VehicleType::Auv, Some(&f));
+        assert_eq!(ns.name.as_deref(), Some("auv1"));
+        assert_eq!(ns.r#type(), VehicleType::Auv);
+        assert!(ns.time > 1.0e9, "unix time filled");
+        let l = ns.local_fix.unwrap();
+        assert!(
+            (l.x - 100.0).abs() < 1e-3 && (l.y + 50.0).abs() < 1e-3,
+            "{l:?}"
+        );
+        assert_eq!(l.z(), -12.5);
+    }
+
+    #[test]
+    fn fills_global_fix_from_local_and_keeps_what_is_given() {
+        let f = frame();
+        let mut ns = NodeStatus {
+            name: Some("given".into()),
+            local_fix: Some(CartesianCoordinate {
+                x: 0.0,
+                y: 1000.0,
+                z: Some(-3.0),
+            }),
+            ..Default::default()
+        };
+        ns.set_type(VehicleType::Glider);
+        compute_missing(&mut ns, "auv1", VehicleType::Auv, Some(&f));
+        assert_eq!(ns.name.as_deref(), Some("given"));
+        assert_eq!(ns.r#type(), VehicleType::Glider);
+        let g = ns.global_fix;
+        assert!((g.lat - 42.367459).abs() < 1e-4, "{g:?}");
+        assert!((g.lon + 71.087589).abs() < 1e-6, "{g:?}");
+        assert_eq!(g.depth(), 3.0);
+    }
+
+    #[test]
+    fn a_moved_datum_moves_the_local_fix() {
+        let f = frame();
+        let (lat, lon) = f.to_global(0.0, 0.0).unwrap();
+        let moved = LocalFrame::new(lat - 0.001, lon).unwrap();
+        let mut ns = NodeStatus {
+            global_fix: LatLonPoint {
+                lat,
+                lon,
+                depth: Some(0.0),
+                altitude: None,
+            },
+            ..Default::default()
+        };
+        compute_missing(&mut ns, "", VehicleType::Auv, Some(&moved));
+        let l = ns.local_fix.unwrap();
+        assert!(
+            (l.y - 111.07).abs() < 0.5,
+            "0.001° north of the new datum: {l:?}"
+        );
     }
 }

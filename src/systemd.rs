@@ -12,8 +12,9 @@ use std::time::Duration;
 use frontseat_actors::bus::Bus;
 use frontseat_actors::groups;
 use frontseat_actors::interface::{FsiMsg, InterfaceService};
+use frontseat_actors::proto::frontseat::protobuf::TranslationStatus;
 use frontseat_actors::proto::goby::middleware::frontseat::protobuf::{
-    FrontSeatError, HelmError, InterfaceStatus,
+    FrontSeatError, HelmError, HelmState, InterfaceStatus,
 };
 use frontseat_actors::state_machine::state_words;
 use sd_notify::NotifyState;
@@ -178,6 +179,52 @@ pub fn spawn_status_reporter(n: Arc<Notifier>, bus: &Bus) -> JoinHandle<()> {
             let text = status_text(&env.msg);
             drop(env);
             // The periodic status repeats itself; systemd only needs the changes.
+            if text != last {
+                n.status(&text);
+                last = text;
+            }
+        }
+    })
+}
+
+/// The STATUS text of the MOOS gateway: whether the MOOSDB link is up, the helm as pHelmIvP
+/// reports it, and stale setpoints, e.g. `moos:connected helm=drive` or
+/// `moos:disconnected helm=not_running desired=stale reconnects=2`.
+#[allow(dead_code)] // until src/gateway_cmd.rs reports the MOOS gateway's state
+pub fn translation_status_text(s: &TranslationStatus) -> String {
+    let helm = s
+        .helm_state
+        .and_then(|h| HelmState::try_from(h).ok())
+        .unwrap_or(HelmState::HelmNotRunning);
+    let mut text = format!(
+        "moos:{} helm={}",
+        if s.moos_connected() {
+            "connected"
+        } else {
+            "disconnected"
+        },
+        word(helm.as_str_name(), "HELM_"),
+    );
+    if s.desired_stale() {
+        text.push_str(" desired=stale");
+    }
+    if s.reconnects() > 0 {
+        text.push_str(&format!(" reconnects={}", s.reconnects()));
+    }
+    text
+}
+
+/// STATUS= for the MOOS gateway at every change of its TranslationStatus; like
+/// `spawn_status_reporter`, it subscribes before it returns and ends with the bus.
+#[allow(dead_code)] // until src/gateway_cmd.rs reports the MOOS gateway's state
+pub fn spawn_translation_reporter(n: Arc<Notifier>, bus: &Bus) -> JoinHandle<()> {
+    let (sub, mut rx) = bus.subscribe_channel(&groups::FRONTSEAT_TRANSLATION_STATUS, "systemd", 64);
+    tokio::spawn(async move {
+        let _sub = sub;
+        let mut last = String::new();
+        while let Some(env) = rx.recv().await {
+            let text = translation_status_text(&env.msg);
+            drop(env);
             if text != last {
                 n.status(&text);
                 last = text;

@@ -440,6 +440,76 @@ fn status_text_is_goby_words_plus_frontseat_and_helm() {
 }
 
 #[test]
+fn translation_status_text_names_link_helm_and_staleness() {
+    use frontseat_actors::proto::frontseat::protobuf::TranslationStatus;
+    let up = TranslationStatus {
+        moos_connected: Some(true),
+        helm_state: Some(HelmState::HelmDrive as i32),
+        helm_driving: Some(true),
+        seconds_since_desired: Some(0.2),
+        desired_stale: Some(false),
+        reconnects: Some(0),
+    };
+    assert_eq!(
+        systemd::translation_status_text(&up),
+        "moos:connected helm=drive"
+    );
+    let down = TranslationStatus {
+        moos_connected: Some(false),
+        helm_state: Some(HelmState::HelmNotRunning as i32),
+        helm_driving: Some(false),
+        seconds_since_desired: None,
+        desired_stale: Some(true),
+        reconnects: Some(2),
+    };
+    assert_eq!(
+        systemd::translation_status_text(&down),
+        "moos:disconnected helm=not_running desired=stale reconnects=2"
+    );
+    assert_eq!(
+        systemd::translation_status_text(&TranslationStatus::default()),
+        "moos:disconnected helm=not_running",
+        "an empty status reads as not connected"
+    );
+}
+
+#[tokio::test]
+async fn translation_reporter_sends_each_change_once() {
+    use frontseat_actors::proto::frontseat::protobuf::TranslationStatus;
+    let bus = Bus::new();
+    let (n, mut rx) = Notifier::recording(None);
+    let _task = systemd::spawn_translation_reporter(Arc::new(n), &bus);
+    let mk = |connected: bool, age: f64| TranslationStatus {
+        moos_connected: Some(connected),
+        seconds_since_desired: Some(age),
+        ..Default::default()
+    };
+    // The ticking age alone is no change worth a STATUS.
+    for (c, age) in [(false, 0.0), (false, 1.0), (true, 2.0), (true, 3.0)] {
+        bus.publish(&groups::FRONTSEAT_TRANSLATION_STATUS, mk(c, age));
+    }
+    for want in [
+        "STATUS=moos:disconnected helm=not_running\n",
+        "STATUS=moos:connected helm=not_running\n",
+    ] {
+        let got = tokio::time::timeout(Duration::from_secs(5), rx.recv())
+            .await
+            .expect("a STATUS in time")
+            .unwrap();
+        assert_eq!(got, want);
+    }
+    drop(bus);
+    // The reporter ends with the bus, after which nothing more may have been sent.
+    assert!(
+        tokio::time::timeout(Duration::from_secs(5), rx.recv())
+            .await
+            .expect("the channel closes with the reporter")
+            .is_none(),
+        "repeats are not reported"
+    );
+}
+
+#[test]
 fn notifier_messages_are_sd_notify_lines_and_status_stays_one_line() {
     let (n, mut rx) = Notifier::recording(Some(Duration::from_secs(4)));
     assert!(n.enabled());

@@ -967,4 +967,89 @@ fn binary_speaks_sd_notify_ready_status_watchdog_stopping() {
         "exit code after SIGTERM\n{}",
         fsi_log.lock().unwrap()
     );
+    // journald gets plain lines: no colour codes when stderr is not a terminal.
+    assert!(
+        !fsi_log.lock().unwrap().contains('\x1b') && !sim_log.lock().unwrap().contains('\x1b'),
+        "ANSI escape codes in the logs"
+    );
+}
+
+#[test]
+fn sim_binary_notifies_ready_status_watchdog_and_stopping() {
+    let dir = TempDir::new("notify-sim");
+    let log = Arc::new(Mutex::new(String::new()));
+    let sock_path = dir.0.join("notify.sock");
+    let sock = UnixDatagram::bind(&sock_path).unwrap();
+    sock.set_read_timeout(Some(Duration::from_millis(100)))
+        .unwrap();
+    let mut sim = Command::new(BIN)
+        .args(["sim", "--port", "0", "--bind", "127.0.0.1"])
+        .env("NOTIFY_SOCKET", &sock_path)
+        .env("WATCHDOG_USEC", "400000")
+        .env_remove("WATCHDOG_PID")
+        .env("RUST_LOG", "info")
+        .stdin(Stdio::null())
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let pid = sim.id();
+    let (tx, _lines) = std::sync::mpsc::channel();
+    drain(sim.stderr.take().unwrap(), log.clone(), tx);
+    let mut children = Children(vec![sim]);
+
+    let mut got: Vec<String> = Vec::new();
+    let until = |got: &mut Vec<String>, what: &str, pred: &dyn Fn(&[String]) -> bool| {
+        let deadline = Instant::now() + Duration::from_secs(20);
+        let mut buf = [0u8; 4096];
+        while !pred(got) {
+            assert!(
+                Instant::now() < deadline,
+                "timed out waiting for {what}; got {got:?}\nlog:\n{}",
+                log.lock().unwrap()
+            );
+            if let Ok(n) = sock.recv(&mut buf) {
+                got.extend(String::from_utf8_lossy(&buf[..n]).lines().map(String::from));
+            }
+        }
+    };
+    until(&mut got, "READY=1 and 3 pings", &|g| {
+        g.iter().any(|m| m == "READY=1") && g.iter().filter(|m| *m == "WATCHDOG=1").count() >= 3
+    });
+    let listening = got
+        .iter()
+        .find_map(|m| m.strip_prefix("STATUS=listening on "))
+        .unwrap_or_else(|| panic!("no listening STATUS: {got:?}"))
+        .to_string();
+    assert!(
+        log.lock().unwrap().contains(&format!("addr={listening}")),
+        "STATUS names the bound address {listening}"
+    );
+    assert!(
+        Command::new("kill")
+            .args(["-TERM", &pid.to_string()])
+            .status()
+            .unwrap()
+            .success()
+    );
+    until(&mut got, "STOPPING=1", &|g| {
+        g.iter().any(|m| m == "STOPPING=1")
+    });
+    let sent_at = Instant::now();
+    let sim = &mut children.0[0];
+    let code = loop {
+        if let Some(s) = sim.try_wait().unwrap() {
+            break s;
+        }
+        assert!(
+            sent_at.elapsed() < Duration::from_secs(8),
+            "sim did not exit"
+        );
+        std::thread::sleep(Duration::from_millis(20));
+    };
+    assert_eq!(code.code(), Some(0), "{}", log.lock().unwrap());
+    assert!(
+        !log.lock().unwrap().contains('\x1b'),
+        "ANSI escape codes in the log"
+    );
 }

@@ -21,7 +21,7 @@ const LONG: Duration = Duration::from_secs(60);
 const BIN: &str = env!("CARGO_BIN_EXE_frontseat");
 
 /// Kills its child on drop, so a failing assertion never leaves a process behind.
-struct Kill(Child, &'static str);
+struct Kill(Child);
 
 impl Drop for Kill {
     fn drop(&mut self) {
@@ -76,7 +76,6 @@ async fn start_stack(name: &str, platform: &str) -> Stack {
             .stderr(std::fs::File::create(dir.join("sim.log")).unwrap())
             .spawn()
             .unwrap(),
-        "sim",
     );
     wait_for_tcp(sim_port).await;
     let zport = free_port();
@@ -106,7 +105,6 @@ listen = ["tcp/127.0.0.1:{zport}"]
             .stderr(std::fs::File::create(dir.join("interface.log")).unwrap())
             .spawn()
             .unwrap(),
-        "interface",
     );
     wait_for_tcp(zport).await;
     Stack {
@@ -341,7 +339,6 @@ async fn python_helm_completes_its_triangle() {
             .stderr(Stdio::piped())
             .spawn()
             .unwrap(),
-        "python helm",
     );
     let stdout = helm.0.stdout.take().unwrap();
     let lines = tokio::task::spawn_blocking(move || {

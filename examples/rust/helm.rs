@@ -57,7 +57,7 @@ fn parse_args() -> Result<Args, String> {
 }
 
 enum In {
-    Nav(NodeStatus),
+    Nav(Box<NodeStatus>),
     Status(InterfaceStatus),
 }
 
@@ -99,7 +99,7 @@ async fn main() -> ExitCode {
         .declare_subscriber(key(groups::GOBY_MIDDLEWARE_FRONTSEAT_NODE_STATUS.name()))
         .callback(move |s| {
             if let Ok(m) = NodeStatus::decode(&*s.payload().to_bytes()) {
-                let _ = tx.try_send(In::Nav(m));
+                let _ = tx.try_send(In::Nav(Box::new(m)));
             }
         })
         .await;

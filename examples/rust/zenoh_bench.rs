@@ -129,10 +129,10 @@ async fn main() -> Result<(), Box<dyn std::error::Error + Send + Sync>> {
         .declare_subscriber(key(groups::GOBY_MIDDLEWARE_FRONTSEAT_NODE_STATUS.name()))
         .callback(move |s| {
             let now = Instant::now();
-            if let Ok(m) = NodeStatus::decode(&*s.payload().to_bytes()) {
-                if let Some(d) = m.global_fix.depth {
-                    ns_seen.lock().unwrap().insert(d as u64, now);
-                }
+            if let Ok(m) = NodeStatus::decode(&*s.payload().to_bytes())
+                && let Some(d) = m.global_fix.depth
+            {
+                ns_seen.lock().unwrap().insert(d as u64, now);
             }
         })
         .await?;

@@ -305,7 +305,7 @@ async fn garbage_wrong_type_oversized_and_bad_trace_are_counted_and_survived() {
             .unwrap();
         if *e.msg != dc(1.0) {
             assert_eq!(e.trace, None);
-            got.push((*e.msg).clone());
+            got.push(*e.msg);
         }
     }
     assert_eq!(got, vec![dc(3.0)], "only the valid message reached the bus");

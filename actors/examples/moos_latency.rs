@@ -175,8 +175,10 @@ async fn main() -> Result<(), Error> {
         }
     });
 
-    let mut cfg = InterfaceConfig::default();
-    cfg.name = "bench-auv".into();
+    let mut cfg = InterfaceConfig {
+        name: "bench-auv".into(),
+        ..Default::default()
+    };
     cfg.driver.basic_simulator.tcp_port = fs.port;
     let service = InterfaceService::start(&cfg, &bus).await?;
     // Wait for the interface to reach COMMAND: the first DesiredCourse that makes a CMD.

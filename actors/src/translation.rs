@@ -230,7 +230,7 @@ pub fn format_g15(x: f64) -> String {
     let sci = format!("{:.*e}", (P - 1) as usize, x);
     let (mantissa, exp) = sci.split_once('e').unwrap_or((sci.as_str(), "0"));
     let exp: i32 = exp.parse().unwrap_or(0);
-    if exp < -4 || exp >= P {
+    if !(-4..P).contains(&exp) {
         let m = trim_fraction(mantissa);
         let sign = if exp < 0 { '-' } else { '+' };
         format!("{m}e{sign}{:02}", exp.abs())
@@ -374,7 +374,7 @@ impl TranslationHandle {
 
     /// The latest status (the one last published, or the initial one).
     pub fn status(&self) -> TranslationStatus {
-        self.status.borrow().clone()
+        *self.status.borrow()
     }
 
     pub fn counters(&self) -> TranslationCounters {
@@ -397,7 +397,9 @@ pub async fn spawn(
     bus: &Bus,
 ) -> Result<TranslationHandle, TranslationError> {
     if cfg.app_name.is_empty() {
-        return Err(TranslationError::Config("app_name must not be empty".into()));
+        return Err(TranslationError::Config(
+            "app_name must not be empty".into(),
+        ));
     }
     if !(cfg.desired_timeout_s.is_finite() && cfg.desired_timeout_s >= 0.0) {
         return Err(TranslationError::Config(
@@ -420,7 +422,7 @@ pub async fn spawn(
     let health = Health::new(now, cfg.desired_timeout_s);
     let first = health.status(now);
     let ports = FrontSeatTranslationPorts::new(bus);
-    ports.publish_status(first.clone());
+    ports.publish_status(first);
     let (status_tx, status_rx) = watch::channel(first);
     let (counters_tx, counters_rx) = watch::channel(TranslationCounters::default());
     let (stop_tx, stop_rx) = watch::channel(false);
@@ -594,7 +596,7 @@ impl Task {
         let s = self.health.status(Instant::now());
         let changed = status_changed(&self.status_tx.borrow(), &s);
         if always || changed {
-            self.ports.publish_status(s.clone());
+            self.ports.publish_status(s);
         }
         self.status_tx.send_replace(s);
     }
@@ -609,10 +611,13 @@ mod tests {
     use crate::proto::goby::middleware::protobuf::LatLonPoint;
 
     fn d(posts: &[(&'static str, NavValue)], key: &str) -> Option<f64> {
-        posts.iter().find(|(k, _)| *k == key).and_then(|(_, v)| match v {
-            NavValue::Double(x) => Some(*x),
-            NavValue::Text(_) => None,
-        })
+        posts
+            .iter()
+            .find(|(k, _)| *k == key)
+            .and_then(|(_, v)| match v {
+                NavValue::Double(x) => Some(*x),
+                NavValue::Text(_) => None,
+            })
     }
 
     #[test]
@@ -621,8 +626,20 @@ mod tests {
         assert_eq!(parse_helm_state("  drive\n"), HelmState::HelmDrive);
         assert_eq!(parse_helm_state("Park"), HelmState::HelmPark);
         assert_eq!(parse_helm_state("\tPARK "), HelmState::HelmPark);
-        for other in ["", "STANDBY", "DISABLED", "MALCONFIG", "DRIVE+", "PARK+", "driv"] {
-            assert_eq!(parse_helm_state(other), HelmState::HelmNotRunning, "{other}");
+        for other in [
+            "",
+            "STANDBY",
+            "DISABLED",
+            "MALCONFIG",
+            "DRIVE+",
+            "PARK+",
+            "driv",
+        ] {
+            assert_eq!(
+                parse_helm_state(other),
+                HelmState::HelmNotRunning,
+                "{other}"
+            );
         }
     }
 
@@ -635,7 +652,10 @@ mod tests {
         assert_eq!(c.time, 10.25);
         assert_eq!(c.speed, Some(1.5));
         assert_eq!(c.depth, Some(5.0));
-        assert_eq!(c.heading, None, "this iteration's heading comes after the speed");
+        assert_eq!(
+            c.heading, None,
+            "this iteration's heading comes after the speed"
+        );
         assert_eq!(b.on_value(DesiredVar::Heading, 90.0, 10.26), None);
         // Next iteration: the heading of the previous one, the depth of this one.
         assert_eq!(b.on_value(DesiredVar::Depth, 6.0, 10.5), None);
@@ -825,7 +845,7 @@ mod tests {
     #[test]
     fn g15_formats_like_cpp_setprecision_15() {
         assert_eq!(format_g15(1_718_000_000.123_45), "1718000000.12345");
-        assert_eq!(format_g15(1_718_000_000.123_456_78), "1718000000.12346");
+        assert_eq!(format_g15(1_718_000_000.123_457), "1718000000.12346");
         assert_eq!(format_g15(1_718_000_000.0), "1718000000");
         assert_eq!(format_g15(0.0), "0");
         assert_eq!(format_g15(12.5), "12.5");
@@ -868,7 +888,10 @@ mod tests {
         assert_eq!(s.helm_driving, Some(false));
         assert_eq!(s.desired_stale, Some(false), "not stale before the timeout");
         assert_eq!(s.seconds_since_desired, None);
-        assert_eq!(h.status(t0 + Duration::from_secs(3)).desired_stale, Some(true));
+        assert_eq!(
+            h.status(t0 + Duration::from_secs(3)).desired_stale,
+            Some(true)
+        );
 
         h.connected = true;
         h.helm_state = HelmState::HelmDrive;

@@ -97,6 +97,8 @@ pub struct Machine {
     pub kernel: String,
     pub profile: &'static str,
     pub version: &'static str,
+    /// 1-minute load average when the bench started: on a shared machine the figures depend on it.
+    pub load: Option<f64>,
 }
 
 impl Machine {
@@ -126,6 +128,9 @@ impl Machine {
                 "release"
             },
             version: env!("CARGO_PKG_VERSION"),
+            load: std::fs::read_to_string("/proc/loadavg")
+                .ok()
+                .and_then(|s| s.split_whitespace().next()?.parse().ok()),
         }
     }
 }
@@ -172,10 +177,14 @@ pub fn markdown(machine: &Machine, quick: bool, elapsed: Duration, rows: &[Row])
     );
     let _ = writeln!(
         s,
-        "machine: {}, {} cores, {}; ran {:.0} s\n",
+        "machine: {}, {} cores, {}; load average {} at start; ran {:.0} s\n",
         machine.cpu,
         machine.cores,
         machine.kernel,
+        machine
+            .load
+            .map(|l| format!("{l:.2}"))
+            .unwrap_or_else(|| "unknown".into()),
         elapsed.as_secs_f64()
     );
     let _ = writeln!(s, "| row | path | p50 | p99 | max | result / how |");
@@ -247,7 +256,12 @@ pub fn json(machine: &Machine, quick: bool, elapsed: Duration, rows: &[Row]) -> 
         "version": machine.version,
         "profile": machine.profile,
         "quick": quick,
-        "machine": { "cpu": machine.cpu, "cores": machine.cores, "os": machine.kernel },
+        "machine": {
+            "cpu": machine.cpu,
+            "cores": machine.cores,
+            "os": machine.kernel,
+            "load_average_1m": machine.load,
+        },
         "elapsed_s": elapsed.as_secs_f64(),
         "rows": rows,
     })

@@ -1,0 +1,699 @@
+//! Traces across processes: the real `frontseat interface` (a child, Zenoh gateway on, OTLP/HTTP
+//! export on) and this test process (a Zenoh helm with its own tracer) must put their spans in
+//! one trace. A tiny OTLP/HTTP receiver runs in the test on loopback and decodes what the child
+//! exports, so the assertions are about the bytes a real viewer would get.
+//!
+//! Every wait has a deadline; children are killed when the test ends, pass or fail.
+
+use std::collections::HashMap;
+use std::path::PathBuf;
+use std::process::{Child, Command, Stdio};
+use std::sync::{Arc, Mutex};
+use std::time::Duration;
+
+use frontseat_actors::groups;
+use frontseat_actors::proto::goby::middleware::frontseat::protobuf::{
+    DesiredCourse, HelmState, HelmStateReport, InterfaceState, InterfaceStatus, NodeStatus,
+};
+use frontseat_gateway::zenoh;
+use frontseat_gateway::{client_config, key_for, put_message};
+use opentelemetry::propagation::TextMapPropagator;
+use opentelemetry::trace::{Span as _, TraceContextExt, Tracer, TracerProvider as _};
+use opentelemetry_proto::tonic::collector::trace::v1::{
+    ExportTraceServiceRequest, ExportTraceServiceResponse,
+};
+use opentelemetry_proto::tonic::common::v1::{AnyValue, KeyValue, any_value};
+use opentelemetry_sdk::propagation::TraceContextPropagator;
+use opentelemetry_sdk::trace::{InMemorySpanExporter, SdkTracerProvider};
+use prost::Message;
+use tokio::io::{AsyncReadExt, AsyncWriteExt};
+
+const BIN: &str = env!("CARGO_BIN_EXE_frontseat");
+const LONG: Duration = Duration::from_secs(60);
+const PROJECT: &str = "frontseat-xp";
+const SERVICE: &str = "xp-interface";
+
+// ---------------------------------------------------------------------------------------------
+// The OTLP/HTTP receiver
+
+/// One span as the receiver decoded it; ids in lower-case hex as in a traceparent.
+#[derive(Clone, Debug)]
+struct RxSpan {
+    trace_id: String,
+    span_id: String,
+    parent: String,
+    name: String,
+    attrs: HashMap<String, String>,
+    service: String,
+}
+
+impl RxSpan {
+    fn attr(&self, k: &str) -> &str {
+        self.attrs.get(k).map(String::as_str).unwrap_or("")
+    }
+}
+
+/// What arrived: every span, and the headers of every export request.
+#[derive(Default)]
+struct Received {
+    spans: Vec<RxSpan>,
+    requests: Vec<HashMap<String, String>>,
+    bad_requests: Vec<String>,
+}
+
+type Store = Arc<Mutex<Received>>;
+
+fn hex(b: &[u8]) -> String {
+    b.iter().map(|x| format!("{x:02x}")).collect()
+}
+
+fn value_string(v: &Option<AnyValue>) -> String {
+    match v.as_ref().and_then(|v| v.value.as_ref()) {
+        Some(any_value::Value::StringValue(s)) => s.clone(),
+        Some(any_value::Value::IntValue(i)) => i.to_string(),
+        Some(any_value::Value::DoubleValue(d)) => d.to_string(),
+        Some(any_value::Value::BoolValue(b)) => b.to_string(),
+        Some(other) => format!("{other:?}"),
+        None => String::new(),
+    }
+}
+
+fn attr_map(kvs: &[KeyValue]) -> HashMap<String, String> {
+    kvs.iter()
+        .map(|kv| (kv.key.clone(), value_string(&kv.value)))
+        .collect()
+}
+
+fn flatten(req: ExportTraceServiceRequest) -> Vec<RxSpan> {
+    let mut out = Vec::new();
+    for rs in req.resource_spans {
+        let res = rs
+            .resource
+            .map(|r| attr_map(&r.attributes))
+            .unwrap_or_default();
+        let service = res.get("service.name").cloned().unwrap_or_default();
+        for ss in rs.scope_spans {
+            for s in ss.spans {
+                out.push(RxSpan {
+                    trace_id: hex(&s.trace_id),
+                    span_id: hex(&s.span_id),
+                    parent: hex(&s.parent_span_id),
+                    name: s.name,
+                    attrs: attr_map(&s.attributes),
+                    service: service.clone(),
+                });
+            }
+        }
+    }
+    out
+}
+
+/// Largest export request accepted; the SDK's batches are far smaller.
+const MAX_BODY: usize = 32 * 1024 * 1024;
+
+/// Serves one keep-alive connection: `POST /v1/traces` with a protobuf body, answered with an
+/// empty ExportTraceServiceResponse. Anything else is recorded as a bad request and answered 400.
+async fn serve(mut sock: tokio::net::TcpStream, store: Store) {
+    let mut buf: Vec<u8> = Vec::new();
+    loop {
+        let head_end = loop {
+            if let Some(i) = buf.windows(4).position(|w| w == b"\r\n\r\n") {
+                break i + 4;
+            }
+            if buf.len() > 64 * 1024 {
+                return;
+            }
+            let mut chunk = [0u8; 8192];
+            match sock.read(&mut chunk).await {
+                Ok(0) | Err(_) => return,
+                Ok(n) => buf.extend_from_slice(&chunk[..n]),
+            }
+        };
+        let head = String::from_utf8_lossy(&buf[..head_end]).to_string();
+        let mut lines = head.split("\r\n");
+        let request_line = lines.next().unwrap_or("").to_string();
+        let headers: HashMap<String, String> = lines
+            .filter_map(|l| l.split_once(':'))
+            .map(|(k, v)| (k.trim().to_ascii_lowercase(), v.trim().to_string()))
+            .collect();
+        let len: usize = headers
+            .get("content-length")
+            .and_then(|v| v.parse().ok())
+            .unwrap_or(usize::MAX);
+        if len > MAX_BODY {
+            store
+                .lock()
+                .unwrap()
+                .bad_requests
+                .push(format!("{request_line}: no usable content-length"));
+            let _ = sock
+                .write_all(b"HTTP/1.1 411 Length Required\r\nContent-Length: 0\r\n\r\n")
+                .await;
+            return;
+        }
+        while buf.len() < head_end + len {
+            let mut chunk = [0u8; 65536];
+            match sock.read(&mut chunk).await {
+                Ok(0) | Err(_) => return,
+                Ok(n) => buf.extend_from_slice(&chunk[..n]),
+            }
+        }
+        let body: Vec<u8> = buf.drain(..head_end + len).skip(head_end).collect();
+        let ok_route = request_line.starts_with("POST /v1/traces ");
+        let ok_type =
+            headers.get("content-type").map(String::as_str) == Some("application/x-protobuf");
+        let decoded = ExportTraceServiceRequest::decode(body.as_slice());
+        let status = {
+            let mut st = store.lock().unwrap();
+            match (ok_route && ok_type, decoded) {
+                (true, Ok(req)) => {
+                    st.spans.extend(flatten(req));
+                    st.requests.push(headers.clone());
+                    "200 OK"
+                }
+                (_, d) => {
+                    st.bad_requests
+                        .push(format!("{request_line} {headers:?} decoded: {}", d.is_ok()));
+                    "400 Bad Request"
+                }
+            }
+        };
+        let resp = ExportTraceServiceResponse::default().encode_to_vec();
+        let head = format!(
+            "HTTP/1.1 {status}\r\nContent-Type: application/x-protobuf\r\nContent-Length: {}\r\n\r\n",
+            resp.len()
+        );
+        if sock.write_all(head.as_bytes()).await.is_err() || sock.write_all(&resp).await.is_err() {
+            return;
+        }
+    }
+}
+
+/// Starts the receiver on a free loopback port; returns its base URL and what it collects.
+async fn start_receiver() -> (String, Store) {
+    let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.unwrap();
+    let port = listener.local_addr().unwrap().port();
+    let store = Store::default();
+    let s = store.clone();
+    tokio::spawn(async move {
+        while let Ok((sock, _)) = listener.accept().await {
+            tokio::spawn(serve(sock, s.clone()));
+        }
+    });
+    (format!("http://127.0.0.1:{port}"), store)
+}
+
+/// Waits until the received spans satisfy `pred`, which returns what the test needs from them.
+async fn spans_until<T>(
+    store: &Store,
+    what: &str,
+    log: impl Fn() -> String,
+    pred: impl Fn(&[RxSpan]) -> Option<T>,
+) -> T {
+    let deadline = tokio::time::Instant::now() + LONG;
+    loop {
+        let (n, bad) = {
+            let st = store.lock().unwrap();
+            if let Some(t) = pred(&st.spans) {
+                return t;
+            }
+            (st.spans.len(), st.bad_requests.clone())
+        };
+        assert!(
+            tokio::time::Instant::now() < deadline,
+            "timed out waiting for {what}; {n} spans received, bad requests {bad:?}\ninterface log:\n{}",
+            log()
+        );
+        tokio::time::sleep(Duration::from_millis(50)).await;
+    }
+}
+
+/// The chain from `leaf` up to the furthest ancestor the receiver has, root first.
+fn ancestry(spans: &[RxSpan], leaf: &RxSpan) -> Vec<RxSpan> {
+    let by_id: HashMap<&str, &RxSpan> = spans
+        .iter()
+        .filter(|s| s.trace_id == leaf.trace_id)
+        .map(|s| (s.span_id.as_str(), s))
+        .collect();
+    let mut chain = vec![leaf.clone()];
+    let mut cur = leaf;
+    while let Some(p) = by_id.get(cur.parent.as_str()) {
+        chain.push((*p).clone());
+        cur = p;
+        if chain.len() > 64 {
+            break;
+        }
+    }
+    chain.reverse();
+    chain
+}
+
+// ---------------------------------------------------------------------------------------------
+// The processes
+
+/// Kills its child on drop, so a failing assertion never leaves a process behind.
+struct Kill(Child);
+
+impl Drop for Kill {
+    fn drop(&mut self) {
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+    }
+}
+
+fn free_port() -> u16 {
+    std::net::TcpListener::bind("127.0.0.1:0")
+        .unwrap()
+        .local_addr()
+        .unwrap()
+        .port()
+}
+
+fn scratch(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("frontseat-otel-{}-{name}", std::process::id()));
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+async fn wait_for_tcp(port: u16) {
+    let deadline = tokio::time::Instant::now() + Duration::from_secs(20);
+    while tokio::net::TcpStream::connect(("127.0.0.1", port))
+        .await
+        .is_err()
+    {
+        assert!(
+            tokio::time::Instant::now() < deadline,
+            "nothing listens on {port}"
+        );
+        tokio::time::sleep(Duration::from_millis(20)).await;
+    }
+}
+
+struct Stack {
+    zenoh: u16,
+    dir: PathBuf,
+    _sim: Kill,
+    interface: Kill,
+}
+
+impl Stack {
+    fn log(&self) -> String {
+        std::fs::read_to_string(self.dir.join("interface.log")).unwrap_or_default()
+    }
+}
+
+/// sim + interface; the interface exports to `endpoint` with the batch settings in `bsp`.
+async fn start_stack(name: &str, platform: &str, endpoint: &str, bsp: &[(&str, &str)]) -> Stack {
+    let dir = scratch(name);
+    let sim_port = free_port();
+    let sim = Kill(
+        Command::new(BIN)
+            .args(["sim", "--port", &sim_port.to_string()])
+            .stdout(Stdio::null())
+            .stderr(std::fs::File::create(dir.join("sim.log")).unwrap())
+            .spawn()
+            .unwrap(),
+    );
+    wait_for_tcp(sim_port).await;
+    let zport = free_port();
+    let cfg = format!(
+        r#"name = "{platform}"
+sim_warp_factor = 10.0
+status_period = 0.5
+helm_running_timeout = 5.0
+[driver]
+name = "basic_simulator"
+[driver.basic_simulator]
+tcp_port = {sim_port}
+[interprocess]
+enabled = true
+listen = ["tcp/127.0.0.1:{zport}"]
+[telemetry]
+enabled = true
+endpoint = "{endpoint}"
+service_name = "{SERVICE}"
+"#
+    );
+    let cfg_path = dir.join("interface.toml");
+    std::fs::write(&cfg_path, cfg).unwrap();
+    let mut cmd = Command::new(BIN);
+    cmd.arg("interface")
+        .arg("-c")
+        .arg(&cfg_path)
+        .env("RUST_LOG", "info")
+        // The project header as a user would set it for Phoenix: proves the env is honoured.
+        .env(
+            "OTEL_EXPORTER_OTLP_HEADERS",
+            format!("x-project-name={PROJECT}"),
+        )
+        .stdout(Stdio::null())
+        .stderr(std::fs::File::create(dir.join("interface.log")).unwrap());
+    for k in [
+        "OTEL_EXPORTER_OTLP_ENDPOINT",
+        "OTEL_EXPORTER_OTLP_TRACES_ENDPOINT",
+        "OTEL_EXPORTER_OTLP_TRACES_HEADERS",
+        "OTEL_SERVICE_NAME",
+        "OTEL_TRACES_SAMPLER_ARG",
+        "OTEL_SDK_DISABLED",
+    ] {
+        cmd.env_remove(k);
+    }
+    for (k, v) in bsp {
+        cmd.env(k, v);
+    }
+    let interface = Kill(cmd.spawn().unwrap());
+    wait_for_tcp(zport).await;
+    Stack {
+        zenoh: zport,
+        dir,
+        _sim: sim,
+        interface,
+    }
+}
+
+/// A Zenoh helm in this process: status and node_status (with attachments) in, DRIVE out.
+struct Helm {
+    session: zenoh::Session,
+    status: tokio::sync::mpsc::UnboundedReceiver<InterfaceStatus>,
+    nav: tokio::sync::mpsc::UnboundedReceiver<(NodeStatus, Option<Vec<u8>>)>,
+    heartbeat: tokio::task::JoinHandle<()>,
+    _subs: Vec<zenoh::pubsub::Subscriber<()>>,
+}
+
+impl Helm {
+    async fn connect(stack: &Stack, platform: &str) -> Helm {
+        let session =
+            zenoh::open(client_config(&[format!("tcp/127.0.0.1:{}", stack.zenoh)]).unwrap())
+                .await
+                .unwrap();
+        let key = |g: &str| key_for(platform, g);
+        let (stx, status) = tokio::sync::mpsc::unbounded_channel();
+        let s = session
+            .declare_subscriber(key(groups::GOBY_MIDDLEWARE_FRONTSEAT_STATUS.name()))
+            .callback(move |s| {
+                if let Ok(st) = InterfaceStatus::decode(&*s.payload().to_bytes()) {
+                    let _ = stx.send(st);
+                }
+            })
+            .await
+            .unwrap();
+        let (ntx, nav) = tokio::sync::mpsc::unbounded_channel();
+        let n = session
+            .declare_subscriber(key(groups::GOBY_MIDDLEWARE_FRONTSEAT_NODE_STATUS.name()))
+            .callback(move |s| {
+                if let Ok(ns) = NodeStatus::decode(&*s.payload().to_bytes()) {
+                    let att = s.attachment().map(|a| a.to_bytes().to_vec());
+                    let _ = ntx.send((ns, att));
+                }
+            })
+            .await
+            .unwrap();
+        let helm_key = key(groups::GOBY_MIDDLEWARE_FRONTSEAT_HELM_STATE.name());
+        let hb = session.clone();
+        let heartbeat = tokio::spawn(async move {
+            loop {
+                let drive = HelmStateReport {
+                    state: HelmState::HelmDrive as i32,
+                };
+                let _ = put_message(
+                    &hb,
+                    &helm_key,
+                    groups::GOBY_MIDDLEWARE_FRONTSEAT_HELM_STATE.type_name(),
+                    &drive,
+                    None,
+                );
+                tokio::time::sleep(Duration::from_millis(100)).await;
+            }
+        });
+        Helm {
+            session,
+            status,
+            nav,
+            heartbeat,
+            _subs: vec![s, n],
+        }
+    }
+
+    async fn until_command(&mut self, stack: &Stack) {
+        let deadline = tokio::time::Instant::now() + LONG;
+        loop {
+            match tokio::time::timeout_at(deadline, self.status.recv()).await {
+                Ok(Some(s)) if s.state() == InterfaceState::InterfaceCommand => return,
+                Ok(Some(_)) => {}
+                _ => panic!("no COMMAND over Zenoh\ninterface log:\n{}", stack.log()),
+            }
+        }
+    }
+
+    /// The next node_status whose attachment is a traceparent: (trace id, span id).
+    async fn traced_node_status(&mut self, stack: &Stack) -> (NodeStatus, String, String) {
+        let deadline = tokio::time::Instant::now() + LONG;
+        loop {
+            let (ns, att) = match tokio::time::timeout_at(deadline, self.nav.recv()).await {
+                Ok(Some(v)) => v,
+                _ => panic!(
+                    "no node_status with a traceparent attachment\ninterface log:\n{}",
+                    stack.log()
+                ),
+            };
+            let Some(att) = att else { continue };
+            let tp = String::from_utf8(att).unwrap();
+            let parts: Vec<&str> = tp.split('-').collect();
+            assert_eq!(parts.len(), 4, "attachment {tp:?} is not a traceparent");
+            assert_eq!(parts[0], "00");
+            assert_eq!(parts[3], "01", "sampled");
+            return (ns, parts[1].to_string(), parts[2].to_string());
+        }
+    }
+
+    async fn close(self) {
+        self.heartbeat.abort();
+        let _ = tokio::time::timeout(Duration::from_secs(10), self.session.close()).await;
+    }
+}
+
+/// The test process's own tracer, as a helm written against the OpenTelemetry SDK would have.
+fn helm_tracer() -> (SdkTracerProvider, InMemorySpanExporter) {
+    let exporter = InMemorySpanExporter::default();
+    let provider = SdkTracerProvider::builder()
+        .with_simple_exporter(exporter.clone())
+        .build();
+    (provider, exporter)
+}
+
+fn names(chain: &[RxSpan]) -> Vec<&str> {
+    chain.iter().map(|s| s.name.as_str()).collect()
+}
+
+// ---------------------------------------------------------------------------------------------
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn one_trace_spans_the_helm_process_and_the_interface_process_both_ways() {
+    let (endpoint, store) = start_receiver().await;
+    let stack = start_stack(
+        "both",
+        "otauv",
+        &endpoint,
+        &[("OTEL_BSP_SCHEDULE_DELAY", "200")],
+    )
+    .await;
+    let log = || stack.log();
+    let mut helm = Helm::connect(&stack, "otauv").await;
+    helm.until_command(&stack).await;
+    let (provider, helm_spans) = helm_tracer();
+    let tracer = provider.tracer("test-helm");
+    let propagator = TraceContextPropagator::new();
+
+    // Helm → interface: a desired_course whose traceparent is the helm's own span.
+    let span = tracer.start("helm.desired_course");
+    let cx = opentelemetry::Context::new().with_span(span);
+    let mut carrier = HashMap::new();
+    propagator.inject_context(&cx, &mut carrier);
+    let traceparent = carrier
+        .remove("traceparent")
+        .expect("a sampled span injects");
+    let helm_trace = cx.span().span_context().trace_id().to_string();
+    let helm_span = cx.span().span_context().span_id().to_string();
+    let course = DesiredCourse {
+        heading: Some(135.0),
+        speed: Some(1.25),
+        depth: Some(0.0),
+        ..Default::default()
+    };
+    put_message(
+        &helm.session,
+        &key_for(
+            "otauv",
+            groups::GOBY_MIDDLEWARE_FRONTSEAT_DESIRED_COURSE.name(),
+        ),
+        groups::GOBY_MIDDLEWARE_FRONTSEAT_DESIRED_COURSE.type_name(),
+        &course,
+        Some(&traceparent),
+    )
+    .unwrap();
+    cx.span().end();
+
+    // The interface's CMD line to the frontseat is in the helm's trace, and its parent chain
+    // climbs back to the helm's span through the import, the bus, and both actors.
+    let chain = spans_until(&store, "the CMD write in the helm's trace", log, |spans| {
+        spans
+            .iter()
+            .filter(|s| s.trace_id == helm_trace && s.name == "frontseat.socket_write")
+            .map(|w| ancestry(spans, w))
+            .find(|c| c[0].parent == helm_span)
+    })
+    .await;
+    println!("helm → interface: {:?}", names(&chain));
+    let write = chain.last().unwrap();
+    assert!(
+        write.attr("line").starts_with("CMD,"),
+        "socket write {:?}",
+        write.attrs
+    );
+    assert!(
+        write.attr("line").contains("HEADING:135"),
+        "{:?}",
+        write.attrs
+    );
+    assert_eq!(
+        chain[0].name,
+        "bus.publish",
+        "the import's publish is the interface's first span: {:?}",
+        names(&chain)
+    );
+    assert_eq!(
+        chain[0].attr("group"),
+        groups::GOBY_MIDDLEWARE_FRONTSEAT_DESIRED_COURSE.name()
+    );
+    let handlers: Vec<&str> = chain
+        .iter()
+        .filter(|s| s.name == "actor.handle")
+        .map(|s| s.attr("actor"))
+        .collect();
+    assert_eq!(
+        handlers,
+        ["FrontSeatInterface", "DriverActor"],
+        "chain {:?}",
+        names(&chain)
+    );
+    assert!(chain.iter().all(|s| s.service == SERVICE));
+
+    // Interface → helm: a node_status's attachment names a span the interface exported, in a
+    // trace rooted at the NAV line read from the frontseat socket.
+    let (ns, nav_trace, nav_span) = helm.traced_node_status(&stack).await;
+    assert_eq!(ns.name.as_deref(), Some("otauv"));
+    let chain = spans_until(&store, "the node_status's span", log, |spans| {
+        spans
+            .iter()
+            .find(|s| s.trace_id == nav_trace && s.span_id == nav_span)
+            .map(|s| ancestry(spans, s))
+            .filter(|c| c[0].parent.is_empty())
+    })
+    .await;
+    println!("interface → helm: {:?}", names(&chain));
+    let last = chain.last().unwrap();
+    assert_eq!(last.name, "bus.deliver", "{:?}", names(&chain));
+    assert_eq!(last.attr("subscriber"), "zenoh-gateway");
+    assert_eq!(
+        last.attr("group"),
+        groups::GOBY_MIDDLEWARE_FRONTSEAT_NODE_STATUS.name()
+    );
+    assert_eq!(
+        chain[0].name,
+        "frontseat.socket_read",
+        "{:?}",
+        names(&chain)
+    );
+    assert!(
+        chain[0].attr("line").starts_with("NAV,"),
+        "{:?}",
+        chain[0].attrs
+    );
+
+    // The helm continues that trace in its own process.
+    let mut carrier = HashMap::new();
+    carrier.insert(
+        "traceparent".to_string(),
+        format!("00-{nav_trace}-{nav_span}-01"),
+    );
+    let parent = propagator.extract(&carrier);
+    tracer
+        .start_with_context("helm.on_node_status", &parent)
+        .end();
+    let mine = helm_spans.get_finished_spans().unwrap();
+    let on_nav = mine
+        .iter()
+        .find(|s| s.name == "helm.on_node_status")
+        .unwrap();
+    assert_eq!(on_nav.span_context.trace_id().to_string(), nav_trace);
+    assert_eq!(on_nav.parent_span_id.to_string(), nav_span);
+    let sent = mine
+        .iter()
+        .find(|s| s.name == "helm.desired_course")
+        .unwrap();
+    assert_eq!(sent.span_context.trace_id().to_string(), helm_trace);
+
+    // Exported as a viewer expects: protobuf, the configured service, the project header.
+    let st = store.lock().unwrap();
+    assert!(st.bad_requests.is_empty(), "{:?}", st.bad_requests);
+    assert!(
+        st.requests
+            .iter()
+            .all(|h| h.get("x-project-name").map(String::as_str) == Some(PROJECT)),
+        "OTEL_EXPORTER_OTLP_HEADERS not honoured: {:?}",
+        st.requests.first()
+    );
+    drop(st);
+    helm.close().await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn sigterm_flushes_spans_the_batch_still_held() {
+    let (endpoint, store) = start_receiver().await;
+    // A batch that neither the timer nor its size would send during the test.
+    let mut stack = start_stack(
+        "flush",
+        "flauv",
+        &endpoint,
+        &[
+            ("OTEL_BSP_SCHEDULE_DELAY", "600000"),
+            ("OTEL_BSP_MAX_QUEUE_SIZE", "1000000"),
+            ("OTEL_BSP_MAX_EXPORT_BATCH_SIZE", "1000000"),
+        ],
+    )
+    .await;
+    let mut helm = Helm::connect(&stack, "flauv").await;
+    let (_, nav_trace, nav_span) = helm.traced_node_status(&stack).await;
+    helm.close().await;
+    assert!(
+        store.lock().unwrap().requests.is_empty(),
+        "the batch was exported before SIGTERM: the test would prove nothing"
+    );
+
+    let pid = stack.interface.0.id().to_string();
+    let st = Command::new("kill").args(["-TERM", &pid]).status().unwrap();
+    assert!(st.success());
+    let deadline = std::time::Instant::now() + Duration::from_secs(20);
+    let exit = loop {
+        if let Some(s) = stack.interface.0.try_wait().unwrap() {
+            break s;
+        }
+        assert!(
+            std::time::Instant::now() < deadline,
+            "interface did not exit on SIGTERM\n{}",
+            stack.log()
+        );
+        tokio::time::sleep(Duration::from_millis(50)).await;
+    };
+    assert!(exit.success(), "exit {exit}\n{}", stack.log());
+    let st = store.lock().unwrap();
+    assert!(st.bad_requests.is_empty(), "{:?}", st.bad_requests);
+    assert!(
+        st.spans
+            .iter()
+            .any(|s| s.trace_id == nav_trace && s.span_id == nav_span),
+        "the node_status's span was lost on SIGTERM ({} spans flushed)\n{}",
+        st.spans.len(),
+        stack.log()
+    );
+}

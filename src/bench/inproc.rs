@@ -77,8 +77,10 @@ async fn run_inner(plan: Plan) -> Result<Vec<Row>, String> {
     let fs = ScriptedFrontseat::start(nav_written.clone(), cmd_read.clone())
         .map_err(|e| format!("scripted frontseat: {e}"))?;
 
-    let mut cfg = InterfaceConfig::default();
-    cfg.name = "bench-auv".into();
+    let mut cfg = InterfaceConfig {
+        name: "bench-auv".into(),
+        ..InterfaceConfig::default()
+    };
     cfg.driver.basic_simulator.tcp_port = fs.port();
     let capacity = cfg.bus.queue_capacity;
 

@@ -1,0 +1,1501 @@
+//! The chaos harness behind `frontseat chaos` and `tests/chaos.rs`: the real simulator on
+//! loopback TCP, the interface with its basic simulator driver, a helm on the bus and the MOOS
+//! bridge against our broker; faults injected on a seeded schedule, invariants watched
+//! throughout and reported at the end as a table.
+//!
+//! The seed fixes the sequence of faults, their parameters and hold times; how the system
+//! reacts is timing and is what is measured. Driver faults go through the chaos group and the
+//! ChaosAgent, so a config without `[chaos] enabled = true` is refused before anything starts.
+//! Only one run per process at a time: counting panics needs the process-wide panic hook.
+
+use std::collections::{BTreeMap, HashMap};
+use std::fmt::Write as _;
+use std::net::SocketAddr;
+use std::sync::atomic::{AtomicBool, AtomicI32, AtomicU64, Ordering};
+use std::sync::{Arc, Mutex};
+use std::time::Duration;
+
+use frontseat_config::InterfaceConfig;
+use frontseat_moos::{Broker, BrokerHandle};
+use frontseat_sim::{SimHandle, SimOptions, SimServer};
+use tokio::sync::watch;
+use tokio::time::Instant;
+
+use crate::bus::{Bus, Subscription};
+use crate::chaos::{ChaosAgent, ChaosError};
+use crate::groups;
+use crate::interface::{InterfaceService, ServiceExit, Snapshot, error_code};
+use crate::ports::ChaosMonkeyPorts;
+use crate::proto::frontseat::protobuf::{ChaosFault, SimFault, chaos_fault, sim_fault};
+use crate::proto::goby::middleware::frontseat::protobuf::{
+    CommandRequest, DesiredCourse, HelmState, HelmStateReport, InterfaceState,
+};
+use crate::sim_glue::{self, EmbeddedSimulator};
+use crate::translation::{self, TranslationHandle};
+
+/// The config `frontseat chaos` uses without `-c`: chaos enabled, warped, short reconnect and
+/// restart delays, and a restart limit that a fault every few hundred milliseconds stays under.
+pub const DEFAULT_CONFIG: &str = r#"# frontseat chaos: the embedded default config
+name = "chaos-auv"
+sim_warp_factor = 100.0
+status_period = 1.0
+
+[driver.basic_simulator]
+reconnect_initial_ms = 10
+reconnect_max_ms = 100
+nav_timeout = 5.0
+
+[supervision]
+restart_initial_delay_ms = 10
+restart_max_delay_ms = 100
+max_restarts = 100
+restart_window_s = 30.0
+
+[chaos]
+enabled = true
+"#;
+
+/// The embedded default config, parsed.
+pub fn default_config() -> Result<InterfaceConfig, frontseat_config::ConfigError> {
+    frontseat_config::parse::<InterfaceConfig>(DEFAULT_CONFIG, "<embedded chaos config>")
+}
+
+/// What to run.
+#[derive(Clone, Debug)]
+pub struct ChaosOptions {
+    /// Seed of the fault schedule.
+    pub seed: u64,
+    /// Faults to inject.
+    pub faults: u32,
+    /// Overrides the config's sim_warp_factor.
+    pub warp: Option<f64>,
+    /// Wall time within which the interface must be back in COMMAND after a fault clears.
+    pub recovery_bound: Duration,
+    /// Largest allowed growth of the resident set over its value once the system is warm.
+    pub rss_growth_limit_kib: u64,
+    /// Run the MOOS bridge against a broker of ours and restart that broker as a fault.
+    pub moos: bool,
+}
+
+impl Default for ChaosOptions {
+    fn default() -> Self {
+        Self {
+            seed: 1,
+            faults: 200,
+            warp: None,
+            recovery_bound: Duration::from_secs(5),
+            rss_growth_limit_kib: 64 * 1024,
+            moos: true,
+        }
+    }
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum ChaosHarnessError {
+    #[error(transparent)]
+    Refused(#[from] ChaosError),
+    #[error("bad chaos options: {0}")]
+    Options(String),
+    #[error("another chaos run is active in this process")]
+    AlreadyRunning,
+    #[error("simulator: {0}")]
+    Sim(#[from] frontseat_sim::SimError),
+    #[error("interface: {0}")]
+    Start(#[from] crate::interface::StartError),
+    #[error("MOOS broker: {0}")]
+    Moos(#[from] frontseat_moos::MoosError),
+    #[error("MOOS bridge: {0}")]
+    Translation(String),
+    #[error("the interface did not reach COMMAND within {0:?} at start")]
+    NoStart(Duration),
+}
+
+/// The faults the harness injects.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum FaultKind {
+    DriverPanic,
+    DriverKill,
+    DropConnection,
+    SimRestart,
+    StopNav,
+    Garbage,
+    Oversized,
+    CtrlAuv,
+    CtrlIdle,
+    CtrlPayload,
+    HelmPark,
+    StalledSubscriber,
+    MoosRestart,
+}
+
+impl FaultKind {
+    pub const ALL: [FaultKind; 13] = [
+        FaultKind::DriverPanic,
+        FaultKind::DriverKill,
+        FaultKind::DropConnection,
+        FaultKind::SimRestart,
+        FaultKind::StopNav,
+        FaultKind::Garbage,
+        FaultKind::Oversized,
+        FaultKind::CtrlAuv,
+        FaultKind::CtrlIdle,
+        FaultKind::CtrlPayload,
+        FaultKind::HelmPark,
+        FaultKind::StalledSubscriber,
+        FaultKind::MoosRestart,
+    ];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            FaultKind::DriverPanic => "driver panic",
+            FaultKind::DriverKill => "driver actor killed",
+            FaultKind::DropConnection => "sim connection dropped",
+            FaultKind::SimRestart => "simulator restarted",
+            FaultKind::StopNav => "NAV stopped",
+            FaultKind::Garbage => "garbage lines",
+            FaultKind::Oversized => "oversized line",
+            FaultKind::CtrlAuv => "CTRL AUV (then PAYLOAD)",
+            FaultKind::CtrlIdle => "CTRL IDLE (then restart)",
+            FaultKind::CtrlPayload => "CTRL PAYLOAD",
+            FaultKind::HelmPark => "helm PARK/DRIVE flap",
+            FaultKind::StalledSubscriber => "stalled bus subscriber",
+            FaultKind::MoosRestart => "MOOS broker restarted",
+        }
+    }
+
+    fn weight(self) -> u64 {
+        match self {
+            FaultKind::DriverPanic | FaultKind::DriverKill => 3,
+            FaultKind::DropConnection | FaultKind::StopNav | FaultKind::Garbage => 3,
+            FaultKind::HelmPark => 3,
+            FaultKind::SimRestart | FaultKind::Oversized => 2,
+            FaultKind::CtrlAuv | FaultKind::CtrlIdle => 2,
+            FaultKind::StalledSubscriber | FaultKind::MoosRestart => 2,
+            FaultKind::CtrlPayload => 1,
+        }
+    }
+}
+
+/// splitmix64: a tiny PRNG whose whole state is the seed, so a schedule is reproducible
+/// everywhere without a dependency.
+#[derive(Clone, Debug)]
+pub struct Rng(u64);
+
+impl Rng {
+    pub fn new(seed: u64) -> Self {
+        Self(seed)
+    }
+    pub fn next_u64(&mut self) -> u64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^ (z >> 31)
+    }
+    /// Uniform in `0..n` (n > 0).
+    pub fn below(&mut self, n: u64) -> u64 {
+        self.next_u64() % n.max(1)
+    }
+    /// Uniform in `[lo, hi)`.
+    pub fn range(&mut self, lo: f64, hi: f64) -> f64 {
+        let u = (self.next_u64() >> 11) as f64 / (1u64 << 53) as f64;
+        lo + u * (hi - lo)
+    }
+    pub fn chance(&mut self, p: f64) -> bool {
+        self.range(0.0, 1.0) < p
+    }
+}
+
+/// One planned fault: what, how long it is held (wall), its size, and whether the next fault
+/// follows without waiting for recovery (a burst: faults overlapping).
+#[derive(Clone, Debug, PartialEq)]
+pub struct PlannedFault {
+    pub kind: FaultKind,
+    pub hold: Duration,
+    /// NAV stop seconds (sim time) or garbage line count; 0 otherwise.
+    pub amount: f64,
+    pub burst: bool,
+    pub gap: Duration,
+}
+
+/// The schedule a seed gives: the same seed, options and warp give the same faults.
+pub fn plan(seed: u64, faults: u32, moos: bool, nav_timeout_s: f64) -> Vec<PlannedFault> {
+    let mut rng = Rng::new(seed);
+    let kinds: Vec<FaultKind> = FaultKind::ALL
+        .into_iter()
+        .filter(|k| moos || *k != FaultKind::MoosRestart)
+        .collect();
+    let total: u64 = kinds.iter().map(|k| k.weight()).sum();
+    let ms = |rng: &mut Rng, lo: f64, hi: f64| Duration::from_secs_f64(rng.range(lo, hi) / 1000.0);
+    (0..faults)
+        .map(|_| {
+            let mut pick = rng.below(total);
+            let mut kind = kinds[0];
+            for k in &kinds {
+                if pick < k.weight() {
+                    kind = *k;
+                    break;
+                }
+                pick -= k.weight();
+            }
+            let (hold, amount) = match kind {
+                // Sometimes shorter than nav_timeout (no error expected), sometimes longer.
+                FaultKind::StopNav => (Duration::ZERO, rng.range(0.5, 2.5 * nav_timeout_s)),
+                FaultKind::Garbage => (ms(&mut rng, 5.0, 50.0), (1 + rng.below(200)) as f64),
+                FaultKind::StalledSubscriber => (ms(&mut rng, 100.0, 400.0), 0.0),
+                FaultKind::SimRestart | FaultKind::MoosRestart => (ms(&mut rng, 10.0, 300.0), 0.0),
+                _ => (ms(&mut rng, 10.0, 200.0), 0.0),
+            };
+            PlannedFault {
+                kind,
+                hold,
+                amount,
+                burst: rng.chance(0.2),
+                gap: ms(&mut rng, 0.0, 50.0),
+            }
+        })
+        .collect()
+}
+
+/// One row of the invariants table.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Invariant {
+    pub name: &'static str,
+    pub bound: String,
+    pub measured: String,
+    pub ok: bool,
+}
+
+/// Per fault kind: how often, how long until COMMAND again after the fault cleared, and how
+/// long the interface was out of COMMAND from injection to recovery (non-burst faults only).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct KindStats {
+    pub injected: u32,
+    pub recoveries: Vec<Duration>,
+    pub outages: Vec<Duration>,
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct ChaosReport {
+    pub seed: u64,
+    pub warp: f64,
+    pub faults: u32,
+    pub moos: bool,
+    pub wall: Duration,
+    pub by_kind: BTreeMap<FaultKind, KindStats>,
+    pub invariants: Vec<Invariant>,
+    /// Every violation, with the fault number and kind where it happened.
+    pub violations: Vec<String>,
+    pub notes: Vec<String>,
+}
+
+impl ChaosReport {
+    pub fn passed(&self) -> bool {
+        self.violations.is_empty() && self.invariants.iter().all(|i| i.ok)
+    }
+
+    /// The report as Markdown: run line, faults table, invariants table, violations.
+    pub fn render(&self) -> String {
+        let mut s = String::new();
+        let _ = writeln!(
+            s,
+            "frontseat chaos: seed {}, {} faults, warp {}, MOOS {}, {:.1} s wall",
+            self.seed,
+            self.faults,
+            self.warp,
+            if self.moos { "on" } else { "off" },
+            self.wall.as_secs_f64()
+        );
+        let _ = writeln!(s);
+        let _ = writeln!(
+            s,
+            "| fault | injected | measured | left COMMAND | out of COMMAND p50 / max | back in COMMAND after clear p50 / max |"
+        );
+        let _ = writeln!(s, "|---|---:|---:|---:|---|---|");
+        let pm = |v: &[Duration]| {
+            let mut v = v.to_vec();
+            v.sort();
+            match v.last() {
+                Some(max) => format!("{} / {}", fmt_ms(percentile(&v, 50.0)), fmt_ms(*max)),
+                None => "—".to_string(),
+            }
+        };
+        for (k, st) in &self.by_kind {
+            let left = st.outages.iter().filter(|d| !d.is_zero()).count();
+            let _ = writeln!(
+                s,
+                "| {} | {} | {} | {} | {} | {} |",
+                k.name(),
+                st.injected,
+                st.recoveries.len(),
+                left,
+                pm(&st.outages),
+                pm(&st.recoveries)
+            );
+        }
+        let _ = writeln!(s);
+        let _ = writeln!(s, "| invariant | bound | measured | result |");
+        let _ = writeln!(s, "|---|---|---|---|");
+        for i in &self.invariants {
+            let _ = writeln!(
+                s,
+                "| {} | {} | {} | {} |",
+                i.name,
+                i.bound,
+                i.measured,
+                if i.ok { "PASS" } else { "FAIL" }
+            );
+        }
+        for n in &self.notes {
+            let _ = writeln!(s, "\nnote: {n}");
+        }
+        if !self.violations.is_empty() {
+            let _ = writeln!(s, "\nviolations ({}):", self.violations.len());
+            for v in self.violations.iter().take(50) {
+                let _ = writeln!(s, "- {v}");
+            }
+        }
+        let _ = writeln!(
+            s,
+            "\nresult: {}",
+            if self.passed() { "PASS" } else { "FAIL" }
+        );
+        s
+    }
+}
+
+fn percentile(sorted: &[Duration], p: f64) -> Duration {
+    if sorted.is_empty() {
+        return Duration::ZERO;
+    }
+    let i = ((p / 100.0) * (sorted.len() - 1) as f64).round() as usize;
+    sorted[i.min(sorted.len() - 1)]
+}
+
+fn fmt_ms(d: Duration) -> String {
+    format!("{:.0} ms", d.as_secs_f64() * 1000.0)
+}
+
+// ---- panic accounting -------------------------------------------------------------------
+
+/// The message of the panic the DriverActor raises on a chaos DriverPanic.
+const INJECTED_PANIC: &str = "chaos: injected driver panic";
+
+static RUNNING: AtomicBool = AtomicBool::new(false);
+static INJECTED_PANICS_SEEN: AtomicU64 = AtomicU64::new(0);
+static OTHER_PANICS: AtomicU64 = AtomicU64::new(0);
+static OTHER_PANIC_TEXT: Mutex<Vec<String>> = Mutex::new(Vec::new());
+
+type Hook = dyn Fn(&std::panic::PanicHookInfo<'_>) + Send + Sync + 'static;
+
+/// Counts panics for the run and restores the previous hook when dropped. The injected driver
+/// panics are counted silently (hundreds of backtraces would bury the report); any other panic
+/// is counted and passed to the previous hook as usual.
+struct PanicWatch {
+    prev: Arc<Hook>,
+}
+
+impl PanicWatch {
+    fn install() -> Result<Self, ChaosHarnessError> {
+        if RUNNING.swap(true, Ordering::SeqCst) {
+            return Err(ChaosHarnessError::AlreadyRunning);
+        }
+        INJECTED_PANICS_SEEN.store(0, Ordering::SeqCst);
+        OTHER_PANICS.store(0, Ordering::SeqCst);
+        OTHER_PANIC_TEXT
+            .lock()
+            .unwrap_or_else(|p| p.into_inner())
+            .clear();
+        let prev: Arc<Hook> = Arc::from(std::panic::take_hook());
+        let chained = prev.clone();
+        std::panic::set_hook(Box::new(move |info| {
+            let p = info.payload();
+            let msg = p
+                .downcast_ref::<&str>()
+                .map(|s| s.to_string())
+                .or_else(|| p.downcast_ref::<String>().cloned())
+                .unwrap_or_default();
+            if msg == INJECTED_PANIC {
+                INJECTED_PANICS_SEEN.fetch_add(1, Ordering::SeqCst);
+            } else {
+                OTHER_PANICS.fetch_add(1, Ordering::SeqCst);
+                let at = info
+                    .location()
+                    .map(|l| format!(" at {}:{}", l.file(), l.line()))
+                    .unwrap_or_default();
+                if let Ok(mut v) = OTHER_PANIC_TEXT.lock()
+                    && v.len() < 10
+                {
+                    v.push(format!("{msg}{at}"));
+                }
+                chained(info);
+            }
+        }));
+        Ok(Self { prev })
+    }
+}
+
+impl Drop for PanicWatch {
+    fn drop(&mut self) {
+        let prev = self.prev.clone();
+        let _ = std::panic::take_hook();
+        std::panic::set_hook(Box::new(move |info| prev(info)));
+        RUNNING.store(false, Ordering::SeqCst);
+    }
+}
+
+/// Resident set size of this process in KiB (Linux); None elsewhere.
+pub fn rss_kib() -> Option<u64> {
+    let text = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = text.lines().find(|l| l.starts_with("VmRSS:"))?;
+    line.split_whitespace().nth(1)?.parse().ok()
+}
+
+// ---- what the monitor sees --------------------------------------------------------------
+
+const FIVE: [InterfaceState; 5] = [
+    InterfaceState::InterfaceStandby,
+    InterfaceState::InterfaceListen,
+    InterfaceState::InterfaceCommand,
+    InterfaceState::InterfaceHelmError,
+    InterfaceState::InterfaceFsError,
+];
+
+#[derive(Default)]
+struct Responses {
+    /// request_id → number of CommandResponses seen.
+    count: HashMap<i32, u32>,
+    without_id: u64,
+    ok: u64,
+    not_in_command: u64,
+    timeout: u64,
+    driver_failed: u64,
+    shutting_down: u64,
+    frontseat_refused: u64,
+}
+
+/// Counters fed by bus subscriptions whose delivery functions run on the publisher's thread:
+/// nothing is queued, so the monitor itself can never drop a message.
+struct Monitor {
+    statuses: AtomicU64,
+    invalid_states: AtomicU64,
+    invalid_examples: Mutex<Vec<i32>>,
+    node_status: AtomicU64,
+    responses: Mutex<Responses>,
+    state: watch::Sender<InterfaceState>,
+    /// Every change of state with its wall time, to measure how long each fault kept the
+    /// interface out of COMMAND.
+    changes: Mutex<Vec<(Instant, InterfaceState)>>,
+    rss_max_kib: AtomicU64,
+}
+
+impl Monitor {
+    fn new() -> Arc<Self> {
+        let (state, _) = watch::channel(InterfaceState::InterfaceStandby);
+        Arc::new(Self {
+            statuses: AtomicU64::new(0),
+            invalid_states: AtomicU64::new(0),
+            invalid_examples: Mutex::new(Vec::new()),
+            node_status: AtomicU64::new(0),
+            responses: Mutex::new(Responses::default()),
+            state,
+            changes: Mutex::new(Vec::new()),
+            rss_max_kib: AtomicU64::new(0),
+        })
+    }
+
+    fn subscribe(self: &Arc<Self>, bus: &Bus) -> Vec<Subscription> {
+        let m = self.clone();
+        let status = bus.subscribe(
+            &groups::GOBY_MIDDLEWARE_FRONTSEAT_STATUS,
+            "chaos-monitor",
+            1 << 20,
+            move |env| {
+                m.statuses.fetch_add(1, Ordering::Relaxed);
+                let raw = env.msg.state.unwrap_or(0);
+                match InterfaceState::try_from(raw) {
+                    Ok(s) if FIVE.contains(&s) => {
+                        let changed = m.state.send_if_modified(|cur| {
+                            let c = *cur != s;
+                            *cur = s;
+                            c
+                        });
+                        if changed && let Ok(mut v) = m.changes.lock() {
+                            v.push((Instant::now(), s));
+                        }
+                    }
+                    _ => {
+                        m.invalid_states.fetch_add(1, Ordering::Relaxed);
+                        if let Ok(mut v) = m.invalid_examples.lock()
+                            && v.len() < 10
+                        {
+                            v.push(raw);
+                        }
+                    }
+                }
+                Ok(())
+            },
+        );
+        let m = self.clone();
+        let node = bus.subscribe(
+            &groups::GOBY_MIDDLEWARE_FRONTSEAT_NODE_STATUS,
+            "chaos-monitor",
+            1 << 20,
+            move |_| {
+                m.node_status.fetch_add(1, Ordering::Relaxed);
+                Ok(())
+            },
+        );
+        let m = self.clone();
+        let resp = bus.subscribe(
+            &groups::GOBY_MIDDLEWARE_FRONTSEAT_COMMAND_RESPONSE,
+            "chaos-monitor",
+            1 << 20,
+            move |env| {
+                let mut r = m.responses.lock().unwrap_or_else(|p| p.into_inner());
+                match env.msg.request_id {
+                    Some(id) => *r.count.entry(id).or_default() += 1,
+                    None => r.without_id += 1,
+                }
+                if env.msg.request_successful() {
+                    r.ok += 1;
+                } else {
+                    match env.msg.error_code {
+                        Some(error_code::NOT_IN_COMMAND) => r.not_in_command += 1,
+                        Some(error_code::TIMEOUT) => r.timeout += 1,
+                        Some(error_code::DRIVER_FAILED) => r.driver_failed += 1,
+                        Some(error_code::SHUTTING_DOWN) => r.shutting_down += 1,
+                        _ => r.frontseat_refused += 1,
+                    }
+                }
+                Ok(())
+            },
+        );
+        vec![status, node, resp]
+    }
+
+    fn state(&self) -> InterfaceState {
+        *self.state.borrow()
+    }
+
+    /// Time spent outside COMMAND between `from` and `to`.
+    fn outage(&self, from: Instant, to: Instant) -> Duration {
+        let v = self.changes.lock().unwrap_or_else(|p| p.into_inner());
+        // The state at `from`: the last change before it.
+        let start = v.partition_point(|(t, _)| *t <= from);
+        let mut state = if start == 0 {
+            InterfaceState::InterfaceStandby
+        } else {
+            v[start - 1].1
+        };
+        let mut since = from;
+        let mut out = Duration::ZERO;
+        for (t, s) in v[start..].iter().take_while(|(t, _)| *t <= to) {
+            if state != InterfaceState::InterfaceCommand {
+                out += t.saturating_duration_since(since);
+            }
+            state = *s;
+            since = *t;
+        }
+        if state != InterfaceState::InterfaceCommand {
+            out += to.saturating_duration_since(since);
+        }
+        out
+    }
+
+    /// Waits up to `within` for the interface to leave COMMAND (a fault that takes effect).
+    async fn until_left_command(&self, within: Duration) {
+        let mut rx = self.state.subscribe();
+        let _ = tokio::time::timeout(
+            within,
+            rx.wait_for(|s| *s != InterfaceState::InterfaceCommand),
+        )
+        .await;
+    }
+
+    /// Waits until the interface is in COMMAND; the time it took, or None past `within`.
+    async fn until_command(&self, within: Duration) -> Option<Duration> {
+        let start = Instant::now();
+        let mut rx = self.state.subscribe();
+        let r = tokio::time::timeout(
+            within,
+            rx.wait_for(|s| *s == InterfaceState::InterfaceCommand),
+        )
+        .await;
+        matches!(r, Ok(Ok(_))).then(|| start.elapsed())
+    }
+
+    /// Waits until COMMAND has held for `stable`; the time from the call to the start of that
+    /// stable stretch, or None past `within`.
+    async fn until_stable_command(&self, within: Duration, stable: Duration) -> Option<Duration> {
+        let start = Instant::now();
+        let deadline = start + within;
+        let mut rx = self.state.subscribe();
+        loop {
+            let left = deadline.checked_duration_since(Instant::now())?;
+            let reached_command = matches!(
+                tokio::time::timeout(
+                    left,
+                    rx.wait_for(|s| *s == InterfaceState::InterfaceCommand),
+                )
+                .await,
+                Ok(Ok(_))
+            );
+            if !reached_command {
+                return None;
+            }
+            let reached = start.elapsed();
+            let left_command = tokio::time::timeout(
+                stable,
+                rx.wait_for(|s| *s != InterfaceState::InterfaceCommand),
+            )
+            .await;
+            match left_command {
+                Err(_) => return Some(reached),
+                Ok(Err(_)) => return None,
+                Ok(Ok(_)) => continue,
+            }
+        }
+    }
+}
+
+// ---- the helm -----------------------------------------------------------------------------
+
+/// A helm on the bus: helm_state every 50 ms (and at once on a change), and every 20 ms a
+/// desired_course plus a CommandRequest with response_requested and a fresh request_id.
+struct Helm {
+    state: watch::Sender<HelmState>,
+    commanding: Arc<AtomicBool>,
+    last_id: Arc<AtomicI32>,
+    task: tokio::task::JoinHandle<()>,
+}
+
+impl Helm {
+    fn start(bus: &Bus) -> Self {
+        let (state, mut rx) = watch::channel(HelmState::HelmDrive);
+        let commanding = Arc::new(AtomicBool::new(true));
+        let last_id = Arc::new(AtomicI32::new(0));
+        let bus = bus.clone();
+        let (c, ids) = (commanding.clone(), last_id.clone());
+        let task = tokio::spawn(async move {
+            let mut tick = tokio::time::interval(Duration::from_millis(20));
+            tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
+            let mut n: u64 = 0;
+            loop {
+                let publish_state = tokio::select! {
+                    _ = tick.tick() => { n += 1; n.is_multiple_of(3) }
+                    r = rx.changed() => { if r.is_err() { return } true }
+                };
+                if publish_state {
+                    let s = *rx.borrow_and_update();
+                    bus.publish(
+                        &groups::GOBY_MIDDLEWARE_FRONTSEAT_HELM_STATE,
+                        HelmStateReport { state: s as i32 },
+                    );
+                }
+                if c.load(Ordering::SeqCst) {
+                    let heading = ((n * 37) % 360) as f64;
+                    let course = DesiredCourse {
+                        heading: Some(heading),
+                        speed: Some(1.5),
+                        depth: Some(0.0),
+                        ..Default::default()
+                    };
+                    bus.publish(&groups::GOBY_MIDDLEWARE_FRONTSEAT_DESIRED_COURSE, course);
+                    let id = ids.fetch_add(1, Ordering::SeqCst) + 1;
+                    bus.publish(
+                        &groups::GOBY_MIDDLEWARE_FRONTSEAT_COMMAND_REQUEST,
+                        CommandRequest {
+                            desired_course: Some(course),
+                            response_requested: Some(true),
+                            request_id: Some(id),
+                            ..Default::default()
+                        },
+                    );
+                }
+            }
+        });
+        Self {
+            state,
+            commanding,
+            last_id,
+            task,
+        }
+    }
+}
+
+impl Drop for Helm {
+    fn drop(&mut self) {
+        self.task.abort();
+    }
+}
+
+// ---- the simulator and the MOOS broker, restartable on the same port ----------------------
+
+struct Sim {
+    addr: SocketAddr,
+    handle: SimHandle,
+    embedded: Option<EmbeddedSimulator>,
+}
+
+impl Sim {
+    async fn start(bus: &Bus) -> Result<Self, ChaosHarnessError> {
+        let handle = SimServer::bind(([127, 0, 0, 1], 0).into(), SimOptions::default()).await?;
+        let embedded = Some(sim_glue::embed(&handle, bus));
+        Ok(Self {
+            addr: handle.local_addr(),
+            handle,
+            embedded,
+        })
+    }
+
+    async fn restart(&mut self, bus: &Bus, down: Duration) -> Result<(), ChaosHarnessError> {
+        self.embedded = None;
+        self.handle.shutdown().await;
+        tokio::time::sleep(down).await;
+        self.handle = rebind(|| SimServer::bind(self.addr, SimOptions::default())).await?;
+        self.embedded = Some(sim_glue::embed(&self.handle, bus));
+        Ok(())
+    }
+}
+
+/// Binds again on the same port; a few tries, since the old listener's socket may linger.
+async fn rebind<T, E, F, Fut>(mut bind: F) -> Result<T, E>
+where
+    F: FnMut() -> Fut,
+    Fut: std::future::Future<Output = Result<T, E>>,
+{
+    let mut tries = 0;
+    loop {
+        match bind().await {
+            Ok(v) => return Ok(v),
+            Err(e) if tries >= 40 => return Err(e),
+            Err(_) => {
+                tries += 1;
+                tokio::time::sleep(Duration::from_millis(25)).await;
+            }
+        }
+    }
+}
+
+struct Moos {
+    addr: SocketAddr,
+    broker: Option<BrokerHandle>,
+    bridge: TranslationHandle,
+}
+
+impl Moos {
+    async fn wait_connected(&self, within: Duration) -> bool {
+        let deadline = Instant::now() + within;
+        while Instant::now() < deadline {
+            if self.bridge.status().moos_connected == Some(true) {
+                return true;
+            }
+            tokio::time::sleep(Duration::from_millis(5)).await;
+        }
+        false
+    }
+}
+
+// ---- the run ------------------------------------------------------------------------------
+
+struct Run {
+    opts: ChaosOptions,
+    bus: Bus,
+    monkey: ChaosMonkeyPorts,
+    service: InterfaceService,
+    sim: Sim,
+    moos: Option<Moos>,
+    helm: Helm,
+    monitor: Arc<Monitor>,
+    warp: f64,
+    injected_panics: u64,
+    injected_kills: u64,
+    restart_waits: Vec<Duration>,
+    stall_deliveries: Vec<u64>,
+    stall_drops: u64,
+    moos_reconnects: Vec<Duration>,
+    violations: Vec<String>,
+    by_kind: BTreeMap<FaultKind, KindStats>,
+}
+
+impl Run {
+    async fn snapshot(&self) -> Option<Snapshot> {
+        self.service.snapshot(Duration::from_secs(2)).await
+    }
+
+    fn sim_fault(&self, f: sim_fault::Fault) {
+        self.bus.publish(
+            &groups::FRONTSEAT_SIM_FAULT,
+            SimFault {
+                vehicle: None,
+                fault: Some(f),
+            },
+        );
+    }
+
+    fn ctrl(&self, c: sim_fault::Ctrl) {
+        self.sim_fault(sim_fault::Fault::Ctrl(c as i32));
+    }
+
+    /// Waits until the driver actor is up with `restarts` restarts behind it.
+    async fn driver_up(&self, restarts: u32) -> bool {
+        let deadline = Instant::now() + self.opts.recovery_bound;
+        while Instant::now() < deadline {
+            match self.snapshot().await {
+                Some(s) if s.driver_up && s.driver_restarts >= restarts => return true,
+                Some(_) => tokio::time::sleep(Duration::from_millis(2)).await,
+                None => return false,
+            }
+        }
+        false
+    }
+
+    async fn driver_crash(&mut self, i: u32, kind: FaultKind) {
+        let expected = (self.injected_panics + self.injected_kills) as u32;
+        if !self.driver_up(expected).await {
+            self.violations.push(format!(
+                "fault #{i} ({}): driver not up with {expected} restarts within {:?} before injecting",
+                kind.name(),
+                self.opts.recovery_bound
+            ));
+            return;
+        }
+        let fault = if kind == FaultKind::DriverPanic {
+            self.injected_panics += 1;
+            chaos_fault::Fault::DriverPanic(true)
+        } else {
+            self.injected_kills += 1;
+            chaos_fault::Fault::KillDriver(true)
+        };
+        let t0 = Instant::now();
+        self.monkey.publish_fault(ChaosFault { fault: Some(fault) });
+        if self.driver_up(expected + 1).await {
+            self.restart_waits.push(t0.elapsed());
+        } else {
+            self.violations.push(format!(
+                "fault #{i} ({}): driver not restarted within {:?}",
+                kind.name(),
+                self.opts.recovery_bound
+            ));
+        }
+    }
+
+    /// Injects `f` and returns when it cleared: for a one-shot fault (a crash, a dropped
+    /// connection, bad lines) the moment it happened — the hold is then only a window for the
+    /// interface to notice; for a held fault (CTRL AUV, PARK, a stopped simulator or broker, a
+    /// stall, NAV stopped) the moment it was lifted.
+    async fn inject(&mut self, i: u32, f: &PlannedFault) -> Instant {
+        let one_shot = |t: Instant| t;
+        match f.kind {
+            FaultKind::DriverPanic | FaultKind::DriverKill => {
+                // driver_crash returns once the new driver is up; the crash itself is the moment.
+                let t = Instant::now();
+                self.driver_crash(i, f.kind).await;
+                one_shot(t)
+            }
+            FaultKind::DropConnection => {
+                let t = Instant::now();
+                self.sim_fault(sim_fault::Fault::DropConnection(true));
+                self.monitor.until_left_command(f.hold).await;
+                one_shot(t)
+            }
+            FaultKind::Garbage => {
+                let t = Instant::now();
+                self.sim_fault(sim_fault::Fault::GarbageLines(f.amount as u32));
+                self.monitor.until_left_command(f.hold).await;
+                one_shot(t)
+            }
+            FaultKind::Oversized => {
+                let t = Instant::now();
+                self.sim_fault(sim_fault::Fault::OversizedLine(true));
+                self.monitor.until_left_command(f.hold).await;
+                one_shot(t)
+            }
+            FaultKind::CtrlPayload => {
+                let t = Instant::now();
+                self.ctrl(sim_fault::Ctrl::Payload);
+                self.monitor.until_left_command(f.hold).await;
+                one_shot(t)
+            }
+            FaultKind::SimRestart => {
+                if let Err(e) = self.sim.restart(&self.bus, f.hold).await {
+                    self.violations
+                        .push(format!("fault #{i}: simulator could not be restarted: {e}"));
+                }
+                Instant::now()
+            }
+            FaultKind::StopNav => {
+                self.sim_fault(sim_fault::Fault::StopNavSeconds(f.amount));
+                // NAV resumes by itself after `amount` simulated seconds.
+                tokio::time::sleep(Duration::from_secs_f64(f.amount / self.warp)).await;
+                Instant::now()
+            }
+            FaultKind::CtrlAuv => {
+                self.ctrl(sim_fault::Ctrl::Auv);
+                tokio::time::sleep(f.hold).await;
+                self.ctrl(sim_fault::Ctrl::Payload);
+                Instant::now()
+            }
+            FaultKind::CtrlIdle => {
+                // IDLE ends the simulator's run; the operator's way back is a new START, which
+                // the driver sends on reconnect.
+                self.ctrl(sim_fault::Ctrl::Idle);
+                tokio::time::sleep(f.hold).await;
+                self.sim_fault(sim_fault::Fault::DropConnection(true));
+                Instant::now()
+            }
+            FaultKind::HelmPark => {
+                self.helm.state.send_replace(HelmState::HelmPark);
+                tokio::time::sleep(f.hold).await;
+                self.helm.state.send_replace(HelmState::HelmDrive);
+                Instant::now()
+            }
+            FaultKind::StalledSubscriber => {
+                self.stall(i, f.hold).await;
+                Instant::now()
+            }
+            FaultKind::MoosRestart => {
+                self.moos_restart(i, f.hold).await;
+                Instant::now()
+            }
+        }
+    }
+
+    /// A subscriber to raw_in and node_status that never reads. The publishers (driver,
+    /// interface) must not block: node_status keeps reaching the monitor, and the stalled
+    /// queue's overflow is dropped and counted.
+    async fn stall(&mut self, i: u32, hold: Duration) {
+        if self
+            .monitor
+            .until_command(self.opts.recovery_bound)
+            .await
+            .is_none()
+        {
+            self.violations.push(format!(
+                "fault #{i} (stalled subscriber): not in COMMAND within {:?} before the stall",
+                self.opts.recovery_bound
+            ));
+        }
+        let (s1, rx1) = self.bus.subscribe_channel(
+            &groups::GOBY_MIDDLEWARE_FRONTSEAT_RAW_IN,
+            "chaos-stalled",
+            8,
+        );
+        let (s2, rx2) = self.bus.subscribe_channel(
+            &groups::GOBY_MIDDLEWARE_FRONTSEAT_NODE_STATUS,
+            "chaos-stalled",
+            8,
+        );
+        let before_drops = self.bus.total_dropped();
+        let before = self.monitor.node_status.load(Ordering::Relaxed);
+        tokio::time::sleep(hold).await;
+        let delivered = self.monitor.node_status.load(Ordering::Relaxed) - before;
+        let dropped = self.bus.total_dropped() - before_drops;
+        s1.cancel();
+        s2.cancel();
+        drop((rx1, rx2));
+        self.stall_deliveries.push(delivered);
+        self.stall_drops += dropped;
+        if delivered == 0 {
+            self.violations.push(format!(
+                "fault #{i} (stalled subscriber): no node_status reached other subscribers during a {hold:?} stall"
+            ));
+        }
+    }
+
+    async fn moos_restart(&mut self, i: u32, down: Duration) {
+        let bound = self.opts.recovery_bound;
+        let Some(m) = self.moos.as_mut() else { return };
+        if !m.wait_connected(bound).await {
+            self.violations.push(format!(
+                "fault #{i} (MOOS restart): bridge not connected within {bound:?} before the restart"
+            ));
+        }
+        let r0 = m.bridge.counters().reconnects;
+        if let Some(b) = m.broker.take() {
+            b.shutdown().await;
+        }
+        tokio::time::sleep(down).await;
+        let addr = m.addr;
+        match rebind(|| Broker::bind(addr)).await {
+            Ok(b) => m.broker = Some(b),
+            Err(e) => {
+                self.violations.push(format!(
+                    "fault #{i}: MOOS broker could not be restarted: {e}"
+                ));
+                return;
+            }
+        }
+        let t0 = Instant::now();
+        let deadline = t0 + bound;
+        loop {
+            if m.bridge.counters().reconnects > r0 && m.bridge.status().moos_connected == Some(true)
+            {
+                self.moos_reconnects.push(t0.elapsed());
+                break;
+            }
+            if Instant::now() >= deadline {
+                self.violations.push(format!(
+                    "fault #{i} (MOOS restart): bridge not reconnected within {bound:?}"
+                ));
+                break;
+            }
+            tokio::time::sleep(Duration::from_millis(5)).await;
+        }
+    }
+}
+
+/// Runs the harness: `config` must enable chaos. `progress` gets a line now and then.
+pub async fn run(
+    mut config: InterfaceConfig,
+    opts: ChaosOptions,
+    mut progress: impl FnMut(&str) + Send,
+) -> Result<ChaosReport, ChaosHarnessError> {
+    if !config.chaos.enabled {
+        return Err(ChaosError::NotEnabled.into());
+    }
+    if let Some(w) = opts.warp {
+        if !(w.is_finite() && w > 0.0 && w <= frontseat_config::MAX_WARP) {
+            return Err(ChaosHarnessError::Options(format!(
+                "warp must be in (0, {}]",
+                frontseat_config::MAX_WARP
+            )));
+        }
+        config.sim_warp_factor = w;
+    }
+    if opts.recovery_bound.is_zero() {
+        return Err(ChaosHarnessError::Options(
+            "recovery bound must be > 0".into(),
+        ));
+    }
+    let warp = config.sim_warp_factor;
+    let mut notes = Vec::new();
+    if config.exit_on_error {
+        config.exit_on_error = false;
+        notes.push(
+            "exit_on_error turned off for the run (every fault would end the service)".into(),
+        );
+    }
+    let panics = PanicWatch::install()?;
+    let started = Instant::now();
+    let bus = Bus::new();
+    let monitor = Monitor::new();
+    let monitor_subs = monitor.subscribe(&bus);
+
+    let sim = Sim::start(&bus).await?;
+    config.driver.basic_simulator.tcp_address = "127.0.0.1".into();
+    config.driver.basic_simulator.tcp_port = sim.addr.port();
+
+    let moos = if opts.moos {
+        let broker = Broker::bind("127.0.0.1:0").await?;
+        let addr = broker.local_addr();
+        let mut mc = config.moos.clone().unwrap_or_default();
+        mc.server = "127.0.0.1".into();
+        mc.port = addr.port();
+        mc.time_warp = 1.0;
+        config.moos = Some(mc.clone());
+        let bridge = translation::spawn(&mc, &config.name, &bus)
+            .await
+            .map_err(|e| ChaosHarnessError::Translation(e.to_string()))?;
+        Some(Moos {
+            addr,
+            broker: Some(broker),
+            bridge,
+        })
+    } else {
+        config.moos = None;
+        None
+    };
+
+    let helm = Helm::start(&bus);
+    let service = InterfaceService::start(&config, &bus).await?;
+    // The gate: refuses unless the config enables chaos.
+    let agent = ChaosAgent::start(&config, &bus, service.actor().clone())?;
+
+    let mut run = Run {
+        monkey: ChaosMonkeyPorts::new(&bus),
+        bus,
+        service,
+        sim,
+        moos,
+        helm,
+        monitor,
+        warp,
+        injected_panics: 0,
+        injected_kills: 0,
+        restart_waits: Vec::new(),
+        stall_deliveries: Vec::new(),
+        stall_drops: 0,
+        moos_reconnects: Vec::new(),
+        violations: Vec::new(),
+        by_kind: BTreeMap::new(),
+        opts: opts.clone(),
+    };
+
+    if run
+        .monitor
+        .until_command(Duration::from_secs(10).max(opts.recovery_bound))
+        .await
+        .is_none()
+    {
+        return Err(ChaosHarnessError::NoStart(
+            Duration::from_secs(10).max(opts.recovery_bound),
+        ));
+    }
+    if let Some(m) = &run.moos
+        && !m.wait_connected(opts.recovery_bound).await
+    {
+        run.violations
+            .push("MOOS bridge not connected to the broker at start".into());
+    }
+    // Warm: this is the baseline the resident set may not grow much beyond.
+    let rss_baseline = rss_kib();
+    let rss_task = {
+        let m = run.monitor.clone();
+        tokio::spawn(async move {
+            loop {
+                if let Some(r) = rss_kib() {
+                    m.rss_max_kib.fetch_max(r, Ordering::Relaxed);
+                }
+                tokio::time::sleep(Duration::from_millis(100)).await;
+            }
+        })
+    };
+
+    let schedule = plan(
+        opts.seed,
+        opts.faults,
+        opts.moos,
+        config.driver.basic_simulator.nav_timeout,
+    );
+    let mut last_report = Instant::now();
+    let mut last_cleared = Instant::now();
+    for (n, f) in schedule.iter().enumerate() {
+        let i = n as u32 + 1;
+        let injected_at = Instant::now();
+        let cleared = run.inject(i, f).await;
+        last_cleared = cleared;
+        run.by_kind.entry(f.kind).or_default().injected += 1;
+        if !f.burst {
+            let back = run.monitor.until_command(opts.recovery_bound).await;
+            let now = Instant::now();
+            let outage = run.monitor.outage(injected_at, now);
+            let st = run.by_kind.entry(f.kind).or_default();
+            match back {
+                Some(_) => {
+                    st.recoveries.push(now.saturating_duration_since(cleared));
+                    st.outages.push(outage);
+                }
+                None => run.violations.push(format!(
+                    "fault #{i} ({}): not back in COMMAND within {:?} after it cleared (state {:?})",
+                    f.kind.name(),
+                    opts.recovery_bound,
+                    run.monitor.state()
+                )),
+            }
+        }
+        tokio::time::sleep(f.gap).await;
+        if last_report.elapsed() >= Duration::from_secs(2) || i == opts.faults {
+            last_report = Instant::now();
+            progress(&format!(
+                "{i}/{} faults, state {}, driver restarts {}, violations {}",
+                opts.faults,
+                crate::state_machine::state_words(run.monitor.state()),
+                run.injected_panics + run.injected_kills,
+                run.violations.len()
+            ));
+        }
+    }
+
+    // After the last fault: back in COMMAND, and staying there.
+    let stable = Duration::from_millis(300);
+    let called = Instant::now();
+    let final_recovery = run
+        .monitor
+        .until_stable_command(opts.recovery_bound, stable)
+        .await
+        .map(|reached| (called + reached).saturating_duration_since(last_cleared));
+
+    // Stop commanding, then give every outstanding request its 5 s (sim) to be answered.
+    run.helm.commanding.store(false, Ordering::SeqCst);
+    let sent = run.helm.last_id.load(Ordering::SeqCst);
+    let answer_wait = Duration::from_secs_f64(5.0 / warp) + Duration::from_secs(3);
+    let deadline = Instant::now() + answer_wait;
+    loop {
+        let answered = {
+            let r = run
+                .monitor
+                .responses
+                .lock()
+                .unwrap_or_else(|p| p.into_inner());
+            (1..=sent).all(|id| r.count.contains_key(&id))
+        };
+        if answered || Instant::now() >= deadline {
+            break;
+        }
+        tokio::time::sleep(Duration::from_millis(10)).await;
+    }
+    // Late duplicates would arrive now.
+    tokio::time::sleep(Duration::from_millis(200)).await;
+
+    let snapshot = run.snapshot().await;
+    rss_task.abort();
+    let rss_max = run.monitor.rss_max_kib.load(Ordering::Relaxed);
+
+    agent.stop();
+    let moos_bridge = run.moos.take();
+    if let Some(m) = moos_bridge {
+        m.bridge.shutdown().await;
+        if let Some(b) = m.broker {
+            b.shutdown().await;
+        }
+    }
+    let exit = run.service.shutdown(Duration::from_secs(3)).await;
+    run.helm.task.abort();
+    run.sim.embedded = None;
+    run.sim.handle.shutdown().await;
+    for s in monitor_subs {
+        s.cancel();
+    }
+    drop(panics);
+
+    // ---- the invariants table ----
+    let bound = opts.recovery_bound;
+    let mut inv = Vec::new();
+    inv.push(Invariant {
+        name: "back in COMMAND after the last fault cleared (and held 300 ms)",
+        bound: format!("≤ {} wall", fmt_ms(bound)),
+        measured: final_recovery.map_or_else(
+            || format!("not within bound (state {:?})", run.monitor.state()),
+            fmt_ms,
+        ),
+        ok: final_recovery.is_some(),
+    });
+    let mut all_rec: Vec<Duration> = run
+        .by_kind
+        .values()
+        .flat_map(|k| k.recoveries.iter().copied())
+        .collect();
+    all_rec.sort();
+    let late = run
+        .violations
+        .iter()
+        .filter(|v| v.contains("not back in COMMAND"))
+        .count()
+        + all_rec.iter().filter(|d| **d > bound).count();
+    inv.push(Invariant {
+        name: "back in COMMAND after each non-burst fault",
+        bound: format!("≤ {} wall", fmt_ms(bound)),
+        measured: format!(
+            "n {}, p50 {}, p99 {}, max {}; {} late",
+            all_rec.len(),
+            fmt_ms(percentile(&all_rec, 50.0)),
+            fmt_ms(percentile(&all_rec, 99.0)),
+            fmt_ms(all_rec.last().copied().unwrap_or_default()),
+            late
+        ),
+        ok: late == 0,
+    });
+    let invalid = run.monitor.invalid_states.load(Ordering::Relaxed);
+    let examples = run
+        .monitor
+        .invalid_examples
+        .lock()
+        .map(|v| v.clone())
+        .unwrap_or_default();
+    inv.push(Invariant {
+        name: "every published state is one of the five",
+        bound: "0 outside STANDBY/LISTEN/COMMAND/HELM_ERROR/FS_ERROR".into(),
+        measured: format!(
+            "{} statuses, {} outside{}",
+            run.monitor.statuses.load(Ordering::Relaxed),
+            invalid,
+            if examples.is_empty() {
+                String::new()
+            } else {
+                format!(" (raw {examples:?})")
+            }
+        ),
+        ok: invalid == 0,
+    });
+    {
+        let r = run
+            .monitor
+            .responses
+            .lock()
+            .unwrap_or_else(|p| p.into_inner());
+        let missing = (1..=sent).filter(|id| !r.count.contains_key(id)).count();
+        let dup = r.count.values().filter(|c| **c > 1).count();
+        let unknown =
+            r.count.keys().filter(|id| **id < 1 || **id > sent).count() as u64 + r.without_id;
+        inv.push(Invariant {
+            name: "exactly one CommandResponse per request with response_requested",
+            bound: "0 missing, 0 duplicated, 0 unknown".into(),
+            measured: format!(
+                "{sent} sent: {} ok, {} not in COMMAND, {} timed out, {} driver failed, {} frontseat error, {} shutting down; {missing} missing, {dup} duplicated, {unknown} unknown",
+                r.ok,
+                r.not_in_command,
+                r.timeout,
+                r.driver_failed,
+                r.frontseat_refused,
+                r.shutting_down
+            ),
+            ok: missing == 0 && dup == 0 && unknown == 0 && sent > 0,
+        });
+    }
+    let limit = opts.rss_growth_limit_kib;
+    match rss_baseline {
+        Some(base) => {
+            let growth = rss_max.saturating_sub(base);
+            inv.push(Invariant {
+                name: "resident set stays bounded",
+                bound: format!("growth ≤ {} MiB over the warm baseline", limit / 1024),
+                measured: format!(
+                    "baseline {:.1} MiB, max {:.1} MiB (+{:.1} MiB)",
+                    base as f64 / 1024.0,
+                    rss_max as f64 / 1024.0,
+                    growth as f64 / 1024.0
+                ),
+                ok: growth <= limit,
+            });
+        }
+        None => notes.push("RSS not measured (no /proc/self/status)".into()),
+    }
+    let other = OTHER_PANICS.load(Ordering::SeqCst);
+    let seen = INJECTED_PANICS_SEEN.load(Ordering::SeqCst);
+    let texts = OTHER_PANIC_TEXT
+        .lock()
+        .map(|v| v.clone())
+        .unwrap_or_default();
+    inv.push(Invariant {
+        name: "no panic escaped (injected driver panics absorbed by supervision)",
+        bound: "0 other panics".into(),
+        measured: format!(
+            "{other} other panics{}; {seen} injected panics raised and absorbed",
+            if texts.is_empty() {
+                String::new()
+            } else {
+                format!(" ({})", texts.join("; "))
+            }
+        ),
+        ok: other == 0 && seen == run.injected_panics,
+    });
+    let crashes = run.injected_panics + run.injected_kills;
+    let restarts = snapshot.as_ref().map(|s| u64::from(s.driver_restarts));
+    let mut rw = run.restart_waits.clone();
+    rw.sort();
+    inv.push(Invariant {
+        name: "driver restarts equal injected driver crashes",
+        bound: "equal".into(),
+        measured: format!(
+            "{} restarts, {crashes} crashes ({} panics + {} kills); restart p50 {}, max {}",
+            restarts.map_or("?".into(), |r| r.to_string()),
+            run.injected_panics,
+            run.injected_kills,
+            fmt_ms(percentile(&rw, 50.0)),
+            fmt_ms(rw.last().copied().unwrap_or_default())
+        ),
+        ok: restarts == Some(crashes),
+    });
+    inv.push(Invariant {
+        name: "the service ran to the end and shut down cleanly",
+        bound: "clean exit".into(),
+        measured: format!("{exit:?}"),
+        ok: exit == ServiceExit::Clean && snapshot.is_some(),
+    });
+    if !run.stall_deliveries.is_empty() {
+        let min = run.stall_deliveries.iter().min().copied().unwrap_or(0);
+        inv.push(Invariant {
+            name: "a stalled subscriber blocks no publisher",
+            bound: "node_status keeps flowing during every stall".into(),
+            measured: format!(
+                "{} stalls, ≥ {min} node_status delivered during each, {} messages dropped and counted",
+                run.stall_deliveries.len(),
+                run.stall_drops
+            ),
+            ok: min > 0,
+        });
+    }
+    if opts.moos {
+        let mut mr = run.moos_reconnects.clone();
+        mr.sort();
+        let restarts = run
+            .by_kind
+            .get(&FaultKind::MoosRestart)
+            .map_or(0, |k| k.injected) as usize;
+        inv.push(Invariant {
+            name: "MOOS bridge reconnects after every broker restart",
+            bound: format!("≤ {} wall each", fmt_ms(bound)),
+            measured: format!(
+                "{}/{} reconnected; p50 {}, max {}",
+                mr.len(),
+                restarts,
+                fmt_ms(percentile(&mr, 50.0)),
+                fmt_ms(mr.last().copied().unwrap_or_default())
+            ),
+            ok: mr.len() == restarts,
+        });
+    }
+
+    Ok(ChaosReport {
+        seed: opts.seed,
+        warp,
+        faults: opts.faults,
+        moos: opts.moos,
+        wall: started.elapsed(),
+        by_kind: run.by_kind,
+        invariants: inv,
+        violations: run.violations,
+        notes,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn embedded_config_enables_chaos_and_parses() {
+        let c = default_config().unwrap();
+        assert!(c.chaos.enabled);
+        assert!(c.sim_warp_factor > 1.0);
+    }
+
+    #[test]
+    fn same_seed_same_schedule_other_seed_other_schedule() {
+        let a = plan(7, 300, true, 5.0);
+        assert_eq!(a, plan(7, 300, true, 5.0));
+        assert_ne!(a, plan(8, 300, true, 5.0));
+        // Every kind shows up in a schedule of this length.
+        for k in FaultKind::ALL {
+            assert!(a.iter().any(|f| f.kind == k), "{k:?} never planned");
+        }
+        assert!(
+            plan(7, 300, false, 5.0)
+                .iter()
+                .all(|f| f.kind != FaultKind::MoosRestart)
+        );
+    }
+
+    #[test]
+    fn rng_range_stays_in_bounds() {
+        let mut r = Rng::new(1);
+        for _ in 0..10_000 {
+            let x = r.range(2.0, 3.0);
+            assert!((2.0..3.0).contains(&x));
+            assert!(r.below(7) < 7);
+        }
+    }
+
+    #[tokio::test]
+    async fn refused_without_chaos_enabled() {
+        let cfg = InterfaceConfig::default();
+        let r = run(cfg, ChaosOptions::default(), |_| {}).await;
+        assert!(
+            matches!(r, Err(ChaosHarnessError::Refused(ChaosError::NotEnabled))),
+            "{:?}",
+            r.err()
+        );
+    }
+}

@@ -5,6 +5,7 @@
 
 pub mod bus;
 pub mod chaos;
+pub mod chaos_harness;
 pub mod clock;
 pub mod demo_helm;
 pub mod driver;

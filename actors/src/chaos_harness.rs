@@ -1184,7 +1184,13 @@ pub async fn run(
             let st = run.by_kind.entry(f.kind).or_default();
             match back {
                 Some(_) => {
-                    st.recoveries.push(now.saturating_duration_since(cleared));
+                    // A fault that never took the interface out of COMMAND needed no recovery.
+                    let back = if outage.is_zero() {
+                        Duration::ZERO
+                    } else {
+                        now.saturating_duration_since(cleared)
+                    };
+                    st.recoveries.push(back);
                     st.outages.push(outage);
                 }
                 None => run.violations.push(format!(

@@ -1,0 +1,51 @@
+//! Replays the checked-in fuzz corpus (`fuzz/corpus/<target>/`) through the same target bodies
+//! the fuzzer runs (`fuzz/src/lib.rs`, included here), so every input that ever found a bug or
+//! a new path stays a regression test under a plain `cargo test`.
+
+#[path = "../fuzz/src/lib.rs"]
+mod targets;
+
+use std::path::PathBuf;
+
+fn replay(target: &str, body: fn(&[u8])) {
+    let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("fuzz/corpus")
+        .join(target);
+    let mut files: Vec<PathBuf> = std::fs::read_dir(&dir)
+        .unwrap_or_else(|e| panic!("{}: {e}", dir.display()))
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.is_file())
+        .collect();
+    files.sort();
+    assert!(
+        files.len() >= 20,
+        "{}: only {} corpus files",
+        dir.display(),
+        files.len()
+    );
+    for f in &files {
+        let data = std::fs::read(f).unwrap();
+        let r = std::panic::catch_unwind(|| body(&data));
+        assert!(r.is_ok(), "{target}: {} panics", f.display());
+    }
+}
+
+#[test]
+fn sim_codec_corpus() {
+    replay("sim_codec", targets::sim_codec);
+}
+
+#[test]
+fn driver_line_corpus() {
+    replay("driver_line", targets::driver_line);
+}
+
+#[test]
+fn moos_decode_corpus() {
+    replay("moos_decode", targets::moos_decode);
+}
+
+#[test]
+fn config_corpus() {
+    replay("config", targets::config);
+}

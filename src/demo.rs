@@ -48,9 +48,11 @@ pub async fn run(args: DemoArgs) -> ExitCode {
     };
     let bus = Bus::new();
     let _embedded = frontseat_actors::sim_glue::embed(&sim, &bus);
-    let mut cfg = InterfaceConfig::default();
-    cfg.name = "demo-auv".into();
-    cfg.sim_warp_factor = args.warp;
+    let mut cfg = InterfaceConfig {
+        name: "demo-auv".into(),
+        sim_warp_factor: args.warp,
+        ..Default::default()
+    };
     cfg.driver.basic_simulator.tcp_port = sim.local_addr().port();
     cfg.driver.basic_simulator.start.lat = cfg.origin.lat;
     cfg.driver.basic_simulator.start.lon = cfg.origin.lon;

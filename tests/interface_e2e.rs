@@ -102,8 +102,8 @@ async fn reaches_command_steers_and_reports_ground_truth() {
             + (t.msg.global_fix.lon - reported.global_fix.lon).abs();
         best = best.min(d);
         if d < 1e-7 {
-            let lt = t.msg.local_fix.clone().unwrap();
-            let lr = reported.local_fix.clone().unwrap();
+            let lt = t.msg.local_fix.unwrap();
+            let lr = reported.local_fix.unwrap();
             assert!(
                 (lt.x - lr.x).abs() < 0.05 && (lt.y - lr.y).abs() < 0.05,
                 "{lt:?} vs {lr:?}"

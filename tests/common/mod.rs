@@ -22,10 +22,12 @@ pub async fn start_sim() -> SimHandle {
 }
 
 pub fn config_for(sim: &SimHandle, warp: f64) -> InterfaceConfig {
-    let mut cfg = InterfaceConfig::default();
-    cfg.name = "test-auv".into();
-    cfg.sim_warp_factor = warp;
-    cfg.status_period = 0.0;
+    let mut cfg = InterfaceConfig {
+        name: "test-auv".into(),
+        sim_warp_factor: warp,
+        status_period: 0.0,
+        ..Default::default()
+    };
     cfg.driver.basic_simulator.tcp_port = sim.local_addr().port();
     cfg.driver.basic_simulator.start.lat = cfg.origin.lat;
     cfg.driver.basic_simulator.start.lon = cfg.origin.lon;
@@ -62,8 +64,8 @@ impl StatusWatch {
         loop {
             match tokio::time::timeout_at(deadline, self.rx.recv()).await {
                 Ok(Some(env)) => {
-                    let s = (*env.msg).clone();
-                    self.seen.push(s.clone());
+                    let s = *env.msg;
+                    self.seen.push(s);
                     if pred(&s) {
                         return s;
                     }

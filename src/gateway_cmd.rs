@@ -53,6 +53,8 @@ fn open_hint(e: &GatewayError) -> &'static str {
 /// `frontseat moos-gateway -c FILE`: runs until SIGTERM/SIGINT.
 pub async fn moos_gateway(cfg: GatewayConfig) -> ExitCode {
     let bus = Bus::new();
+    let notifier = std::sync::Arc::new(crate::systemd::Notifier::from_env());
+    let reporter = crate::systemd::spawn_translation_reporter(notifier.clone(), &bus);
     let platform = match frontseat_gateway::resolve_platform(&cfg.interprocess, &cfg.name) {
         Ok(p) => p,
         Err(e) => {
@@ -94,8 +96,15 @@ pub async fn moos_gateway(cfg: GatewayConfig) -> ExitCode {
         moosdb = %format!("{}:{}", cfg.moos.server, cfg.moos.port),
         "MOOS gateway running"
     );
+    notifier.ready();
+    let watchdog = crate::systemd::spawn_watchdog(notifier.clone(), || async { true });
     crate::service::shutdown_signal().await;
+    notifier.stopping();
+    if let Some(w) = watchdog {
+        w.abort();
+    }
     translation.shutdown().await;
+    reporter.abort();
     let stats = gateway.stats();
     gateway.close().await;
     tracing::info!(?stats, "MOOS gateway stopped");

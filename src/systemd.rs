@@ -190,7 +190,6 @@ pub fn spawn_status_reporter(n: Arc<Notifier>, bus: &Bus) -> JoinHandle<()> {
 /// The STATUS text of the MOOS gateway: whether the MOOSDB link is up, the helm as pHelmIvP
 /// reports it, and stale setpoints, e.g. `moos:connected helm=drive` or
 /// `moos:disconnected helm=not_running desired=stale reconnects=2`.
-#[allow(dead_code)] // until src/gateway_cmd.rs reports the MOOS gateway's state
 pub fn translation_status_text(s: &TranslationStatus) -> String {
     let helm = s
         .helm_state
@@ -216,7 +215,6 @@ pub fn translation_status_text(s: &TranslationStatus) -> String {
 
 /// STATUS= for the MOOS gateway at every change of its TranslationStatus; like
 /// `spawn_status_reporter`, it subscribes before it returns and ends with the bus.
-#[allow(dead_code)] // until src/gateway_cmd.rs reports the MOOS gateway's state
 pub fn spawn_translation_reporter(n: Arc<Notifier>, bus: &Bus) -> JoinHandle<()> {
     let (sub, mut rx) = bus.subscribe_channel(&groups::FRONTSEAT_TRANSLATION_STATUS, "systemd", 64);
     tokio::spawn(async move {

@@ -26,9 +26,13 @@ pub struct GatewayConfig {
     pub telemetry: TelemetryConfig,
 }
 
+/// The gateway is a client of the interface's Zenoh endpoint by default: listening on the
+/// interface's own default endpoint would collide with it on one host.
 fn gateway_interprocess() -> InterprocessConfig {
     InterprocessConfig {
         enabled: true,
+        listen: Vec::new(),
+        connect: vec!["tcp/127.0.0.1:7447".to_string()],
         ..InterprocessConfig::default()
     }
 }

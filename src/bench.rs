@@ -4,12 +4,17 @@
 //! Rows P1, P2, P6, M1, M2 run the real interface (and for M1, M2 the MOOS translation and a
 //! MOOSDB) in this process against a scripted loopback frontseat (`frontseat`), P3 is the
 //! simulator's own capacity bench, P4 and P5 run this very binary as child processes (`procs`).
+//! Z1–Z3 and T1 run `frontseat interface` as a child with its Zenoh gateway on (and for T1 a
+//! second child exporting traces to a loopback OTLP sink), this process being the frontseat and
+//! the Zenoh helm (`xproc`).
 //! Figures are measured, never asserted: no test checks a timing.
 
 mod frontseat;
 mod inproc;
 mod procs;
 mod report;
+mod sink;
+mod xproc;
 
 use std::io::Write;
 use std::process::ExitCode;
@@ -34,6 +39,7 @@ pub struct BenchArgs {
 #[derive(Clone, Copy, Debug)]
 struct Plan {
     inproc: inproc::Plan,
+    xproc: xproc::Plan,
     capacity: (usize, f64, f64, Duration),
     start_runs: usize,
     settle: Duration,
@@ -55,6 +61,16 @@ impl Plan {
                 m2_count: 5_000,
                 m2_rate_hz: 500.0,
             },
+            xproc: xproc::Plan {
+                z1_count: 5_000,
+                z1_rate_hz: 500.0,
+                z2_count: 5_000,
+                z2_rate_hz: 500.0,
+                z3_rate_hz: 10_000.0,
+                z3_duration: Duration::from_secs(5),
+                settle: Duration::from_secs(2),
+                cpu_window: Duration::from_secs(10),
+            },
             capacity: (100, 10.0, 100.0, Duration::from_secs(10)),
             start_runs: 20,
             settle: Duration::from_secs(2),
@@ -75,6 +91,16 @@ impl Plan {
                 m1_rate_hz: 1000.0,
                 m2_count: 100,
                 m2_rate_hz: 1000.0,
+            },
+            xproc: xproc::Plan {
+                z1_count: 200,
+                z1_rate_hz: 1000.0,
+                z2_count: 200,
+                z2_rate_hz: 1000.0,
+                z3_rate_hz: 10_000.0,
+                z3_duration: Duration::from_millis(300),
+                settle: Duration::from_millis(200),
+                cpu_window: Duration::from_millis(500),
             },
             capacity: (10, 10.0, 10.0, Duration::from_millis(500)),
             start_runs: 2,
@@ -133,26 +159,6 @@ async fn capacity(plan: &Plan) -> Row {
     }
 }
 
-/// Rows whose code landed (Zenoh gateway, telemetry) or is landing while the bench was
-/// written; each becomes a measurement here.
-fn not_yet() -> Vec<Row> {
-    let na = |id, what: &str| Row {
-        id,
-        what: what.into(),
-        figures: Figures::NotAvailable("not measured yet"),
-        detail: String::new(),
-        extra: serde_json::Value::Null,
-    };
-    vec![
-        na("Z1", "P1 across processes over Zenoh"),
-        na("Z2", "P2 across processes over Zenoh"),
-        na(
-            "T1",
-            "P1 / P2 with telemetry (OpenTelemetry export) on vs off",
-        ),
-    ]
-}
-
 pub async fn run(args: BenchArgs) -> ExitCode {
     let plan = if args.quick {
         Plan::quick()
@@ -170,7 +176,7 @@ pub async fn run(args: BenchArgs) -> ExitCode {
         if args.quick {
             "a few seconds"
         } else {
-            "about two minutes"
+            "about three minutes"
         }
     );
     // One after the other: on a small machine the rows must not disturb each other.
@@ -179,6 +185,7 @@ pub async fn run(args: BenchArgs) -> ExitCode {
     let mut proc_rows = procs::run(plan.start_runs, plan.settle, plan.footprint_window)
         .await
         .into_iter();
+    let xproc_rows = xproc::run(plan.xproc).await;
     let mut rows = Vec::new();
     rows.extend(inproc_rows.next()); // P1
     rows.extend(inproc_rows.next()); // P2
@@ -187,7 +194,7 @@ pub async fn run(args: BenchArgs) -> ExitCode {
     rows.extend(proc_rows.next()); // P5
     rows.extend(inproc_rows.next()); // P6
     rows.extend(inproc_rows); // M1, M2
-    rows.extend(not_yet());
+    rows.extend(xproc_rows); // Z1, Z2, Z3, T1
     let elapsed = started.elapsed();
 
     let out = if args.json {

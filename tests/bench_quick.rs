@@ -4,8 +4,8 @@
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
-const ROWS: [&str; 11] = [
-    "P1", "P2", "P3", "P4", "P5", "P6", "M1", "M2", "Z1", "Z2", "T1",
+const ROWS: [&str; 12] = [
+    "P1", "P2", "P3", "P4", "P5", "P6", "M1", "M2", "Z1", "Z2", "Z3", "T1",
 ];
 
 /// Runs the binary with a deadline (it spawns children of its own; a hang must fail the test).
@@ -51,12 +51,11 @@ fn quick_bench_prints_every_row_and_exits_0() {
             .find(|l| l.starts_with(&format!("| {id} |")))
             .unwrap_or_else(|| panic!("row {id} missing from\n{stdout}"));
         assert!(!row.contains("FAILED"), "{row}");
-        // A measured row has figures: a latency (µs/ms/s) or a result with a number in it.
-        if !row.contains("n/a") {
-            assert!(row.chars().any(|c| c.is_ascii_digit()), "{row}");
-        }
+        // Every row is measured: a latency (µs/ms/s) or a result with a number in it.
+        assert!(!row.contains("n/a"), "{row}");
+        assert!(row.chars().any(|c| c.is_ascii_digit()), "{row}");
     }
-    for id in ["P1", "P2", "P5", "M1", "M2"] {
+    for id in ["P1", "P2", "P5", "M1", "M2", "Z1", "Z2"] {
         let row = stdout
             .lines()
             .find(|l| l.starts_with(&format!("| {id} |")))

@@ -48,7 +48,7 @@ const M2: &str =
     "DESIRED_* posted by a MOOS client → CMD line read at the frontseat (through MOOSDB)";
 
 /// Time for the last deliveries of a burst to arrive before counting them lost.
-const GRACE: Duration = Duration::from_millis(300);
+pub(super) const GRACE: Duration = Duration::from_millis(300);
 
 /// Runs P1, P2, P6, then M1 and M2 on one interface; returns their rows in that order.
 pub async fn run(plan: Plan) -> Vec<Row> {
@@ -159,7 +159,11 @@ async fn run_inner(plan: Plan) -> Result<Vec<Row>, String> {
 
 /// Latency of every index in `range` stamped in both; and how many were written but never
 /// delivered.
-fn match_up(sent: &Stamps, got: &Stamps, range: std::ops::Range<usize>) -> (Hist, usize, usize) {
+pub(super) fn match_up(
+    sent: &Stamps,
+    got: &Stamps,
+    range: std::ops::Range<usize>,
+) -> (Hist, usize, usize) {
     let mut h = Hist::new();
     let (mut written, mut lost) = (0, 0);
     for i in range {
@@ -216,7 +220,7 @@ async fn p2(plan: &Plan, bus: &Bus, fs: &ScriptedFrontseat, sent: &Stamps, read:
     latency_row("P2", P2, &h, detail, n, lost)
 }
 
-fn latency_row(
+pub(super) fn latency_row(
     id: &'static str,
     what: &str,
     h: &Hist,

@@ -21,18 +21,23 @@ const P4: &str = "CPU and RSS at steady state, WARP 1, FREQ 10 (`frontseat sim` 
 const STARTUP_BOUND: Duration = Duration::from_secs(10);
 
 /// A child process that is killed when the bench lets go of it, whatever happened.
-struct ChildGuard {
+pub(super) struct ChildGuard {
     child: Child,
     lines: UnboundedReceiver<(Instant, String)>,
 }
 
 impl ChildGuard {
-    fn spawn(args: &[String]) -> Result<Self, String> {
+    pub(super) fn spawn(args: &[String]) -> Result<Self, String> {
         let exe = std::env::current_exe().map_err(|e| format!("own executable: {e}"))?;
         let mut child = Command::new(exe)
             .args(args)
             // The transition log line is at info; a caller's RUST_LOG must not hide it.
             .env("RUST_LOG", "info")
+            // The child's config alone decides whether it exports traces, and where.
+            .env_remove("OTEL_EXPORTER_OTLP_ENDPOINT")
+            .env_remove("OTEL_EXPORTER_OTLP_TRACES_ENDPOINT")
+            .env_remove("OTEL_SDK_DISABLED")
+            .env_remove("OTEL_TRACES_SAMPLER_ARG")
             .stdin(Stdio::null())
             .stdout(Stdio::null())
             .stderr(Stdio::piped())
@@ -58,12 +63,24 @@ impl ChildGuard {
         Ok(Self { child, lines })
     }
 
-    fn pid(&self) -> u32 {
+    pub(super) fn pid(&self) -> u32 {
         self.child.id()
     }
 
+    /// The last `n` lines the child logged and nobody read yet: for a failure message.
+    pub(super) fn tail(&mut self, n: usize) -> String {
+        let mut last = std::collections::VecDeque::with_capacity(n + 1);
+        while let Ok((_, l)) = self.lines.try_recv() {
+            last.push_back(l);
+            if last.len() > n {
+                last.pop_front();
+            }
+        }
+        Vec::from(last).join(" ⏎ ")
+    }
+
     /// The instant the child logged a line containing every one of `needles`.
-    async fn wait_for(&mut self, needles: &[&str]) -> Result<Instant, String> {
+    pub(super) async fn wait_for(&mut self, needles: &[&str]) -> Result<Instant, String> {
         let found = tokio::time::timeout(STARTUP_BOUND, async {
             while let Some((t, line)) = self.lines.recv().await {
                 if needles.iter().all(|n| line.contains(n)) {
@@ -95,7 +112,7 @@ impl Drop for ChildGuard {
 }
 
 /// A temporary config file, removed on drop.
-struct TempConfig(PathBuf);
+pub(super) struct TempConfig(pub(super) PathBuf);
 
 impl Drop for TempConfig {
     fn drop(&mut self) {
@@ -103,7 +120,7 @@ impl Drop for TempConfig {
     }
 }
 
-fn free_port() -> Result<u16, String> {
+pub(super) fn free_port() -> Result<u16, String> {
     // The port is free when we let go of it; the simulator binds it a moment later.
     TcpListener::bind((Ipv4Addr::LOCALHOST, 0))
         .and_then(|l| l.local_addr())
@@ -113,7 +130,7 @@ fn free_port() -> Result<u16, String> {
 
 /// CPU time (user + system) of a process, from /proc/<pid>/stat, at the usual 100 clock ticks
 /// per second (reading the real value needs libc).
-fn cpu_time(pid: u32) -> Option<Duration> {
+pub(super) fn cpu_time(pid: u32) -> Option<Duration> {
     let stat = std::fs::read_to_string(format!("/proc/{pid}/stat")).ok()?;
     let after = stat.rsplit_once(')')?.1;
     let f: Vec<&str> = after.split_whitespace().collect();

@@ -56,8 +56,6 @@ pub enum Figures {
     Latency(Latency),
     /// A rate or a footprint: the result column says it all.
     Result(String),
-    /// The code for this row does not exist yet.
-    NotAvailable(&'static str),
     /// The measurement could not be made; why.
     Failed(String),
 }
@@ -198,9 +196,6 @@ pub fn markdown(machine: &Machine, quick: bool, elapsed: Duration, rows: &[Row])
                 r.detail.clone(),
             ),
             Figures::Result(text) => ("–".into(), "–".into(), "–".into(), join(text, &r.detail)),
-            Figures::NotAvailable(why) => {
-                ("–".into(), "–".into(), "–".into(), format!("n/a ({why})"))
-            }
             Figures::Failed(why) => (
                 "–".into(),
                 "–".into(),
@@ -241,7 +236,6 @@ pub fn json(machine: &Machine, quick: bool, elapsed: Duration, rows: &[Row]) -> 
                     v["samples"] = json!(l.samples);
                 }
                 Figures::Result(text) => v["result"] = json!(text),
-                Figures::NotAvailable(why) => v["not_available"] = json!(why),
                 Figures::Failed(why) => v["failed"] = json!(why),
             }
             if let (Value::Object(extra), Value::Object(obj)) = (&r.extra, &mut v) {

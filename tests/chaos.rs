@@ -47,7 +47,7 @@ async fn a_config_without_chaos_is_refused_before_anything_starts() {
     let mut cfg = chaos_harness::default_config().unwrap();
     cfg.chaos.enabled = false;
     let r = chaos_harness::run(cfg, ChaosOptions::default(), |_| {}).await;
-    let e = r.err().expect("refused");
+    let e = r.expect_err("refused");
     assert!(matches!(e, ChaosHarnessError::Refused(_)), "{e}");
     assert!(e.to_string().contains("enabled = true"), "{e}");
 }

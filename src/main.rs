@@ -3,6 +3,7 @@
 #![forbid(unsafe_code)]
 
 mod bench;
+mod chaos_cmd;
 mod demo;
 mod driver_host;
 mod gateway_cmd;
@@ -74,6 +75,10 @@ enum Command {
     /// Internal: the child process a driver plugin runs in (started by the interface).
     #[command(hide = true)]
     DriverHost(driver_host::DriverHostArgs),
+    /// Inject seeded faults into the real simulator, interface, helm and MOOS bridge; print the
+    /// invariants table; exit non-zero on any violation. Needs `[chaos] enabled = true` in a
+    /// config given with -c (the embedded default has it).
+    Chaos(chaos_cmd::ChaosArgs),
     /// Simulator + interface + example helm in one process: drives the homework path east,
     /// south, then northwest back towards the start, prints a live status line, writes the
     /// track as CSV and SVG, and exits 0.
@@ -215,6 +220,11 @@ fn main() -> ExitCode {
         }
         // No logging set-up: stdout carries the frames to the interface.
         Command::DriverHost(args) => driver_host::run(args),
+        Command::Chaos(args) => {
+            // A long run would fill the console with every injected fault at info level.
+            frontseat_actors::telemetry::set_default_console_level("warn");
+            run_traced(&Default::default(), "chaos", "", chaos_cmd::run(args))
+        }
         Command::Demo(args) => run_traced(&Default::default(), "demo", "", demo::run(args)),
         Command::Bench(args) => run_traced(&Default::default(), "bench", "", bench::run(args)),
     }

@@ -118,9 +118,17 @@ impl Telemetry {
     }
 }
 
+static DEFAULT_CONSOLE_LEVEL: std::sync::OnceLock<&'static str> = std::sync::OnceLock::new();
+
+/// The console log level used when RUST_LOG is not set (default "info"); call before `init`.
+pub fn set_default_console_level(level: &'static str) {
+    let _ = DEFAULT_CONSOLE_LEVEL.set(level);
+}
+
 fn console_filter() -> tracing_subscriber::EnvFilter {
-    tracing_subscriber::EnvFilter::try_from_default_env()
-        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("info"))
+    tracing_subscriber::EnvFilter::try_from_default_env().unwrap_or_else(|_| {
+        tracing_subscriber::EnvFilter::new(DEFAULT_CONSOLE_LEVEL.get().copied().unwrap_or("info"))
+    })
 }
 
 fn provider_with<E: SpanExporter + 'static>(

@@ -634,16 +634,17 @@ async fn one_trace_spans_the_helm_process_and_the_interface_process_both_ways() 
     assert_eq!(sent.span_context.trace_id().to_string(), helm_trace);
 
     // Exported as a viewer expects: protobuf, the configured service, the project header.
-    let st = store.lock().unwrap();
-    assert!(st.bad_requests.is_empty(), "{:?}", st.bad_requests);
-    assert!(
-        st.requests
-            .iter()
-            .all(|h| h.get("x-project-name").map(String::as_str) == Some(PROJECT)),
-        "OTEL_EXPORTER_OTLP_HEADERS not honoured: {:?}",
-        st.requests.first()
-    );
-    drop(st);
+    {
+        let st = store.lock().unwrap();
+        assert!(st.bad_requests.is_empty(), "{:?}", st.bad_requests);
+        assert!(
+            st.requests
+                .iter()
+                .all(|h| h.get("x-project-name").map(String::as_str) == Some(PROJECT)),
+            "OTEL_EXPORTER_OTLP_HEADERS not honoured: {:?}",
+            st.requests.first()
+        );
+    }
     helm.close().await;
 }
 

@@ -96,8 +96,14 @@ async fn reaches_command_steers_and_reports_ground_truth() {
     let reported = last.unwrap();
     // The interface's node_status must agree with the simulator's ground truth: find the truth
     // sample closest in position (they come from the same tick).
+    // The truth of that tick travels another path (broadcast → bus), so it may still be on its
+    // way: read until it comes, with a deadline.
     let mut best = f64::INFINITY;
-    while let Ok(t) = truth.try_recv() {
+    let truth_deadline = tokio::time::Instant::now() + Duration::from_secs(5);
+    while best >= 1e-7 {
+        let Ok(Some(t)) = tokio::time::timeout_at(truth_deadline, truth.recv()).await else {
+            break;
+        };
         let d = (t.msg.global_fix.lat - reported.global_fix.lat).abs()
             + (t.msg.global_fix.lon - reported.global_fix.lon).abs();
         best = best.min(d);

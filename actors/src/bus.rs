@@ -71,6 +71,13 @@ pub struct TraceContext {
     pub traceparent: String,
 }
 
+impl TraceContext {
+    /// The trace id part of the traceparent (`00-<trace id>-<span id>-<flags>`), or "".
+    pub fn trace_id(&self) -> &str {
+        self.traceparent.split('-').nth(1).unwrap_or("")
+    }
+}
+
 /// Whether a message was published in this process or imported from another (so the gateway
 /// does not export it again).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]

@@ -35,7 +35,7 @@ pub fn enabled() -> bool {
 pub struct Resolved {
     /// None: leave the endpoint to the exporter, which reads OTEL_EXPORTER_OTLP_(TRACES_)ENDPOINT.
     pub endpoint: Option<String>,
-    /// None: leave it to OTEL_SERVICE_NAME, which the SDK reads.
+    /// Config, else OTEL_SERVICE_NAME, else role + platform.
     pub service_name: Option<String>,
     pub sampling_ratio: f64,
 }
@@ -70,10 +70,12 @@ pub fn resolve(
     } else {
         None
     };
+    // Read OTEL_SERVICE_NAME here rather than leaving it to the SDK, so that the project
+    // attribute Phoenix groups by follows it too.
     let service_name = if !cfg.service_name.is_empty() {
         Some(cfg.service_name.clone())
-    } else if env("OTEL_SERVICE_NAME").is_some_and(|s| !s.is_empty()) {
-        None
+    } else if let Some(s) = env("OTEL_SERVICE_NAME").filter(|s| !s.is_empty()) {
+        Some(s)
     } else {
         Some(default_service.to_string())
     };
@@ -362,7 +364,11 @@ mod tests {
             r.endpoint.as_deref(),
             Some("http://127.0.0.1:4318/v1/traces")
         );
-        assert_eq!(r.service_name, None, "left to OTEL_SERVICE_NAME");
+        assert_eq!(
+            r.service_name.as_deref(),
+            Some("theirs"),
+            "from OTEL_SERVICE_NAME"
+        );
         assert_eq!(r.sampling_ratio, 0.25);
         let r = resolve(&c, "svc", env(&[("OTEL_TRACES_SAMPLER_ARG", "7")])).unwrap();
         assert_eq!(r.sampling_ratio, 1.0, "out-of-range env ratio ignored");

@@ -436,6 +436,7 @@ pub async fn spawn(
         community: cfg.community.clone(),
         status_tx,
         counters_tx,
+        last_nav_trace: String::new(),
     };
     tracing::info!(
         vehicle = vehicle_name,
@@ -463,6 +464,9 @@ struct Task {
     community: String,
     status_tx: watch::Sender<TranslationStatus>,
     counters_tx: watch::Sender<TranslationCounters>,
+    /// Trace id of the last node_status posted: a MOOS message carries no trace context, so the
+    /// helm's next DESIRED_* starts a new trace that names this one (`after_nav_trace_id`).
+    last_nav_trace: String,
 }
 
 impl Task {
@@ -480,7 +484,20 @@ impl Task {
                 biased;
                 r = stop.changed() => if r.is_err() || *stop.borrow() { break },
                 m = inbox.recv() => match m {
-                    Some(FrontSeatTranslationInbox::NodeStatus(env)) => self.post_node_status(&env.msg),
+                    Some(FrontSeatTranslationInbox::NodeStatus(env)) => {
+                        let span = tracing::trace_span!(
+                            target: "frontseat_actors",
+                            "moos.notify_nav",
+                            actor = "FrontSeatTranslation",
+                            nav_time = env.msg.time,
+                        );
+                        crate::telemetry::set_parent(&span, env.trace.as_ref());
+                        let _g = span.enter();
+                        if let Some(t) = crate::telemetry::current_trace() {
+                            self.last_nav_trace = t.trace_id().to_string();
+                        }
+                        self.post_node_status(&env.msg)
+                    }
                     None => break,
                 },
                 ev = events.recv() => match ev {
@@ -554,6 +571,18 @@ impl Task {
     fn on_mail(&mut self, m: &MoosMessage) {
         let now = Instant::now();
         let key = m.key.to_string_lossy();
+        // Root of a setpoint's trace (MOOS carries no trace context); searchable by the MOOS
+        // variable, source and time, and by the trace of the NAV the helm last saw.
+        let _span = tracing::trace_span!(
+            target: "frontseat_actors",
+            "moos.mail",
+            actor = "FrontSeatTranslation",
+            moos.variable = %key,
+            moos.source = %m.source.to_string_lossy(),
+            moos.time = m.time,
+            after_nav_trace_id = self.last_nav_trace.as_str(),
+        )
+        .entered();
         if key == IVPHELM_STATE {
             // Goby3 reads it with GetString(): a double reads as "" and maps to NOT_RUNNING.
             let text = if m.data_type == DataType::String {

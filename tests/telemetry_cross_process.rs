@@ -5,9 +5,13 @@
 //!
 //! Every wait has a deadline; children are killed when the test ends, pass or fail.
 
+mod common;
+
+use common::procs::{Kill, free_port, scratch, wait_for_tcp};
+
 use std::collections::HashMap;
 use std::path::PathBuf;
-use std::process::{Child, Command, Stdio};
+use std::process::{Command, Stdio};
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
@@ -251,44 +255,6 @@ fn ancestry(spans: &[RxSpan], leaf: &RxSpan) -> Vec<RxSpan> {
 // ---------------------------------------------------------------------------------------------
 // The processes
 
-/// Kills its child on drop, so a failing assertion never leaves a process behind.
-struct Kill(Child);
-
-impl Drop for Kill {
-    fn drop(&mut self) {
-        let _ = self.0.kill();
-        let _ = self.0.wait();
-    }
-}
-
-fn free_port() -> u16 {
-    std::net::TcpListener::bind("127.0.0.1:0")
-        .unwrap()
-        .local_addr()
-        .unwrap()
-        .port()
-}
-
-fn scratch(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("frontseat-otel-{}-{name}", std::process::id()));
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
-
-async fn wait_for_tcp(port: u16) {
-    let deadline = tokio::time::Instant::now() + Duration::from_secs(20);
-    while tokio::net::TcpStream::connect(("127.0.0.1", port))
-        .await
-        .is_err()
-    {
-        assert!(
-            tokio::time::Instant::now() < deadline,
-            "nothing listens on {port}"
-        );
-        tokio::time::sleep(Duration::from_millis(20)).await;
-    }
-}
-
 struct Stack {
     zenoh: u16,
     dir: PathBuf,
@@ -304,7 +270,7 @@ impl Stack {
 
 /// sim + interface; the interface exports to `endpoint` with the batch settings in `bsp`.
 async fn start_stack(name: &str, platform: &str, endpoint: &str, bsp: &[(&str, &str)]) -> Stack {
-    let dir = scratch(name);
+    let dir = scratch("otel", name);
     let sim_port = free_port();
     let sim = Kill(
         Command::new(BIN)

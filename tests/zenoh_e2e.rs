@@ -3,9 +3,13 @@
 //! Python helm in a third process — drives the vehicle through Zenoh only. Every wait has a
 //! deadline; children are killed when the test ends, pass or fail.
 
+mod common;
+
+use common::procs::{Kill, free_port, scratch, wait_for_tcp};
+
 use std::io::{BufRead, BufReader};
 use std::path::PathBuf;
-use std::process::{Child, Command, Stdio};
+use std::process::{Command, Stdio};
 use std::time::Duration;
 
 use frontseat_actors::groups;
@@ -20,44 +24,6 @@ const WARP: f64 = 10.0;
 const LONG: Duration = Duration::from_secs(60);
 const BIN: &str = env!("CARGO_BIN_EXE_frontseat");
 
-/// Kills its child on drop, so a failing assertion never leaves a process behind.
-struct Kill(Child);
-
-impl Drop for Kill {
-    fn drop(&mut self) {
-        let _ = self.0.kill();
-        let _ = self.0.wait();
-    }
-}
-
-fn free_port() -> u16 {
-    std::net::TcpListener::bind("127.0.0.1:0")
-        .unwrap()
-        .local_addr()
-        .unwrap()
-        .port()
-}
-
-fn scratch(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("frontseat-zenoh-{}-{name}", std::process::id()));
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
-
-async fn wait_for_tcp(port: u16) {
-    let deadline = tokio::time::Instant::now() + Duration::from_secs(20);
-    while tokio::net::TcpStream::connect(("127.0.0.1", port))
-        .await
-        .is_err()
-    {
-        assert!(
-            tokio::time::Instant::now() < deadline,
-            "nothing listens on {port}"
-        );
-        tokio::time::sleep(Duration::from_millis(20)).await;
-    }
-}
-
 /// A running sim + interface pair; `zenoh` is the interface's Zenoh listen port.
 struct Stack {
     zenoh: u16,
@@ -67,7 +33,7 @@ struct Stack {
 }
 
 async fn start_stack(name: &str, platform: &str) -> Stack {
-    let dir = scratch(name);
+    let dir = scratch("zenoh", name);
     let sim_port = free_port();
     let sim = Kill(
         Command::new(BIN)

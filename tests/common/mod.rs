@@ -2,6 +2,8 @@
 //! interface config pointing at it, and waiting for published statuses with a deadline.
 #![allow(dead_code)]
 
+pub mod procs;
+
 use std::time::Duration;
 
 use frontseat_actors::bus::{Bus, Envelope};

@@ -277,7 +277,14 @@ pub fn interface_probe(
         let actor = actor.clone();
         Box::pin(async move {
             match actor.call(FsiMsg::Snapshot, Some(within)).await {
-                Ok(r) => r.is_success(),
+                // Alive: the interface answered, and its driver (if running) is not stuck.
+                Ok(ractor::rpc::CallResult::Success(s)) => {
+                    if !s.driver_responsive {
+                        tracing::error!("the driver actor is stuck in a handler");
+                    }
+                    s.driver_responsive
+                }
+                Ok(_) => false,
                 Err(_) => false,
             }
         })

@@ -517,3 +517,111 @@ async fn restart_limit_ends_the_service_with_an_error() {
     assert!(matches!(exit, ServiceExit::RestartLimit(_)), "{exit:?}");
     assert_ne!(exit.code(), 0);
 }
+
+/// The basic driver, except that its loop blocks its thread once, for `hang`, when told to.
+struct HangingDriver {
+    inner: BasicSimulatorDriver,
+    hang_now: Arc<std::sync::atomic::AtomicBool>,
+    hang: Duration,
+}
+
+impl Driver for HangingDriver {
+    fn name(&self) -> &str {
+        "hanging"
+    }
+    fn start(&mut self, ctx: DriverContext) {
+        self.inner.start(ctx)
+    }
+    fn handle_io(&mut self, ev: DriverIoEvent, now: Duration, sig: &mut dyn SignalSink) {
+        self.inner.handle_io(ev, now, sig)
+    }
+    fn send_command_to_frontseat(
+        &mut self,
+        req: &CommandRequest,
+        now: Duration,
+        sig: &mut dyn SignalSink,
+    ) {
+        self.inner.send_command_to_frontseat(req, now, sig)
+    }
+    fn send_data_to_frontseat(
+        &mut self,
+        d: &InterfaceData,
+        now: Duration,
+        sig: &mut dyn SignalSink,
+    ) {
+        self.inner.send_data_to_frontseat(d, now, sig)
+    }
+    fn send_raw_to_frontseat(&mut self, r: &Raw, now: Duration, sig: &mut dyn SignalSink) {
+        self.inner.send_raw_to_frontseat(r, now, sig)
+    }
+    fn do_loop(&mut self, now: Duration, sig: &mut dyn SignalSink) {
+        if self.hang_now.swap(false, Ordering::SeqCst) {
+            // A driver stuck in blocking code: exactly what the watchdog must notice.
+            std::thread::sleep(self.hang);
+        }
+        self.inner.do_loop(now, sig)
+    }
+    fn frontseat_state(&self) -> FrontSeatState {
+        self.inner.frontseat_state()
+    }
+    fn frontseat_providing_data(&self) -> bool {
+        self.inner.frontseat_providing_data()
+    }
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 3)]
+async fn a_driver_stuck_in_a_handler_is_reported_unresponsive() {
+    use frontseat_actors::interface::DRIVER_HUNG_AFTER;
+    let sim = start_sim().await;
+    let bus = Bus::new();
+    let mut status = StatusWatch::new(&bus);
+    let cfg = config_for(&sim, WARP);
+    let settings = Settings::from_config(&cfg);
+    let hang_now = Arc::new(std::sync::atomic::AtomicBool::new(false));
+    let h = hang_now.clone();
+    let factory: DriverFactory = Arc::new(move || {
+        Box::new(HangingDriver {
+            inner: BasicSimulatorDriver::new(settings.clone()),
+            hang_now: h.clone(),
+            hang: DRIVER_HUNG_AFTER * 2,
+        }) as Box<dyn Driver>
+    });
+    let service = InterfaceService::start_with(InterfaceSettings::from_config(&cfg), &bus, factory)
+        .await
+        .unwrap();
+    status
+        .until_state(InterfaceState::InterfaceListen, LONG)
+        .await;
+    let snap = service.snapshot(Duration::from_secs(1)).await.unwrap();
+    assert!(snap.driver_up && snap.driver_responsive, "{snap:?}");
+
+    // What the systemd watchdog probe asks: did the interface answer in time, and is its driver
+    // ticking? A driver blocking its thread can also hold up tasks queued behind it on that worker,
+    // so either answer may be the one that reveals it.
+    let alive = |snap: Option<frontseat_actors::interface::Snapshot>| {
+        snap.is_some_and(|s| s.driver_responsive)
+    };
+    hang_now.store(true, Ordering::SeqCst);
+    let deadline = tokio::time::Instant::now() + DRIVER_HUNG_AFTER * 2;
+    let mut seen_hung = false;
+    while tokio::time::Instant::now() < deadline {
+        if !alive(service.snapshot(Duration::from_millis(500)).await) {
+            seen_hung = true;
+            break;
+        }
+        tokio::time::sleep(Duration::from_millis(50)).await;
+    }
+    assert!(
+        seen_hung,
+        "a driver blocked for {:?} was never reported",
+        DRIVER_HUNG_AFTER * 2
+    );
+    // Once it returns, it ticks again and is reported alive.
+    let deadline = tokio::time::Instant::now() + DRIVER_HUNG_AFTER * 4;
+    while !alive(service.snapshot(Duration::from_millis(500)).await) {
+        assert!(tokio::time::Instant::now() < deadline, "never recovered");
+        tokio::time::sleep(Duration::from_millis(50)).await;
+    }
+    service.shutdown(Duration::from_secs(3)).await;
+    sim.shutdown().await;
+}

@@ -6,6 +6,8 @@
 //! state queries with what it last published and publishes a DriverStatus on change, so the
 //! interface's state machine is driven by events, not by polling.
 
+use std::sync::Arc;
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Duration;
 
 use ractor::{Actor, ActorProcessingErr, ActorRef};
@@ -43,6 +45,9 @@ impl DriverMsg {
 }
 
 pub struct DriverArgs {
+    /// Set to the supervisor's clock reading at every handled loop tick: a driver actor stuck in
+    /// a handler stops moving it, which the watchdog probe sees.
+    pub heartbeat: Arc<AtomicU64>,
     pub factory: DriverFactory,
     pub bus: Bus,
     pub clock: SimClock,
@@ -53,6 +58,7 @@ pub struct DriverArgs {
 pub struct DriverActor;
 
 pub struct DriverActorState {
+    heartbeat: Arc<AtomicU64>,
     driver: Box<dyn Driver>,
     ports: DriverActorPorts,
     clock: SimClock,
@@ -131,6 +137,7 @@ impl Actor for DriverActor {
             "driver started"
         );
         let mut state = DriverActorState {
+            heartbeat: args.heartbeat,
             driver,
             ports: DriverActorPorts::new(&args.bus),
             clock: args.clock,
@@ -171,7 +178,12 @@ impl Actor for DriverActor {
                 }
             },
             DriverMsg::Io(ev) => state.driver.handle_io(ev, now, &mut sink),
-            DriverMsg::Tick => state.driver.do_loop(now, &mut sink),
+            DriverMsg::Tick => {
+                state.driver.do_loop(now, &mut sink);
+                state
+                    .heartbeat
+                    .store(crate::interface::heartbeat_now(), Ordering::Relaxed);
+            }
             DriverMsg::Stop => {
                 state.driver.stop();
                 myself.stop(Some("orderly shutdown".into()));

@@ -143,7 +143,22 @@ pub struct Snapshot {
     pub providing_data: bool,
     pub driver_restarts: u32,
     pub driver_up: bool,
+    /// False when the driver actor is up but has not handled its 10 Hz loop tick for
+    /// `DRIVER_HUNG_AFTER`: it is stuck in a handler (a driver that is down is not hung).
+    pub driver_responsive: bool,
     pub commands_gated: u64,
+}
+
+/// How long a running driver actor may go without handling its loop tick before the watchdog
+/// probe calls it hung (wall time; ticks come every 100 ms / warp).
+pub const DRIVER_HUNG_AFTER: Duration = Duration::from_secs(2);
+
+static HEARTBEAT_EPOCH: std::sync::OnceLock<std::time::Instant> = std::sync::OnceLock::new();
+
+/// Milliseconds on a process-wide monotonic clock, for the driver heartbeat.
+pub fn heartbeat_now() -> u64 {
+    let epoch = HEARTBEAT_EPOCH.get_or_init(std::time::Instant::now);
+    epoch.elapsed().as_millis() as u64
 }
 
 #[derive(Default, Clone, Copy, Debug)]
@@ -164,6 +179,7 @@ pub struct FsiState {
     inputs: Inputs,
     frame: Option<LocalFrame>,
     driver: Option<ActorRef<DriverMsg>>,
+    driver_heartbeat: Arc<std::sync::atomic::AtomicU64>,
     restarts: u32,
     restart_times: VecDeque<tokio::time::Instant>,
     /// request_id → sim-time deadline of commands awaiting the frontseat's answer.
@@ -357,10 +373,14 @@ impl FsiState {
     }
 
     async fn spawn_driver(&mut self, myself: &ActorRef<FsiMsg>) -> Result<(), ActorProcessingErr> {
+        // A fresh driver counts as alive from its start.
+        self.driver_heartbeat
+            .store(heartbeat_now(), std::sync::atomic::Ordering::Relaxed);
         let (actor, _join) = Actor::spawn_linked(
             None,
             DriverActor,
             DriverArgs {
+                heartbeat: self.driver_heartbeat.clone(),
                 factory: self.factory.clone(),
                 bus: self.bus.clone(),
                 clock: self.clock,
@@ -520,6 +540,7 @@ impl Actor for FrontSeatInterface {
             inputs: Inputs::default(),
             frame,
             driver: None,
+            driver_heartbeat: Arc::new(std::sync::atomic::AtomicU64::new(heartbeat_now())),
             restarts: 0,
             restart_times: VecDeque::new(),
             pending: HashMap::new(),
@@ -695,6 +716,10 @@ impl FrontSeatInterface {
                     providing_data: st.inputs.providing_data,
                     driver_restarts: st.restarts,
                     driver_up: st.driver.is_some(),
+                    driver_responsive: st.driver.is_none()
+                        || heartbeat_now().saturating_sub(
+                            st.driver_heartbeat.load(std::sync::atomic::Ordering::Relaxed),
+                        ) < DRIVER_HUNG_AFTER.as_millis() as u64,
                     commands_gated: st.counters.commands_gated,
                 });
             }

@@ -718,7 +718,8 @@ impl FrontSeatInterface {
                     driver_up: st.driver.is_some(),
                     driver_responsive: st.driver.is_none()
                         || heartbeat_now().saturating_sub(
-                            st.driver_heartbeat.load(std::sync::atomic::Ordering::Relaxed),
+                            st.driver_heartbeat
+                                .load(std::sync::atomic::Ordering::Relaxed),
                         ) < DRIVER_HUNG_AFTER.as_millis() as u64,
                     commands_gated: st.counters.commands_gated,
                 });

@@ -19,7 +19,6 @@ use crate::bus::{Bus, Envelope, Subscription, Undeliverable};
 use crate::clock::SimClock;
 use crate::driver::DriverFactory;
 use crate::driver_actor::{DriverActor, DriverArgs, DriverMsg};
-use crate::geodesy::LocalFrame;
 use crate::ports::{FrontSeatInterfaceInbox, FrontSeatInterfacePorts};
 use crate::proto::frontseat::protobuf::InterfaceDetail;
 use crate::proto::goby::middleware::frontseat::protobuf::{
@@ -28,6 +27,7 @@ use crate::proto::goby::middleware::frontseat::protobuf::{
 };
 use crate::proto::goby::middleware::protobuf::LatLonPoint;
 use crate::state_machine::{Inputs, StateMachine, StateMachineConfig, Transition, state_words};
+use frontseat_sim::geodesy::LocalGrid;
 
 /// Error codes in CommandResponse.error_code for the failures the interface itself answers.
 pub mod error_code {
@@ -177,7 +177,7 @@ pub struct FsiState {
     clock: SimClock,
     sm: StateMachine,
     inputs: Inputs,
-    frame: Option<LocalFrame>,
+    frame: Option<LocalGrid>,
     driver: Option<ActorRef<DriverMsg>>,
     driver_heartbeat: Arc<std::sync::atomic::AtomicU64>,
     restarts: u32,
@@ -443,7 +443,7 @@ pub fn compute_missing(
     ns: &mut NodeStatus,
     name: &str,
     vehicle_type: VehicleType,
-    frame: Option<&LocalFrame>,
+    frame: Option<&LocalGrid>,
 ) {
     if ns.name.is_none() && !name.is_empty() {
         ns.name = Some(name.to_string());
@@ -515,7 +515,7 @@ impl Actor for FrontSeatInterface {
             move |m| me.cast(FsiMsg::Bus(m)).map_err(|_| Undeliverable),
         );
         let clock = SimClock::new(args.settings.warp);
-        let frame = match LocalFrame::new(args.settings.origin.0, args.settings.origin.1) {
+        let frame = match LocalGrid::new(args.settings.origin.0, args.settings.origin.1) {
             Ok(f) => Some(f),
             Err(e) => {
                 tracing::error!(error = %e, "bad origin: local_fix will not be computed");
@@ -638,7 +638,7 @@ impl FrontSeatInterface {
                 }
                 I::DatumUpdate(env) => {
                     let d = env.msg.datum;
-                    match LocalFrame::new(d.lat, d.lon) {
+                    match LocalGrid::new(d.lat, d.lon) {
                         Ok(f) => {
                             tracing::info!(lat = d.lat, lon = d.lon, "datum updated");
                             st.frame = Some(f);
@@ -873,8 +873,8 @@ impl InterfaceService {
 mod tests {
     use super::*;
 
-    fn frame() -> LocalFrame {
-        LocalFrame::new(42.358456, -71.087589).unwrap()
+    fn frame() -> LocalGrid {
+        LocalGrid::new(42.358456, -71.087589).unwrap()
     }
 
     #[test]
@@ -920,7 +920,10 @@ mod tests {
         assert_eq!(ns.r#type(), VehicleType::Glider);
         let g = ns.global_fix;
         assert!((g.lat - 42.367459).abs() < 1e-4, "{g:?}");
-        assert!((g.lon + 71.087589).abs() < 1e-6, "{g:?}");
+        // Goby3's grid: grid north leans west of true north at this datum.
+        assert!(g.lon < -71.087589 - 1e-4, "{g:?}");
+        let (x, y) = f.to_local(g.lat, g.lon).unwrap();
+        assert!(x.abs() < 1e-6 && (y - 1000.0).abs() < 1e-6);
         assert_eq!(g.depth(), 3.0);
     }
 
@@ -928,7 +931,7 @@ mod tests {
     fn a_moved_datum_moves_the_local_fix() {
         let f = frame();
         let (lat, lon) = f.to_global(0.0, 0.0).unwrap();
-        let moved = LocalFrame::new(lat - 0.001, lon).unwrap();
+        let moved = LocalGrid::new(lat - 0.001, lon).unwrap();
         let mut ns = NodeStatus {
             global_fix: LatLonPoint {
                 lat,

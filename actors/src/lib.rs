@@ -12,7 +12,6 @@ pub mod driver;
 pub mod driver_actor;
 pub mod drivers;
 pub mod generated;
-pub mod geodesy;
 pub mod interface;
 pub mod link;
 pub mod sim_glue;

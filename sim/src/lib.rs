@@ -10,6 +10,7 @@
 pub mod bench;
 pub mod codec;
 mod connection;
+pub mod geodesy;
 pub mod schedule;
 mod server;
 pub mod vehicle;

@@ -24,6 +24,7 @@ pub use error::{ConfigError, FieldError};
 pub use gateway::GatewayConfig;
 pub use interface::{
     BASIC_SIMULATOR, BasicSimulatorConfig, BusConfig, ChaosConfig, DriverConfig, InterfaceConfig,
+    LimitsConfig,
     MAX_QUEUE_CAPACITY, SimStartConfig, SimVehicleConfig, SupervisionConfig, VehicleType,
 };
 pub use sections::{

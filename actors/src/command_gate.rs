@@ -70,7 +70,13 @@ fn finite(field: &'static str, v: f64) -> Result<f64, Refusal> {
     }
 }
 
-fn within(field: &'static str, v: Option<f64>, lo: f64, hi: f64, unit: &str) -> Result<(), Refusal> {
+fn within(
+    field: &'static str,
+    v: Option<f64>,
+    lo: f64,
+    hi: f64,
+    unit: &str,
+) -> Result<(), Refusal> {
     let Some(v) = v else { return Ok(()) };
     finite(field, v)?;
     if (lo..=hi).contains(&v) {
@@ -226,7 +232,11 @@ mod tests {
         };
         let refused: Vec<(&str, DesiredCourse, &str)> = vec![
             ("NaN heading", course(Some(f64::NAN), 1.5), "heading"),
-            ("infinite heading", course(Some(f64::INFINITY), 1.5), "heading"),
+            (
+                "infinite heading",
+                course(Some(f64::INFINITY), 1.5),
+                "heading",
+            ),
             ("NaN speed", course(Some(90.0), f64::NAN), "speed"),
             ("1e308 speed", course(Some(90.0), 1e308), "speed"),
             ("negative speed", course(Some(90.0), -0.1), "speed"),
@@ -234,12 +244,28 @@ mod tests {
             ("NaN time", with(&|c| c.time = f64::NAN), "time"),
             ("negative depth", with(&|c| c.depth = Some(-1.0)), "depth"),
             ("depth over max", with(&|c| c.depth = Some(300.5)), "depth"),
-            ("infinite depth", with(&|c| c.depth = Some(f64::INFINITY)), "depth"),
-            ("altitude below min", with(&|c| c.altitude = Some(-2.0)), "altitude"),
-            ("altitude NaN", with(&|c| c.altitude = Some(f64::NAN)), "altitude"),
+            (
+                "infinite depth",
+                with(&|c| c.depth = Some(f64::INFINITY)),
+                "depth",
+            ),
+            (
+                "altitude below min",
+                with(&|c| c.altitude = Some(-2.0)),
+                "altitude",
+            ),
+            (
+                "altitude NaN",
+                with(&|c| c.altitude = Some(f64::NAN)),
+                "altitude",
+            ),
             ("pitch too steep", with(&|c| c.pitch = Some(-46.0)), "pitch"),
             ("roll too far", with(&|c| c.roll = Some(50.0)), "roll"),
-            ("z_rate too fast", with(&|c| c.z_rate = Some(-2.5)), "z_rate"),
+            (
+                "z_rate too fast",
+                with(&|c| c.z_rate = Some(-2.5)),
+                "z_rate",
+            ),
         ];
         for (name, c, field) in refused {
             let r = check_course(&c, &l, &ctx()).expect_err(name);
@@ -250,16 +276,28 @@ mod tests {
             ("heading 360 wraps to 0", course(Some(360.0), 1.5), 0.0),
             ("heading -90 wraps to 270", course(Some(-90.0), 1.5), 270.0),
             ("heading 725 wraps to 5", course(Some(725.0), 1.5), 5.0),
-            ("tiny negative wraps below 360", course(Some(-1e-20), 1.5), 0.0),
-            ("no heading keeps the last commanded", course(None, 1.5), 123.0),
+            (
+                "tiny negative wraps below 360",
+                course(Some(-1e-20), 1.5),
+                0.0,
+            ),
+            (
+                "no heading keeps the last commanded",
+                course(None, 1.5),
+                123.0,
+            ),
             ("speed 0 and max are inside", course(Some(10.0), 5.0), 10.0),
-            ("edges of every limit", with(&|c| {
-                c.depth = Some(300.0);
-                c.pitch = Some(45.0);
-                c.roll = Some(-45.0);
-                c.z_rate = Some(2.0);
-                c.altitude = Some(0.0);
-            }), 90.0),
+            (
+                "edges of every limit",
+                with(&|c| {
+                    c.depth = Some(300.0);
+                    c.pitch = Some(45.0);
+                    c.roll = Some(-45.0);
+                    c.z_rate = Some(2.0);
+                    c.altitude = Some(0.0);
+                }),
+                90.0,
+            ),
         ];
         for (name, c, heading) in accepted {
             let out = check_course(&c, &l, &ctx()).unwrap_or_else(|r| panic!("{name}: {r}"));
@@ -286,7 +324,10 @@ mod tests {
     #[test]
     fn unset_optional_fields_stay_unset() {
         let out = check_course(&course(Some(1.0), 1.0), &Limits::default(), &ctx()).unwrap();
-        assert_eq!((out.depth, out.pitch, out.roll, out.z_rate, out.altitude), (None, None, None, None, None));
+        assert_eq!(
+            (out.depth, out.pitch, out.roll, out.z_rate, out.altitude),
+            (None, None, None, None, None)
+        );
     }
 
     fn nav(lat: f64, lon: f64) -> NodeStatus {
@@ -321,16 +362,24 @@ mod tests {
             ("LON:180.5", nav(0.0, 180.5), "global_fix.lon"),
             ("LAT:NaN", nav(f64::NAN, 0.0), "global_fix.lat"),
             ("LON:inf", nav(0.0, f64::INFINITY), "global_fix.lon"),
-            ("heading NaN", {
-                let mut n = nav(1.0, 1.0);
-                n.pose.heading = Some(f64::NAN);
-                n
-            }, "pose.heading"),
-            ("speed inf", {
-                let mut n = nav(1.0, 1.0);
-                n.speed.over_ground = f64::INFINITY;
-                n
-            }, "speed.over_ground"),
+            (
+                "heading NaN",
+                {
+                    let mut n = nav(1.0, 1.0);
+                    n.pose.heading = Some(f64::NAN);
+                    n
+                },
+                "pose.heading",
+            ),
+            (
+                "speed inf",
+                {
+                    let mut n = nav(1.0, 1.0);
+                    n.speed.over_ground = f64::INFINITY;
+                    n
+                },
+                "speed.over_ground",
+            ),
         ] {
             let r = check_node_status(&ns).expect_err(name);
             assert_eq!(r.field, field, "{name}");

@@ -18,7 +18,6 @@ use tokio::sync::watch;
 use crate::bus::{Bus, Envelope, Subscription, Undeliverable};
 use crate::clock::SimClock;
 use crate::command_gate::{GateContext, Limits, check_course, check_node_status};
-use crate::ratelog::{LogDecision, RateLimitedLog};
 use crate::driver::DriverFactory;
 use crate::driver_actor::{DriverActor, DriverArgs, DriverMsg};
 use crate::ports::{FrontSeatInterfaceInbox, FrontSeatInterfacePorts};
@@ -28,6 +27,7 @@ use crate::proto::goby::middleware::frontseat::protobuf::{
     HelmError, InterfaceData, InterfaceState, InterfaceStatus, NodeStatus, VehicleType,
 };
 use crate::proto::goby::middleware::protobuf::LatLonPoint;
+use crate::ratelog::{LogDecision, RateLimitedLog};
 use crate::state_machine::{Inputs, StateMachine, StateMachineConfig, Transition, state_words};
 use frontseat_sim::geodesy::LocalGrid;
 
@@ -339,7 +339,10 @@ impl FsiState {
 
     /// The safety envelope (command_gate): the request with its course made safe (heading
     /// wrapped or filled in), or None after answering and counting the refusal.
-    fn through_envelope(&mut self, env: Envelope<CommandRequest>) -> Option<Envelope<CommandRequest>> {
+    fn through_envelope(
+        &mut self,
+        env: Envelope<CommandRequest>,
+    ) -> Option<Envelope<CommandRequest>> {
         let Some(course) = env.msg.desired_course.as_ref() else {
             return Some(env);
         };
@@ -361,7 +364,11 @@ impl FsiState {
                         value = r.value,
                         refused_total = self.counters.setpoints_refused,
                         "setpoint refused by the safety envelope: {r}{}",
-                        more(suppressed_before, "refused setpoints", self.refused_log.window())
+                        more(
+                            suppressed_before,
+                            "refused setpoints",
+                            self.refused_log.window()
+                        )
                     ),
                     LogDecision::Suppress => {}
                 }
@@ -401,7 +408,11 @@ impl FsiState {
                     field = r.field,
                     value = r.value,
                     "navigation from the frontseat refused: {r}{}",
-                    more(suppressed_before, "refused navigation messages", self.nav_log.window())
+                    more(
+                        suppressed_before,
+                        "refused navigation messages",
+                        self.nav_log.window()
+                    )
                 );
             }
             data.node_status = None;
@@ -572,7 +583,10 @@ fn more(suppressed: u64, what: &str, window: Duration) -> String {
     if suppressed == 0 {
         String::new()
     } else {
-        format!(" (…and {suppressed} more {what} in the last {}s)", window.as_secs())
+        format!(
+            " (…and {suppressed} more {what} in the last {}s)",
+            window.as_secs()
+        )
     }
 }
 

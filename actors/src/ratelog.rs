@@ -78,7 +78,10 @@ mod tests {
         let t0 = Instant::now();
         let decisions: Vec<_> = (0..100).map(|_| l.decide(t0)).collect();
         assert_eq!(
-            decisions.iter().filter(|d| matches!(d, LogDecision::Log { .. })).count(),
+            decisions
+                .iter()
+                .filter(|d| matches!(d, LogDecision::Log { .. }))
+                .count(),
             3
         );
         tokio::time::advance(Duration::from_secs(10)).await;

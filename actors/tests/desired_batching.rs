@@ -30,7 +30,10 @@ fn streams(name: &str) -> Vec<Vec<u8>> {
         } else if let Some(rest) = line.strip_prefix("    ") {
             let hex = &rest[10..rest.find('|').expect("ascii column")];
             let buf = &mut out[cur.expect("bytes before a frame line")].1;
-            buf.extend(hex.split_whitespace().map(|h| u8::from_str_radix(h, 16).expect("hex")));
+            buf.extend(
+                hex.split_whitespace()
+                    .map(|h| u8::from_str_radix(h, 16).expect("hex")),
+            );
         }
     }
     out.into_iter().map(|(_, b)| b).collect()
@@ -68,7 +71,10 @@ fn every_course_carries_the_heading_of_its_own_helm_iteration() {
             }
         }
     }
-    assert!(courses >= 20, "the capture holds ~40 helm iterations; saw {courses}");
+    assert!(
+        courses >= 20,
+        "the capture holds ~40 helm iterations; saw {courses}"
+    );
     assert!(
         headings_seen.len() >= 2,
         "the heading changes in the capture, so the previous-iteration bug would show: {headings_seen:?}"

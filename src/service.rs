@@ -80,6 +80,7 @@ pub async fn interface(config: InterfaceConfig) -> ExitCode {
                 vehicle: config.name.clone(),
                 bus: bus.clone(),
                 chaos: None,
+                observer: Default::default(),
             },
             (&config.supervision.translation).into(),
         ));

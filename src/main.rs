@@ -170,6 +170,7 @@ fn main() -> ExitCode {
     match cli.command {
         Command::Interfaces => {
             print!("{}", frontseat_actors::generated::RESOLVED_INTERFACES_YAML);
+            print!("{}", frontseat_actors::supervisor::TREE);
             ExitCode::SUCCESS
         }
         Command::Interface { cfg } => {

@@ -8,6 +8,7 @@ mod demo;
 mod driver_host;
 mod gateway_cmd;
 mod service;
+mod shutdown;
 mod systemd;
 
 use std::path::PathBuf;

@@ -23,8 +23,11 @@ use serde::de::DeserializeOwned;
 pub use error::{ConfigError, FieldError};
 pub use gateway::GatewayConfig;
 pub use interface::{
-    BASIC_SIMULATOR, BasicSimulatorConfig, BusConfig, ChaosConfig, DriverConfig, InterfaceConfig,
-    MAX_QUEUE_CAPACITY, SimStartConfig, SimVehicleConfig, SupervisionConfig, VehicleType,
+    BASIC_SIMULATOR, BUILT_IN_DRIVERS, BasicSimulatorConfig, BusConfig, ChaosConfig, DriverConfig,
+    FlowControlConfig, FrontSeatStateName, IVER3, InterfaceConfig, Iver3Config,
+    IverModeAssignments, MAX_QUEUE_CAPACITY, ParityConfig, SimStartConfig, SimVehicleConfig,
+    SupervisionConfig, TransportKind, VehicleLinkConfig, VehicleType, WAVEGLIDER_SV2,
+    WavegliderSv2Config,
 };
 pub use sections::{
     DEFAULT_ORIGIN_LAT, DEFAULT_ORIGIN_LON, InterprocessConfig, InterprocessMode, LatLonConfig,

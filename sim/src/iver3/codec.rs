@@ -510,10 +510,7 @@ mod tests {
             Sentence::parse("$CxP1R2"),
             Err(SentenceError::BadNumber { .. })
         ));
-        assert_eq!(
-            Sentence::parse("$P1R2"),
-            Ok(Sentence::Other("P1R2".into()))
-        );
+        assert_eq!(Sentence::parse("$P1R2"), Ok(Sentence::Other("P1R2".into())));
         let long = format!("${}", "A".repeat(MAX_SENTENCE));
         assert!(matches!(
             Sentence::parse(&long),

@@ -959,7 +959,9 @@ mod tests {
         bytes.extend_from_slice(&good);
         let r = decode_all(&bytes);
         assert_eq!(
-            r.iter().map(|x| x.as_ref().err().cloned()).collect::<Vec<_>>(),
+            r.iter()
+                .map(|x| x.as_ref().err().cloned())
+                .collect::<Vec<_>>(),
             vec![
                 Some(FrameError::Noise(5)),
                 Some(FrameError::Truncated(6)),

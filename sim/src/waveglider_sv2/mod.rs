@@ -7,7 +7,7 @@
 
 pub mod codec;
 
-use codec::{FrameDecoder, HeadingCommand, Message, Packet, WAITING_BIT, msg_type};
+use codec::{FrameDecoder, HeadingCommand, Message, Packet, WAITING_BIT};
 
 use crate::emulator::Session;
 use crate::vehicle::{Limits, Setpoint, Vehicle};
@@ -225,12 +225,14 @@ pub fn heading_command(heading: u16) -> HeadingCommand {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use codec::{DeviceInfo, PayloadStatus};
+    use codec::{DeviceInfo, PayloadStatus, msg_type};
 
     fn packets(out: &[u8]) -> Vec<Packet> {
         let mut d = FrameDecoder::new();
         let mut v = Vec::new();
-        d.feed(out, &mut |r| v.push(Packet::from_frame(&r.unwrap()).unwrap()));
+        d.feed(out, &mut |r| {
+            v.push(Packet::from_frame(&r.unwrap()).unwrap())
+        });
         v
     }
 
@@ -264,7 +266,13 @@ mod tests {
         );
         s.step(0.1, &mut out);
         let p = packets(&out);
-        assert!(matches!(p[0].message, Message::RequestStatus { fix_valid: b'Y', .. }));
+        assert!(matches!(
+            p[0].message,
+            Message::RequestStatus {
+                fix_valid: b'Y',
+                ..
+            }
+        ));
         out.clear();
         s.on_bytes(
             &reply(

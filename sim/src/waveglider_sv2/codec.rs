@@ -103,6 +103,36 @@ impl Frame {
         Ok(b)
     }
 
+    /// Parses an unescaped frame (start byte included), checking size and CRC.
+    pub fn from_unescaped(b: &[u8]) -> Result<Frame, FrameError> {
+        if b.first() != Some(&START) {
+            return Err(FrameError::Noise(b.len()));
+        }
+        if !(MIN_FRAME..=MAX_FRAME).contains(&b.len()) {
+            return Err(FrameError::BadSize(b.len().saturating_sub(1)));
+        }
+        let size = usize::from(u16::from_le_bytes([b[1], b[2]]));
+        if size + 1 != b.len() {
+            return Err(FrameError::BadSize(size));
+        }
+        let n = b.len();
+        let got = u16::from_le_bytes([b[n - 2], b[n - 1]]);
+        let computed = crc16(&b[1..n - 2]);
+        if got != computed {
+            return Err(FrameError::BadCrc { got, computed });
+        }
+        let w = |i: usize| u16::from_le_bytes([b[i], b[i + 1]]);
+        Ok(Frame {
+            header: Header {
+                dest: w(3),
+                src: w(5),
+                transaction_id: w(7),
+                message_type: w(9),
+            },
+            payload: b[HEADER_LEN..n - 2].to_vec(),
+        })
+    }
+
     /// The bytes to put on the wire (escaped).
     pub fn encode(&self) -> Result<Vec<u8>, EncodeError> {
         Ok(escape(&self.unescaped()?))
@@ -914,6 +944,7 @@ mod tests {
             assert_eq!(frames.len(), 1);
             let f = frames[0].clone().unwrap();
             assert_eq!(Packet::from_frame(&f).unwrap(), pkt);
+            assert_eq!(Frame::from_unescaped(&wire), Ok(f));
         }
     }
 

@@ -200,7 +200,9 @@ pub enum Sentence {
 
 /// Goby3's `$OMS` fields: rounded to one decimal.
 fn d1(x: f64) -> String {
-    format!("{:.1}", (x * 10.0).round() / 10.0)
+    let r = (x * 10.0).round() / 10.0;
+    // Near f64::MAX the scaling overflows; such a value has no decimals to round anyway.
+    format!("{:.1}", if r.is_finite() { r } else { x })
 }
 
 impl Sentence {

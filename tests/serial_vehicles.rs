@@ -365,3 +365,32 @@ async fn waveglider_sv2_over_a_pty_pulls_commands_and_survives_naks_and_noise() 
         ServiceExit::Clean
     );
 }
+
+/// `frontseat demo --vehicle …`: the real binary flies the homework triangle through the real
+/// driver over a real pty and exits 0 with a closed track.
+#[test]
+fn demo_flies_both_vehicles_through_their_drivers() {
+    for vehicle in ["iver3", "waveglider_sv2"] {
+        let out = std::env::temp_dir().join(format!(
+            "frontseat-demo-{vehicle}-{}",
+            std::process::id()
+        ));
+        let o = std::process::Command::new(env!("CARGO_BIN_EXE_frontseat"))
+            .args(["demo", "--vehicle", vehicle, "--warp", "50", "--lines", "--out"])
+            .arg(&out)
+            .output()
+            .unwrap();
+        let stdout = String::from_utf8_lossy(&o.stdout);
+        assert!(
+            o.status.success(),
+            "{vehicle}: {}\n{}",
+            stdout,
+            String::from_utf8_lossy(&o.stderr)
+        );
+        assert!(stdout.contains("leg=northwest"), "{vehicle}: {stdout}");
+        assert!(stdout.contains("track: "), "{vehicle}: {stdout}");
+        let csv = std::fs::read_to_string(out.join("track.csv")).unwrap();
+        assert!(csv.lines().count() > 50, "{vehicle}: short track");
+        let _ = std::fs::remove_dir_all(&out);
+    }
+}

@@ -371,12 +371,18 @@ async fn waveglider_sv2_over_a_pty_pulls_commands_and_survives_naks_and_noise() 
 #[test]
 fn demo_flies_both_vehicles_through_their_drivers() {
     for vehicle in ["iver3", "waveglider_sv2"] {
-        let out = std::env::temp_dir().join(format!(
-            "frontseat-demo-{vehicle}-{}",
-            std::process::id()
-        ));
+        let out =
+            std::env::temp_dir().join(format!("frontseat-demo-{vehicle}-{}", std::process::id()));
         let o = std::process::Command::new(env!("CARGO_BIN_EXE_frontseat"))
-            .args(["demo", "--vehicle", vehicle, "--warp", "50", "--lines", "--out"])
+            .args([
+                "demo",
+                "--vehicle",
+                vehicle,
+                "--warp",
+                "50",
+                "--lines",
+                "--out",
+            ])
             .arg(&out)
             .output()
             .unwrap();

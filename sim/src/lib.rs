@@ -12,10 +12,13 @@ pub mod bench;
 pub mod codec;
 mod connection;
 pub mod emulator;
+pub mod geodesy;
 pub mod iver3;
 pub mod pty;
+mod run;
 pub mod schedule;
 mod server;
+mod shared;
 pub mod vehicle;
 pub mod waveglider_sv2;
 
@@ -39,6 +42,10 @@ pub struct SimOptions {
     pub scheduled_faults: Vec<ScheduledFault>,
     /// Most vehicles (connections) at once; more are told why and closed.
     pub max_vehicles: usize,
+    /// How long a vehicle whose connection dropped is kept: a client that reconnects within it
+    /// and repeats the same START gets the same vehicle back (position, heading, speed,
+    /// setpoint). Zero: every START makes a new vehicle, as Goby3's simulator does.
+    pub resume_grace: Duration,
 }
 
 impl Default for SimOptions {
@@ -49,6 +56,7 @@ impl Default for SimOptions {
             current_north: 0.0,
             scheduled_faults: Vec::new(),
             max_vehicles: 1024,
+            resume_grace: Duration::from_secs(10),
         }
     }
 }

@@ -1,9 +1,7 @@
 //! How a byte link cuts its input into messages, with bounded memory: text lines (NMEA) or
 //! Wave Glider SV2 binary frames. Both resynchronise after bad input instead of closing the
 //! link (a serial line cannot be "reconnected" past its noise), and report every problem as a
-//! `BadInput` event the driver counts. Also the rate limiter drivers use for those warnings.
-
-use std::time::{Duration, Instant};
+//! `BadInput` event the driver counts.
 
 use frontseat_sim::waveglider_sv2::codec::FrameDecoder;
 
@@ -98,54 +96,6 @@ impl LineSplitter {
     }
 }
 
-/// At most `burst` warnings per `period`; the rest are counted and summarised in the next
-/// allowed one, so a noisy line cannot flood the log.
-#[derive(Debug)]
-pub struct RateLimit {
-    period: Duration,
-    burst: u32,
-    window_start: Option<Instant>,
-    in_window: u32,
-    suppressed: u64,
-}
-
-impl RateLimit {
-    pub fn new(period: Duration, burst: u32) -> Self {
-        Self {
-            period,
-            burst,
-            window_start: None,
-            in_window: 0,
-            suppressed: 0,
-        }
-    }
-
-    /// `Some(n)` when a line may be logged now, n = how many were suppressed before it.
-    pub fn allow(&mut self) -> Option<u64> {
-        let now = Instant::now();
-        match self.window_start {
-            Some(t) if now.duration_since(t) < self.period => {}
-            _ => {
-                self.window_start = Some(now);
-                self.in_window = 0;
-            }
-        }
-        if self.in_window < self.burst {
-            self.in_window += 1;
-            Some(std::mem::take(&mut self.suppressed))
-        } else {
-            self.suppressed += 1;
-            None
-        }
-    }
-}
-
-impl Default for RateLimit {
-    fn default() -> Self {
-        Self::new(Duration::from_secs(10), 5)
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -178,16 +128,5 @@ mod tests {
                 "line:$A*41"
             ]
         );
-    }
-
-    #[test]
-    fn rate_limit_counts_what_it_suppresses() {
-        let mut r = RateLimit::new(Duration::from_secs(3600), 2);
-        assert_eq!(r.allow(), Some(0));
-        assert_eq!(r.allow(), Some(0));
-        assert_eq!(r.allow(), None);
-        assert_eq!(r.allow(), None);
-        r.window_start = Some(Instant::now() - Duration::from_secs(7200));
-        assert_eq!(r.allow(), Some(2));
     }
 }

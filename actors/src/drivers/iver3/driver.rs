@@ -15,10 +15,11 @@ use crate::driver::{Driver, DriverContext, DriverIoEvent, SignalSink, raw_ascii}
 use crate::drivers::vehicle_link;
 use crate::link::LineWriter;
 use crate::link::byte::{self, ByteLinkConfig, LinkStats};
-use crate::link::framing::{Framing, RateLimit};
+use crate::link::framing::Framing;
 use crate::proto::goby::middleware::frontseat::protobuf::{
     CommandRequest, CommandResponse, FrontSeatState, InterfaceData, NodeStatus, Raw,
 };
+use crate::ratelog::{LogDecision, RateLimitedLog};
 
 /// Commands waiting for an `$ACK` at most (older ones are answered as failed).
 const MAX_PENDING: usize = 64;
@@ -121,7 +122,7 @@ pub struct Iver3Driver {
     /// The latest `$OSI` navigation, so `$C` can republish it with new pitch and roll.
     status: Option<NodeStatus>,
     pending: VecDeque<Pending>,
-    bad_log: RateLimit,
+    bad_log: RateLimitedLog,
     pub counters: IverCounters,
 }
 
@@ -138,7 +139,7 @@ impl Iver3Driver {
             providing_data: false,
             status: None,
             pending: VecDeque::new(),
-            bad_log: RateLimit::default(),
+            bad_log: RateLimitedLog::for_bad_input(),
             counters: IverCounters::default(),
         }
     }
@@ -159,7 +160,10 @@ impl Iver3Driver {
             }
             Err(e) => {
                 self.counters.write_failures += 1;
-                if let Some(suppressed) = self.bad_log.allow() {
+                if let LogDecision::Log {
+                    suppressed_before: suppressed,
+                } = self.bad_log.decide(tokio::time::Instant::now())
+                {
                     tracing::warn!(line, error = %e, suppressed, "line to the Iver not sent");
                 }
                 false
@@ -169,7 +173,10 @@ impl Iver3Driver {
 
     fn bad(&mut self, what: &str) {
         self.counters.bad_lines += 1;
-        if let Some(suppressed) = self.bad_log.allow() {
+        if let LogDecision::Log {
+            suppressed_before: suppressed,
+        } = self.bad_log.decide(tokio::time::Instant::now())
+        {
             tracing::warn!(%what, suppressed, "bad input from the Iver");
         }
     }

@@ -17,10 +17,11 @@ use crate::driver::{Driver, DriverContext, DriverIoEvent, SignalSink};
 use crate::drivers::vehicle_link;
 use crate::link::LineWriter;
 use crate::link::byte::{self, ByteLinkConfig, LinkStats};
-use crate::link::framing::{Framing, RateLimit};
+use crate::link::framing::Framing;
 use crate::proto::goby::middleware::frontseat::protobuf::{
     CommandRequest, CommandResponse, FrontSeatState, InterfaceData, Raw, raw::RawType,
 };
+use crate::ratelog::{LogDecision, RateLimitedLog};
 
 /// C&C main task: where enumerate and status replies go (as in Goby3).
 const CC_MAIN: u16 = 0x0000;
@@ -94,7 +95,7 @@ pub struct WavegliderSv2Driver {
     providing_data: bool,
     queued: Option<Queued>,
     in_flight: Option<InFlight>,
-    bad_log: RateLimit,
+    bad_log: RateLimitedLog,
     pub counters: Sv2Counters,
 }
 
@@ -110,14 +111,17 @@ impl WavegliderSv2Driver {
             providing_data: false,
             queued: None,
             in_flight: None,
-            bad_log: RateLimit::default(),
+            bad_log: RateLimitedLog::for_bad_input(),
             counters: Sv2Counters::default(),
         }
     }
 
     fn bad(&mut self, what: &str) {
         self.counters.bad_frames += 1;
-        if let Some(suppressed) = self.bad_log.allow() {
+        if let LogDecision::Log {
+            suppressed_before: suppressed,
+        } = self.bad_log.decide(tokio::time::Instant::now())
+        {
             tracing::warn!(%what, suppressed, "bad input from the Wave Glider C&C");
         }
     }
@@ -141,7 +145,10 @@ impl WavegliderSv2Driver {
             }
             Err(e) => {
                 self.counters.write_failures += 1;
-                if let Some(suppressed) = self.bad_log.allow() {
+                if let LogDecision::Log {
+                    suppressed_before: suppressed,
+                } = self.bad_log.decide(tokio::time::Instant::now())
+                {
                     tracing::warn!(error = %e, suppressed, "frame to the C&C not sent");
                 }
                 false
@@ -296,7 +303,10 @@ impl WavegliderSv2Driver {
             } => {
                 // Goby3 decoded this as the wrong type and stopped reading; we log and go on.
                 self.counters.naks += 1;
-                if let Some(s) = self.bad_log.allow() {
+                if let LogDecision::Log {
+                    suppressed_before: s,
+                } = self.bad_log.decide(tokio::time::Instant::now())
+                {
                     tracing::warn!(
                         original_msg_type,
                         response_code,

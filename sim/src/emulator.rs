@@ -172,17 +172,14 @@ async fn run_tcp<S: Session>(
             peer = None;
             lock(&session).reset_input();
         }
-        match peer.as_mut() {
-            Some(p) if !out.is_empty() => {
-                if tokio::time::timeout(WRITE_WITHIN, p.write_all(&out))
-                    .await
-                    .map_or(true, |r| r.is_err())
-                {
-                    peer = None;
-                    lock(&session).reset_input();
-                }
-            }
-            _ => {}
+        if let Some(p) = peer.as_mut()
+            && !out.is_empty()
+            && tokio::time::timeout(WRITE_WITHIN, p.write_all(&out))
+                .await
+                .map_or(true, |r| r.is_err())
+        {
+            peer = None;
+            lock(&session).reset_input();
         }
         // Bytes for a backseat that is not there are lost, as on a cable.
         out.clear();

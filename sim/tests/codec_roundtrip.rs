@@ -154,7 +154,7 @@ fn sentence() -> impl Strategy<Value = Sentence> {
             (field(), field(), field(), field(), field(), field()),
         )
             .prop_map(|((fm, mode, wp), (la, lo), (spd, alt, hdg, dep), s)| {
-                Sentence::Osi(Osi {
+                Sentence::Osi(Box::new(Osi {
                     fin_motor: fm,
                     mode,
                     next_wp: wp,
@@ -170,7 +170,7 @@ fn sentence() -> impl Strategy<Value = Sentence> {
                     remaining_time: s.5,
                     heading: hdg,
                     depth_ft: dep,
-                })
+                }))
             }),
         (
             tenths(0, 3600),

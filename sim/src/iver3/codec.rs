@@ -186,7 +186,7 @@ pub enum Sentence {
         mission: String,
     },
     OmStop,
-    Osi(Osi),
+    Osi(Box<Osi>),
     Compass(Compass),
     /// `$--RMC`; only its presence matters to the driver (Goby3 uses it only for NTP).
     Rmc {
@@ -296,7 +296,7 @@ impl Sentence {
                 // Goby3 reads up to index 15; shorter lines publish nothing.
                 at_least("OSI", &f, 16)?;
                 let s = |i: usize| f[i].to_string();
-                Sentence::Osi(Osi {
+                Sentence::Osi(Box::new(Osi {
                     fin_motor: s(1),
                     mode: s(2),
                     next_wp: s(3),
@@ -312,7 +312,7 @@ impl Sentence {
                     remaining_time: s(13),
                     heading: num("OSI", &f, 14)?,
                     depth_ft: num("OSI", &f, 15)?,
-                })
+                }))
             }
             "ACK" => {
                 at_least("ACK", &f, 4)?;

@@ -145,7 +145,7 @@ impl IverSession {
                 if state {
                     Self::send(
                         out,
-                        &Sentence::Osi(Osi {
+                        &Sentence::Osi(Box::new(Osi {
                             fin_motor: "7F7F7F7F80".into(),
                             mode: self.mode.clone(),
                             next_wp: "0".into(),
@@ -161,7 +161,7 @@ impl IverSession {
                             remaining_time: "0".into(),
                             heading: v.heading,
                             depth_ft: v.depth * FEET_PER_METRE,
-                        }),
+                        })),
                     );
                 }
                 if compass {
@@ -234,7 +234,7 @@ impl Session for IverSession {
                 self.line.clear();
                 self.discarding = false;
             } else if !self.discarding {
-                if self.line.len() >= MAX_SENTENCE + 1 {
+                if self.line.len() > MAX_SENTENCE {
                     self.stats.oversized_lines += 1;
                     self.discarding = true;
                     self.line.clear();

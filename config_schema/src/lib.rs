@@ -25,9 +25,9 @@ pub use gateway::GatewayConfig;
 pub use interface::{
     BASIC_SIMULATOR, BUILT_IN_DRIVERS, BasicSimulatorConfig, BusConfig, ChaosConfig, DriverConfig,
     FlowControlConfig, FrontSeatStateName, IVER3, InterfaceConfig, Iver3Config,
-    IverModeAssignments, LimitsConfig, MAX_QUEUE_CAPACITY, ParityConfig, SimStartConfig,
-    SimVehicleConfig, SupervisionConfig, TransportKind, VehicleLinkConfig, VehicleType,
-    WAVEGLIDER_SV2, WavegliderSv2Config,
+    IverModeAssignments, LimitsConfig, MAX_QUEUE_CAPACITY, ParityConfig, RestartConfig,
+    RestartPolicy, SimStartConfig, SimVehicleConfig, SupervisionConfig, TransportKind,
+    VehicleLinkConfig, VehicleType, WAVEGLIDER_SV2, WavegliderSv2Config,
 };
 pub use sections::{
     DEFAULT_ORIGIN_LAT, DEFAULT_ORIGIN_LON, InterprocessConfig, InterprocessMode, LatLonConfig,

@@ -762,6 +762,11 @@ pub struct Iver3Config {
     /// Unit: baud.
     #[schemars(range(min = 1))]
     pub serial_baud: u32,
+    /// If set, every valid $--RMC from the UVC is copied to this serial port at 4800 baud
+    /// (8N1), for an NTP reference clock.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    #[schemars(example = &"/dev/ttyUSB2")]
+    pub ntp_serial_port: Option<String>,
     /// Value of $OMS field 3. Unit: degrees.
     pub max_pitch_angle_degrees: i32,
     /// Remote Helm major version (required): below 5 $OMS depth is in feet, from 5 in metres.
@@ -786,6 +791,7 @@ impl Default for Iver3Config {
         Self {
             serial_port: String::new(),
             serial_baud: 19200,
+            ntp_serial_port: None,
             max_pitch_angle_degrees: 45,
             remote_helm_version_major: None,
             oms_timeout: 5,

@@ -14,12 +14,16 @@ use crate::clock::SimClock;
 use crate::driver::{Driver, DriverContext, DriverIoEvent, SignalSink, raw_ascii};
 use crate::drivers::vehicle_link;
 use crate::link::LineWriter;
-use crate::link::byte::{self, ByteLinkConfig, LinkStats};
+use crate::link::byte::{self, ByteLinkConfig, LinkStats, Transport};
 use crate::link::framing::Framing;
+use crate::link::serial::SerialSettings;
 use crate::proto::goby::middleware::frontseat::protobuf::{
     CommandRequest, CommandResponse, FrontSeatState, InterfaceData, NodeStatus, Raw,
 };
 use crate::ratelog::{LogDecision, RateLimitedLog};
+
+/// Goby3's fixed baud of the NTP copy port.
+const NTP_BAUD: u32 = 4800;
 
 /// Commands waiting for an `$ACK` at most (older ones are answered as failed).
 const MAX_PENDING: usize = 64;
@@ -27,6 +31,8 @@ const MAX_PENDING: usize = 64;
 #[derive(Clone, Debug)]
 pub struct Settings {
     pub link: ByteLinkConfig,
+    /// Where RMC sentences are copied for NTP (4800 8N1), if anywhere.
+    pub ntp_link: Option<ByteLinkConfig>,
     pub max_pitch_angle_degrees: i32,
     pub remote_helm_version_major: i32,
     pub oms_timeout: u32,
@@ -78,6 +84,14 @@ impl Settings {
                     max_line_bytes: codec::MAX_SENTENCE,
                 },
             ),
+            ntp_link: c.ntp_serial_port.as_ref().map(|p| ByteLinkConfig {
+                transport: Transport::Serial(SerialSettings::new_8n1(p.clone(), NTP_BAUD)),
+                framing: Framing::Lines {
+                    max_line_bytes: codec::MAX_SENTENCE,
+                },
+                backoff_initial: Duration::from_millis(c.link.reconnect_initial_ms.max(1)),
+                backoff_max: Duration::from_millis(c.link.reconnect_max_ms.max(1)),
+            }),
             max_pitch_angle_degrees: c.max_pitch_angle_degrees,
             // Validation requires it; 5 (metres) only if a caller skipped validation.
             remote_helm_version_major: c.remote_helm_version_major.unwrap_or(5),
@@ -115,6 +129,9 @@ pub struct Iver3Driver {
     writer: Option<LineWriter>,
     link_task: Option<tokio::task::JoinHandle<()>>,
     pub link_stats: Arc<LinkStats>,
+    /// The NTP copy port's writer while it is open (filled by its own link task).
+    ntp: Arc<std::sync::Mutex<Option<LineWriter>>>,
+    ntp_task: Option<tokio::task::JoinHandle<()>>,
     state: FrontSeatState,
     mode: IverMode,
     last_data: Option<Duration>,
@@ -133,6 +150,8 @@ impl Iver3Driver {
             writer: None,
             link_task: None,
             link_stats: Arc::new(LinkStats::default()),
+            ntp: Arc::new(std::sync::Mutex::new(None)),
+            ntp_task: None,
             state: FrontSeatState::FrontseatNotConnected,
             mode: IverMode::Unknown,
             last_data: None,
@@ -252,7 +271,15 @@ impl Iver3Driver {
                     }
                 }
             }
-            Sentence::Rmc { .. } => {}
+            Sentence::Rmc { .. } => {
+                // Copied verbatim (checksum and all) for the NTP reference clock, as Goby3.
+                let w = self.ntp.lock().unwrap_or_else(|p| p.into_inner()).clone();
+                if let Some(w) = w
+                    && w.write_line(line).is_err()
+                {
+                    self.counters.write_failures += 1;
+                }
+            }
             _ => {
                 self.counters.ignored += 1;
                 tracing::trace!(line, "ignoring sentence from the Iver");
@@ -274,7 +301,10 @@ impl Iver3Driver {
 
 impl Drop for Iver3Driver {
     fn drop(&mut self) {
-        if let Some(t) = self.link_task.take() {
+        for t in [self.link_task.take(), self.ntp_task.take()]
+            .into_iter()
+            .flatten()
+        {
             t.abort();
         }
     }
@@ -291,6 +321,21 @@ impl Driver for Iver3Driver {
             ctx.io,
             self.link_stats.clone(),
         ));
+        if let Some(ntp) = self.settings.ntp_link.clone() {
+            // Write-only: what the NTP side sends back is discarded (as Goby3), so its events
+            // stay on its own task instead of the driver's mailbox.
+            let slot = self.ntp.clone();
+            let io = crate::driver::IoSender::new(move |ev| {
+                let mut s = slot.lock().unwrap_or_else(|p| p.into_inner());
+                match ev {
+                    DriverIoEvent::Connected(w) => *s = Some(w),
+                    DriverIoEvent::Disconnected(_) => *s = None,
+                    _ => {}
+                }
+                true
+            });
+            self.ntp_task = Some(byte::spawn(ntp, io, Arc::new(LinkStats::default())));
+        }
     }
 
     fn handle_io(&mut self, ev: DriverIoEvent, now: Duration, sig: &mut dyn SignalSink) {
@@ -432,6 +477,7 @@ impl Driver for Iver3Driver {
 
     fn stop(&mut self) {
         self.writer = None;
+        *self.ntp.lock().unwrap_or_else(|p| p.into_inner()) = None;
     }
 }
 
@@ -591,6 +637,47 @@ mod tests {
                 .map(|r| (r.request_id, r.request_successful))
                 .collect::<Vec<_>>(),
             vec![(Some(4), Some(false)), (Some(5), Some(false))]
+        );
+    }
+
+    /// The NTP copy port over a real pty: each RMC goes out verbatim at 4800 baud.
+    #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+    async fn rmc_is_copied_to_the_ntp_port() {
+        let pty = frontseat_sim::pty::PtyMaster::open().unwrap();
+        let mut cfg = InterfaceConfig::default();
+        cfg.driver.iver3.serial_port = "/nonexistent/iver".into();
+        cfg.driver.iver3.remote_helm_version_major = Some(5);
+        cfg.driver.iver3.ntp_serial_port = Some(pty.slave_path().to_string_lossy().into_owned());
+        let mut d = Iver3Driver::new(Settings::from_config(&cfg));
+        d.start(DriverContext {
+            io: crate::driver::IoSender::new(|_| true),
+            clock: crate::clock::SimClock::new(1.0),
+        });
+        let ntp = d.ntp.clone();
+        tokio::time::timeout(Duration::from_secs(10), async {
+            while ntp.lock().unwrap().is_none() {
+                tokio::time::sleep(Duration::from_millis(10)).await;
+            }
+        })
+        .await
+        .expect("NTP port opened");
+        let rmc = "$GPRMC,120000.00,A,4221.5040,N,07105.2560,W,0.0,90.0,101024,14.5,W*52";
+        let mut sink = Sink::default();
+        d.handle_io(DriverIoEvent::Line(OSI_N.into()), Duration::ZERO, &mut sink);
+        d.handle_io(DriverIoEvent::Line(rmc.into()), Duration::ZERO, &mut sink);
+        let mut got = Vec::new();
+        while !got.ends_with(b"\r\n") {
+            let mut b = [0u8; 128];
+            let n = tokio::time::timeout(Duration::from_secs(10), pty.read(&mut b))
+                .await
+                .unwrap()
+                .unwrap();
+            got.extend_from_slice(&b[..n]);
+        }
+        assert_eq!(
+            got,
+            format!("{rmc}\r\n").as_bytes(),
+            "only the RMC, verbatim"
         );
     }
 

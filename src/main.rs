@@ -8,6 +8,7 @@ mod demo;
 mod driver_host;
 mod gateway_cmd;
 mod service;
+mod shutdown;
 mod systemd;
 mod vehicle_sim;
 
@@ -174,6 +175,7 @@ fn main() -> ExitCode {
     match cli.command {
         Command::Interfaces => {
             print!("{}", frontseat_actors::generated::RESOLVED_INTERFACES_YAML);
+            print!("{}", frontseat_actors::supervisor::TREE);
             ExitCode::SUCCESS
         }
         Command::Interface { cfg } => {

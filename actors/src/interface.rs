@@ -239,6 +239,7 @@ impl FsiState {
             bus_dropped: Some(self.bus.total_dropped()),
             uptime_s: Some(self.now().as_secs_f64()),
             driver: Some(self.s.driver_name.clone()),
+            goby3_link_up: self.bus.link_up(crate::bus::GOBY3_LINK),
         };
         self.ports.publish_detail(detail);
     }

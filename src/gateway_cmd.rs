@@ -7,8 +7,8 @@
 use std::process::ExitCode;
 
 use frontseat_actors::bus::Bus;
-use frontseat_config::{GatewayConfig, InterfaceConfig};
 use frontseat_config::Goby3Config;
+use frontseat_config::{GatewayConfig, InterfaceConfig};
 use frontseat_gateway::goby3::{Goby3Handle, Goby3Settings};
 use frontseat_gateway::{GatewayError, GatewayHandle, GatewayOptions};
 

@@ -112,7 +112,12 @@ impl Goby3Config {
         let max = at(prefix, "reconnect_max_ms");
         c.at_least(&initial, self.reconnect_initial_ms, 1);
         c.at_least(&max, self.reconnect_max_ms, 1);
-        c.ordered(&initial, self.reconnect_initial_ms, &max, self.reconnect_max_ms);
+        c.ordered(
+            &initial,
+            self.reconnect_initial_ms,
+            &max,
+            self.reconnect_max_ms,
+        );
         c.count(&at(prefix, "settle_ms"), self.settle_ms, 0, 60_000);
     }
 }

@@ -69,11 +69,7 @@ fn start(bus: &Bus, s: Goby3Settings, hosted: &[&str]) -> Goby3Handle {
     goby3::start(bus, s, hosted, GatewayOptions::default()).unwrap()
 }
 
-async fn wait_stats(
-    h: &Goby3Handle,
-    what: &str,
-    pred: impl Fn(&Goby3Stats) -> bool,
-) -> Goby3Stats {
+async fn wait_stats(h: &Goby3Handle, what: &str, pred: impl Fn(&Goby3Stats) -> bool) -> Goby3Stats {
     let deadline = tokio::time::Instant::now() + WAIT;
     loop {
         let s = h.stats();
@@ -190,7 +186,13 @@ async fn interface_and_helm_exchange_groups_through_gobyd_over_ipc_without_echo(
     assert!(local.try_recv().is_err(), "no second copy from gobyd");
     assert!(gobyd.forwarded() >= 3);
     // Goby3's datum_update group name is what we subscribe on the wire.
-    assert!(gw_if.plan().imports.iter().any(|r| goby3::wire_group(r.group) == "goby::datum_update"));
+    assert!(
+        gw_if
+            .plan()
+            .imports
+            .iter()
+            .any(|r| goby3::wire_group(r.group) == "goby::datum_update")
+    );
 
     gw_helm.close().await;
     gw_if.close().await;
@@ -275,15 +277,20 @@ async fn malformed_frames_are_counted_and_dropped_and_the_link_stays_up() {
     let bus = Bus::new();
     let gw = start(&bus, ipc_settings(&base), &["FrontSeatInterface"]);
     wait_stats(&gw, "link up", |s| s.link_up).await;
-    let (_s, mut rx) =
-        bus.subscribe_channel(&groups::GOBY_MIDDLEWARE_FRONTSEAT_RAW_SEND_REQUEST, "t", 1000);
+    let (_s, mut rx) = bus.subscribe_channel(
+        &groups::GOBY_MIDDLEWARE_FRONTSEAT_RAW_SEND_REQUEST,
+        "t",
+        1000,
+    );
     let transport = manager::Transport::Ipc { base: base.clone() };
     let mut publ = raw_publisher(gobyd.manager_endpoint(), &transport).await;
 
     // A good frame first, until the subscription has reached our PUB.
     let deadline = tokio::time::Instant::now() + WAIT;
     loop {
-        publ.send(ZmqMessage::from(raw_frame("FIRST"))).await.unwrap();
+        publ.send(ZmqMessage::from(raw_frame("FIRST")))
+            .await
+            .unwrap();
         if let Ok(Some(env)) = tokio::time::timeout(Duration::from_millis(100), rx.recv()).await {
             assert_eq!(env.msg.raw(), b"FIRST");
             break;
@@ -296,9 +303,9 @@ async fn malformed_frames_are_counted_and_dropped_and_the_link_stays_up() {
     // The frames that made goby_frontseat_interface abort, each starting with our prefix.
     let prefix = frame::subscription_prefix(RAW_SEND, RAW_T);
     let bad: Vec<Vec<u8>> = vec![
-        format!("{prefix}\0\x0a\x01x").into_bytes(),             // no pid or thread
-        format!("{prefix}4242/beef/\x0a\x01x").into_bytes(),     // no NUL
-        format!("{prefix}4242/main/\0\x0a\x01x").into_bytes(),   // thread not hex
+        format!("{prefix}\0\x0a\x01x").into_bytes(), // no pid or thread
+        format!("{prefix}4242/beef/\x0a\x01x").into_bytes(), // no NUL
+        format!("{prefix}4242/main/\0\x0a\x01x").into_bytes(), // thread not hex
         format!("{prefix}python/beef/\0\x0a\x01x").into_bytes(), // pid not decimal
     ];
     for b in &bad {
@@ -313,8 +320,13 @@ async fn malformed_frames_are_counted_and_dropped_and_the_link_stays_up() {
     garbage.extend_from_slice(&[0, 0xff, 0xff, 0xff]);
     publ.send(ZmqMessage::from(garbage)).await.unwrap();
     // One publisher's frames arrive in order: once this one is in, every bad one was handled.
-    publ.send(ZmqMessage::from(raw_frame("LAST"))).await.unwrap();
-    let env = tokio::time::timeout(WAIT, rx.recv()).await.unwrap().unwrap();
+    publ.send(ZmqMessage::from(raw_frame("LAST")))
+        .await
+        .unwrap();
+    let env = tokio::time::timeout(WAIT, rx.recv())
+        .await
+        .unwrap()
+        .unwrap();
     assert_eq!(env.msg.raw(), b"LAST");
 
     let s = gw.stats();

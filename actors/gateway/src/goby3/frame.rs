@@ -73,7 +73,10 @@ pub fn decode(bytes: &[u8], max: usize) -> Result<Frame<'_>, FrameError> {
             max,
         });
     }
-    let nul = bytes.iter().position(|b| *b == 0).ok_or(FrameError::NoNul)?;
+    let nul = bytes
+        .iter()
+        .position(|b| *b == 0)
+        .ok_or(FrameError::NoNul)?;
     let (id, payload) = (&bytes[..nul], &bytes[nul + 1..]);
     let id = std::str::from_utf8(id).map_err(|_| FrameError::NotUtf8)?;
     let id = id.strip_prefix('/').ok_or(FrameError::NoLeadingSlash)?;
@@ -165,13 +168,19 @@ mod tests {
             (p("/g/x/PROTOBUF/T/1/a/"), FrameError::FieldCount(6)),
             (p("//PROTOBUF/T/1/a/"), FrameError::Empty("group")),
             (p("/g/PROTOBUF//1/a/"), FrameError::Empty("type")),
-            (p("/g/PROTOBUF/T/python/a/"), FrameError::BadPid("python".into())),
+            (
+                p("/g/PROTOBUF/T/python/a/"),
+                FrameError::BadPid("python".into()),
+            ),
             (p("/g/PROTOBUF/T/12x/a/"), FrameError::BadPid("12x".into())),
             (
                 p("/g/PROTOBUF/T/99999999999/a/"),
                 FrameError::BadPid("99999999999".into()),
             ),
-            (p("/g/PROTOBUF/T/1/main/"), FrameError::BadThread("main".into())),
+            (
+                p("/g/PROTOBUF/T/1/main/"),
+                FrameError::BadThread("main".into()),
+            ),
             (p("/g/PROTOBUF/T/1//"), FrameError::BadThread(String::new())),
             (
                 p("/g/PROTOBUF/T/1/11111111111111111/"),

@@ -96,7 +96,12 @@ impl Link {
     }
 
     /// One request/response on the manager socket.
-    async fn ask(&self, req: &mut ReqSocket, endpoint: &str, body: Vec<u8>) -> Result<Vec<u8>, LinkError> {
+    async fn ask(
+        &self,
+        req: &mut ReqSocket,
+        endpoint: &str,
+        body: Vec<u8>,
+    ) -> Result<Vec<u8>, LinkError> {
         self.within(endpoint, async {
             req.send(ZmqMessage::from(body))
                 .await

@@ -191,7 +191,13 @@ pub(crate) struct Exporter {
 impl Exporter {
     pub(crate) fn encode(&self, i: usize, env: &EncodedEnvelope) -> Option<Vec<u8>> {
         let (group, ty) = self.routes.get(i)?;
-        Some(frame::encode(group, ty, self.me.pid, self.me.thread, &env.bytes))
+        Some(frame::encode(
+            group,
+            ty,
+            self.me.pid,
+            self.me.thread,
+            &env.bytes,
+        ))
     }
 }
 
@@ -259,7 +265,13 @@ impl Importer {
         let Some((_, ty, group)) = route.filter(|_| f.scheme == frame::SCHEME_PROTOBUF) else {
             let n = bump(&c.unexpected);
             if wire::worth_logging(n) {
-                tracing::warn!(group = f.group, scheme = f.scheme, r#type = f.type_name, count = n, "Goby3 frame of a group/type we do not import");
+                tracing::warn!(
+                    group = f.group,
+                    scheme = f.scheme,
+                    r#type = f.type_name,
+                    count = n,
+                    "Goby3 frame of a group/type we do not import"
+                );
             }
             return;
         };

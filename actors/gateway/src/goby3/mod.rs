@@ -69,15 +69,6 @@ impl Goby3Settings {
     }
 }
 
-/// The string Goby3 puts on the wire for one of our groups. Goby3's C++ constant
-/// `goby::middleware::groups::datum_update` (the yaml's name) is the group `goby::datum_update`.
-pub fn wire_group(group: &str) -> &str {
-    match group {
-        "goby::middleware::groups::datum_update" => "goby::datum_update",
-        g => g,
-    }
-}
-
 /// Counters and the link flag, for status, metrics and tests.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct Goby3Stats {
@@ -399,7 +390,7 @@ pub fn start(
         routes: plan
             .exports
             .iter()
-            .map(|r| (wire_group(r.group).to_string(), r.type_name))
+            .map(|r| (r.group.to_string(), r.type_name))
             .collect(),
         me,
     };
@@ -408,7 +399,7 @@ pub fn start(
         routes: plan
             .imports
             .iter()
-            .map(|r| (wire_group(r.group).to_string(), r.type_name, r.group))
+            .map(|r| (r.group.to_string(), r.type_name, r.group))
             .collect(),
         me,
         max: opts.max_payload,
@@ -432,8 +423,8 @@ pub fn start(
         platform = %settings.platform,
         manager = %settings.transport.manager_endpoint(),
         client_name = %settings.client_name,
-        exports = ?plan.exports.iter().map(|r| wire_group(r.group)).collect::<Vec<_>>(),
-        imports = ?plan.imports.iter().map(|r| wire_group(r.group)).collect::<Vec<_>>(),
+        exports = ?plan.exports.iter().map(|r| r.group).collect::<Vec<_>>(),
+        imports = ?plan.imports.iter().map(|r| r.group).collect::<Vec<_>>(),
         "Goby3 transport started; joining gobyd in the background"
     );
     Ok(Goby3Handle {
@@ -469,18 +460,6 @@ mod tests {
         assert_eq!(s.transport.manager_endpoint(), "tcp://127.0.0.1:11150");
         cfg.platform = "a/b".into();
         assert!(Goby3Settings::from_config(&cfg, "").is_err());
-    }
-
-    #[test]
-    fn datum_update_goes_by_its_goby3_string() {
-        assert_eq!(
-            wire_group("goby::middleware::groups::datum_update"),
-            "goby::datum_update"
-        );
-        assert_eq!(
-            wire_group("goby::middleware::frontseat::node_status"),
-            "goby::middleware::frontseat::node_status"
-        );
     }
 
     #[test]

@@ -26,8 +26,8 @@ pub use gateway::GatewayConfig;
 pub use goby3::{Goby3Config, Goby3Transport};
 pub use interface::{
     BASIC_SIMULATOR, BasicSimulatorConfig, BusConfig, ChaosConfig, DriverConfig, InterfaceConfig,
-    LimitsConfig, MAX_QUEUE_CAPACITY, SimStartConfig, SimVehicleConfig, SupervisionConfig,
-    VehicleType,
+    LimitsConfig, MAX_QUEUE_CAPACITY, RestartConfig, RestartPolicy, SimStartConfig,
+    SimVehicleConfig, SupervisionConfig, VehicleType,
 };
 pub use sections::{
     DEFAULT_ORIGIN_LAT, DEFAULT_ORIGIN_LON, InterprocessConfig, InterprocessMode, LatLonConfig,

@@ -1106,7 +1106,7 @@ impl Run {
             let registered = m
                 .broker
                 .as_ref()
-                .is_some_and(|b| b.client_names().iter().any(|n| *n == m.app_name));
+                .is_some_and(|b| b.client_names().contains(&m.app_name));
             if registered && m.connected() {
                 self.moos_reconnects.push(t0.elapsed());
                 break;

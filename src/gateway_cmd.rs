@@ -14,7 +14,7 @@ use frontseat_gateway::{GatewayError, GatewayHandle, GatewayOptions};
 
 /// The actors `frontseat interface` hosts, hence what its gateway exports and imports.
 pub fn interface_actors(cfg: &InterfaceConfig) -> Vec<&'static str> {
-    let mut hosted = vec!["FrontSeatInterface"];
+    let mut hosted = vec!["FrontSeatInterface", "RootSupervisor"];
     if cfg.moos.is_some() {
         hosted.push("FrontSeatTranslation");
     }
@@ -132,7 +132,7 @@ pub async fn moos_gateway(cfg: GatewayConfig) -> ExitCode {
     );
     notifier.ready();
     let watchdog = crate::systemd::spawn_watchdog(notifier.clone(), || async { true });
-    crate::service::shutdown_signal().await;
+    crate::shutdown::shutdown_signal().await;
     notifier.stopping();
     if let Some(w) = watchdog {
         w.abort();

@@ -20,7 +20,8 @@ use zeromq::{
 };
 
 use super::manager::{self, PubSub};
-use super::{Counters, Exporter, Goby3Settings, Importer, Origin3, bump};
+use super::settings::Goby3Settings;
+use super::traffic::{Counters, Exporter, Importer, Origin3, bump};
 use crate::wire;
 
 /// Goby3 polls the hold state every 100 ms.

@@ -289,13 +289,17 @@ pub(crate) async fn run(
                 let why = link
                     .serve(&mut session, &mut out, &exporter, &importer, &mut stop)
                     .await;
+                let stopped = matches!(why, LinkError::Stopped);
+                if !stopped {
+                    // Logged and counted before the flag drops, so whoever sees it down finds why.
+                    c.link_losses.fetch_add(1, Ordering::Relaxed);
+                    tracing::warn!(reason = %why, "Goby3 link down; joining gobyd again");
+                }
                 link.set_up(false);
                 drop(session);
-                if matches!(why, LinkError::Stopped) {
+                if stopped {
                     return;
                 }
-                c.link_losses.fetch_add(1, Ordering::Relaxed);
-                tracing::warn!(reason = %why, "Goby3 link down; joining gobyd again");
             }
             Err(e) => {
                 failures += 1;

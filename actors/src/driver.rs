@@ -20,35 +20,9 @@ pub trait SignalSink {
     fn raw_to_frontseat(&mut self, raw: Raw);
 }
 
-/// Something the driver's own I/O tasks observed.
-#[derive(Debug)]
-pub enum DriverIoEvent {
-    Connected(crate::link::LineWriter),
-    Line(String),
-    /// A CRC-checked binary frame, unescaped, start byte included (framed links only).
-    Frame(Vec<u8>),
-    /// Bytes that could not be a line (invalid UTF-8, oversized); the link goes on or closes.
-    BadInput(String),
-    Disconnected(String),
-}
-
-/// Where a driver's I/O tasks send what they observe (the driver actor's mailbox).
-#[derive(Clone)]
-pub struct IoSender {
-    send: std::sync::Arc<dyn Fn(DriverIoEvent) -> bool + Send + Sync>,
-}
-
-impl IoSender {
-    pub fn new(send: impl Fn(DriverIoEvent) -> bool + Send + Sync + 'static) -> Self {
-        Self {
-            send: std::sync::Arc::new(send),
-        }
-    }
-    /// False once the driver actor is gone: the I/O task should end.
-    pub fn send(&self, ev: DriverIoEvent) -> bool {
-        (self.send)(ev)
-    }
-}
+/// What a driver's I/O tasks observe and how they hand it over: defined with the links that
+/// produce it.
+pub use crate::link::{DriverIoEvent, IoSender};
 
 pub struct DriverContext {
     pub io: IoSender,

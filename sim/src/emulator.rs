@@ -1,7 +1,7 @@
 //! Runs a vehicle emulator session (the vehicle's side of a serial protocol) on a
 //! pseudo-terminal or a loopback TCP port: reads bytes into the session, steps its vehicle at
 //! 10 Hz of simulated time, writes what it answers. The sessions themselves are pure
-//! ([`crate::iver3::IverSession`], [`crate::waveglider_sv2::Sv2Session`]).
+//! (the Iver3 and Wave Glider SV2 sessions).
 
 use std::net::SocketAddr;
 use std::path::{Path, PathBuf};

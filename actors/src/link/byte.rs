@@ -14,8 +14,8 @@ use tokio::sync::mpsc;
 
 use super::framing::{Deframer, Framing};
 use super::serial::SerialSettings;
+use super::{DriverIoEvent, IoSender};
 use super::{LineWriter, WRITE_QUEUE};
-use crate::driver::{DriverIoEvent, IoSender};
 
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub enum Transport {

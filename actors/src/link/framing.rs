@@ -5,7 +5,7 @@
 
 use frontseat_sim::waveglider_sv2::codec::FrameDecoder;
 
-use crate::driver::DriverIoEvent;
+use super::DriverIoEvent;
 
 /// How a link's input is cut into messages.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -14,7 +14,35 @@ use tokio::io::{AsyncBufReadExt, AsyncReadExt, AsyncWriteExt, BufReader};
 use tokio::net::TcpStream;
 use tokio::sync::mpsc;
 
-use crate::driver::{DriverIoEvent, IoSender};
+/// Something the driver's own I/O tasks observed.
+#[derive(Debug)]
+pub enum DriverIoEvent {
+    Connected(LineWriter),
+    Line(String),
+    /// A CRC-checked binary frame, unescaped, start byte included (framed links only).
+    Frame(Vec<u8>),
+    /// Bytes that could not be a line (invalid UTF-8, oversized); the link goes on or closes.
+    BadInput(String),
+    Disconnected(String),
+}
+
+/// Where a driver's I/O tasks send what they observe (the driver actor's mailbox).
+#[derive(Clone)]
+pub struct IoSender {
+    send: std::sync::Arc<dyn Fn(DriverIoEvent) -> bool + Send + Sync>,
+}
+
+impl IoSender {
+    pub fn new(send: impl Fn(DriverIoEvent) -> bool + Send + Sync + 'static) -> Self {
+        Self {
+            send: std::sync::Arc::new(send),
+        }
+    }
+    /// False once the driver actor is gone: the I/O task should end.
+    pub fn send(&self, ev: DriverIoEvent) -> bool {
+        (self.send)(ev)
+    }
+}
 
 /// Lines waiting to be written before further writes are refused (a stalled frontseat must
 /// not grow our memory).

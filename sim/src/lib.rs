@@ -8,6 +8,7 @@
 #![forbid(unsafe_code)]
 
 pub mod bench;
+pub mod bluefin;
 pub mod codec;
 mod connection;
 pub mod schedule;

@@ -23,8 +23,9 @@ use serde::de::DeserializeOwned;
 pub use error::{ConfigError, FieldError};
 pub use gateway::GatewayConfig;
 pub use interface::{
-    BASIC_SIMULATOR, BasicSimulatorConfig, BusConfig, ChaosConfig, DriverConfig, InterfaceConfig,
-    MAX_QUEUE_CAPACITY, SimStartConfig, SimVehicleConfig, SupervisionConfig, VehicleType,
+    AcceptingCommandsHook, BASIC_SIMULATOR, BLUEFIN, BasicSimulatorConfig, BluefinConfig,
+    BusConfig, ChaosConfig, DriverConfig, InterfaceConfig, MAX_QUEUE_CAPACITY, RpmTableEntry,
+    SimStartConfig, SimVehicleConfig, SupervisionConfig, VehicleType,
 };
 pub use sections::{
     DEFAULT_ORIGIN_LAT, DEFAULT_ORIGIN_LON, InterprocessConfig, InterprocessMode, LatLonConfig,

@@ -355,9 +355,15 @@ pub enum FromHuxley {
         status: String,
     },
     /// `$BFMSC`: a free-text mission-state message; its arrival is the hook.
-    Msc { time: f64, text: String },
+    Msc {
+        time: f64,
+        text: String,
+    },
     /// `$BFCTL`: backseat control on/off.
-    Ctl { time: f64, control: bool },
+    Ctl {
+        time: f64,
+        control: bool,
+    },
     Boy(AdjustStatus),
     Trm(AdjustStatus),
     Dvl(Dvl),
@@ -369,7 +375,9 @@ pub enum FromHuxley {
     },
     Ctd(CtdIn),
     /// `$BFSHT`: the vehicle is shutting down.
-    Sht { time: f64 },
+    Sht {
+        time: f64,
+    },
     /// A sentence known by name that carries nothing we act on (SVS, MBS, MBE, TOP, …).
     Other(String),
 }
@@ -421,7 +429,10 @@ impl<'a> F<'a> {
     fn int(&self, i: usize, what: &'static str) -> Result<Option<i64>, CodecError> {
         match self.raw(i) {
             None | Some("") => Ok(None),
-            Some(v) => v.parse::<i64>().map(Some).map_err(|_| self.invalid(i, what)),
+            Some(v) => v
+                .parse::<i64>()
+                .map(Some)
+                .map_err(|_| self.invalid(i, what)),
         }
     }
     fn time(&self, i: usize) -> Result<f64, CodecError> {
@@ -734,25 +745,52 @@ pub struct CtdOut {
 #[derive(Debug, Clone, PartialEq)]
 pub enum FromPayload {
     /// `$BPLOG,<id>,ON|OFF` (no timestamp).
-    Log { id: String, on: bool },
+    Log {
+        id: String,
+        on: bool,
+    },
     /// `$BPSTS` heartbeat: all ok, status text.
-    Sts { time: f64, ok: bool, text: String },
+    Sts {
+        time: f64,
+        ok: bool,
+        text: String,
+    },
     Rmb(Rmb),
-    Trm { time: f64 },
-    Boy { time: f64 },
+    Trm {
+        time: f64,
+    },
+    Boy {
+        time: f64,
+    },
     /// `$BPSIL`: silent mode on/off.
-    Sil { time: f64, silent: bool },
+    Sil {
+        time: f64,
+        silent: bool,
+    },
     /// `$BPRCE`: cancel current behaviour / mission end confirm.
-    Rce { time: f64 },
+    Rce {
+        time: f64,
+    },
     /// `$BPABT`: abort; `with_errors` false means a successful mission.
-    Abt { time: f64, with_errors: bool },
+    Abt {
+        time: f64,
+        with_errors: bool,
+    },
     /// `$BPSMC`: mission start confirm.
-    Smc { time: f64 },
+    Smc {
+        time: f64,
+    },
     Ctd(CtdOut),
     /// `$BPDCL`: base64 of a DCCL message.
-    Dcl { time: f64, base64: String },
+    Dcl {
+        time: f64,
+        base64: String,
+    },
     /// `$BPTMR`: a modem line, `,`→`:` and `*`→`/`.
-    Tmr { time: f64, line: String },
+    Tmr {
+        time: f64,
+        line: String,
+    },
     /// Any other `$BP…` sentence (raw pass-through).
     Other(Sentence),
 }
@@ -782,11 +820,7 @@ impl FromPayload {
         match self {
             Self::Log { .. } => String::new(),
             Self::Other(s) => s.field(1).unwrap_or_default().to_string(),
-            other => other
-                .to_sentence()
-                .field(1)
-                .unwrap_or_default()
-                .to_string(),
+            other => other.to_sentence().field(1).unwrap_or_default().to_string(),
         }
     }
 
@@ -902,7 +936,10 @@ impl FromPayload {
         let (id, fields): (&str, Vec<String>) = match self {
             Self::Log { id, on } => (
                 "LOG",
-                vec![id.to_ascii_uppercase(), if *on { "ON" } else { "OFF" }.into()],
+                vec![
+                    id.to_ascii_uppercase(),
+                    if *on { "ON" } else { "OFF" }.into(),
+                ],
             ),
             Self::Sts { time, ok, text } => (
                 "STS",
@@ -1157,7 +1194,10 @@ mod tests {
     #[test]
     fn nvg_time_of_day_takes_the_nearest_date() {
         let day = 20_000.0 * 86_400.0;
-        assert_eq!(unix_of_time_of_day(43_200.0, day + 43_201.0), day + 43_200.0);
+        assert_eq!(
+            unix_of_time_of_day(43_200.0, day + 43_201.0),
+            day + 43_200.0
+        );
         // Read just after midnight, stamped just before: yesterday.
         assert_eq!(unix_of_time_of_day(86_399.9, day + 0.1), day - 0.1);
         // Read just before midnight, stamped just after: tomorrow.
@@ -1172,7 +1212,10 @@ mod tests {
         assert_eq!(format_lat_lon(42.3584, true), ("4221.5040".into(), 'N'));
         assert_eq!(format_lat_lon(-71.0876, false), ("07105.2560".into(), 'W'));
         assert_eq!(format_lat_lon(-0.5, true), ("0030.0000".into(), 'S'));
-        assert_eq!(format_lat_lon(5.99999999, false), ("00600.0000".into(), 'E'));
+        assert_eq!(
+            format_lat_lon(5.99999999, false),
+            ("00600.0000".into(), 'E')
+        );
         // Unpadded longitude (Goby3 would read 710 degrees 5.256 minutes).
         let lon = parse_lat_lon("7105.256", "W", false).unwrap();
         assert!((lon + 71.0876).abs() < 1e-9);
@@ -1195,7 +1238,8 @@ mod tests {
 
     #[test]
     fn ack_text_keeps_its_commas() {
-        let s = Sentence::parse("$BFACK,120029.000,rmb,120028.000,,1,0,too deep, and slow").unwrap();
+        let s =
+            Sentence::parse("$BFACK,120029.000,rmb,120028.000,,1,0,too deep, and slow").unwrap();
         let FromHuxley::Ack(a) = FromHuxley::from_sentence(&s).unwrap() else {
             panic!()
         };

@@ -150,7 +150,14 @@ impl Huxley {
         out.push(msg.to_sentence().format());
     }
 
-    fn ack(&self, tod: f64, msg: &FromPayload, status: AckStatus, text: &str, out: &mut Vec<String>) {
+    fn ack(
+        &self,
+        tod: f64,
+        msg: &FromPayload,
+        status: AckStatus,
+        text: &str,
+        out: &mut Vec<String>,
+    ) {
         if self.opts.refusal == Refusal::Silent || !self.enabled.contains("ACK") {
             return;
         }
@@ -329,7 +336,13 @@ impl Huxley {
                 self.mission_status(tod, out);
             }
             if self.mission == Mission::Running && self.enabled.contains("CTL") {
-                self.out(FromHuxley::Ctl { time: tod, control: true }, out);
+                self.out(
+                    FromHuxley::Ctl {
+                        time: tod,
+                        control: true,
+                    },
+                    out,
+                );
             }
             if self.enabled.contains("RVL") {
                 let sp = self.vehicle.speed;
@@ -466,7 +479,10 @@ mod tests {
             h.advance(0.1, T, &mut Vec::new());
         }
         assert_eq!(h.vehicle().speed, 0.0);
-        assert!((h.vehicle().heading - 90.0).abs() < 1e-9, "rudder 0 holds heading");
+        assert!(
+            (h.vehicle().heading - 90.0).abs() < 1e-9,
+            "rudder 0 holds heading"
+        );
     }
 
     #[test]
@@ -509,10 +525,19 @@ mod tests {
         let mut out = Vec::new();
         assert_eq!(h.on_line("$BPRMB,1*00", T, &mut out), LineKind::Bad);
         assert_eq!(h.on_line("garbage", T, &mut out), LineKind::Bad);
-        assert_eq!(h.on_line("$BPRMB,120004.000,x,0,0,1,1,0", T, &mut out), LineKind::Bad);
+        assert_eq!(
+            h.on_line("$BPRMB,120004.000,x,0,0,1,1,0", T, &mut out),
+            LineKind::Bad
+        );
         assert!(out.is_empty());
-        assert_eq!(h.on_line("$BPXYZ,120004.000", T, &mut out), LineKind::Unknown);
-        assert_eq!(out, ["$BFACK,120000.000,XYZ,120004.000,,0,0,unknown sentence*77"]);
+        assert_eq!(
+            h.on_line("$BPXYZ,120004.000", T, &mut out),
+            LineKind::Unknown
+        );
+        assert_eq!(
+            out,
+            ["$BFACK,120000.000,XYZ,120004.000,,0,0,unknown sentence*77"]
+        );
     }
 
     #[test]

@@ -2,6 +2,7 @@
 //! one (see plugin.rs), otherwise the built-in driver the config names (`driver.name`).
 
 pub mod basic_simulator;
+pub mod bluefin;
 pub mod plugin;
 
 use crate::driver::{Driver, DriverFactory};
@@ -9,7 +10,7 @@ use frontseat_config::InterfaceConfig;
 
 #[derive(Debug, thiserror::Error)]
 pub enum DriverSelectError {
-    #[error("unknown driver `{0}` (built-in drivers: basic_simulator)")]
+    #[error("unknown driver `{0}` (built-in drivers: basic_simulator, bluefin)")]
     Unknown(String),
     #[error(transparent)]
     Plugin(#[from] plugin::PluginError),
@@ -38,6 +39,12 @@ pub fn factory_with_env(
             Ok(std::sync::Arc::new(move || {
                 Box::new(basic_simulator::BasicSimulatorDriver::new(settings.clone()))
                     as Box<dyn Driver>
+            }))
+        }
+        "bluefin" => {
+            let settings = bluefin::Settings::from_config(cfg);
+            Ok(std::sync::Arc::new(move || {
+                Box::new(bluefin::BluefinDriver::new(settings.clone())) as Box<dyn Driver>
             }))
         }
         other => Err(DriverSelectError::Unknown(other.to_string())),

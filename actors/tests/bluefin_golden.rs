@@ -16,7 +16,7 @@ use frontseat_actors::proto::goby::middleware::frontseat::protobuf::{
 };
 use frontseat_config::InterfaceConfig;
 
-/// 2026-11-22 00:00:00 UTC; the session runs from 12:00:00.
+/// 2025-11-22 00:00:00 UTC; the session runs from 12:00:00.
 const DAY: f64 = 20_414.0 * 86_400.0;
 const NOON: f64 = 43_200.0;
 
@@ -49,9 +49,7 @@ impl SignalSink for Sink {
 
 /// A sentence line without its trailing `# comment`.
 fn sentence(rest: &str) -> &str {
-    rest.split_once(" #")
-        .map_or(rest, |(s, _)| s)
-        .trim()
+    rest.split_once(" #").map_or(rest, |(s, _)| s).trim()
 }
 
 /// The time of day in a `<` line (field 1), in ms after noon.
@@ -151,7 +149,10 @@ fn golden_session_replays_byte_for_byte() {
             fed += 1;
             // The states the transcript's comments name.
             if s.starts_with("$BFMIS") {
-                assert_eq!(r.driver.frontseat_state(), FrontSeatState::FrontseatInControl);
+                assert_eq!(
+                    r.driver.frontseat_state(),
+                    FrontSeatState::FrontseatInControl
+                );
             }
             if s.starts_with("$BFMSC") {
                 assert_eq!(
@@ -189,8 +190,15 @@ fn golden_session_replays_byte_for_byte() {
     written.extend(r.written().iter().map(|l| mask_sts(l)));
     assert_eq!(written, expected, "the driver's bytes are the transcript's");
     assert_eq!(fed, 24);
-    assert_eq!(r.sink.raw_in, fed, "every line from the Huxley on raw_in once");
-    assert_eq!(r.sink.raw_out, expected.len(), "every line written on raw_out once");
+    assert_eq!(
+        r.sink.raw_in, fed,
+        "every line from the Huxley on raw_in once"
+    );
+    assert_eq!(
+        r.sink.raw_out,
+        expected.len(),
+        "every line written on raw_out once"
+    );
     assert_eq!(r.driver.queue_lengths(), (0, 0), "everything acknowledged");
     assert_eq!(r.driver.stats.unmatched_acks, 0);
     assert_eq!(r.driver.stats.bad_lines, 0);
@@ -213,10 +221,7 @@ fn golden_session_replays_byte_for_byte() {
         (Some(0.1), Some(0.0), Some(0.2))
     );
     assert_eq!(ns.speed.over_ground, 1.5);
-    assert_eq!(
-        ns.source.as_ref().map(|s| s.position()),
-        Some(Sensor::Gps)
-    );
+    assert_eq!(ns.source.as_ref().map(|s| s.position()), Some(Sensor::Gps));
 
     // Pending, then success: exactly one answer, after the final ack.
     assert_eq!(
@@ -250,8 +255,11 @@ fn golden_failure_variant_answers_with_the_huxley_text() {
                 s.field(1).unwrap_or_default()
             );
             let ack = codec::Sentence::parse(&ack).unwrap().format();
-            r.driver
-                .handle_io(DriverIoEvent::Line(ack), Duration::from_millis(ms), &mut r.sink);
+            r.driver.handle_io(
+                DriverIoEvent::Line(ack),
+                Duration::from_millis(ms),
+                &mut r.sink,
+            );
         }
     }
     assert_eq!(r.driver.queue_lengths(), (0, 0));

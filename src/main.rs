@@ -3,6 +3,7 @@
 #![forbid(unsafe_code)]
 
 mod bench;
+mod bluefin_sim;
 mod chaos_cmd;
 mod demo;
 mod driver_host;
@@ -55,10 +56,20 @@ enum Command {
         #[command(flatten)]
         cfg: ConfigArgs,
     },
-    /// Run the basic frontseat simulator (TCP server, one vehicle per connection).
+    /// Run the basic frontseat simulator (TCP server, one vehicle per connection), or with
+    /// `--vehicle bluefin` a Bluefin Huxley emulator on the payload port (29500).
     Sim {
         #[command(flatten)]
         cfg: ConfigArgs,
+        /// Which vehicle protocol to serve.
+        #[arg(long, value_enum, default_value_t = bluefin_sim::Vehicle::Basic)]
+        vehicle: bluefin_sim::Vehicle,
+        /// Bluefin only: how the Huxley answers commands.
+        #[arg(long, value_enum, default_value_t = bluefin_sim::RefusalArg::None)]
+        refusal: bluefin_sim::RefusalArg,
+        /// Bluefin only: simulated seconds per wall second (the basic simulator takes WARP in START).
+        #[arg(long, default_value_t = 1.0)]
+        warp: f64,
         /// TCP port to listen on (overrides the config).
         #[arg(long)]
         port: Option<u16>,
@@ -184,7 +195,14 @@ fn main() -> ExitCode {
             let name = config.name.clone();
             run_traced(&tel, "interface", &name, service::interface(config))
         }
-        Command::Sim { cfg, port, bind } => {
+        Command::Sim {
+            cfg,
+            port,
+            bind,
+            vehicle,
+            refusal,
+            warp,
+        } => {
             if let Some(code) = config_commands::<frontseat_config::SimConfig>(&cfg) {
                 return code;
             }
@@ -192,13 +210,16 @@ fn main() -> ExitCode {
                 Ok(c) => c,
                 Err(code) => return code,
             };
-            if let Some(p) = port {
-                config.port = p;
-            }
             if let Some(b) = bind {
                 config.bind = b;
             }
             let tel = config.telemetry.clone();
+            if vehicle == bluefin_sim::Vehicle::Bluefin {
+                return run_traced(&tel, "sim", "", bluefin_sim::serve(config, port, refusal, warp));
+            }
+            if let Some(p) = port {
+                config.port = p;
+            }
             run_traced(&tel, "sim", "", service::sim(config))
         }
         Command::MoosGateway { cfg } => {

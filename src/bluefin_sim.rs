@@ -56,7 +56,12 @@ pub fn server_options(config: &SimConfig, refusal: RefusalArg, warp: f64) -> Hux
     }
 }
 
-pub async fn serve(config: SimConfig, port: Option<u16>, refusal: RefusalArg, warp: f64) -> ExitCode {
+pub async fn serve(
+    config: SimConfig,
+    port: Option<u16>,
+    refusal: RefusalArg,
+    warp: f64,
+) -> ExitCode {
     if !(warp.is_finite() && warp > 0.0 && warp <= 1000.0) {
         eprintln!("--warp must be in (0, 1000]");
         return ExitCode::from(2);

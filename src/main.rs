@@ -215,7 +215,12 @@ fn main() -> ExitCode {
             }
             let tel = config.telemetry.clone();
             if vehicle == bluefin_sim::Vehicle::Bluefin {
-                return run_traced(&tel, "sim", "", bluefin_sim::serve(config, port, refusal, warp));
+                return run_traced(
+                    &tel,
+                    "sim",
+                    "",
+                    bluefin_sim::serve(config, port, refusal, warp),
+                );
             }
             if let Some(p) = port {
                 config.port = p;

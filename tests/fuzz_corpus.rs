@@ -49,3 +49,8 @@ fn moos_decode_corpus() {
 fn config_corpus() {
     replay("config", targets::config);
 }
+
+#[test]
+fn bluefin_codec_corpus() {
+    replay("bluefin_codec", targets::bluefin_codec);
+}

@@ -24,8 +24,8 @@ pub use error::{ConfigError, FieldError};
 pub use gateway::GatewayConfig;
 pub use interface::{
     AcceptingCommandsHook, BASIC_SIMULATOR, BLUEFIN, BasicSimulatorConfig, BluefinConfig,
-    BusConfig, ChaosConfig, DriverConfig, InterfaceConfig, MAX_QUEUE_CAPACITY, RpmTableEntry,
-    SimStartConfig, SimVehicleConfig, SupervisionConfig, VehicleType,
+    BusConfig, ChaosConfig, DriverConfig, InterfaceConfig, LimitsConfig, MAX_QUEUE_CAPACITY,
+    RpmTableEntry, SimStartConfig, SimVehicleConfig, SupervisionConfig, VehicleType,
 };
 pub use sections::{
     DEFAULT_ORIGIN_LAT, DEFAULT_ORIGIN_LON, InterprocessConfig, InterprocessMode, LatLonConfig,

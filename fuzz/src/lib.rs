@@ -143,7 +143,11 @@ pub fn bluefin_codec(data: &[u8]) {
         now += Duration::from_millis(100);
         let raw = raw.strip_suffix(b"\r").unwrap_or(raw);
         let Ok(line) = std::str::from_utf8(raw) else {
-            driver.handle_io(DriverIoEvent::BadInput("invalid UTF-8".into()), now, &mut sink);
+            driver.handle_io(
+                DriverIoEvent::BadInput("invalid UTF-8".into()),
+                now,
+                &mut sink,
+            );
             continue;
         };
         if let Ok(s) = Sentence::parse(line) {
@@ -151,11 +155,17 @@ pub fn bluefin_codec(data: &[u8]) {
             assert_eq!(again.as_ref(), Ok(&s), "sentence {s:?} does not round trip");
             if let Ok(m) = FromHuxley::from_sentence(&s) {
                 let back = FromHuxley::from_sentence(&m.to_sentence());
-                assert!(back.is_ok(), "{m:?} formats to a sentence that does not decode: {back:?}");
+                assert!(
+                    back.is_ok(),
+                    "{m:?} formats to a sentence that does not decode: {back:?}"
+                );
             }
             if let Ok(m) = FromPayload::from_sentence(&s) {
                 let back = FromPayload::from_sentence(&m.to_sentence());
-                assert!(back.is_ok(), "{m:?} formats to a sentence that does not decode: {back:?}");
+                assert!(
+                    back.is_ok(),
+                    "{m:?} formats to a sentence that does not decode: {back:?}"
+                );
             }
         }
         lines += 1;

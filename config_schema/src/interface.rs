@@ -293,7 +293,8 @@ pub struct BluefinConfig {
     pub accepting_commands_hook: AcceptingCommandsHook,
     /// Command thruster RPM (from rpm_table) instead of speed.
     pub use_rpm_table_for_speed: bool,
-    /// Speed → RPM points, interpolated linearly; at least 2 when use_rpm_table_for_speed.
+    /// Speed → RPM points, interpolated linearly; at least 2 when use_rpm_table_for_speed. Each
+    /// entry is a `[[driver.bluefin.rpm_table]]` table with `speed` (m/s) and `rpm`.
     pub rpm_table: Vec<RpmTableEntry>,
 }
 

@@ -352,7 +352,7 @@ impl FsiState {
                 if safe == *course {
                     return Some(env);
                 }
-                let mut req = (*env.msg).clone();
+                let mut req = *env.msg;
                 req.desired_course = Some(safe);
                 Some(Envelope::rewrap(env, req))
             }
@@ -397,7 +397,7 @@ impl FsiState {
         };
         let state = self.sm.state();
         if !self.shutting_down && state == InterfaceState::InterfaceCommand {
-            let mirror = (*env.msg).clone();
+            let mirror = *env.msg;
             // Its desired_course crosses the same safety envelope as any other setpoint.
             let Some(checked) = self.through_envelope(Envelope::rewrap(env, base)) else {
                 return;

@@ -974,11 +974,8 @@ impl FromPayload {
             ),
             Self::Smc { time } => ("SMC", vec![t(*time), "1".into()]),
             Self::Ctd(c) => {
-                let ten = |x: Option<f64>| {
-                    x.filter(|v| v.is_finite())
-                        .map(|v| sig10(v))
-                        .unwrap_or_default()
-                };
+                let ten =
+                    |x: Option<f64>| x.filter(|v| v.is_finite()).map(sig10).unwrap_or_default();
                 (
                     "CTD",
                     vec![
@@ -1124,7 +1121,8 @@ mod tests {
 
     #[test]
     fn malformed_lines_are_typed_errors() {
-        let cases: &[(&str, fn(&CodecError) -> bool)] = &[
+        type Want = fn(&CodecError) -> bool;
+        let cases: &[(&str, Want)] = &[
             ("", |e| *e == CodecError::Empty),
             ("   ", |e| *e == CodecError::Empty),
             ("BFSHT,120000.000", |e| *e == CodecError::NoStart),
@@ -1179,8 +1177,8 @@ mod tests {
             (0.0, "000000.000"),
             (43_200.0, "120000.000"),
             (43_201.95, "120001.950"),
-            (86_399.9994, "235959.999"),
-            (86_399.9996, "000000.000"),
+            (86_399.999_4, "235959.999"),
+            (86_399.999_6, "000000.000"),
         ] {
             assert_eq!(format_time(secs), text);
         }

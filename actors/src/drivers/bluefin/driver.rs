@@ -713,16 +713,14 @@ impl BluefinDriver {
     }
 
     /// The common path of plain and Bluefin-extended CommandRequests.
-    fn command(
-        &mut self,
-        desired: Option<&DesiredCourse>,
-        ext: Option<&crate::proto::goby::middleware::frontseat::protobuf::BluefinExtraCommands>,
-        response_requested: bool,
-        request_id: Option<i32>,
-        cancel_request_id: Option<i32>,
-        now: Duration,
-        sig: &mut dyn SignalSink,
-    ) {
+    fn command(&mut self, c: Cmd<'_>, now: Duration, sig: &mut dyn SignalSink) {
+        let Cmd {
+            desired,
+            ext,
+            response_requested,
+            request_id,
+            cancel_request_id,
+        } = c;
         let request = response_requested.then_some(request_id);
         let mut cancelled = false;
         if let Some(cancel) = cancel_request_id {
@@ -866,6 +864,15 @@ impl BluefinDriver {
     }
 }
 
+/// The fields of a CommandRequest, plain or Bluefin-extended.
+struct Cmd<'a> {
+    desired: Option<&'a DesiredCourse>,
+    ext: Option<&'a crate::proto::goby::middleware::frontseat::protobuf::BluefinExtraCommands>,
+    response_requested: bool,
+    request_id: Option<i32>,
+    cancel_request_id: Option<i32>,
+}
+
 /// Goby3's payload-status time text, `2024-Oct-10 12:00:31.000000`.
 pub fn goby_time_text(unix: f64) -> String {
     let unix = if unix.is_finite() { unix.max(0.0) } else { 0.0 };
@@ -972,15 +979,14 @@ impl Driver for BluefinDriver {
         now: Duration,
         sig: &mut dyn SignalSink,
     ) {
-        self.command(
-            req.desired_course.as_ref(),
-            None,
-            req.response_requested(),
-            req.request_id,
-            req.cancel_request_id,
-            now,
-            sig,
-        );
+        let c = Cmd {
+            desired: req.desired_course.as_ref(),
+            ext: None,
+            response_requested: req.response_requested(),
+            request_id: req.request_id,
+            cancel_request_id: req.cancel_request_id,
+        };
+        self.command(c, now, sig);
     }
 
     fn send_bluefin_command(
@@ -989,15 +995,14 @@ impl Driver for BluefinDriver {
         now: Duration,
         sig: &mut dyn SignalSink,
     ) {
-        self.command(
-            req.desired_course.as_ref(),
-            req.bluefin_command.as_ref(),
-            req.response_requested(),
-            req.request_id,
-            req.cancel_request_id,
-            now,
-            sig,
-        );
+        let c = Cmd {
+            desired: req.desired_course.as_ref(),
+            ext: req.bluefin_command.as_ref(),
+            response_requested: req.response_requested(),
+            request_id: req.request_id,
+            cancel_request_id: req.cancel_request_id,
+        };
+        self.command(c, now, sig);
     }
 
     fn send_data_to_frontseat(
@@ -1017,7 +1022,7 @@ impl Driver for BluefinDriver {
     ) {
         let base = InterfaceData {
             node_status: None,
-            ctd_sample: data.ctd_sample.clone(),
+            ctd_sample: data.ctd_sample,
             dccl_message: data.dccl_message.clone(),
         };
         self.data(&base, now, sig);

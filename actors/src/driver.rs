@@ -107,6 +107,12 @@ pub trait Driver: Send + 'static {
         _sig: &mut dyn SignalSink,
     ) {
     }
+    /// The interface's status, at every change (Bluefin reports an error state in `$BPSTS`).
+    fn interface_status(
+        &mut self,
+        _status: &crate::proto::goby::middleware::frontseat::protobuf::InterfaceStatus,
+    ) {
+    }
     /// Goby3's `loop()`, at 10 Hz of simulated time.
     fn do_loop(&mut self, now: Duration, sig: &mut dyn SignalSink);
     fn frontseat_state(&self) -> FrontSeatState;

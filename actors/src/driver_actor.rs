@@ -188,6 +188,7 @@ impl Actor for DriverActor {
                 DriverActorInbox::BluefinData(env) => {
                     state.driver.send_bluefin_data(&env.msg, now, &mut sink)
                 }
+                DriverActorInbox::InterfaceStatus(env) => state.driver.interface_status(&env.msg),
             },
             DriverMsg::Io(ev) => state.driver.handle_io(ev, now, &mut sink),
             DriverMsg::Tick => {

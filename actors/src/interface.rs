@@ -243,6 +243,7 @@ impl FsiState {
 
     fn publish(&self, status: InterfaceStatus) {
         self.ports.publish_status(status);
+        self.ports.publish_interface_status(status);
         let detail = InterfaceDetail {
             status: Some(status),
             frontseat_providing_data: Some(self.inputs.providing_data),

@@ -270,6 +270,24 @@ fn payload_statuses_fold_into_the_heartbeat_until_they_expire() {
 }
 
 #[test]
+fn the_heartbeat_reports_an_interface_error() {
+    use frontseat_actors::proto::goby::middleware::frontseat::protobuf::{
+        InterfaceState, InterfaceStatus,
+    };
+    let mut h = H::new();
+    h.ack_everything();
+    let mut s = InterfaceStatus::default();
+    s.set_state(InterfaceState::InterfaceHelmError);
+    h.d.interface_status(&s);
+    h.tick_to(1.0);
+    assert_eq!(fields(&h.ack_everything()[0])[1], "0");
+    s.set_state(InterfaceState::InterfaceCommand);
+    h.d.interface_status(&s);
+    h.tick_to(2.0);
+    assert_eq!(fields(&h.ack_everything()[0])[1], "1");
+}
+
+#[test]
 fn state_follows_the_accepting_commands_hook() {
     use FrontSeatState::*;
     let mis_run = "$BFMIS,120003.000,demo.dive,Running*15";

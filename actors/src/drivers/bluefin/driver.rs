@@ -182,6 +182,8 @@ pub struct BluefinDriver {
     demerits: u32,
     last_heartbeat: Option<Duration>,
     payload_status: Vec<PayloadStatus>,
+    /// The interface is in HELM_ERROR or FS_ERROR: the heartbeat says not all ok.
+    interface_in_error: bool,
     problems: u64,
     pub stats: BluefinStats,
 }
@@ -208,6 +210,7 @@ impl BluefinDriver {
             demerits: 0,
             last_heartbeat: None,
             payload_status: Vec::new(),
+            interface_in_error: false,
             problems: 0,
             stats: BluefinStats::default(),
         }
@@ -357,7 +360,7 @@ impl BluefinDriver {
                 })
                 .or_insert(p);
         }
-        let ok = by_id.values().all(|p| p.all_ok);
+        let ok = !self.interface_in_error && by_id.values().all(|p| p.all_ok);
         let text = if by_id.is_empty() {
             "Deploy".to_string()
         } else {
@@ -1092,6 +1095,17 @@ impl Driver for BluefinDriver {
         }
         self.resend_or_drop(now, sig);
         self.try_send(now, sig);
+    }
+
+    fn interface_status(
+        &mut self,
+        status: &crate::proto::goby::middleware::frontseat::protobuf::InterfaceStatus,
+    ) {
+        use crate::proto::goby::middleware::frontseat::protobuf::InterfaceState;
+        self.interface_in_error = matches!(
+            status.state(),
+            InterfaceState::InterfaceHelmError | InterfaceState::InterfaceFsError
+        );
     }
 
     fn frontseat_state(&self) -> FrontSeatState {

@@ -25,7 +25,8 @@ pub use gateway::GatewayConfig;
 pub use interface::{
     AcceptingCommandsHook, BASIC_SIMULATOR, BLUEFIN, BasicSimulatorConfig, BluefinConfig,
     BusConfig, ChaosConfig, DriverConfig, InterfaceConfig, LimitsConfig, MAX_QUEUE_CAPACITY,
-    RpmTableEntry, SimStartConfig, SimVehicleConfig, SupervisionConfig, VehicleType,
+    RestartConfig, RestartPolicy, RpmTableEntry, SimStartConfig, SimVehicleConfig,
+    SupervisionConfig, VehicleType,
 };
 pub use sections::{
     DEFAULT_ORIGIN_LAT, DEFAULT_ORIGIN_LON, InterprocessConfig, InterprocessMode, LatLonConfig,

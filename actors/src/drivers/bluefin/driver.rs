@@ -32,15 +32,13 @@ use crate::proto::goby::middleware::frontseat::protobuf::{
     source::Sensor,
 };
 use crate::proto::goby::middleware::protobuf::LatLonPoint;
+use crate::ratelog::{LogDecision, RateLimitedLog};
 
 /// Sentences waiting to be written before new ones are refused: a Huxley that stops acking
 /// must not grow our memory.
 pub const MAX_QUEUE: usize = 256;
 /// Payload statuses kept for the heartbeat (they expire by themselves).
 const MAX_PAYLOAD_STATUSES: usize = 64;
-/// Problems logged at warn level before the rest go to debug (a garbage stream must not flood
-/// the log); the counters keep counting.
-const LOUD_PROBLEMS: u64 = 20;
 /// Longest line accepted from the Huxley.
 pub const MAX_LINE_BYTES: usize = 2048;
 
@@ -184,7 +182,9 @@ pub struct BluefinDriver {
     payload_status: Vec<PayloadStatus>,
     /// The interface is in HELM_ERROR or FS_ERROR: the heartbeat says not all ok.
     interface_in_error: bool,
-    problems: u64,
+    /// Bad input is logged a few times per window, then summarised (a garbage stream must not
+    /// flood the journal); the counters keep counting.
+    problems: RateLimitedLog,
     pub stats: BluefinStats,
 }
 
@@ -211,7 +211,7 @@ impl BluefinDriver {
             last_heartbeat: None,
             payload_status: Vec::new(),
             interface_in_error: false,
-            problems: 0,
+            problems: RateLimitedLog::for_bad_input(),
             stats: BluefinStats::default(),
         }
     }
@@ -226,12 +226,15 @@ impl BluefinDriver {
     }
 
     fn problem(&mut self, what: &str, line: &str) {
-        self.problems += 1;
         let line: String = line.chars().take(120).collect();
-        if self.problems <= LOUD_PROBLEMS {
-            tracing::warn!(%line, "{what}");
-        } else {
-            tracing::debug!(%line, "{what}");
+        match self.problems.decide(tokio::time::Instant::now()) {
+            LogDecision::Log { suppressed_before } if suppressed_before > 0 => tracing::warn!(
+                %line,
+                "{what} (…and {suppressed_before} more Bluefin input problems in the last {}s)",
+                self.problems.window().as_secs()
+            ),
+            LogDecision::Log { .. } => tracing::warn!(%line, "{what}"),
+            LogDecision::Suppress => tracing::debug!(%line, "{what}"),
         }
     }
 

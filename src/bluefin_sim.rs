@@ -85,7 +85,7 @@ pub async fn serve(
         }
     };
     tracing::info!(addr = %server.local_addr(), ?refusal, warp, "Bluefin Huxley emulator listening");
-    crate::service::shutdown_signal().await;
+    crate::shutdown::shutdown_signal().await;
     server.shutdown().await;
     tracing::info!(stats = ?server.stats(), "Huxley emulator stopped");
     ExitCode::SUCCESS

@@ -1,4 +1,4 @@
-//! `frontseat sim --vehicle bluefin`: the Huxley emulator on the payload port (29500 unless
+//! `frontseat sim --vehicle bluefin` and `frontseat demo --vehicle bluefin`: the Huxley emulator on the payload port (29500 unless
 //! `--port`), with the simulator config's bind address, line bound, vehicle count and current.
 
 use std::net::SocketAddr;
@@ -7,16 +7,6 @@ use std::process::ExitCode;
 use clap::ValueEnum;
 use frontseat_config::SimConfig;
 use frontseat_sim::bluefin::{HuxleyOptions, HuxleyServer, HuxleyServerOptions, Refusal};
-
-/// Which vehicle protocol `frontseat sim` and `frontseat demo` speak.
-#[derive(ValueEnum, Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub enum Vehicle {
-    /// The basic frontseat simulator protocol (Goby3's basic_simulator).
-    #[default]
-    Basic,
-    /// A Bluefin Huxley (Standard Payload Interface, $BF/$BP NMEA).
-    Bluefin,
-}
 
 /// How the emulated Huxley answers commands.
 #[derive(ValueEnum, Debug, Clone, Copy, PartialEq, Eq, Default)]

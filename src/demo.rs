@@ -33,10 +33,10 @@ pub struct DemoArgs {
     /// Print one status line per simulated second instead of a live line.
     #[arg(long)]
     pub lines: bool,
-    /// Which vehicle to fly: the basic simulator, or a Bluefin Huxley emulator through the
-    /// Bluefin driver.
-    #[arg(long, value_enum, default_value_t = crate::bluefin_sim::Vehicle::Basic)]
-    pub vehicle: crate::bluefin_sim::Vehicle,
+    /// Fly a vehicle emulator through its real driver instead of the basic simulator: bluefin
+    /// (loopback TCP), iver3 or waveglider_sv2 (pseudo-terminal).
+    #[arg(long, value_enum, default_value_t = crate::vehicle_sim::VehicleKind::Basic)]
+    pub vehicle: crate::vehicle_sim::VehicleKind,
 }
 
 /// The vehicle side of the demo, whichever protocol it speaks.
@@ -61,6 +61,11 @@ impl DemoVehicle {
 }
 
 pub async fn run(args: DemoArgs) -> ExitCode {
+    use crate::vehicle_sim::VehicleKind;
+    if !matches!(args.vehicle, VehicleKind::Basic | VehicleKind::Bluefin) {
+        let kind = args.vehicle;
+        return crate::vehicle_sim::run_demo(args, kind).await;
+    }
     if !(args.warp.is_finite() && args.warp > 0.0 && args.warp <= 1000.0) {
         eprintln!("--warp must be in (0, 1000]");
         return ExitCode::from(2);
@@ -73,7 +78,7 @@ pub async fn run(args: DemoArgs) -> ExitCode {
     };
     let loopback = ([127, 0, 0, 1], 0).into();
     let (sim, _embedded) = match args.vehicle {
-        crate::bluefin_sim::Vehicle::Basic => {
+        VehicleKind::Basic | VehicleKind::Iver3 | VehicleKind::WavegliderSv2 => {
             let sim = match SimServer::bind(loopback, SimOptions::default()).await {
                 Ok(s) => s,
                 Err(e) => {
@@ -87,7 +92,7 @@ pub async fn run(args: DemoArgs) -> ExitCode {
             cfg.driver.basic_simulator.start.lon = cfg.origin.lon;
             (DemoVehicle::Basic(sim), Some(embedded))
         }
-        crate::bluefin_sim::Vehicle::Bluefin => {
+        VehicleKind::Bluefin => {
             let opts = crate::bluefin_sim::server_options(
                 &frontseat_config::SimConfig::default(),
                 crate::bluefin_sim::RefusalArg::None,

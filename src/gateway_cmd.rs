@@ -11,7 +11,7 @@ use frontseat_gateway::{GatewayError, GatewayHandle, GatewayOptions};
 
 /// The actors `frontseat interface` hosts, hence what its gateway exports and imports.
 pub fn interface_actors(cfg: &InterfaceConfig) -> Vec<&'static str> {
-    let mut hosted = vec!["FrontSeatInterface"];
+    let mut hosted = vec!["FrontSeatInterface", "RootSupervisor"];
     if cfg.moos.is_some() {
         hosted.push("FrontSeatTranslation");
     }

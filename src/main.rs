@@ -11,6 +11,7 @@ mod gateway_cmd;
 mod service;
 mod shutdown;
 mod systemd;
+mod vehicle_sim;
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -57,26 +58,19 @@ enum Command {
         #[command(flatten)]
         cfg: ConfigArgs,
     },
-    /// Run the basic frontseat simulator (TCP server, one vehicle per connection), or with
-    /// `--vehicle bluefin` a Bluefin Huxley emulator on the payload port (29500).
+    /// Run the basic frontseat simulator (TCP server, one vehicle per connection).
     Sim {
         #[command(flatten)]
         cfg: ConfigArgs,
-        /// Which vehicle protocol to serve.
-        #[arg(long, value_enum, default_value_t = bluefin_sim::Vehicle::Basic)]
-        vehicle: bluefin_sim::Vehicle,
-        /// Bluefin only: how the Huxley answers commands.
-        #[arg(long, value_enum, default_value_t = bluefin_sim::RefusalArg::None)]
-        refusal: bluefin_sim::RefusalArg,
-        /// Bluefin only: simulated seconds per wall second (the basic simulator takes WARP in START).
-        #[arg(long, default_value_t = 1.0)]
-        warp: f64,
         /// TCP port to listen on (overrides the config).
         #[arg(long)]
         port: Option<u16>,
         /// Address to bind (overrides the config; default 127.0.0.1, loopback only).
         #[arg(long, value_name = "ADDR")]
         bind: Option<String>,
+        /// A vehicle emulator instead of the basic simulator (`--vehicle bluefin|iver3|waveglider_sv2`).
+        #[command(flatten)]
+        emulator: vehicle_sim::EmulatorArgs,
     },
     /// The MOOS bridge alone (Goby3's goby_moos_gateway): FrontSeatTranslation between a MOOSDB
     /// (pHelmIvP) and the interface, reached over Zenoh.
@@ -199,12 +193,10 @@ fn main() -> ExitCode {
         }
         Command::Sim {
             cfg,
-            port,
             bind,
-            vehicle,
-            refusal,
-            warp,
-        } => {
+            port,
+            emulator,
+        } if emulator.vehicle == vehicle_sim::VehicleKind::Bluefin => {
             if let Some(code) = config_commands::<frontseat_config::SimConfig>(&cfg) {
                 return code;
             }
@@ -216,17 +208,34 @@ fn main() -> ExitCode {
                 config.bind = b;
             }
             let tel = config.telemetry.clone();
-            if vehicle == bluefin_sim::Vehicle::Bluefin {
-                return run_traced(
-                    &tel,
-                    "sim",
-                    "",
-                    bluefin_sim::serve(config, port, refusal, warp),
-                );
+            let serve = bluefin_sim::serve(config, port, emulator.refusal, emulator.emulator_warp);
+            run_traced(&tel, "sim", "", serve)
+        }
+        Command::Sim { emulator, .. } if emulator.vehicle != vehicle_sim::VehicleKind::Basic => {
+            run_traced(
+                &Default::default(),
+                "sim",
+                "",
+                vehicle_sim::run_emulator(emulator),
+            )
+        }
+        Command::Sim {
+            cfg, port, bind, ..
+        } => {
+            if let Some(code) = config_commands::<frontseat_config::SimConfig>(&cfg) {
+                return code;
             }
+            let mut config = match load_config::<frontseat_config::SimConfig>(&cfg, true) {
+                Ok(c) => c,
+                Err(code) => return code,
+            };
             if let Some(p) = port {
                 config.port = p;
             }
+            if let Some(b) = bind {
+                config.bind = b;
+            }
+            let tel = config.telemetry.clone();
             run_traced(&tel, "sim", "", service::sim(config))
         }
         Command::MoosGateway { cfg } => {

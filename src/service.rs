@@ -63,7 +63,7 @@ pub async fn interface(config: InterfaceConfig) -> ExitCode {
             (&config.supervision.translation).into(),
         ));
     }
-    let mut root = match SupervisorHandle::start("root", children).await {
+    let mut root = match SupervisorHandle::start("root", children, Some(&bus)).await {
         Ok(r) => r,
         Err(e) => {
             tracing::error!(error = %e, "cannot start the MOOS bridge (FrontSeatTranslation)");

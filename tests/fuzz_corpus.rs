@@ -51,6 +51,16 @@ fn config_corpus() {
 }
 
 #[test]
+fn sv2_frame_corpus() {
+    replay("sv2_frame", targets::sv2_frame);
+}
+
+#[test]
+fn iver_sentence_corpus() {
+    replay("iver_sentence", targets::iver_sentence);
+}
+
+#[test]
 fn bluefin_codec_corpus() {
     replay("bluefin_codec", targets::bluefin_codec);
 }

@@ -23,10 +23,12 @@ use serde::de::DeserializeOwned;
 pub use error::{ConfigError, FieldError};
 pub use gateway::GatewayConfig;
 pub use interface::{
-    AcceptingCommandsHook, BASIC_SIMULATOR, BLUEFIN, BasicSimulatorConfig, BluefinConfig,
-    BusConfig, ChaosConfig, DriverConfig, InterfaceConfig, LimitsConfig, MAX_QUEUE_CAPACITY,
-    RestartConfig, RestartPolicy, RpmTableEntry, SimStartConfig, SimVehicleConfig,
-    SupervisionConfig, VehicleType,
+    AcceptingCommandsHook, BASIC_SIMULATOR, BLUEFIN, BUILT_IN_DRIVERS, BasicSimulatorConfig,
+    BluefinConfig, BusConfig, ChaosConfig, DriverConfig, FlowControlConfig, FrontSeatStateName,
+    IVER3, InterfaceConfig, Iver3Config, IverModeAssignments, LimitsConfig, MAX_QUEUE_CAPACITY,
+    ParityConfig, RestartConfig, RestartPolicy, RpmTableEntry, SimStartConfig, SimVehicleConfig,
+    SupervisionConfig, TransportKind, VehicleLinkConfig, VehicleType, WAVEGLIDER_SV2,
+    WavegliderSv2Config,
 };
 pub use sections::{
     DEFAULT_ORIGIN_LAT, DEFAULT_ORIGIN_LON, InterprocessConfig, InterprocessMode, LatLonConfig,

@@ -968,6 +968,10 @@ impl Driver for BluefinDriver {
                 self.stats.bad_lines += 1;
                 self.problem("bad input from the Huxley", &what);
             }
+            DriverIoEvent::Frame(_) => {
+                self.stats.bad_lines += 1;
+                self.problem("binary frame on a Huxley link", "");
+            }
             DriverIoEvent::Disconnected(reason) => {
                 tracing::warn!(%reason, "Huxley connection lost; reconnecting");
                 self.writer = None;

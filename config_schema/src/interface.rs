@@ -6,6 +6,7 @@ use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
 use crate::check::{Checker, at};
+use crate::goby3::Goby3Config;
 use crate::sections::{
     DEFAULT_ORIGIN_LAT, DEFAULT_ORIGIN_LON, InterprocessConfig, LatLonConfig, MoosConfig,
     TelemetryConfig,
@@ -119,6 +120,8 @@ pub struct InterfaceConfig {
     pub moos: Option<MoosConfig>,
     /// Inter-process and multi-host publish/subscribe over Zenoh.
     pub interprocess: InterprocessConfig,
+    /// Joining an existing Goby3 system through its gobyd (beside or instead of Zenoh).
+    pub goby3: Goby3Config,
     /// OpenTelemetry trace export.
     pub telemetry: TelemetryConfig,
     /// Fault injection for chaos testing.
@@ -144,6 +147,7 @@ impl Default for InterfaceConfig {
             limits: LimitsConfig::default(),
             moos: None,
             interprocess: InterprocessConfig::default(),
+            goby3: Goby3Config::default(),
             telemetry: TelemetryConfig::default(),
             chaos: ChaosConfig::default(),
             bus: BusConfig::default(),
@@ -171,6 +175,7 @@ impl ServiceConfig for InterfaceConfig {
             m.check("moos", &mut c);
         }
         self.interprocess.check("interprocess", &mut c);
+        self.goby3.check("goby3", &mut c);
         self.telemetry.check("telemetry", &mut c);
         self.bus.check("bus", &mut c);
         c.errors

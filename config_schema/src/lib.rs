@@ -9,6 +9,7 @@ mod check;
 mod error;
 mod example;
 mod gateway;
+mod goby3;
 mod interface;
 mod sections;
 mod sim;
@@ -22,6 +23,7 @@ use serde::de::DeserializeOwned;
 
 pub use error::{ConfigError, FieldError};
 pub use gateway::GatewayConfig;
+pub use goby3::{Goby3Config, Goby3Transport};
 pub use interface::{
     AcceptingCommandsHook, BASIC_SIMULATOR, BLUEFIN, BUILT_IN_DRIVERS, BasicSimulatorConfig,
     BluefinConfig, BusConfig, ChaosConfig, DriverConfig, FlowControlConfig, FrontSeatStateName,

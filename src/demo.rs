@@ -1,5 +1,6 @@
 //! `frontseat demo`: the simulator (real TCP on an ephemeral loopback port), the interface with
 //! the basic simulator driver, and the example helm, in one process with no external service.
+//! `--vehicle bluefin` swaps in the Huxley emulator and the real Bluefin driver.
 
 use std::io::{IsTerminal, Write};
 use std::path::PathBuf;
@@ -32,14 +33,36 @@ pub struct DemoArgs {
     /// Print one status line per simulated second instead of a live line.
     #[arg(long)]
     pub lines: bool,
-    /// Fly a vehicle emulator through its real driver over a pseudo-terminal instead of the
-    /// basic simulator: iver3 or waveglider_sv2.
+    /// Fly a vehicle emulator through its real driver instead of the basic simulator: bluefin
+    /// (loopback TCP), iver3 or waveglider_sv2 (pseudo-terminal).
     #[arg(long, value_enum, default_value_t = crate::vehicle_sim::VehicleKind::Basic)]
     pub vehicle: crate::vehicle_sim::VehicleKind,
 }
 
+/// The vehicle side of the demo, whichever protocol it speaks.
+enum DemoVehicle {
+    Basic(frontseat_sim::SimHandle),
+    Bluefin(frontseat_sim::bluefin::HuxleyHandle),
+}
+
+impl DemoVehicle {
+    fn local_addr(&self) -> std::net::SocketAddr {
+        match self {
+            Self::Basic(s) => s.local_addr(),
+            Self::Bluefin(h) => h.local_addr(),
+        }
+    }
+    async fn shutdown(&self) {
+        match self {
+            Self::Basic(s) => s.shutdown().await,
+            Self::Bluefin(h) => h.shutdown().await,
+        }
+    }
+}
+
 pub async fn run(args: DemoArgs) -> ExitCode {
-    if args.vehicle != crate::vehicle_sim::VehicleKind::Basic {
+    use crate::vehicle_sim::VehicleKind;
+    if !matches!(args.vehicle, VehicleKind::Basic | VehicleKind::Bluefin) {
         let kind = args.vehicle;
         return crate::vehicle_sim::run_demo(args, kind).await;
     }
@@ -47,23 +70,54 @@ pub async fn run(args: DemoArgs) -> ExitCode {
         eprintln!("--warp must be in (0, 1000]");
         return ExitCode::from(2);
     }
-    let sim = match SimServer::bind(([127, 0, 0, 1], 0).into(), SimOptions::default()).await {
-        Ok(s) => s,
-        Err(e) => {
-            eprintln!("cannot start the simulator: {e}");
-            return ExitCode::from(1);
-        }
-    };
     let bus = Bus::new();
-    let _embedded = frontseat_actors::sim_glue::embed(&sim, &bus);
     let mut cfg = InterfaceConfig {
         name: "demo-auv".into(),
         sim_warp_factor: args.warp,
         ..Default::default()
     };
-    cfg.driver.basic_simulator.tcp_port = sim.local_addr().port();
-    cfg.driver.basic_simulator.start.lat = cfg.origin.lat;
-    cfg.driver.basic_simulator.start.lon = cfg.origin.lon;
+    let loopback = ([127, 0, 0, 1], 0).into();
+    let (sim, _embedded) = match args.vehicle {
+        VehicleKind::Basic | VehicleKind::Iver3 | VehicleKind::WavegliderSv2 => {
+            let sim = match SimServer::bind(loopback, SimOptions::default()).await {
+                Ok(s) => s,
+                Err(e) => {
+                    eprintln!("cannot start the simulator: {e}");
+                    return ExitCode::from(1);
+                }
+            };
+            let embedded = frontseat_actors::sim_glue::embed(&sim, &bus);
+            cfg.driver.basic_simulator.tcp_port = sim.local_addr().port();
+            cfg.driver.basic_simulator.start.lat = cfg.origin.lat;
+            cfg.driver.basic_simulator.start.lon = cfg.origin.lon;
+            (DemoVehicle::Basic(sim), Some(embedded))
+        }
+        VehicleKind::Bluefin => {
+            let opts = crate::bluefin_sim::server_options(
+                &frontseat_config::SimConfig::default(),
+                crate::bluefin_sim::RefusalArg::None,
+                args.warp,
+            );
+            let opts = frontseat_sim::bluefin::HuxleyServerOptions {
+                huxley: frontseat_sim::bluefin::HuxleyOptions {
+                    lat: cfg.origin.lat,
+                    lon: cfg.origin.lon,
+                    ..opts.huxley
+                },
+                ..opts
+            };
+            let huxley = match frontseat_sim::bluefin::HuxleyServer::bind(loopback, opts).await {
+                Ok(s) => s,
+                Err(e) => {
+                    eprintln!("cannot start the Huxley emulator: {e}");
+                    return ExitCode::from(1);
+                }
+            };
+            cfg.driver.name = frontseat_config::BLUEFIN.into();
+            cfg.driver.bluefin.huxley_tcp_port = huxley.local_addr().port();
+            (DemoVehicle::Bluefin(huxley), None)
+        }
+    };
     let service = match InterfaceService::start(&cfg, &bus).await {
         Ok(s) => s,
         Err(e) => {
@@ -72,7 +126,8 @@ pub async fn run(args: DemoArgs) -> ExitCode {
         }
     };
     eprintln!(
-        "frontseat demo: simulator on {}, warp {}, homework path east {} s, south {} s, then northwest",
+        "frontseat demo: {:?} vehicle on {}, warp {}, homework path east {} s, south {} s, then northwest",
+        args.vehicle,
         sim.local_addr(),
         args.warp,
         args.east,

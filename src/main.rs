@@ -3,6 +3,7 @@
 #![forbid(unsafe_code)]
 
 mod bench;
+mod bluefin_sim;
 mod chaos_cmd;
 mod demo;
 mod driver_host;
@@ -67,7 +68,7 @@ enum Command {
         /// Address to bind (overrides the config; default 127.0.0.1, loopback only).
         #[arg(long, value_name = "ADDR")]
         bind: Option<String>,
-        /// A vehicle emulator instead of the basic simulator (`--vehicle iver3|waveglider_sv2`).
+        /// A vehicle emulator instead of the basic simulator (`--vehicle bluefin|iver3|waveglider_sv2`).
         #[command(flatten)]
         emulator: vehicle_sim::EmulatorArgs,
     },
@@ -189,6 +190,26 @@ fn main() -> ExitCode {
             let tel = config.telemetry.clone();
             let name = config.name.clone();
             run_traced(&tel, "interface", &name, service::interface(config))
+        }
+        Command::Sim {
+            cfg,
+            bind,
+            port,
+            emulator,
+        } if emulator.vehicle == vehicle_sim::VehicleKind::Bluefin => {
+            if let Some(code) = config_commands::<frontseat_config::SimConfig>(&cfg) {
+                return code;
+            }
+            let mut config = match load_config::<frontseat_config::SimConfig>(&cfg, true) {
+                Ok(c) => c,
+                Err(code) => return code,
+            };
+            if let Some(b) = bind {
+                config.bind = b;
+            }
+            let tel = config.telemetry.clone();
+            let serve = bluefin_sim::serve(config, port, emulator.refusal, emulator.emulator_warp);
+            run_traced(&tel, "sim", "", serve)
         }
         Command::Sim { emulator, .. } if emulator.vehicle != vehicle_sim::VehicleKind::Basic => {
             run_traced(

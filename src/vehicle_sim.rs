@@ -30,6 +30,8 @@ pub enum VehicleKind {
     /// Wave Glider SV2 C&C binary frames.
     #[value(name = "waveglider_sv2")]
     WavegliderSv2,
+    /// Bluefin Huxley payload NMEA over TCP (port 29500 unless `--port`; see bluefin_sim.rs).
+    Bluefin,
 }
 
 /// Options of the vehicle emulators (ignored by the basic simulator).
@@ -48,6 +50,9 @@ pub struct EmulatorArgs {
     /// Run simulated time this many times faster.
     #[arg(long = "emulator-warp", default_value_t = 1.0)]
     pub emulator_warp: f64,
+    /// Bluefin: how the emulated Huxley answers commands.
+    #[arg(long, value_enum, default_value_t = crate::bluefin_sim::RefusalArg::None)]
+    pub refusal: crate::bluefin_sim::RefusalArg,
 }
 
 enum Running {
@@ -74,6 +79,12 @@ async fn start(
     origin: (f64, f64),
 ) -> std::io::Result<Running> {
     Ok(match kind {
+        // The Huxley emulator is a TCP server of its own (bluefin_sim.rs), not a byte-link session.
+        VehicleKind::Bluefin => {
+            return Err(std::io::Error::other(
+                "the Bluefin emulator is started by bluefin_sim",
+            ));
+        }
         VehicleKind::Iver3 | VehicleKind::Basic => Running::Iver(
             Emulator::start(
                 IverSession::new(IverOptions {
@@ -185,6 +196,8 @@ pub async fn run_demo(args: DemoArgs, kind: VehicleKind) -> ExitCode {
             // The glider's own position is the only navigation this demo has.
             cfg.driver.waveglider_sv2.publish_navigation = true;
         }
+        // Never reached: `start` refuses Bluefin, and demo.rs flies it itself.
+        VehicleKind::Bluefin => {}
     }
     let bus = Bus::new();
     let service = match InterfaceService::start(&cfg, &bus).await {

@@ -59,3 +59,8 @@ fn sv2_frame_corpus() {
 fn iver_sentence_corpus() {
     replay("iver_sentence", targets::iver_sentence);
 }
+
+#[test]
+fn bluefin_codec_corpus() {
+    replay("bluefin_codec", targets::bluefin_codec);
+}

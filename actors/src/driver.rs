@@ -18,6 +18,13 @@ pub trait SignalSink {
     fn data_from_frontseat(&mut self, data: InterfaceData);
     fn raw_from_frontseat(&mut self, raw: Raw);
     fn raw_to_frontseat(&mut self, raw: Raw);
+    /// InterfaceData carrying Goby3's Bluefin extension (`bluefin_data`, field 1000), published
+    /// on `frontseat::bluefin::bluefin_data_from_frontseat`. Only the Bluefin driver emits it.
+    fn bluefin_data_from_frontseat(
+        &mut self,
+        _data: crate::proto::frontseat::protobuf::bluefin::InterfaceData,
+    ) {
+    }
 }
 
 /// What a driver's I/O tasks observe and how they hand it over: defined with the links that
@@ -47,6 +54,41 @@ pub trait Driver: Send + 'static {
         sig: &mut dyn SignalSink,
     );
     fn send_raw_to_frontseat(&mut self, raw: &Raw, now: Duration, sig: &mut dyn SignalSink);
+    /// A CommandRequest with Goby3's Bluefin extension (`bluefin_command`, field 1000). Drivers
+    /// other than Bluefin refuse it (answering when a response was requested).
+    fn send_bluefin_command(
+        &mut self,
+        req: &crate::proto::frontseat::protobuf::bluefin::CommandRequest,
+        _now: Duration,
+        sig: &mut dyn SignalSink,
+    ) {
+        if req.response_requested() {
+            sig.command_response(CommandResponse {
+                request_successful: Some(false),
+                request_id: req.request_id,
+                error_code: Some(1),
+                error_string: Some(format!(
+                    "driver `{}` does not take Bluefin commands",
+                    self.name()
+                )),
+            });
+        }
+    }
+    /// InterfaceData with Goby3's Bluefin extension (payload status, modem lines). Drivers other
+    /// than Bluefin ignore it.
+    fn send_bluefin_data(
+        &mut self,
+        _data: &crate::proto::frontseat::protobuf::bluefin::InterfaceData,
+        _now: Duration,
+        _sig: &mut dyn SignalSink,
+    ) {
+    }
+    /// The interface's status, at every change (Bluefin reports an error state in `$BPSTS`).
+    fn interface_status(
+        &mut self,
+        _status: &crate::proto::goby::middleware::frontseat::protobuf::InterfaceStatus,
+    ) {
+    }
     /// Goby3's `loop()`, at 10 Hz of simulated time.
     fn do_loop(&mut self, now: Duration, sig: &mut dyn SignalSink);
     fn frontseat_state(&self) -> FrontSeatState;

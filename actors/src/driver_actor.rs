@@ -83,6 +83,12 @@ impl SignalSink for PortSink<'_> {
     fn raw_to_frontseat(&mut self, raw: Raw) {
         self.0.publish_raw_to_frontseat(raw);
     }
+    fn bluefin_data_from_frontseat(
+        &mut self,
+        data: crate::proto::frontseat::protobuf::bluefin::InterfaceData,
+    ) {
+        self.0.publish_bluefin_data_from_frontseat(data);
+    }
 }
 
 impl DriverActorState {
@@ -176,6 +182,13 @@ impl Actor for DriverActor {
                 DriverActorInbox::RawSendRequest(env) => {
                     state.driver.send_raw_to_frontseat(&env.msg, now, &mut sink)
                 }
+                DriverActorInbox::BluefinCommand(env) => {
+                    state.driver.send_bluefin_command(&env.msg, now, &mut sink)
+                }
+                DriverActorInbox::BluefinData(env) => {
+                    state.driver.send_bluefin_data(&env.msg, now, &mut sink)
+                }
+                DriverActorInbox::InterfaceStatus(env) => state.driver.interface_status(&env.msg),
             },
             DriverMsg::Io(ev) => state.driver.handle_io(ev, now, &mut sink),
             DriverMsg::Tick => {

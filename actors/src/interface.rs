@@ -237,6 +237,7 @@ impl FsiState {
 
     fn publish(&self, status: InterfaceStatus) {
         self.ports.publish_status(status);
+        self.ports.publish_interface_status(status);
         let detail = InterfaceDetail {
             status: Some(status),
             frontseat_providing_data: Some(self.inputs.providing_data),
@@ -375,6 +376,53 @@ impl FsiState {
                 None
             }
         }
+    }
+
+    /// A Bluefin-extended CommandRequest: the same gate, pending table and refusals as
+    /// [`Self::handle_command`], forwarded whole (extension included) to the driver.
+    fn handle_bluefin_command(
+        &mut self,
+        env: Envelope<crate::proto::frontseat::protobuf::bluefin::CommandRequest>,
+    ) {
+        let m = &env.msg;
+        let base = CommandRequest {
+            desired_course: m.desired_course,
+            response_requested: m.response_requested,
+            request_id: m.request_id,
+            cancel_request_id: m.cancel_request_id,
+        };
+        let state = self.sm.state();
+        if !self.shutting_down && state == InterfaceState::InterfaceCommand {
+            let mirror = *env.msg;
+            // Its desired_course crosses the same safety envelope as any other setpoint.
+            let Some(checked) = self.through_envelope(Envelope::rewrap(env, base)) else {
+                return;
+            };
+            if base.response_requested() {
+                self.pending
+                    .insert(base.request_id, self.now() + self.s.command_timeout);
+            }
+            let req = crate::proto::frontseat::protobuf::bluefin::CommandRequest {
+                desired_course: checked.msg.desired_course,
+                ..mirror
+            };
+            self.ports
+                .publish_bluefin_command_with(Arc::new(req), checked.meta());
+            return;
+        }
+        self.counters.commands_gated += 1;
+        let (code, why) = if self.shutting_down {
+            (
+                error_code::SHUTTING_DOWN,
+                "interface shutting down".to_string(),
+            )
+        } else {
+            (
+                error_code::NOT_IN_COMMAND,
+                format!("not in command state (state: {})", state_words(state)),
+            )
+        };
+        self.refuse(&base, code, why);
     }
 
     fn listen_or_command(&self) -> bool {
@@ -719,6 +767,18 @@ impl FrontSeatInterface {
                     } else {
                         st.counters.data_gated += 1;
                         tracing::debug!("data_to_frontseat dropped: not in listen or command");
+                    }
+                }
+                I::BluefinCommandRequest(env) => st.handle_bluefin_command(env),
+                I::BluefinDataToFrontseat(env) => {
+                    if st.listen_or_command() {
+                        st.ports
+                            .publish_bluefin_data_with(env.msg.clone(), env.meta());
+                    } else {
+                        st.counters.data_gated += 1;
+                        tracing::debug!(
+                            "bluefin data_to_frontseat dropped: not in listen or command"
+                        );
                     }
                 }
                 I::RawSendRequest(env) => {

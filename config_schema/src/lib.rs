@@ -25,11 +25,12 @@ pub use error::{ConfigError, FieldError};
 pub use gateway::GatewayConfig;
 pub use goby3::{Goby3Config, Goby3Transport};
 pub use interface::{
-    BASIC_SIMULATOR, BUILT_IN_DRIVERS, BasicSimulatorConfig, BusConfig, ChaosConfig, DriverConfig,
-    FlowControlConfig, FrontSeatStateName, IVER3, InterfaceConfig, Iver3Config,
-    IverModeAssignments, LimitsConfig, MAX_QUEUE_CAPACITY, ParityConfig, RestartConfig,
-    RestartPolicy, SimStartConfig, SimVehicleConfig, SupervisionConfig, TransportKind,
-    VehicleLinkConfig, VehicleType, WAVEGLIDER_SV2, WavegliderSv2Config,
+    AcceptingCommandsHook, BASIC_SIMULATOR, BLUEFIN, BUILT_IN_DRIVERS, BasicSimulatorConfig,
+    BluefinConfig, BusConfig, ChaosConfig, DriverConfig, FlowControlConfig, FrontSeatStateName,
+    IVER3, InterfaceConfig, Iver3Config, IverModeAssignments, LimitsConfig, MAX_QUEUE_CAPACITY,
+    ParityConfig, RestartConfig, RestartPolicy, RpmTableEntry, SimStartConfig, SimVehicleConfig,
+    SupervisionConfig, TransportKind, VehicleLinkConfig, VehicleType, WAVEGLIDER_SV2,
+    WavegliderSv2Config,
 };
 pub use sections::{
     DEFAULT_ORIGIN_LAT, DEFAULT_ORIGIN_LON, InterprocessConfig, InterprocessMode, LatLonConfig,

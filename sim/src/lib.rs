@@ -9,6 +9,7 @@
 #![deny(unsafe_code)]
 
 pub mod bench;
+pub mod bluefin;
 pub mod codec;
 mod connection;
 pub mod emulator;

@@ -2,6 +2,7 @@
 //! one (see plugin.rs), otherwise the built-in driver the config names (`driver.name`).
 
 pub mod basic_simulator;
+pub mod bluefin;
 pub mod iver3;
 pub mod plugin;
 pub mod waveglider_sv2;
@@ -11,7 +12,9 @@ use frontseat_config::InterfaceConfig;
 
 #[derive(Debug, thiserror::Error)]
 pub enum DriverSelectError {
-    #[error("unknown driver `{0}` (built-in drivers: basic_simulator, iver3, waveglider_sv2)")]
+    #[error(
+        "unknown driver `{0}` (built-in drivers: basic_simulator, bluefin, iver3, waveglider_sv2)"
+    )]
     Unknown(String),
     #[error(transparent)]
     Plugin(#[from] plugin::PluginError),
@@ -40,6 +43,12 @@ pub fn factory_with_env(
             Ok(std::sync::Arc::new(move || {
                 Box::new(basic_simulator::BasicSimulatorDriver::new(settings.clone()))
                     as Box<dyn Driver>
+            }))
+        }
+        frontseat_config::BLUEFIN => {
+            let settings = bluefin::Settings::from_config(cfg);
+            Ok(std::sync::Arc::new(move || {
+                Box::new(bluefin::BluefinDriver::new(settings.clone())) as Box<dyn Driver>
             }))
         }
         frontseat_config::IVER3 => {

@@ -15,6 +15,7 @@ use frontseat_config::InterfaceConfig;
 use frontseat_sim::{SimOptions, SimServer};
 
 use crate::service::SHUTDOWN_BOUND;
+use crate::vehicle_kind::VehicleKind;
 
 #[derive(Args, Debug, Clone)]
 pub struct DemoArgs {
@@ -35,8 +36,8 @@ pub struct DemoArgs {
     pub lines: bool,
     /// Fly a vehicle emulator through its real driver instead of the basic simulator: bluefin
     /// (loopback TCP), iver3 or waveglider_sv2 (pseudo-terminal).
-    #[arg(long, value_enum, default_value_t = crate::vehicle_sim::VehicleKind::Basic)]
-    pub vehicle: crate::vehicle_sim::VehicleKind,
+    #[arg(long, value_enum, default_value_t = VehicleKind::Basic)]
+    pub vehicle: VehicleKind,
 }
 
 /// The vehicle side of the demo, whichever protocol it speaks.
@@ -60,12 +61,9 @@ impl DemoVehicle {
     }
 }
 
+/// The basic simulator or the Bluefin emulator over loopback TCP (the serial vehicles' demo is
+/// `vehicle_sim::run_demo`; `main` picks).
 pub async fn run(args: DemoArgs) -> ExitCode {
-    use crate::vehicle_sim::VehicleKind;
-    if !matches!(args.vehicle, VehicleKind::Basic | VehicleKind::Bluefin) {
-        let kind = args.vehicle;
-        return crate::vehicle_sim::run_demo(args, kind).await;
-    }
     if !(args.warp.is_finite() && args.warp > 0.0 && args.warp <= 1000.0) {
         eprintln!("--warp must be in (0, 1000]");
         return ExitCode::from(2);

@@ -11,6 +11,7 @@ mod gateway_cmd;
 mod service;
 mod shutdown;
 mod systemd;
+mod vehicle_kind;
 mod vehicle_sim;
 
 use std::path::PathBuf;
@@ -262,7 +263,19 @@ fn main() -> ExitCode {
             frontseat_actors::telemetry::set_default_console_level("warn");
             run_traced(&Default::default(), "chaos", "", chaos_cmd::run(args))
         }
-        Command::Demo(args) => run_traced(&Default::default(), "demo", "", demo::run(args)),
+        Command::Demo(args) => {
+            match args.vehicle {
+                // The serial vehicles fly over a pseudo-terminal through their own drivers.
+                kind @ (vehicle_kind::VehicleKind::Iver3
+                | vehicle_kind::VehicleKind::WavegliderSv2) => run_traced(
+                    &Default::default(),
+                    "demo",
+                    "",
+                    vehicle_sim::run_demo(args, kind),
+                ),
+                _ => run_traced(&Default::default(), "demo", "", demo::run(args)),
+            }
+        }
         Command::Bench(args) => run_traced(&Default::default(), "bench", "", bench::run(args)),
     }
 }

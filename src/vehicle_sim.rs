@@ -19,20 +19,7 @@ use frontseat_sim::waveglider_sv2::{Sv2Options, Sv2Session};
 use crate::demo::DemoArgs;
 use crate::service::{SHUTDOWN_BOUND, shutdown_signal};
 
-/// Which vehicle `sim` and `demo` speak for.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, ValueEnum)]
-pub enum VehicleKind {
-    /// The basic simulator's line protocol over TCP (the default).
-    #[default]
-    Basic,
-    /// Iver3 UVC Remote Helm NMEA.
-    Iver3,
-    /// Wave Glider SV2 C&C binary frames.
-    #[value(name = "waveglider_sv2")]
-    WavegliderSv2,
-    /// Bluefin Huxley payload NMEA over TCP (port 29500 unless `--port`; see bluefin_sim.rs).
-    Bluefin,
-}
+pub use crate::vehicle_kind::VehicleKind;
 
 /// Options of the vehicle emulators (ignored by the basic simulator).
 #[derive(clap::Args, Debug, Clone)]

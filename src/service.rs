@@ -80,6 +80,18 @@ pub async fn interface(config: InterfaceConfig) -> ExitCode {
         },
         None => None,
     };
+    let web = if config.web.enabled {
+        match frontseat_web::WebService::start(&config.web, &bus, &config.name).await {
+            Ok(w) => Some(w),
+            Err(e) => {
+                tracing::error!(error = %e, "cannot start the web scope");
+                service.shutdown(SHUTDOWN_BOUND).await;
+                return ExitCode::from(2);
+            }
+        }
+    } else {
+        None
+    };
     // READY only now: the driver actor has started and the bus is up.
     notifier.ready();
     let watchdog = notifier.watchdog_period().and_then(|period| {
@@ -102,6 +114,9 @@ pub async fn interface(config: InterfaceConfig) -> ExitCode {
     notifier.stopping();
     if let Some(w) = watchdog {
         w.abort();
+    }
+    if let Some(w) = web {
+        w.shutdown(SHUTDOWN_BOUND).await;
     }
     if let Some(t) = translation {
         let _ = tokio::time::timeout(SHUTDOWN_BOUND, t.shutdown()).await;

@@ -1,0 +1,426 @@
+//! The HTTP side: the embedded page and its assets, the event stream (SSE: the server pushes,
+//! the page never polls), history and schema look-ups, and the commander's send. Every request
+//! passes `auth`; connections, event streams and bodies are bounded.
+
+use std::pin::Pin;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::task::{Context, Poll};
+use std::time::Duration;
+
+use axum::Json as JsonBody;
+use axum::Router;
+use axum::extract::{DefaultBodyLimit, Query, State};
+use axum::http::header::{CACHE_CONTROL, CONTENT_TYPE};
+use axum::http::{HeaderMap, HeaderValue, StatusCode};
+use axum::response::sse::{Event, KeepAlive, Sse};
+use axum::response::{IntoResponse, Response};
+use axum::routing::{get, post};
+use frontseat_actors::bus::PublishMeta;
+use frontseat_actors::generated::groups;
+use frontseat_actors::ports::WebCommanderPorts;
+use futures_util::stream::Stream;
+use ractor::ActorRef;
+use serde::Deserialize;
+use serde_json::{Value as Json, json};
+use tokio::io::{AsyncRead, AsyncWrite, ReadBuf};
+use tokio::net::{TcpListener, TcpStream};
+use tokio::sync::{OwnedSemaphorePermit, Semaphore};
+
+use crate::auth::{Access, Refusal};
+use crate::hub::{HubCounters, HubMsg, Joined};
+use crate::reflect;
+
+const INDEX_HTML: &str = include_str!("../assets/index.html");
+const APP_JS: &str = include_str!("../assets/app.js");
+const APP_CSS: &str = include_str!("../assets/app.css");
+
+/// How long a request waits for the hub before answering 503.
+const HUB_TIMEOUT: Duration = Duration::from_secs(2);
+
+/// Counters of the HTTP side.
+#[derive(Debug, Default)]
+pub struct ServerCounters {
+    pub connections_refused: AtomicU64,
+    pub requests_refused: AtomicU64,
+    pub sends: AtomicU64,
+    pub sends_refused: AtomicU64,
+}
+
+#[derive(Clone)]
+pub struct AppState {
+    pub hub: ActorRef<HubMsg>,
+    pub access: Access,
+    pub ports: WebCommanderPorts,
+    pub name: String,
+    pub hub_counters: Arc<HubCounters>,
+    pub counters: Arc<ServerCounters>,
+}
+
+fn refuse(st: &AppState, r: Refusal) -> Response {
+    st.counters.requests_refused.fetch_add(1, Ordering::Relaxed);
+    (r.status(), r.text()).into_response()
+}
+
+fn error(status: StatusCode, text: impl Into<String>) -> Response {
+    (status, JsonBody(json!({"ok": false, "error": text.into()}))).into_response()
+}
+
+pub fn router(st: AppState, max_body_bytes: usize) -> Router {
+    Router::new()
+        .route("/", get(index))
+        .route(
+            "/app.js",
+            get(|| async { asset("text/javascript", APP_JS) }),
+        )
+        .route("/app.css", get(|| async { asset("text/css", APP_CSS) }))
+        .route("/api/info", get(info))
+        .route("/api/events", get(events))
+        .route("/api/history", get(history))
+        .route("/api/schema", get(schema))
+        .route("/api/commander", get(commander))
+        .route("/api/send", post(send))
+        .layer(DefaultBodyLimit::max(max_body_bytes))
+        .with_state(st)
+}
+
+fn asset(content_type: &'static str, body: &'static str) -> Response {
+    (
+        [
+            (CONTENT_TYPE, HeaderValue::from_static(content_type)),
+            (CACHE_CONTROL, HeaderValue::from_static("no-cache")),
+        ],
+        body,
+    )
+        .into_response()
+}
+
+async fn index() -> Response {
+    asset("text/html; charset=utf-8", INDEX_HTML)
+}
+
+#[derive(Deserialize)]
+struct TokenQuery {
+    token: Option<String>,
+}
+
+async fn info(State(st): State<AppState>) -> Response {
+    JsonBody(json!({
+        "name": st.name,
+        "token_required": st.access.token_required(),
+        "can_send": st.access.can_send(),
+    }))
+    .into_response()
+}
+
+async fn events(
+    State(st): State<AppState>,
+    headers: HeaderMap,
+    Query(q): Query<TokenQuery>,
+) -> Response {
+    if let Err(r) = st.access.check_read(&headers, q.token.as_deref()) {
+        return refuse(&st, r);
+    }
+    let joined = match ractor::call_t!(st.hub, HubMsg::Join, HUB_TIMEOUT.as_millis() as u64) {
+        Ok(Some(j)) => j,
+        Ok(None) => {
+            return error(
+                StatusCode::SERVICE_UNAVAILABLE,
+                "too many open scope tabs (web.max_clients)",
+            );
+        }
+        Err(_) => {
+            return error(
+                StatusCode::SERVICE_UNAVAILABLE,
+                "the web hub is not running",
+            );
+        }
+    };
+    Sse::new(event_stream(joined, st.hub_counters.clone()))
+        .keep_alive(KeepAlive::new().interval(Duration::from_secs(5)))
+        .into_response()
+}
+
+struct StreamState {
+    snapshot: Option<Arc<str>>,
+    events: tokio::sync::mpsc::Receiver<Arc<str>>,
+    dropped: Arc<AtomicU64>,
+    counters: Arc<HubCounters>,
+    tick: tokio::time::Interval,
+}
+
+/// The snapshot first, then every event, with a statistics event each second (this tab's
+/// missed events among them). Ends when the hub drops the tab's queue.
+fn event_stream(
+    joined: Joined,
+    counters: Arc<HubCounters>,
+) -> impl Stream<Item = Result<Event, std::convert::Infallible>> {
+    let mut tick = tokio::time::interval(Duration::from_secs(1));
+    tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Skip);
+    let state = StreamState {
+        snapshot: Some(joined.snapshot),
+        events: joined.events,
+        dropped: joined.dropped,
+        counters,
+        tick,
+    };
+    futures_util::stream::unfold(state, |mut s| async move {
+        if let Some(snap) = s.snapshot.take() {
+            return Some((Ok(Event::default().data(&*snap)), s));
+        }
+        tokio::select! {
+            ev = s.events.recv() => {
+                let ev = ev?;
+                Some((Ok(Event::default().data(&*ev)), s))
+            }
+            _ = s.tick.tick() => {
+                let stats = json!({
+                    "kind": "stats",
+                    "dropped_here": s.dropped.load(Ordering::Relaxed),
+                    "messages": s.counters.messages.load(Ordering::Relaxed),
+                    "decode_errors": s.counters.decode_errors.load(Ordering::Relaxed),
+                    "events_dropped": s.counters.events_dropped.load(Ordering::Relaxed),
+                });
+                Some((Ok(Event::default().data(stats.to_string())), s))
+            }
+        }
+    })
+}
+
+#[derive(Deserialize)]
+struct GroupQuery {
+    group: String,
+    token: Option<String>,
+}
+
+async fn history(
+    State(st): State<AppState>,
+    headers: HeaderMap,
+    Query(q): Query<GroupQuery>,
+) -> Response {
+    if let Err(r) = st.access.check_read(&headers, q.token.as_deref()) {
+        return refuse(&st, r);
+    }
+    let group = q.group;
+    match ractor::call_t!(
+        st.hub,
+        HubMsg::History,
+        HUB_TIMEOUT.as_millis() as u64,
+        group.clone()
+    ) {
+        Ok(Some(h)) => JsonBody(h).into_response(),
+        Ok(None) => error(StatusCode::NOT_FOUND, format!("no group `{group}`")),
+        Err(_) => error(
+            StatusCode::SERVICE_UNAVAILABLE,
+            "the web hub is not running",
+        ),
+    }
+}
+
+#[derive(Deserialize)]
+struct TypeQuery {
+    r#type: String,
+    token: Option<String>,
+}
+
+async fn schema(
+    State(st): State<AppState>,
+    headers: HeaderMap,
+    Query(q): Query<TypeQuery>,
+) -> Response {
+    if let Err(r) = st.access.check_read(&headers, q.token.as_deref()) {
+        return refuse(&st, r);
+    }
+    match reflect::message_schema(&q.r#type) {
+        Ok(s) => JsonBody(s).into_response(),
+        Err(e) => error(StatusCode::NOT_FOUND, e.to_string()),
+    }
+}
+
+/// The groups the commander may send on (its declared publications, which are exactly the
+/// groups FrontSeatInterface subscribes a helm's messages on) with the form schema of each.
+async fn commander(
+    State(st): State<AppState>,
+    headers: HeaderMap,
+    Query(q): Query<TokenQuery>,
+) -> Response {
+    if let Err(r) = st.access.check_read(&headers, q.token.as_deref()) {
+        return refuse(&st, r);
+    }
+    let items: Vec<Json> = WebCommanderPorts::PUBLISHES
+        .iter()
+        .filter_map(|name| groups::ALL.iter().find(|g| g.name == *name))
+        .map(|g| {
+            json!({
+                "group": g.name,
+                "type": g.type_name,
+                "schema": reflect::message_schema(g.type_name).unwrap_or(Json::Null),
+            })
+        })
+        .collect();
+    JsonBody(json!({"can_send": st.access.can_send(), "groups": items})).into_response()
+}
+
+#[derive(Deserialize)]
+struct SendBody {
+    group: String,
+    message: Json,
+}
+
+async fn send(State(st): State<AppState>, headers: HeaderMap, body: axum::body::Bytes) -> Response {
+    if let Err(r) = st.access.check_write(&headers) {
+        st.counters.sends_refused.fetch_add(1, Ordering::Relaxed);
+        return refuse(&st, r);
+    }
+    // A JSON content type makes a cross-site form post a CORS pre-flight the server never
+    // answers, on top of the Origin check.
+    let json_ct = headers
+        .get(CONTENT_TYPE)
+        .and_then(|v| v.to_str().ok())
+        .is_some_and(|v| v.starts_with("application/json"));
+    if !json_ct {
+        st.counters.sends_refused.fetch_add(1, Ordering::Relaxed);
+        return error(
+            StatusCode::UNSUPPORTED_MEDIA_TYPE,
+            "Content-Type must be application/json",
+        );
+    }
+    let req: SendBody = match serde_json::from_slice(&body) {
+        Ok(r) => r,
+        Err(e) => {
+            st.counters.sends_refused.fetch_add(1, Ordering::Relaxed);
+            return error(StatusCode::BAD_REQUEST, format!("bad request: {e}"));
+        }
+    };
+    let Some(info) = WebCommanderPorts::PUBLISHES
+        .iter()
+        .find(|g| **g == req.group)
+        .and_then(|name| groups::ALL.iter().find(|g| g.name == *name))
+    else {
+        st.counters.sends_refused.fetch_add(1, Ordering::Relaxed);
+        return error(
+            StatusCode::BAD_REQUEST,
+            format!("the commander cannot send on `{}`", req.group),
+        );
+    };
+    let bytes = match reflect::from_json(info.type_name, &req.message) {
+        Ok(b) => b,
+        Err(e) => {
+            st.counters.sends_refused.fetch_add(1, Ordering::Relaxed);
+            return error(StatusCode::UNPROCESSABLE_ENTITY, e.to_string());
+        }
+    };
+    // Exactly the path of any other helm: a publication on the group the interface
+    // subscribes; the interface's gates decide, and answer on command_response.
+    match st
+        .ports
+        .publish_encoded(info.name, &bytes, PublishMeta::default())
+    {
+        Ok(report) => {
+            st.counters.sends.fetch_add(1, Ordering::Relaxed);
+            tracing::info!(
+                group = info.name,
+                delivered = report.delivered,
+                "web commander sent"
+            );
+            let entry = json!({
+                "time": crate::now_ms(),
+                "group": info.name,
+                "type": info.type_name,
+                "message": req.message,
+                "delivered": report.delivered,
+                "dropped": report.dropped,
+            });
+            let _ = st.hub.cast(HubMsg::Sent(entry.clone()));
+            JsonBody(json!({"ok": true, "sent": entry})).into_response()
+        }
+        Err(e) => {
+            st.counters.sends_refused.fetch_add(1, Ordering::Relaxed);
+            error(StatusCode::UNPROCESSABLE_ENTITY, e.to_string())
+        }
+    }
+}
+
+/// A TCP listener that serves at most `max` connections at once: one past it is accepted and
+/// closed at once (counted), so a flood of idle sockets cannot exhaust memory or descriptors.
+pub struct BoundedListener {
+    pub inner: TcpListener,
+    pub permits: Arc<Semaphore>,
+    pub counters: Arc<ServerCounters>,
+}
+
+pub struct BoundedStream {
+    stream: TcpStream,
+    _permit: OwnedSemaphorePermit,
+}
+
+impl axum::serve::Listener for BoundedListener {
+    type Io = BoundedStream;
+    type Addr = std::net::SocketAddr;
+
+    async fn accept(&mut self) -> (Self::Io, Self::Addr) {
+        loop {
+            let (stream, addr) = match self.inner.accept().await {
+                Ok(s) => s,
+                Err(e) => {
+                    // Out of descriptors and the like: wait instead of spinning.
+                    tracing::warn!(error = %e, "web: accept failed");
+                    tokio::time::sleep(Duration::from_millis(100)).await;
+                    continue;
+                }
+            };
+            match self.permits.clone().try_acquire_owned() {
+                Ok(permit) => {
+                    let _ = stream.set_nodelay(true);
+                    return (
+                        BoundedStream {
+                            stream,
+                            _permit: permit,
+                        },
+                        addr,
+                    );
+                }
+                Err(_) => {
+                    let n = self
+                        .counters
+                        .connections_refused
+                        .fetch_add(1, Ordering::Relaxed);
+                    if n.is_power_of_two() {
+                        tracing::warn!(%addr, refused = n + 1, "web: too many connections; closing");
+                    }
+                    drop(stream);
+                }
+            }
+        }
+    }
+
+    fn local_addr(&self) -> std::io::Result<Self::Addr> {
+        self.inner.local_addr()
+    }
+}
+
+impl AsyncRead for BoundedStream {
+    fn poll_read(
+        mut self: Pin<&mut Self>,
+        cx: &mut Context<'_>,
+        buf: &mut ReadBuf<'_>,
+    ) -> Poll<std::io::Result<()>> {
+        Pin::new(&mut self.stream).poll_read(cx, buf)
+    }
+}
+
+impl AsyncWrite for BoundedStream {
+    fn poll_write(
+        mut self: Pin<&mut Self>,
+        cx: &mut Context<'_>,
+        buf: &[u8],
+    ) -> Poll<std::io::Result<usize>> {
+        Pin::new(&mut self.stream).poll_write(cx, buf)
+    }
+    fn poll_flush(mut self: Pin<&mut Self>, cx: &mut Context<'_>) -> Poll<std::io::Result<()>> {
+        Pin::new(&mut self.stream).poll_flush(cx)
+    }
+    fn poll_shutdown(mut self: Pin<&mut Self>, cx: &mut Context<'_>) -> Poll<std::io::Result<()>> {
+        Pin::new(&mut self.stream).poll_shutdown(cx)
+    }
+}

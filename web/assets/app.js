@@ -76,9 +76,20 @@
     model.track = s.track.slice();
     model.statusHistory = []; model.timeline = [];
     for (const ev of s.status_history) statusChange(ev);
-    model.sent = s.sent.slice();
+    model.sent = s.sent.map((e) => Object.assign(e, { request_id: e.message ? e.message.request_id : undefined }));
     const nav = model.groups.get("goby::middleware::frontseat::node_status");
     if (nav && nav.latest) model.lastNav = nav.latest;
+  }
+
+  // A send of this tab comes back as an echo (every tab sees every send): keep one row.
+  function onSent(e) {
+    const key = JSON.stringify(e.message);
+    const mine = model.sent.find((s) => s.local && !s.echoed && s.group === e.group && JSON.stringify(s.message) === key);
+    if (mine) { mine.echoed = true; return; }
+    e.request_id = e.message ? e.message.request_id : undefined;
+    model.sent.push(e);
+    if (model.sent.length > 100) model.sent.shift();
+    for (const r of model.responses) matchResponse(r);
   }
 
   function connect() {
@@ -91,7 +102,7 @@
       if (ev.kind === "snapshot") onSnapshot(ev);
       else if (ev.kind === "msg") applyMsg(ev);
       else if (ev.kind === "stats") model.stats = ev;
-      else if (ev.kind === "sent") { model.sent.push(ev.entry); if (model.sent.length > 100) model.sent.shift(); }
+      else if (ev.kind === "sent") onSent(ev.entry);
       ui.dirty = true;
     };
   }
@@ -122,25 +133,48 @@
   }
 
   // ---------- scope ----------
+  // Rows are made once per group and updated in place, so a click is never lost to a row
+  // replaced under the pointer at 10 Hz.
+  const rows = new Map();
+  function scopeRow(name) {
+    let r = rows.get(name);
+    if (r) return r;
+    const cells = {};
+    const td = (k) => (cells[k] = el("td", { class: k }));
+    const row = el("tr", { class: "group-row", "data-group": name },
+      el("td", {}, el("code", {}, name)), td("type"), td("layer"), td("count"), td("time"), td("origin"),
+      el("td", {}, el("button", { class: "hist", onclick: (e) => { e.stopPropagation(); openHistory(name); } }, "history")));
+    row.addEventListener("click", () => { ui.expanded.has(name) ? ui.expanded.delete(name) : ui.expanded.add(name); render(true); });
+    const fields = el("tr", { class: "fields", "data-fields-of": name }, el("td", { colspan: 7 }));
+    r = { row, cells, fields, shownSeq: -1 };
+    rows.set(name, r);
+    return r;
+  }
   function renderScope() {
     const body = $("groups").querySelector("tbody");
-    body.replaceChildren();
-    for (const [name, g] of [...model.groups.entries()].sort()) {
-      if (ui.filter && !ui.filter.test(name) && !ui.filter.test(g.info.type || "")) continue;
-      const l = g.latest;
-      const row = el("tr", { class: "group-row", "data-group": name },
-        el("td", {}, el("code", {}, name)), el("td", {}, g.info.type || ""), el("td", {}, g.info.layer || ""),
-        el("td", { class: "count" }, g.count), el("td", {}, l ? fmtTime(l.time) : ""),
-        el("td", {}, l ? l.origin : ""),
-        el("td", {}, el("button", { class: "hist", onclick: (e) => { e.stopPropagation(); openHistory(name); } }, "history")));
-      row.addEventListener("click", () => { ui.expanded.has(name) ? ui.expanded.delete(name) : ui.expanded.add(name); ui.dirty = true; render(true); });
-      body.append(row);
-      if (ui.expanded.has(name)) {
+    const names = [...model.groups.keys()].sort();
+    const order = names.join("\n");
+    if (ui.order !== order) {
+      ui.order = order;
+      body.replaceChildren();
+      for (const n of names) { const r = scopeRow(n); body.append(r.row, r.fields); }
+    }
+    for (const name of names) {
+      const g = model.groups.get(name); const r = scopeRow(name); const l = g.latest;
+      const visible = !ui.filter || ui.filter.test(name) || ui.filter.test(g.info.type || "");
+      r.row.hidden = !visible;
+      r.cells.type.textContent = g.info.type || ""; r.cells.layer.textContent = g.info.layer || "";
+      r.cells.count.textContent = g.count; r.cells.time.textContent = l ? fmtTime(l.time) : "";
+      r.cells.origin.textContent = l ? l.origin : "";
+      const open = visible && ui.expanded.has(name);
+      r.fields.hidden = !open;
+      if (open && r.shownSeq !== (l ? l.seq : 0)) {
+        r.shownSeq = l ? l.seq : 0;
         const pubs = (g.info.publishers || []).join(", ");
         const content = l ? (l.msg ? tree(l.msg) : el("span", { class: "bad-text" }, l.error || "")) : el("span", { class: "muted" }, "no message yet");
-        body.append(el("tr", { class: "fields", "data-fields-of": name },
-          el("td", { colspan: 7 }, el("div", { class: "muted" }, "published by: " + (pubs || "—") + (l ? " · seq " + l.seq + " · " + l.bytes + " bytes" : "")), content)));
+        r.fields.firstChild.replaceChildren(el("div", { class: "muted" }, "published by: " + (pubs || "—") + (l ? " · seq " + l.seq + " · " + l.bytes + " bytes" : "")), content);
       }
+      if (!open) r.shownSeq = -1;
     }
   }
   async function openHistory(group) {
@@ -263,7 +297,7 @@
     const g = currentCommand(); if (!g) return;
     const { message, errors } = collect();
     if (errors.length) return;
-    const entry = { time: Date.now(), group: g.group, message, result: "sending…", response: null, request_id: message.request_id };
+    const entry = { local: true, time: Date.now(), group: g.group, message, result: "sending…", response: null, request_id: message.request_id };
     model.sent.push(entry); ui.localSent = (ui.localSent || 0) + 1;
     try {
       const r = await fetch("/api/send", { method: "POST", headers: Object.assign({ "Content-Type": "application/json" }, authHeaders()), body: JSON.stringify({ group: g.group, message }) });
@@ -301,8 +335,8 @@
     const st = model.groups.get("goby::middleware::frontseat::status");
     const m = (st && st.latest && st.latest.msg) || {};
     $("st-interface").textContent = m.state || "?"; $("st-frontseat").textContent = m.frontseat_state || "?";
-    $("st-helm").textContent = m.helm_state || "?"; $("st-helm-error").textContent = m.helm_error || "?";
-    $("st-fs-error").textContent = m.frontseat_error || "?";
+    $("st-helm").textContent = m.helm_state || "?"; $("st-helm-error").textContent = m.helm_error || (m.state ? "none" : "?");
+    $("st-fs-error").textContent = m.frontseat_error || (m.state ? "none" : "?");
     const det = model.groups.get("frontseat::interface::detail");
     const d = (det && det.latest && det.latest.msg) || {};
     const dbody = $("detail").querySelector("tbody"); dbody.replaceChildren();

@@ -6,7 +6,8 @@
 //! simulator's own capacity bench, P4 and P5 run this very binary as child processes (`procs`).
 //! Z1–Z3 and T1 run `frontseat interface` as a child with its Zenoh gateway on (and for T1 a
 //! second child exporting traces to a loopback OTLP sink), this process being the frontseat and
-//! the Zenoh helm (`xproc`).
+//! the Zenoh helm (`xproc`). W1 runs the web scope in this process and reads its event stream
+//! over loopback (`web`).
 //! Figures are measured, never asserted: no test checks a timing.
 
 mod frontseat;
@@ -14,6 +15,7 @@ mod inproc;
 mod procs;
 mod report;
 mod sink;
+mod web;
 mod xproc;
 
 use std::io::Write;
@@ -40,6 +42,7 @@ pub struct BenchArgs {
 struct Plan {
     inproc: inproc::Plan,
     xproc: xproc::Plan,
+    web: web::Plan,
     capacity: (usize, f64, f64, Duration),
     start_runs: usize,
     settle: Duration,
@@ -71,6 +74,10 @@ impl Plan {
                 settle: Duration::from_secs(2),
                 cpu_window: Duration::from_secs(10),
             },
+            web: web::Plan {
+                count: 300,
+                rate_hz: 10.0,
+            },
             capacity: (100, 10.0, 100.0, Duration::from_secs(10)),
             start_runs: 20,
             settle: Duration::from_secs(2),
@@ -101,6 +108,10 @@ impl Plan {
                 z3_duration: Duration::from_millis(300),
                 settle: Duration::from_millis(200),
                 cpu_window: Duration::from_millis(500),
+            },
+            web: web::Plan {
+                count: 20,
+                rate_hz: 10.0,
             },
             capacity: (10, 10.0, 10.0, Duration::from_millis(500)),
             start_runs: 2,
@@ -186,6 +197,7 @@ pub async fn run(args: BenchArgs) -> ExitCode {
         .await
         .into_iter();
     let xproc_rows = xproc::run(plan.xproc).await;
+    let w1 = web::run(plan.web).await;
     let mut rows = Vec::new();
     rows.extend(inproc_rows.next()); // P1
     rows.extend(inproc_rows.next()); // P2
@@ -195,6 +207,7 @@ pub async fn run(args: BenchArgs) -> ExitCode {
     rows.extend(inproc_rows.next()); // P6
     rows.extend(inproc_rows); // M1, M2
     rows.extend(xproc_rows); // Z1, Z2, Z3, T1
+    rows.push(w1);
     let elapsed = started.elapsed();
 
     let out = if args.json {

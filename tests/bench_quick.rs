@@ -4,8 +4,8 @@
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
-const ROWS: [&str; 12] = [
-    "P1", "P2", "P3", "P4", "P5", "P6", "M1", "M2", "Z1", "Z2", "Z3", "T1",
+const ROWS: [&str; 13] = [
+    "P1", "P2", "P3", "P4", "P5", "P6", "M1", "M2", "Z1", "Z2", "Z3", "T1", "W1",
 ];
 
 /// Runs the binary with a deadline (it spawns children of its own; a hang must fail the test).

@@ -218,6 +218,27 @@ fn ports_module(model: &Model, bus: &TokenStream) -> TokenStream {
             let konst = format_ident!("{}", g.const_name);
             quote!(#name => super::publish_decoded(&self.bus, &groups::#konst, bytes, meta))
         });
+        // Only for an actor that publishes: with no arm, the match would be a lint.
+        let publish_encoded = if a.publishes.is_empty() {
+            quote!()
+        } else {
+            quote! {
+                /// Publishes protobuf `bytes` on `group`, one of this actor's declared
+                /// publications (for actors that compose messages at run time, e.g. the web
+                /// commander). Refuses any other group, and bytes that do not decode.
+                pub fn publish_encoded(
+                    &self,
+                    group: &str,
+                    bytes: &[u8],
+                    meta: PublishMeta,
+                ) -> Result<PublishReport, super::EncodedError> {
+                    match group {
+                        #(#encoded_arms,)*
+                        _ => Err(super::EncodedError::UnknownGroup(group.to_string())),
+                    }
+                }
+            }
+        };
         let ports_item = quote! {
             #[doc = #ports_doc]
             #allow_unused
@@ -236,21 +257,7 @@ fn ports_module(model: &Model, bus: &TokenStream) -> TokenStream {
 
                 #(#publish_methods)*
 
-                /// Publishes protobuf `bytes` on `group`, one of this actor's declared
-                /// publications (for actors that compose messages at run time, e.g. the web
-                /// commander). Refuses any other group, and bytes that do not decode.
-                pub fn publish_encoded(
-                    &self,
-                    group: &str,
-                    bytes: &[u8],
-                    meta: PublishMeta,
-                ) -> Result<PublishReport, super::EncodedError> {
-                    let _ = (bytes, &meta);
-                    match group {
-                        #(#encoded_arms,)*
-                        _ => Err(super::EncodedError::UnknownGroup(group.to_string())),
-                    }
-                }
+                #publish_encoded
             }
         };
         let inbox_item = if a.subscribes.is_empty() {

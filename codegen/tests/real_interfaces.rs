@@ -75,7 +75,8 @@ fn real_interface_yaml_compiles() {
             "DriverActor",
             "FrontSeatInterface",
             "FrontSeatTranslation",
-            "Simulator"
+            "Simulator",
+            "WebCommander"
         ]
     );
     assert!(

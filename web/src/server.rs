@@ -58,7 +58,11 @@ pub struct AppState {
 }
 
 fn refuse(st: &AppState, r: Refusal) -> Response {
-    st.counters.requests_refused.fetch_add(1, Ordering::Relaxed);
+    let n = st.counters.requests_refused.fetch_add(1, Ordering::Relaxed) + 1;
+    // Rate-limited: the 1st, 2nd, 4th, 8th … refusal is logged, so a flood cannot fill the log.
+    if n.is_power_of_two() {
+        tracing::warn!(reason = r.text(), refused = n, "web: request refused");
+    }
     (r.status(), r.text()).into_response()
 }
 

@@ -155,6 +155,7 @@ pub fn sim_options(config: &SimConfig) -> SimOptions {
         current_north: config.current.north,
         scheduled_faults,
         max_vehicles: config.max_vehicles,
+        resume_grace: std::time::Duration::from_secs_f64(config.resume_grace_s.clamp(0.0, 3600.0)),
     }
 }
 

@@ -17,9 +17,9 @@ use tokio::sync::watch;
 
 use crate::bus::{Bus, Envelope, Subscription, Undeliverable};
 use crate::clock::SimClock;
+use crate::command_gate::{GateContext, Limits, check_course, check_node_status};
 use crate::driver::DriverFactory;
 use crate::driver_actor::{DriverActor, DriverArgs, DriverMsg};
-use crate::geodesy::LocalFrame;
 use crate::ports::{FrontSeatInterfaceInbox, FrontSeatInterfacePorts};
 use crate::proto::frontseat::protobuf::InterfaceDetail;
 use crate::proto::goby::middleware::frontseat::protobuf::{
@@ -27,7 +27,9 @@ use crate::proto::goby::middleware::frontseat::protobuf::{
     HelmError, InterfaceData, InterfaceState, InterfaceStatus, NodeStatus, VehicleType,
 };
 use crate::proto::goby::middleware::protobuf::LatLonPoint;
+use crate::ratelog::{LogDecision, RateLimitedLog};
 use crate::state_machine::{Inputs, StateMachine, StateMachineConfig, Transition, state_words};
+use frontseat_sim::geodesy::LocalGrid;
 
 /// Error codes in CommandResponse.error_code for the failures the interface itself answers.
 pub mod error_code {
@@ -35,6 +37,8 @@ pub mod error_code {
     pub const TIMEOUT: i32 = 3;
     pub const DRIVER_FAILED: i32 = 4;
     pub const SHUTTING_DOWN: i32 = 5;
+    /// Outside the safety envelope (`[limits]`, non-finite values): see the error string.
+    pub const OUTSIDE_ENVELOPE: i32 = 6;
 }
 
 /// Everything the interface needs, resolved from the config once.
@@ -56,6 +60,7 @@ pub struct InterfaceSettings {
     /// (sim time) gets a failed CommandResponse.
     pub command_timeout: Duration,
     pub driver_name: String,
+    pub limits: Limits,
 }
 
 impl InterfaceSettings {
@@ -82,6 +87,7 @@ impl InterfaceSettings {
             queue_capacity: cfg.bus.queue_capacity.max(1),
             command_timeout: Duration::from_secs(5),
             driver_name: cfg.driver.name.clone(),
+            limits: Limits::from(&cfg.limits),
         }
     }
 }
@@ -147,6 +153,8 @@ pub struct Snapshot {
     /// `DRIVER_HUNG_AFTER`: it is stuck in a handler (a driver that is down is not hung).
     pub driver_responsive: bool,
     pub commands_gated: u64,
+    pub setpoints_refused: u64,
+    pub nav_refused: u64,
 }
 
 /// How long a running driver actor may go without handling its loop tick before the watchdog
@@ -167,6 +175,8 @@ struct Counters {
     data_gated: u64,
     raw_gated: u64,
     late_responses: u64,
+    setpoints_refused: u64,
+    nav_refused: u64,
 }
 
 pub struct FsiState {
@@ -177,7 +187,7 @@ pub struct FsiState {
     clock: SimClock,
     sm: StateMachine,
     inputs: Inputs,
-    frame: Option<LocalFrame>,
+    frame: Option<LocalGrid>,
     driver: Option<ActorRef<DriverMsg>>,
     driver_heartbeat: Arc<std::sync::atomic::AtomicU64>,
     restarts: u32,
@@ -185,6 +195,10 @@ pub struct FsiState {
     /// request_id → sim-time deadline of commands awaiting the frontseat's answer.
     pending: HashMap<Option<i32>, Duration>,
     counters: Counters,
+    /// What the safety envelope needs besides the setpoint (last commanded, current heading).
+    gate: GateContext,
+    refused_log: RateLimitedLog,
+    nav_log: RateLimitedLog,
     shutting_down: bool,
     exit: watch::Sender<Option<ServiceExit>>,
     subs: Vec<Subscription>,
@@ -239,6 +253,8 @@ impl FsiState {
             bus_dropped: Some(self.bus.total_dropped()),
             uptime_s: Some(self.now().as_secs_f64()),
             driver: Some(self.s.driver_name.clone()),
+            setpoints_refused: Some(self.counters.setpoints_refused),
+            nav_refused: Some(self.counters.nav_refused),
         };
         self.ports.publish_detail(detail);
     }
@@ -297,6 +313,10 @@ impl FsiState {
                 "interface shutting down".into(),
             );
         } else if state == InterfaceState::InterfaceCommand {
+            let env = match self.through_envelope(env) {
+                Some(env) => env,
+                None => return,
+            };
             if env.msg.response_requested() {
                 self.pending
                     .insert(env.msg.request_id, self.now() + self.s.command_timeout);
@@ -317,6 +337,51 @@ impl FsiState {
         }
     }
 
+    /// The safety envelope (command_gate): the request with its course made safe (heading
+    /// wrapped or filled in), or None after answering and counting the refusal.
+    fn through_envelope(
+        &mut self,
+        env: Envelope<CommandRequest>,
+    ) -> Option<Envelope<CommandRequest>> {
+        let Some(course) = env.msg.desired_course.as_ref() else {
+            return Some(env);
+        };
+        match check_course(course, &self.s.limits, &self.gate) {
+            Ok(safe) => {
+                self.gate.last_commanded_heading = safe.heading;
+                if safe == *course {
+                    return Some(env);
+                }
+                let mut req = (*env.msg).clone();
+                req.desired_course = Some(safe);
+                Some(Envelope::rewrap(env, req))
+            }
+            Err(r) => {
+                self.counters.setpoints_refused += 1;
+                match self.refused_log.decide(tokio::time::Instant::now()) {
+                    LogDecision::Log { suppressed_before } => tracing::warn!(
+                        field = r.field,
+                        value = r.value,
+                        refused_total = self.counters.setpoints_refused,
+                        "setpoint refused by the safety envelope: {r}{}",
+                        more(
+                            suppressed_before,
+                            "refused setpoints",
+                            self.refused_log.window()
+                        )
+                    ),
+                    LogDecision::Suppress => {}
+                }
+                self.refuse(
+                    &env.msg,
+                    error_code::OUTSIDE_ENVELOPE,
+                    format!("refused by the safety envelope: {r}"),
+                );
+                None
+            }
+        }
+    }
+
     fn listen_or_command(&self) -> bool {
         !self.shutting_down
             && matches!(
@@ -331,8 +396,35 @@ impl FsiState {
 
     fn handle_data_from_frontseat(&mut self, env: Envelope<InterfaceData>) {
         let mut data = (*env.msg).clone();
+        if let Some(ns) = data.node_status.as_ref()
+            && let Err(r) = check_node_status(ns)
+        {
+            // Insane navigation is a frontseat fault: the helm must not steer by it.
+            self.counters.nav_refused += 1;
+            if let LogDecision::Log { suppressed_before } =
+                self.nav_log.decide(tokio::time::Instant::now())
+            {
+                tracing::warn!(
+                    field = r.field,
+                    value = r.value,
+                    "navigation from the frontseat refused: {r}{}",
+                    more(
+                        suppressed_before,
+                        "refused navigation messages",
+                        self.nav_log.window()
+                    )
+                );
+            }
+            data.node_status = None;
+            if data == InterfaceData::default() {
+                return;
+            }
+        }
         if let Some(ns) = data.node_status.as_mut() {
             self.compute_missing(ns);
+            if let Some(h) = ns.pose.heading {
+                self.gate.current_heading = Some(h);
+            }
             self.ports
                 .publish_node_status_with(Arc::new(ns.clone()), env.meta());
         }
@@ -443,7 +535,7 @@ pub fn compute_missing(
     ns: &mut NodeStatus,
     name: &str,
     vehicle_type: VehicleType,
-    frame: Option<&LocalFrame>,
+    frame: Option<&LocalGrid>,
 ) {
     if ns.name.is_none() && !name.is_empty() {
         ns.name = Some(name.to_string());
@@ -486,6 +578,18 @@ pub fn compute_missing(
     }
 }
 
+/// The summary tail of a rate-limited log line.
+fn more(suppressed: u64, what: &str, window: Duration) -> String {
+    if suppressed == 0 {
+        String::new()
+    } else {
+        format!(
+            " (…and {suppressed} more {what} in the last {}s)",
+            window.as_secs()
+        )
+    }
+}
+
 fn log_transition(t: &Transition) {
     tracing::info!(
         from = state_words(t.from),
@@ -515,7 +619,7 @@ impl Actor for FrontSeatInterface {
             move |m| me.cast(FsiMsg::Bus(m)).map_err(|_| Undeliverable),
         );
         let clock = SimClock::new(args.settings.warp);
-        let frame = match LocalFrame::new(args.settings.origin.0, args.settings.origin.1) {
+        let frame = match LocalGrid::new(args.settings.origin.0, args.settings.origin.1) {
             Ok(f) => Some(f),
             Err(e) => {
                 tracing::error!(error = %e, "bad origin: local_fix will not be computed");
@@ -545,6 +649,9 @@ impl Actor for FrontSeatInterface {
             restart_times: VecDeque::new(),
             pending: HashMap::new(),
             counters: Counters::default(),
+            gate: GateContext::default(),
+            refused_log: RateLimitedLog::for_bad_input(),
+            nav_log: RateLimitedLog::for_bad_input(),
             shutting_down: false,
             exit: args.exit,
             subs,
@@ -638,7 +745,7 @@ impl FrontSeatInterface {
                 }
                 I::DatumUpdate(env) => {
                     let d = env.msg.datum;
-                    match LocalFrame::new(d.lat, d.lon) {
+                    match LocalGrid::new(d.lat, d.lon) {
                         Ok(f) => {
                             tracing::info!(lat = d.lat, lon = d.lon, "datum updated");
                             st.frame = Some(f);
@@ -722,6 +829,8 @@ impl FrontSeatInterface {
                                 .load(std::sync::atomic::Ordering::Relaxed),
                         ) < DRIVER_HUNG_AFTER.as_millis() as u64,
                     commands_gated: st.counters.commands_gated,
+                    setpoints_refused: st.counters.setpoints_refused,
+                    nav_refused: st.counters.nav_refused,
                 });
             }
         }
@@ -873,8 +982,8 @@ impl InterfaceService {
 mod tests {
     use super::*;
 
-    fn frame() -> LocalFrame {
-        LocalFrame::new(42.358456, -71.087589).unwrap()
+    fn frame() -> LocalGrid {
+        LocalGrid::new(42.358456, -71.087589).unwrap()
     }
 
     #[test]
@@ -920,7 +1029,10 @@ mod tests {
         assert_eq!(ns.r#type(), VehicleType::Glider);
         let g = ns.global_fix;
         assert!((g.lat - 42.367459).abs() < 1e-4, "{g:?}");
-        assert!((g.lon + 71.087589).abs() < 1e-6, "{g:?}");
+        // Goby3's grid: grid north leans west of true north at this datum.
+        assert!(g.lon < -71.087589 - 1e-4, "{g:?}");
+        let (x, y) = f.to_local(g.lat, g.lon).unwrap();
+        assert!(x.abs() < 1e-6 && (y - 1000.0).abs() < 1e-6);
         assert_eq!(g.depth(), 3.0);
     }
 
@@ -928,7 +1040,7 @@ mod tests {
     fn a_moved_datum_moves_the_local_fix() {
         let f = frame();
         let (lat, lon) = f.to_global(0.0, 0.0).unwrap();
-        let moved = LocalFrame::new(lat - 0.001, lon).unwrap();
+        let moved = LocalGrid::new(lat - 0.001, lon).unwrap();
         let mut ns = NodeStatus {
             global_fix: LatLonPoint {
                 lat,

@@ -86,9 +86,11 @@ impl DesiredVar {
 /// The MOOS variable carrying the helm's state.
 pub const IVPHELM_STATE: &str = "IVPHELM_STATE";
 
-/// The DESIRED_* values received since the last DESIRED_SPEED, as Goby3 buffers them.
+/// The DESIRED_* values received since the last course, as Goby3 buffers them.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct DesiredBuffer {
+    /// The DESIRED_SPEED of the packet being read (value, MOOS time): the trigger.
+    speed: Option<(f64, f64)>,
     heading: Option<f64>,
     depth: Option<f64>,
     pitch: Option<f64>,
@@ -98,24 +100,15 @@ pub struct DesiredBuffer {
 }
 
 impl DesiredBuffer {
-    /// Takes one DESIRED_* value posted at MOOS time `time`. DESIRED_SPEED yields the
-    /// DesiredCourse to publish: that message's time, the speed, and every other value buffered
-    /// since the last DESIRED_SPEED (each used once, then cleared). pHelmIvP posts DEPTH, SPEED,
-    /// HEADING in that order, so a course carries the heading of the previous helm iteration —
-    /// exactly as Goby3 does.
-    pub fn on_value(&mut self, var: DesiredVar, value: f64, time: f64) -> Option<DesiredCourse> {
+    /// Takes one DESIRED_* value posted at MOOS time `time`; the last value of a variable wins.
+    /// Nothing is published yet: Goby3 buffers the whole mail of one packet before
+    /// DESIRED_SPEED triggers the course, so a course carries the heading pHelmIvP posted in the
+    /// same iteration (it posts DEPTH, SPEED, HEADING, in that order, in one packet).
+    pub fn on_value(&mut self, var: DesiredVar, value: f64, time: f64) {
         let slot = match var {
             DesiredVar::Speed => {
-                return Some(DesiredCourse {
-                    time,
-                    speed: Some(value),
-                    heading: self.heading.take(),
-                    depth: self.depth.take(),
-                    pitch: self.pitch.take(),
-                    roll: self.roll.take(),
-                    z_rate: self.z_rate.take(),
-                    altitude: self.altitude.take(),
-                });
+                self.speed = Some((value, time));
+                return;
             }
             DesiredVar::Heading => &mut self.heading,
             DesiredVar::Depth => &mut self.depth,
@@ -125,7 +118,23 @@ impl DesiredBuffer {
             DesiredVar::Altitude => &mut self.altitude,
         };
         *slot = Some(value);
-        None
+    }
+
+    /// The end of one packet's mail: if it carried a DESIRED_SPEED, the DesiredCourse to publish
+    /// (the speed's time, the speed, and every other value buffered since the last course, each
+    /// used once). A value that arrives without a speed waits for the next one.
+    pub fn on_packet_end(&mut self) -> Option<DesiredCourse> {
+        let (speed, time) = self.speed.take()?;
+        Some(DesiredCourse {
+            time,
+            speed: Some(speed),
+            heading: self.heading.take(),
+            depth: self.depth.take(),
+            pitch: self.pitch.take(),
+            roll: self.roll.take(),
+            z_rate: self.z_rate.take(),
+            altitude: self.altitude.take(),
+        })
     }
 }
 
@@ -261,6 +270,7 @@ pub fn client_config(cfg: &MoosConfig) -> MoosClientConfig {
         server,
         time_warp: cfg.time_warp,
         queue_limit: MOOS_QUEUE_LIMIT,
+        packet_end_events: true,
         ..MoosClientConfig::new(cfg.app_name.clone())
     }
 }
@@ -540,6 +550,7 @@ impl Task {
     fn on_event(&mut self, ev: MoosEvent) {
         match ev {
             MoosEvent::Mail(m) => self.on_mail(&m),
+            MoosEvent::PacketEnd => self.on_packet_end(),
             MoosEvent::Connected => {
                 self.connects += 1;
                 if self.connects > 1 {
@@ -612,7 +623,21 @@ impl Task {
             return;
         };
         self.health.last_desired = Some(now);
-        if let Some(course) = self.buffer.on_value(var, value, m.time) {
+        self.buffer.on_value(var, value, m.time);
+    }
+
+    /// All mail of one packet is in: publish the course its DESIRED_SPEED triggered, if any.
+    fn on_packet_end(&mut self) {
+        if let Some(course) = self.buffer.on_packet_end() {
+            let _span = tracing::trace_span!(
+                target: "frontseat_actors",
+                "moos.mail",
+                actor = "FrontSeatTranslation",
+                moos.variable = "DESIRED_SPEED",
+                moos.time = course.time,
+                after_nav_trace_id = self.last_nav_trace.as_str(),
+            )
+            .entered();
             self.ports.publish_desired_course(course);
             self.counters.desired_course_published += 1;
             self.counters_tx.send_replace(self.counters);
@@ -673,46 +698,47 @@ mod tests {
     }
 
     #[test]
-    fn desired_speed_publishes_buffered_values_once() {
+    fn a_packet_is_one_helm_iteration() {
         let mut b = DesiredBuffer::default();
-        // pHelmIvP's order: DEPTH, SPEED, HEADING.
-        assert_eq!(b.on_value(DesiredVar::Depth, 5.0, 10.0), None);
-        let c = b.on_value(DesiredVar::Speed, 1.5, 10.25).unwrap();
-        assert_eq!(c.time, 10.25);
-        assert_eq!(c.speed, Some(1.5));
-        assert_eq!(c.depth, Some(5.0));
-        assert_eq!(
-            c.heading, None,
-            "this iteration's heading comes after the speed"
-        );
-        assert_eq!(b.on_value(DesiredVar::Heading, 90.0, 10.26), None);
-        // Next iteration: the heading of the previous one, the depth of this one.
-        assert_eq!(b.on_value(DesiredVar::Depth, 6.0, 10.5), None);
-        let c = b.on_value(DesiredVar::Speed, 1.6, 10.51).unwrap();
+        // pHelmIvP's order within one packet: DEPTH, SPEED, HEADING.
+        b.on_value(DesiredVar::Depth, 5.0, 10.0);
+        b.on_value(DesiredVar::Speed, 1.5, 10.25);
+        b.on_value(DesiredVar::Heading, 90.0, 10.26);
+        let c = b.on_packet_end().unwrap();
         assert_eq!(
             (c.time, c.speed, c.heading, c.depth),
-            (10.51, Some(1.6), Some(90.0), Some(6.0))
+            (10.25, Some(1.5), Some(90.0), Some(5.0)),
+            "the heading of the same iteration, though it came after the speed"
         );
-        // Nothing buffered: speed alone, each value was used once.
-        let c = b.on_value(DesiredVar::Speed, 0.0, 11.0).unwrap();
+        // A packet without DESIRED_SPEED publishes nothing; its values wait for the speed.
+        b.on_value(DesiredVar::Heading, 91.0, 10.5);
+        assert_eq!(b.on_packet_end(), None);
+        b.on_value(DesiredVar::Speed, 1.6, 10.75);
+        let c = b.on_packet_end().unwrap();
+        assert_eq!((c.speed, c.heading), (Some(1.6), Some(91.0)));
+        // Each value was used once: a speed-only packet gives a course without a heading
+        // (the command gate keeps the last commanded heading for it).
+        b.on_value(DesiredVar::Speed, 0.0, 11.0);
         assert_eq!(
-            c,
-            DesiredCourse {
+            b.on_packet_end(),
+            Some(DesiredCourse {
                 time: 11.0,
                 speed: Some(0.0),
                 ..Default::default()
-            }
+            })
         );
+        assert_eq!(b.on_packet_end(), None, "one course per trigger");
     }
 
     #[test]
     fn every_desired_variable_is_buffered_and_the_last_value_wins() {
         let mut b = DesiredBuffer::default();
-        for (i, v) in DesiredVar::ALL.iter().enumerate().skip(1) {
-            assert_eq!(b.on_value(*v, 100.0 + i as f64, 1.0), None);
+        for (i, v) in DesiredVar::ALL.iter().enumerate() {
+            b.on_value(*v, 100.0 + i as f64, 1.0);
         }
-        assert_eq!(b.on_value(DesiredVar::Heading, 7.0, 1.0), None);
-        let c = b.on_value(DesiredVar::Speed, 2.0, 3.0).unwrap();
+        b.on_value(DesiredVar::Heading, 7.0, 1.0);
+        b.on_value(DesiredVar::Speed, 2.0, 3.0);
+        let c = b.on_packet_end().unwrap();
         assert_eq!(
             c,
             DesiredCourse {

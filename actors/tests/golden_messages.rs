@@ -13,7 +13,7 @@ use prost_reflect::{DescriptorPool, DynamicMessage};
 
 const GOLDEN: &str = concat!(
     env!("CARGO_MANIFEST_DIR"),
-    "/../../shared/protocol/goby3/golden_messages.json"
+    "/tests/fixtures/goby3/golden_messages.json"
 );
 
 fn hex_decode(hex: &str) -> Vec<u8> {

@@ -112,6 +112,8 @@ pub struct InterfaceConfig {
     pub driver: DriverConfig,
     /// Restarting the driver after it fails.
     pub supervision: SupervisionConfig,
+    /// The safety envelope: a setpoint outside it never reaches the frontseat.
+    pub limits: LimitsConfig,
     /// Bridge to pHelmIvP on a MOOSDB. Absent = no MOOS bridge; an empty [moos] table enables it
     /// with the defaults shown.
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -142,6 +144,7 @@ impl Default for InterfaceConfig {
             sim_warp_factor: 1.0,
             driver: DriverConfig::default(),
             supervision: SupervisionConfig::default(),
+            limits: LimitsConfig::default(),
             moos: None,
             interprocess: InterprocessConfig::default(),
             telemetry: TelemetryConfig::default(),
@@ -167,6 +170,7 @@ impl ServiceConfig for InterfaceConfig {
         c.positive_up_to("sim_warp_factor", self.sim_warp_factor, MAX_WARP);
         self.driver.check("driver", &mut c);
         self.supervision.check("supervision", &mut c);
+        self.limits.check("limits", &mut c);
         if let Some(m) = &self.moos {
             m.check("moos", &mut c);
         }
@@ -401,6 +405,79 @@ impl SupervisionConfig {
             self.restart_max_delay_ms,
         );
         c.positive(&at(prefix, "restart_window_s"), self.restart_window_s);
+    }
+}
+
+/// The vehicle's safety envelope. Every setpoint — from the bus, MOOS, Zenoh, Goby3 or a
+/// command_request — is checked against it before it can reach the driver: non-finite values are
+/// refused, heading is wrapped into [0, 360), and a value outside these limits refuses the whole
+/// setpoint (failed CommandResponse when one was requested, a counter, a log line). Set them to
+/// what your vehicle can do.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields, default)]
+pub struct LimitsConfig {
+    /// Highest speed a setpoint may ask for (0 is the lowest). Unit: m/s, greater than 0, at most 100.
+    #[schemars(extend("exclusiveMinimum" = 0.0))]
+    #[schemars(range(max = 100.0))]
+    pub max_speed: f64,
+    /// Deepest depth a setpoint may ask for (0, the surface, is the shallowest). Unit: m, positive
+    /// down, at most 12000.
+    #[schemars(range(min = 0.0, max = 12000.0))]
+    pub max_depth: f64,
+    /// Lowest desired altitude above the bottom. Unit: m, at least 0.
+    #[schemars(range(min = 0.0))]
+    pub min_altitude: f64,
+    /// Highest desired altitude above the bottom. Unit: m.
+    #[schemars(range(min = 0.0))]
+    pub max_altitude: f64,
+    /// Largest pitch either way (nose up or down). Unit: degrees, 0 to 90.
+    #[schemars(range(min = 0.0, max = 90.0))]
+    pub max_abs_pitch: f64,
+    /// Largest roll either way. Unit: degrees, 0 to 180.
+    #[schemars(range(min = 0.0, max = 180.0))]
+    pub max_abs_roll: f64,
+    /// Largest vertical rate either way. Unit: m/s.
+    #[schemars(range(min = 0.0))]
+    pub max_abs_z_rate: f64,
+}
+
+impl Default for LimitsConfig {
+    fn default() -> Self {
+        Self {
+            max_speed: 5.0,
+            max_depth: 300.0,
+            min_altitude: 0.0,
+            max_altitude: 1000.0,
+            max_abs_pitch: 45.0,
+            max_abs_roll: 45.0,
+            max_abs_z_rate: 2.0,
+        }
+    }
+}
+
+impl LimitsConfig {
+    fn check(&self, prefix: &str, c: &mut Checker) {
+        c.positive_up_to(&at(prefix, "max_speed"), self.max_speed, 100.0);
+        c.within(&at(prefix, "max_depth"), self.max_depth, 0.0, 12000.0);
+        c.non_negative(&at(prefix, "min_altitude"), self.min_altitude);
+        c.non_negative(&at(prefix, "max_altitude"), self.max_altitude);
+        if self.min_altitude.is_finite()
+            && self.max_altitude.is_finite()
+            && self.min_altitude > self.max_altitude
+        {
+            c.push(FieldError::new(
+                at(prefix, "min_altitude"),
+                self.min_altitude,
+                format!(
+                    "greater than {} ({})",
+                    at(prefix, "max_altitude"),
+                    self.max_altitude
+                ),
+            ));
+        }
+        c.within(&at(prefix, "max_abs_pitch"), self.max_abs_pitch, 0.0, 90.0);
+        c.within(&at(prefix, "max_abs_roll"), self.max_abs_roll, 0.0, 180.0);
+        c.non_negative(&at(prefix, "max_abs_z_rate"), self.max_abs_z_rate);
     }
 }
 

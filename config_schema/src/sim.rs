@@ -27,6 +27,12 @@ pub struct SimConfig {
     /// Most vehicles (client connections) simulated at once; more are refused. Unit: connections.
     #[schemars(range(min = 1))]
     pub max_vehicles: usize,
+    /// A vehicle whose client disconnected is kept this long: a client that reconnects within it
+    /// and repeats the same START gets the same vehicle back (position, heading, speed), so a
+    /// network blip does not teleport the vehicle to its start point. 0 = every START makes a new
+    /// vehicle (Goby3's simulator). Unit: s (wall time), 0 to 3600.
+    #[schemars(range(min = 0.0, max = 3600.0))]
+    pub resume_grace_s: f64,
     /// Constant water current that drifts every vehicle.
     pub current: CurrentConfig,
     /// Faults injected into every vehicle's connection, at times after its START. Empty by default.
@@ -46,6 +52,7 @@ impl Default for SimConfig {
             port: 54321,
             max_line_bytes: 1024,
             max_vehicles: 1000,
+            resume_grace_s: 10.0,
             current: CurrentConfig::default(),
             faults: Vec::new(),
             telemetry: TelemetryConfig::default(),
@@ -96,6 +103,7 @@ impl ServiceConfig for SimConfig {
             MAX_LINE_BYTES_LIMIT as u64,
         );
         c.at_least("max_vehicles", self.max_vehicles as u64, 1);
+        c.within("resume_grace_s", self.resume_grace_s, 0.0, 3600.0);
         c.finite("current.east", self.current.east);
         c.finite("current.north", self.current.north);
         for (i, f) in self.faults.iter().enumerate() {

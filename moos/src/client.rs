@@ -59,6 +59,10 @@ pub struct MoosClientConfig {
     pub queue_limit: usize,
     /// Capacity of the event channel (default 1024). When full, reading from the DB pauses.
     pub event_capacity: usize,
+    /// Report [`MoosEvent::PacketEnd`] after the mail of each packet, for clients that must
+    /// treat the mail of one packet as one batch (Goby3 buffers a whole OnNewMail before its
+    /// triggers fire). Default false.
+    pub packet_end_events: bool,
 }
 
 impl MoosClientConfig {
@@ -76,6 +80,7 @@ impl MoosClientConfig {
             max_packet: crate::codec::DEFAULT_MAX_PACKET,
             queue_limit: 4096,
             event_capacity: 1024,
+            packet_end_events: false,
         }
     }
 
@@ -127,6 +132,9 @@ pub enum MoosEvent {
     Disconnected(String),
     /// A NOTIFY for a registered variable. `time` is the poster's MOOS time.
     Mail(MoosMessage),
+    /// The mail of one packet from the DB has all been reported (only with
+    /// `packet_end_events`, and only after a packet that carried mail).
+    PacketEnd,
 }
 
 /// A snapshot of the client's counters.
@@ -601,9 +609,11 @@ async fn read_loop(
                 }
             };
             inc(&c.packets_received);
+            let mut had_mail = false;
             for m in msgs {
                 match m.msg_type {
                     MsgType::Notify => {
+                        had_mail = true;
                         inc(&c.mail_received);
                         // Backpressure: a full event channel pauses reading from the DB.
                         let _ = events.send(MoosEvent::Mail(m)).await;
@@ -617,6 +627,9 @@ async fn read_loop(
                     }
                     other => debug!(?other, "ignoring message from MOOSDB"),
                 }
+            }
+            if had_mail && shared.cfg.packet_end_events {
+                let _ = events.send(MoosEvent::PacketEnd).await;
             }
         }
         let need = match dec.bytes_needed(&buf) {

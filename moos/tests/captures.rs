@@ -23,11 +23,11 @@ const CAPTURES: [&str; 6] = [
 ];
 
 fn capture_dir() -> PathBuf {
-    let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../shared/protocol/moos/captures");
+    let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/captures");
     assert!(
         dir.is_dir(),
         "MOOS capture directory {} is missing: these tests need the recorded MOOSDB captures \
-         (shared/protocol/moos/captures next to the repository checkout)",
+         (moos/tests/fixtures/captures)",
         dir.display()
     );
     dir

@@ -7,7 +7,7 @@
 
 use std::net::SocketAddr;
 use std::sync::Arc;
-use std::sync::atomic::Ordering;
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Duration;
 
 use tokio::io::{AsyncReadExt, AsyncWriteExt};
@@ -15,11 +15,12 @@ use tokio::net::TcpStream;
 use tokio::sync::mpsc;
 use tokio::time::Instant;
 
-use crate::codec::{self, CtrlState, Inbound, LineError, Nav, StartParams};
-use crate::schedule::{LATE_AFTER, Schedule};
-use crate::server::{Counters, Shared};
-use crate::vehicle::{Limits, Setpoint, Vehicle};
-use crate::{Fault, ScheduledFault, Truth};
+use crate::codec::{self, CtrlState, Inbound, LineError, Nav};
+use crate::run::Run;
+use crate::schedule::LATE_AFTER;
+use crate::shared::{Counters, Detached, Shared};
+use crate::vehicle::Setpoint;
+use crate::{Fault, Truth};
 
 /// Problems logged at warn level per connection before the rest go to debug, so a client that
 /// floods garbage cannot flood the log.
@@ -33,53 +34,6 @@ enum Flow {
     Close,
 }
 
-/// A started vehicle.
-struct Run {
-    params: StartParams,
-    vehicle: Vehicle,
-    schedule: Schedule,
-    started: Instant,
-    /// The tick at which DURATION is up (IDLE instead of NAV).
-    end_tick: Option<u64>,
-    ctrl: CtrlState,
-    sim_time: f64,
-    /// NAV is suppressed before this simulated time ([`Fault::StopNav`]).
-    nav_resume_at: f64,
-    faults: Vec<ScheduledFault>,
-    next_fault: usize,
-}
-
-impl Run {
-    fn new(params: StartParams, shared: &Shared, now: Instant) -> Self {
-        let limits = Limits {
-            accel: params.accel,
-            hdg_rate: params.hdg_rate,
-            z_rate: params.z_rate,
-        };
-        let current = (shared.opts.current_east, shared.opts.current_north);
-        let end_tick = (params.duration > 0.0)
-            .then(|| ((params.duration * params.freq - 1e-9).ceil() as u64).max(1));
-        let mut faults = shared.opts.scheduled_faults.clone();
-        faults.sort_by(|a, b| a.at_s.total_cmp(&b.at_s));
-        Self {
-            params,
-            vehicle: Vehicle::new(params.lat, params.lon, limits, current),
-            schedule: Schedule::new(params.freq * params.warp),
-            started: now,
-            end_tick,
-            ctrl: CtrlState::Payload,
-            sim_time: 0.0,
-            nav_resume_at: 0.0,
-            faults,
-            next_fault: 0,
-        }
-    }
-
-    fn next_deadline(&self) -> Instant {
-        self.started + self.schedule.next_deadline()
-    }
-}
-
 pub(crate) struct Connection {
     stream: TcpStream,
     faults: mpsc::Receiver<Fault>,
@@ -90,6 +44,8 @@ pub(crate) struct Connection {
 /// while a branch mutates this.
 struct Session {
     id: u64,
+    /// The id the server deregisters at the end; changes when a vehicle is resumed.
+    id_cell: Arc<AtomicU64>,
     peer: SocketAddr,
     shared: Arc<Shared>,
     run: Option<Run>,
@@ -117,7 +73,7 @@ macro_rules! problem {
 
 impl Connection {
     pub fn new(
-        id: u64,
+        id_cell: Arc<AtomicU64>,
         peer: SocketAddr,
         stream: TcpStream,
         shared: Arc<Shared>,
@@ -127,7 +83,8 @@ impl Connection {
             stream,
             faults,
             session: Session {
-                id,
+                id: id_cell.load(Ordering::Relaxed),
+                id_cell,
                 peer,
                 shared,
                 run: None,
@@ -197,6 +154,19 @@ impl Connection {
             }
         }
         let _ = wr.shutdown().await;
+        // A dropped connection is not a lost vehicle: keep it for the client to come back to.
+        if let Some(run) = s.run.take() {
+            tracing::info!(
+                vehicle = s.id,
+                grace = ?s.shared.opts.resume_grace,
+                "vehicle kept for its client to reconnect"
+            );
+            s.shared.detach(Detached {
+                id: s.id,
+                at: Instant::now(),
+                run,
+            });
+        }
     }
 }
 
@@ -275,9 +245,31 @@ impl Session {
         };
         match codec::parse_inbound(text) {
             Ok(Inbound::Start(p)) => {
-                tracing::info!(vehicle = self.id, peer = %self.peer, line = text, "START");
-                self.run = Some(Run::new(p, &self.shared, Instant::now()));
-                self.push_line(&codec::format_ctrl(CtrlState::Payload));
+                let now = Instant::now();
+                let resumed = if self.run.is_none() {
+                    self.shared.take_detached(&p, now)
+                } else {
+                    None
+                };
+                if let Some(d) = resumed {
+                    tracing::info!(
+                        vehicle = d.id,
+                        connection = self.id,
+                        peer = %self.peer,
+                        away = ?now.saturating_duration_since(d.at),
+                        "START repeated after a reconnect: the same vehicle continues"
+                    );
+                    self.shared.rekey(self.id, d.id);
+                    self.id = d.id;
+                    self.id_cell.store(d.id, Ordering::Relaxed);
+                    let ctrl = d.run.ctrl;
+                    self.run = Some(d.run);
+                    self.push_line(&codec::format_ctrl(ctrl));
+                } else {
+                    tracing::info!(vehicle = self.id, peer = %self.peer, line = text, "START");
+                    self.run = Some(Run::new(p, &self.shared.opts, now));
+                    self.push_line(&codec::format_ctrl(CtrlState::Payload));
+                }
             }
             Ok(Inbound::Cmd(cmd)) => {
                 let refusal = match &self.run {

@@ -10,8 +10,11 @@
 pub mod bench;
 pub mod codec;
 mod connection;
+pub mod geodesy;
+mod run;
 pub mod schedule;
 mod server;
+mod shared;
 pub mod vehicle;
 
 pub use bench::{CapacityReport, capacity_bench};
@@ -34,6 +37,10 @@ pub struct SimOptions {
     pub scheduled_faults: Vec<ScheduledFault>,
     /// Most vehicles (connections) at once; more are told why and closed.
     pub max_vehicles: usize,
+    /// How long a vehicle whose connection dropped is kept: a client that reconnects within it
+    /// and repeats the same START gets the same vehicle back (position, heading, speed,
+    /// setpoint). Zero: every START makes a new vehicle, as Goby3's simulator does.
+    pub resume_grace: Duration,
 }
 
 impl Default for SimOptions {
@@ -44,6 +51,7 @@ impl Default for SimOptions {
             current_north: 0.0,
             scheduled_faults: Vec::new(),
             max_vehicles: 1024,
+            resume_grace: Duration::from_secs(10),
         }
     }
 }

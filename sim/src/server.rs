@@ -7,10 +7,9 @@
 //! reads; as a ractor actor every tick would be a mailbox message from a timer task
 //! (100 000 a second at the capacity target) and the socket would still need a reader task.
 
-use std::collections::HashMap;
 use std::net::SocketAddr;
+use std::sync::Arc;
 use std::sync::atomic::{AtomicU64, Ordering};
-use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
 use tokio::net::TcpListener;
@@ -18,51 +17,13 @@ use tokio::sync::{broadcast, mpsc, watch};
 use tokio::task::JoinSet;
 
 use crate::connection::Connection;
+use crate::shared::{Counters, Shared};
 use crate::{Fault, SimError, SimOptions, SimStats, Truth};
 
 /// Truth messages buffered for slow subscribers before they see `Lagged`.
 const TRUTH_CAPACITY: usize = 8192;
 /// Faults queued per vehicle before more are refused (and logged).
 const FAULT_MAILBOX: usize = 64;
-
-#[derive(Default)]
-pub(crate) struct Counters {
-    pub connections: AtomicU64,
-    pub refused: AtomicU64,
-    pub nav_lines: AtomicU64,
-    pub bad_lines: AtomicU64,
-    pub oversized: AtomicU64,
-    pub cmd_errors: AtomicU64,
-    pub start_errors: AtomicU64,
-    pub late_ticks: AtomicU64,
-    pub skipped_ticks: AtomicU64,
-    pub dropped_ticks: AtomicU64,
-    pub worst_lateness_ns: AtomicU64,
-    pub faults: AtomicU64,
-}
-
-impl Counters {
-    pub fn add(c: &AtomicU64, n: u64) {
-        if n > 0 {
-            c.fetch_add(n, Ordering::Relaxed);
-        }
-    }
-}
-
-/// What every connection task shares with the server.
-pub(crate) struct Shared {
-    pub opts: SimOptions,
-    pub counters: Counters,
-    pub truth: broadcast::Sender<Truth>,
-    vehicles: Mutex<HashMap<u64, mpsc::Sender<Fault>>>,
-}
-
-impl Shared {
-    fn vehicles(&self) -> std::sync::MutexGuard<'_, HashMap<u64, mpsc::Sender<Fault>>> {
-        // A poisoned map is still a valid map: no invariant spans a panic here.
-        self.vehicles.lock().unwrap_or_else(|p| p.into_inner())
-    }
-}
 
 /// The simulator server; [`SimServer::bind`] starts it.
 pub struct SimServer;
@@ -79,7 +40,8 @@ impl SimServer {
             opts,
             counters: Counters::default(),
             truth,
-            vehicles: Mutex::new(HashMap::new()),
+            vehicles: Default::default(),
+            detached: Default::default(),
         });
         let (stop_tx, stop_rx) = watch::channel(false);
         let task = tokio::spawn(accept_loop(listener, shared.clone(), stop_rx));
@@ -203,12 +165,14 @@ async fn accept_loop(listener: TcpListener, shared: Arc<Shared>, mut stop: watch
                     }
                     let (tx, rx) = mpsc::channel(FAULT_MAILBOX);
                     shared.vehicles().insert(id, tx);
-                    let conn = Connection::new(id, peer, stream, shared.clone(), rx);
+                    let current_id = Arc::new(AtomicU64::new(id));
+                    let conn = Connection::new(current_id.clone(), peer, stream, shared.clone(), rx);
                     let shared2 = shared.clone();
                     let mut stop2 = stop_for_tasks.clone();
                     tasks.spawn(async move {
-                        // Deregisters however the task ends, panic included.
-                        let _registered = Registered(shared2, id);
+                        // Deregisters however the task ends, panic included (under the id the
+                        // connection has then: a resumed vehicle takes its old id back).
+                        let _registered = Registered(shared2, current_id);
                         tokio::select! {
                             _ = conn.run() => {}
                             () = async { let _ = stop2.wait_for(|s| *s).await; } => {}
@@ -231,10 +195,10 @@ async fn accept_loop(listener: TcpListener, shared: Arc<Shared>, mut stop: watch
     shared.vehicles().clear();
 }
 
-struct Registered(Arc<Shared>, u64);
+struct Registered(Arc<Shared>, Arc<AtomicU64>);
 
 impl Drop for Registered {
     fn drop(&mut self) {
-        self.0.vehicles().remove(&self.1);
+        self.0.vehicles().remove(&self.1.load(Ordering::Relaxed));
     }
 }

@@ -1,87 +1,11 @@
 //! The vehicle model: a pure function of its state, setpoint, limits and dt — no I/O, no clocks.
 //!
 //! Owns the per-tick dynamics of the issue (depth, heading the short way, speed ramp, then
-//! position along the heading plus an optional ocean current) and the local metric frame around
-//! the START point, converted to lat/lon with the `utm` crate's transverse Mercator whose central
-//! meridian is moved onto the START longitude.
+//! position along the heading plus an optional ocean current). Position is kept in Goby3's local
+//! grid around the START point (`crate::geodesy`, UTM zone of the datum), as Goby3's simulator
+//! does, so x/y are the NAV_X/NAV_Y a helm sees.
 
-/// UTM's scale on the central meridian; the local frame is in true metres, so grid offsets are
-/// scaled by it.
-const K0: f64 = 0.9996;
-/// Zone whose central meridian (3°E) the START longitude is shifted onto.
-const ZONE: u8 = 31;
-const ZONE_CM: f64 = 3.0;
-/// The `utm` crate puts the southern hemisphere's false northing at 10 000 km.
-const FALSE_NORTHING_SOUTH: f64 = 10_000_000.0;
-
-/// A transverse Mercator frame whose central meridian passes through an origin: x east and y north
-/// of the origin in metres (scale 1 on the central meridian, so grid north is true north at the
-/// origin).
-#[derive(Debug, Clone, PartialEq)]
-pub struct LocalFrame {
-    lat0: f64,
-    lon0: f64,
-    /// Signed northing of the origin (no false northing), grid metres.
-    n0: f64,
-    /// What the crate's inverse gives back for the origin itself; subtracted so that the origin
-    /// maps exactly onto (lat0, lon0) despite the crate's forward and inverse using slightly
-    /// different constants.
-    inv0: (f64, f64),
-}
-
-impl LocalFrame {
-    /// A frame around `lat0`, `lon0` (degrees). The caller validates the range; out-of-range or
-    /// non-finite input gives a frame whose conversions return `None`.
-    pub fn new(lat0: f64, lon0: f64) -> Self {
-        let (northing, _easting, _conv) = utm::to_utm_wgs84(lat0, ZONE_CM, ZONE);
-        let n0 = if lat0 > 0.0 {
-            northing
-        } else {
-            northing - FALSE_NORTHING_SOUTH
-        };
-        let inv0 = raw_inverse(0.0, n0).unwrap_or((lat0, ZONE_CM));
-        Self {
-            lat0,
-            lon0,
-            n0,
-            inv0,
-        }
-    }
-
-    pub fn origin(&self) -> (f64, f64) {
-        (self.lat0, self.lon0)
-    }
-
-    /// Latitude and longitude (degrees, longitude in [-180, 180)) of the point `x` m east and `y` m
-    /// north of the origin; `None` where the crate's projection does not reach (farther than
-    /// ~400 km east or west of the origin, or beyond a pole) or the result is not finite.
-    pub fn to_lat_lon(&self, x: f64, y: f64) -> Option<(f64, f64)> {
-        if x == 0.0 && y == 0.0 {
-            return Some((self.lat0, self.lon0));
-        }
-        let (lat, lon) = raw_inverse(x * K0, self.n0 + y * K0)?;
-        let lat = self.lat0 + (lat - self.inv0.0);
-        let lon = normalize_lon(self.lon0 + (lon - self.inv0.1));
-        (lat.is_finite() && lon.is_finite() && (-90.0..=90.0).contains(&lat)).then_some((lat, lon))
-    }
-}
-
-/// Inverse projection in the shifted zone: grid easting offset from the central meridian and
-/// signed northing → (lat, lon in the shifted zone).
-fn raw_inverse(dx: f64, northing: f64) -> Option<(f64, f64)> {
-    let (northing, letter) = if northing >= 0.0 {
-        (northing, 'N')
-    } else {
-        (northing + FALSE_NORTHING_SOUTH, 'M')
-    };
-    let (lat, lon) = utm::wsg84_utm_to_lat_lon(500_000.0 + dx, northing, ZONE, letter).ok()?;
-    (lat.is_finite() && lon.is_finite()).then_some((lat, lon))
-}
-
-fn normalize_lon(lon: f64) -> f64 {
-    let l = (lon + 180.0).rem_euclid(360.0) - 180.0;
-    if l >= 180.0 { l - 360.0 } else { l }
-}
+use crate::geodesy::LocalGrid;
 
 /// Wrap an angle in degrees into [0, 360). `rem_euclid` alone can return 360.0 for tiny negative
 /// inputs, which the protocol forbids.
@@ -131,7 +55,9 @@ pub struct Setpoint {
 /// One vehicle's state.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Vehicle {
-    frame: LocalFrame,
+    /// None only for a START the caller failed to validate; the vehicle then stays at START.
+    grid: Option<LocalGrid>,
+    origin: (f64, f64),
     limits: Limits,
     /// Ocean current, east and north, m/s; moves the vehicle over ground, not through the water.
     current: (f64, f64),
@@ -154,7 +80,8 @@ impl Vehicle {
     /// to its state (so it stays put until commanded).
     pub fn new(lat: f64, lon: f64, limits: Limits, current: (f64, f64)) -> Self {
         Self {
-            frame: LocalFrame::new(lat, lon),
+            grid: LocalGrid::new(lat, lon).ok(),
+            origin: (lat, lon),
             limits,
             current,
             setpoint: Setpoint::default(),
@@ -194,14 +121,21 @@ impl Vehicle {
     /// Latitude and longitude now, in degrees. Outside the projection's reach the last position it
     /// could express is kept, so the output is always finite.
     pub fn lat_lon(&mut self) -> (f64, f64) {
-        if let Some(ll) = self.frame.to_lat_lon(self.x, self.y) {
+        if self.x == 0.0 && self.y == 0.0 {
+            return self.origin;
+        }
+        if let Some(ll) = self
+            .grid
+            .as_ref()
+            .and_then(|g| g.to_global(self.x, self.y).ok())
+        {
             self.lat_lon = ll;
         }
         self.lat_lon
     }
 
     pub fn origin(&self) -> (f64, f64) {
-        self.frame.origin()
+        self.origin
     }
 }
 
@@ -387,15 +321,21 @@ mod tests {
     }
 
     #[test]
-    fn north_and_east_are_true_directions_at_start() {
-        let f = LocalFrame::new(42.358456, -71.087589);
-        let (lat_n, lon_n) = f.to_lat_lon(0.0, 100.0).unwrap();
-        assert!((lon_n - -71.087589).abs() < 1e-12);
-        // One degree of latitude here is about 111 055 m.
-        assert!(((lat_n - 42.358456) * 111_055.0 - 100.0).abs() < 0.2);
-        let (lat_e, lon_e) = f.to_lat_lon(100.0, 0.0).unwrap();
-        assert!((lat_e - 42.358456).abs() < 1e-6);
-        assert!(lon_e > -71.087589);
+    fn north_and_east_are_grid_directions_of_goby3s_grid() {
+        // Goby3's simulator moves in the local UTM grid: 1 km grid north at the course datum is
+        // not due true north (the grid converges on the zone's central meridian, 69°W).
+        let mut veh = Vehicle::new(42.358456, -71.087589, L, (0.0, 0.0));
+        veh.y = 1000.0;
+        let (lat_n, lon_n) = veh.lat_lon();
+        assert!(lat_n > 42.358456);
+        assert!(
+            lon_n < -71.087589 - 1e-4,
+            "grid north leans west of true north here: {lon_n}"
+        );
+        veh.y = 0.0;
+        veh.x = 100.0;
+        let (lat_e, lon_e) = veh.lat_lon();
+        assert!(lon_e > -71.087589 && (lat_e - 42.358456).abs() < 1e-4);
     }
 
     #[test]
@@ -407,9 +347,10 @@ mod tests {
             let (la, _) = veh.lat_lon();
             assert!(la < lat, "{la} !< {lat}");
         }
-        let f = LocalFrame::new(0.0, 0.0);
-        let (la, lo) = f.to_lat_lon(0.0, -1000.0).unwrap();
-        assert!(la < 0.0 && lo.abs() < 1e-9);
+        let mut veh = Vehicle::new(0.0, 0.0, L, (0.0, 0.0));
+        veh.y = -1000.0;
+        let (la, lo) = veh.lat_lon();
+        assert!(la < 0.0 && lo.abs() < 1e-6, "{lo}");
     }
 
     #[test]

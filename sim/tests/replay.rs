@@ -245,7 +245,7 @@ fn metres_between(a: &Nav, b: &Nav) -> f64 {
 async fn replay_goby3_transcript() {
     let path = concat!(
         env!("CARGO_MANIFEST_DIR"),
-        "/../../shared/protocol/goby3_sim/goby_sim_transcript.txt"
+        "/tests/fixtures/goby3_sim/goby_sim_transcript.txt"
     );
     let text = std::fs::read_to_string(path).unwrap();
     let events = parse_transcript(&text);

@@ -70,12 +70,13 @@ pub async fn run(args: DemoArgs) -> ExitCode {
         }
     };
     let web = if args.web {
-        let web_cfg = frontseat_config::WebConfig {
+        let mut with_web = cfg.clone();
+        with_web.web = frontseat_config::WebConfig {
             enabled: true,
             listen: args.web_listen.clone(),
             ..Default::default()
         };
-        match frontseat_web::WebService::start(&web_cfg, &bus, &cfg.name).await {
+        match frontseat_web::WebService::start(&with_web, &bus).await {
             Ok(w) => {
                 eprintln!("frontseat demo: web scope on http://{}/", w.local_addr());
                 Some(w)

@@ -81,7 +81,7 @@ pub async fn interface(config: InterfaceConfig) -> ExitCode {
         None => None,
     };
     let web = if config.web.enabled {
-        match frontseat_web::WebService::start(&config.web, &bus, &config.name).await {
+        match frontseat_web::WebService::start(&config, &bus).await {
             Ok(w) => Some(w),
             Err(e) => {
                 tracing::error!(error = %e, "cannot start the web scope");

@@ -42,7 +42,7 @@ async fn run_inner(plan: Plan) -> Result<Row, String> {
         listen: "127.0.0.1:0".into(),
         ..Default::default()
     };
-    let web = WebService::start_with_token(&cfg, None, &bus, "bench")
+    let web = WebService::start_with(&cfg, &Default::default(), None, &bus, "bench")
         .await
         .map_err(|e| e.to_string())?;
     let addr = web.local_addr();

@@ -250,9 +250,11 @@
     }
     return box;
   }
+  // The interface's command gate ([limits]) as the server reports it, per group and field.
   function limitFor(path) {
     const lim = model.commander && model.commander.limits;
-    return lim && lim[path];
+    const g = lim && lim[$("cmd-group").value];
+    return g && g[path];
   }
   // Builds the JSON to send and flags bad fields; returns {message, errors}.
   function collect() {

@@ -19,7 +19,7 @@ use std::time::{Duration, SystemTime, UNIX_EPOCH};
 
 use frontseat_actors::bus::Bus;
 use frontseat_actors::ports::WebCommanderPorts;
-use frontseat_config::{WEB_TOKEN_ENV, WebConfig};
+use frontseat_config::{InterfaceConfig, LimitsConfig, WEB_TOKEN_ENV, WebConfig};
 use ractor::{Actor, ActorRef};
 use tokio::sync::Semaphore;
 
@@ -77,16 +77,18 @@ pub struct WebService {
 }
 
 impl WebService {
-    /// Binds `cfg.listen` (with the token from the config or the environment), subscribes the
-    /// hub to every group and starts serving. `name` is the vehicle's, shown on the page.
-    pub async fn start(cfg: &WebConfig, bus: &Bus, name: &str) -> Result<Self, WebError> {
-        let token = effective_token(cfg)?;
-        Self::start_with_token(cfg, token, bus, name).await
+    /// The web component of an interface: binds `[web] listen` (with the token from the config
+    /// or the environment), reports `[limits]` to the commander's forms, subscribes the hub to
+    /// every group and starts serving.
+    pub async fn start(iface: &InterfaceConfig, bus: &Bus) -> Result<Self, WebError> {
+        let token = effective_token(&iface.web)?;
+        Self::start_with(&iface.web, &iface.limits, token, bus, &iface.name).await
     }
 
-    /// As [`start`](Self::start), with the token given (tests, the demo).
-    pub async fn start_with_token(
+    /// As [`start`](Self::start), with every part given (tests, the bench).
+    pub async fn start_with(
         cfg: &WebConfig,
+        limits: &LimitsConfig,
         token: Option<String>,
         bus: &Bus,
         name: &str,
@@ -129,6 +131,7 @@ impl WebService {
             access,
             ports: WebCommanderPorts::new(bus),
             name: name.to_string(),
+            limits: server::limits_json(limits),
             hub_counters: hub_counters.clone(),
             counters: server_counters.clone(),
         };

@@ -53,6 +53,8 @@ pub struct AppState {
     pub access: Access,
     pub ports: WebCommanderPorts,
     pub name: String,
+    /// The command gate's envelope, per group and field path, for the forms.
+    pub limits: Json,
     pub hub_counters: Arc<HubCounters>,
     pub counters: Arc<ServerCounters>,
 }
@@ -262,7 +264,8 @@ async fn commander(
             })
         })
         .collect();
-    JsonBody(json!({"can_send": st.access.can_send(), "groups": items})).into_response()
+    JsonBody(json!({"can_send": st.access.can_send(), "groups": items, "limits": st.limits}))
+        .into_response()
 }
 
 #[derive(Deserialize)]
@@ -343,6 +346,26 @@ async fn send(State(st): State<AppState>, headers: HeaderMap, body: axum::body::
             error(StatusCode::UNPROCESSABLE_ENTITY, e.to_string())
         }
     }
+}
+
+/// The envelope of the interface's command gate (`[limits]`) as the forms use it: per group, per
+/// field path, `{min, max}`. The form flags a value outside; the gate is what refuses.
+pub fn limits_json(l: &frontseat_config::LimitsConfig) -> Json {
+    let course = |prefix: &str| {
+        let f = |name: &str| format!("{prefix}{name}");
+        json!({
+            f("speed"): {"min": 0.0, "max": l.max_speed},
+            f("depth"): {"min": 0.0, "max": l.max_depth},
+            f("altitude"): {"min": l.min_altitude, "max": l.max_altitude},
+            f("pitch"): {"min": -l.max_abs_pitch, "max": l.max_abs_pitch},
+            f("roll"): {"min": -l.max_abs_roll, "max": l.max_abs_roll},
+            f("z_rate"): {"min": -l.max_abs_z_rate, "max": l.max_abs_z_rate},
+        })
+    };
+    json!({
+        groups::GOBY_MIDDLEWARE_FRONTSEAT_DESIRED_COURSE.name(): course(""),
+        groups::GOBY_MIDDLEWARE_FRONTSEAT_COMMAND_REQUEST.name(): course("desired_course."),
+    })
 }
 
 /// A TCP listener that serves at most `max` connections at once: one past it is accepted and

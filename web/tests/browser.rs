@@ -249,7 +249,7 @@ async fn the_page_shows_nav_expands_messages_and_commands_through_the_interface(
         listen: "127.0.0.1:0".into(),
         ..Default::default()
     };
-    let web = WebService::start_with_token(&web_cfg, None, &bus, &cfg.name)
+    let web = WebService::start_with(&web_cfg, &cfg.limits, None, &bus, &cfg.name)
         .await
         .expect("web");
     let service = InterfaceService::start(&cfg, &bus)
@@ -335,6 +335,19 @@ async fn the_page_shows_nav_expands_messages_and_commands_through_the_interface(
         "!document.getElementById('cmd-send').disabled",
     )
     .await;
+    // Beyond the command gate's envelope ([limits] max_speed 5 m/s): flagged, as the gate would.
+    b.type_into(r#"[name="desired_course.speed"]"#, "50").await;
+    b.until(
+        "the out-of-range speed flagged",
+        r#"document.querySelector('[name="desired_course.speed"]').classList.contains('bad') && document.getElementById('cmd-send').disabled"#,
+    )
+    .await;
+    b.type_into(r#"[name="desired_course.speed"]"#, "1.5").await;
+    b.until(
+        "send enabled again",
+        "!document.getElementById('cmd-send').disabled",
+    )
+    .await;
     // No helm yet: the interface is not in command and refuses, answering on command_response.
     b.click("#cmd-send").await;
     b.until("the answer to request 7", &response_of(7)).await;
@@ -368,6 +381,23 @@ async fn the_page_shows_nav_expands_messages_and_commands_through_the_interface(
     b.until("the answer to request 8", &response_of(8)).await;
     let r8 = b.js(&format!("return {}.response", response_of(8))).await;
     assert_eq!(r8["request_successful"], json!(true), "{r8}");
+    // The server-side gate is what counts: a send that skips the form's checks is refused by
+    // the interface's command gate, and the answer reaches the page.
+    let status = b
+        .js(r#"return fetch('/api/send', {method: 'POST', headers: {'Content-Type': 'application/json'},
+            body: JSON.stringify({group: 'goby::middleware::frontseat::command_request', message: {
+              desired_course: {time: 1700000000, heading: 90, speed: 50},
+              response_requested: true, request_id: 9}})}).then((r) => r.status)"#)
+        .await;
+    assert_eq!(status, json!(200));
+    let r9 = "frontseat.model.responses.find((r) => r.msg.request_id === 9)";
+    b.until("the gate's answer to request 9", r9).await;
+    let r9 = b.js(&format!("return {r9}.msg")).await;
+    assert_eq!(r9["request_successful"], json!(false), "{r9}");
+    assert!(
+        r9["error_string"].as_str().unwrap_or("").contains("speed"),
+        "{r9}"
+    );
 
     // The vehicle view: states, the timeline of transitions, the map legend.
     b.click(r#"button[data-tab="vehicle"]"#).await;

@@ -33,9 +33,15 @@ fn cfg() -> WebConfig {
 
 async fn start(cfg: WebConfig, token: Option<&str>) -> (Bus, WebService) {
     let bus = Bus::new();
-    let web = WebService::start_with_token(&cfg, token.map(String::from), &bus, "test-auv")
-        .await
-        .expect("web starts on an ephemeral loopback port");
+    let web = WebService::start_with(
+        &cfg,
+        &Default::default(),
+        token.map(String::from),
+        &bus,
+        "test-auv",
+    )
+    .await
+    .expect("web starts on an ephemeral loopback port");
     (bus, web)
 }
 
@@ -141,13 +147,22 @@ async fn commander_publishes_on_the_helm_group_and_refuses_anything_else() {
         .map(|g| g["group"].as_str().unwrap())
         .collect();
     assert_eq!(names.len(), 6, "{names:?}");
+    // The command gate's envelope, for the forms.
+    assert_eq!(
+        list["limits"][DESIRED]["speed"],
+        json!({"min": 0.0, "max": 5.0})
+    );
+    assert_eq!(
+        list["limits"]["goby::middleware::frontseat::command_request"]["desired_course.depth"]["max"],
+        json!(300.0)
+    );
     for g in [
         DESIRED,
         "goby::middleware::frontseat::helm_state",
         "goby::middleware::frontseat::command_request",
         "goby::middleware::frontseat::data_to_frontseat",
         "goby::middleware::frontseat::raw_send_request",
-        "goby::middleware::groups::datum_update",
+        "goby::datum_update",
     ] {
         assert!(names.contains(&g), "{g} missing from {names:?}");
     }

@@ -92,3 +92,40 @@ async fn the_interface_serves_the_page_itself() {
         assert!(reply.contains(needle), "{path}: {reply}");
     }
 }
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn demo_with_web_serves_the_page() {
+    let web_port = free_port();
+    let out = scratch("web", "demo");
+    let _demo = Kill(
+        bin()
+            .args(["demo", "--web", "--warp", "50", "--lines", "--out"])
+            .arg(&out)
+            .arg("--web-listen")
+            .arg(format!("127.0.0.1:{web_port}"))
+            .env("RUST_LOG", "warn")
+            .stdin(Stdio::null())
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .spawn()
+            .unwrap(),
+    );
+    wait_for_tcp(web_port).await;
+    let mut s = tokio::net::TcpStream::connect(("127.0.0.1", web_port))
+        .await
+        .unwrap();
+    s.write_all(
+        format!(
+            "GET /api/info HTTP/1.1\r\nHost: 127.0.0.1:{web_port}\r\nConnection: close\r\n\r\n"
+        )
+        .as_bytes(),
+    )
+    .await
+    .unwrap();
+    let mut reply = String::new();
+    tokio::time::timeout(Duration::from_secs(20), s.read_to_string(&mut reply))
+        .await
+        .expect("reply in time")
+        .unwrap();
+    assert!(reply.contains("\"demo-auv\""), "{reply}");
+}

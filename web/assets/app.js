@@ -374,8 +374,13 @@
       const hdg = ((nav.pose && nav.pose.heading) || 0) * Math.PI / 180;
       ctx.save(); ctx.translate(vx, vy); ctx.rotate(hdg); ctx.fillStyle = "#c30";
       ctx.beginPath(); ctx.moveTo(0, -12); ctx.lineTo(6, 8); ctx.lineTo(-6, 8); ctx.closePath(); ctx.fill(); ctx.restore();
+      // The newest commanded course, whichever way it came (desired_course or command_request).
       const dc = model.groups.get("goby::middleware::frontseat::desired_course");
-      const d = dc && dc.latest && dc.latest.msg;
+      const cr = model.groups.get("goby::middleware::frontseat::command_request");
+      const a = dc && dc.latest && dc.latest.msg ? dc.latest : null;
+      const b = cr && cr.latest && cr.latest.msg && cr.latest.msg.desired_course ? cr.latest : null;
+      const newest = a && b ? (a.seq > b.seq ? a : b) : a || b;
+      const d = newest ? (newest === b ? b.msg.desired_course : a.msg) : null;
       if (d) {
         const dh = (d.heading || 0) * Math.PI / 180;
         ctx.strokeStyle = "#2a2"; ctx.setLineDash([6, 4]); ctx.beginPath(); ctx.moveTo(vx, vy);

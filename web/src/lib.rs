@@ -12,6 +12,7 @@ pub mod auth;
 pub mod hub;
 pub mod reflect;
 pub mod server;
+pub mod supervisor;
 
 use std::net::SocketAddr;
 use std::sync::Arc;
@@ -20,13 +21,14 @@ use std::time::{Duration, SystemTime, UNIX_EPOCH};
 use frontseat_actors::bus::Bus;
 use frontseat_actors::ports::WebCommanderPorts;
 use frontseat_config::{InterfaceConfig, LimitsConfig, WEB_TOKEN_ENV, WebConfig};
-use ractor::{Actor, ActorRef};
+use ractor::ActorRef;
 use tokio::sync::Semaphore;
 
 pub use hub::HubCounters;
 pub use server::ServerCounters;
 
-use hub::{Hub, HubArgs, HubMsg};
+use hub::HubArgs;
+use supervisor::WebSupervisor;
 
 /// What can go wrong in the web component.
 #[derive(Debug, thiserror::Error)]
@@ -70,7 +72,8 @@ pub fn effective_token(cfg: &WebConfig) -> Result<Option<String>, WebError> {
 /// A running web scope/commander.
 pub struct WebService {
     addr: SocketAddr,
-    hub: ActorRef<HubMsg>,
+    supervisor: ActorRef<()>,
+    hub: supervisor::HubHandle,
     server: tokio::task::JoinHandle<()>,
     pub hub_counters: Arc<HubCounters>,
     pub server_counters: Arc<ServerCounters>,
@@ -108,18 +111,14 @@ impl WebService {
         })?;
         let hub_counters = Arc::new(HubCounters::default());
         let server_counters = Arc::new(ServerCounters::default());
-        let (hub, _) = Actor::spawn(
-            None,
-            Hub,
-            HubArgs {
-                bus: bus.clone(),
-                queue_capacity: cfg.client_queue.max(64),
-                history: cfg.history,
-                max_clients: cfg.max_clients,
-                client_queue: cfg.client_queue,
-                counters: hub_counters.clone(),
-            },
-        )
+        let (supervisor, hub) = WebSupervisor::start(HubArgs {
+            bus: bus.clone(),
+            queue_capacity: cfg.client_queue.max(64),
+            history: cfg.history,
+            max_clients: cfg.max_clients,
+            client_queue: cfg.client_queue,
+            counters: hub_counters.clone(),
+        })
         .await
         .map_err(|e| WebError::Hub(e.to_string()))?;
         let access = auth::Access::new(addr, token);
@@ -149,6 +148,7 @@ impl WebService {
         tracing::info!(url = %format!("http://{addr}/"), "web scope and commander serving");
         Ok(Self {
             addr,
+            supervisor,
             hub,
             server,
             hub_counters,
@@ -161,10 +161,15 @@ impl WebService {
         self.addr
     }
 
+    /// The hub now running, if any (diagnostics and tests).
+    pub fn hub(&self) -> Option<ActorRef<hub::HubMsg>> {
+        self.hub.get()
+    }
+
     /// Stops serving: the hub unsubscribes and ends every event stream.
     pub async fn shutdown(self, bound: Duration) {
         self.server.abort();
-        self.hub.stop(None);
-        let _ = tokio::time::timeout(bound, self.hub.wait(None)).await;
+        self.supervisor.stop(None);
+        let _ = tokio::time::timeout(bound, self.supervisor.wait(None)).await;
     }
 }

@@ -20,7 +20,6 @@ use frontseat_actors::bus::PublishMeta;
 use frontseat_actors::generated::groups;
 use frontseat_actors::ports::WebCommanderPorts;
 use futures_util::stream::Stream;
-use ractor::ActorRef;
 use serde::Deserialize;
 use serde_json::{Value as Json, json};
 use tokio::io::{AsyncRead, AsyncWrite, ReadBuf};
@@ -30,6 +29,7 @@ use tokio::sync::{OwnedSemaphorePermit, Semaphore};
 use crate::auth::{Access, Refusal};
 use crate::hub::{HubCounters, HubMsg, Joined};
 use crate::reflect;
+use crate::supervisor::HubHandle;
 
 const INDEX_HTML: &str = include_str!("../assets/index.html");
 const APP_JS: &str = include_str!("../assets/app.js");
@@ -49,7 +49,7 @@ pub struct ServerCounters {
 
 #[derive(Clone)]
 pub struct AppState {
-    pub hub: ActorRef<HubMsg>,
+    pub hub: HubHandle,
     pub access: Access,
     pub ports: WebCommanderPorts,
     pub name: String,
@@ -127,7 +127,13 @@ async fn events(
     if let Err(r) = st.access.check_read(&headers, q.token.as_deref()) {
         return refuse(&st, r);
     }
-    let joined = match ractor::call_t!(st.hub, HubMsg::Join, HUB_TIMEOUT.as_millis() as u64) {
+    let Some(hub) = st.hub.get() else {
+        return error(
+            StatusCode::SERVICE_UNAVAILABLE,
+            "the web hub is not running",
+        );
+    };
+    let joined = match ractor::call_t!(hub, HubMsg::Join, HUB_TIMEOUT.as_millis() as u64) {
         Ok(Some(j)) => j,
         Ok(None) => {
             return error(
@@ -208,8 +214,14 @@ async fn history(
         return refuse(&st, r);
     }
     let group = q.group;
+    let Some(hub) = st.hub.get() else {
+        return error(
+            StatusCode::SERVICE_UNAVAILABLE,
+            "the web hub is not running",
+        );
+    };
     match ractor::call_t!(
-        st.hub,
+        hub,
         HubMsg::History,
         HUB_TIMEOUT.as_millis() as u64,
         group.clone()
@@ -338,7 +350,9 @@ async fn send(State(st): State<AppState>, headers: HeaderMap, body: axum::body::
                 "delivered": report.delivered,
                 "dropped": report.dropped,
             });
-            let _ = st.hub.cast(HubMsg::Sent(entry.clone()));
+            if let Some(hub) = st.hub.get() {
+                let _ = hub.cast(HubMsg::Sent(entry.clone()));
+            }
             JsonBody(json!({"ok": true, "sent": entry})).into_response()
         }
         Err(e) => {

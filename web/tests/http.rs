@@ -444,3 +444,37 @@ async fn a_tab_that_does_not_read_never_slows_the_bus() {
     web.shutdown(Duration::from_secs(2)).await;
     let _ = Arc::strong_count(&hub);
 }
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_failed_hub_is_restarted_and_tabs_get_a_new_stream() {
+    let (bus, web) = start(cfg(), None).await;
+    let addr = web.local_addr();
+    let mut tab = Sse::open(addr, "/api/events").await;
+    assert_eq!(tab.next().await.unwrap()["kind"], "snapshot");
+    let first = web.hub().expect("a hub runs");
+    first.kill();
+    // The tab's stream ends (the browser's EventSource then reconnects by itself).
+    while tab.next().await.is_some() {}
+    let restarted = async {
+        loop {
+            if let Some(h) = web.hub()
+                && h.get_id() != first.get_id()
+            {
+                break;
+            }
+            tokio::time::sleep(Duration::from_millis(10)).await;
+        }
+    };
+    tokio::time::timeout(TIMEOUT, restarted)
+        .await
+        .expect("the supervisor restarts the hub");
+    let mut again = Sse::open(addr, "/api/events").await;
+    assert_eq!(again.status, 200);
+    assert_eq!(again.next().await.unwrap()["kind"], "snapshot");
+    bus.publish(&groups::GOBY_MIDDLEWARE_FRONTSEAT_NODE_STATUS, nav(7.0));
+    assert_eq!(
+        again.next_on(NODE_STATUS).await["msg"]["local_fix"]["x"],
+        json!(7.0)
+    );
+    web.shutdown(Duration::from_secs(2)).await;
+}

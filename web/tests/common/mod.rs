@@ -175,7 +175,8 @@ impl Sse {
                 .await
                 .expect("event in time")
                 .ok()?;
-            if n == 0 {
+            // End of stream, or the last chunk of the chunked body (the connection stays open).
+            if n == 0 || line == "0\r\n" {
                 return None;
             }
             if let Some(data) = line.trim_end().strip_prefix("data: ") {

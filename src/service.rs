@@ -8,6 +8,7 @@ use std::time::Duration;
 
 use frontseat_actors::bus::Bus;
 use frontseat_actors::interface::{InterfaceService, ServiceExit};
+use frontseat_actors::supervisor::SupervisorHandle;
 use frontseat_config::{FaultKind, InterfaceConfig, SimConfig};
 use frontseat_sim::{CtrlState, Fault, ScheduledFault, SimOptions, SimServer};
 
@@ -69,22 +70,34 @@ pub async fn interface(config: InterfaceConfig) -> ExitCode {
             return ExitCode::from(2);
         }
     };
-    let translation = match &config.moos {
-        Some(moos) => match frontseat_actors::translation::spawn(moos, &config.name, &bus).await {
-            Ok(t) => Some(t),
-            Err(e) => {
-                tracing::error!(error = %e, "cannot start the MOOS bridge (FrontSeatTranslation)");
-                service.shutdown(SHUTDOWN_BOUND).await;
-                return ExitCode::from(2);
-            }
-        },
-        None => None,
+    // The root supervisor: the FrontSeatTranslation (and what else runs beside the interface)
+    // restarted by its policy in [supervision]; past the limit the process exits non-zero.
+    let mut children = Vec::new();
+    if let Some(moos) = &config.moos {
+        children.push(frontseat_actors::translation::child_spec(
+            frontseat_actors::translation::TranslationArgs {
+                cfg: moos.clone(),
+                vehicle: config.name.clone(),
+                bus: bus.clone(),
+                chaos: None,
+            },
+            (&config.supervision.translation).into(),
+        ));
+    }
+    let mut root = match SupervisorHandle::start("root", children).await {
+        Ok(r) => r,
+        Err(e) => {
+            tracing::error!(error = %e, "cannot start the MOOS bridge (FrontSeatTranslation)");
+            service.shutdown(SHUTDOWN_BOUND).await;
+            return ExitCode::from(2);
+        }
     };
     let web = if config.web.enabled {
         match frontseat_web::WebService::start(&config, &bus).await {
             Ok(w) => Some(w),
             Err(e) => {
                 tracing::error!(error = %e, "cannot start the web scope");
+                root.shutdown(SHUTDOWN_BOUND).await;
                 service.shutdown(SHUTDOWN_BOUND).await;
                 return ExitCode::from(2);
             }
@@ -106,6 +119,11 @@ pub async fn interface(config: InterfaceConfig) -> ExitCode {
     );
     let exit = tokio::select! {
         e = service.wait() => e,
+        e = root.wait() => {
+            notifier.stopping();
+            service.shutdown(SHUTDOWN_BOUND).await;
+            e
+        }
         _ = shutdown_signal() => {
             notifier.stopping();
             service.shutdown(SHUTDOWN_BOUND).await
@@ -118,9 +136,7 @@ pub async fn interface(config: InterfaceConfig) -> ExitCode {
     if let Some(w) = web {
         w.shutdown(SHUTDOWN_BOUND).await;
     }
-    if let Some(t) = translation {
-        let _ = tokio::time::timeout(SHUTDOWN_BOUND, t.shutdown()).await;
-    }
+    root.shutdown(SHUTDOWN_BOUND).await;
     if let Some(g) = gateway {
         let _ = tokio::time::timeout(SHUTDOWN_BOUND, g.close()).await;
     }

@@ -564,27 +564,32 @@ async fn health_follows_park_drive_and_silence_and_desired_is_buffered() {
     .await;
     helm.task.take().unwrap().abort();
 
-    // Exact buffering through the DB, with our own time stamps: DEPTH and HEADING before SPEED
-    // go into that course; HEADING after SPEED waits for the next one.
+    // Exact buffering through the DB, with our own time stamps, one packet per helm iteration
+    // (the DB holds mail and may merge packets, so each course is awaited before the next):
+    // every DESIRED_* of the packet goes into its course, whatever the order; a HEADING in a
+    // packet without SPEED waits for the next course; each value is used once.
     while desired.try_recv().is_ok() {}
     let m = &helm.moos;
-    m.notify_double("DESIRED_DEPTH", 3.0, Some(1000.0)).unwrap();
-    m.notify_double("DESIRED_HEADING", 45.0, Some(1000.1))
-        .unwrap();
-    m.notify_double("DESIRED_SPEED", 1.5, Some(1000.2)).unwrap();
-    m.notify_double("DESIRED_HEADING", 50.0, Some(1000.3))
-        .unwrap();
-    m.notify_double("DESIRED_SPEED", 1.25, Some(1000.4))
-        .unwrap();
-    m.notify_double("DESIRED_SPEED", 1.0, Some(1000.5)).unwrap();
+    let in_window = |c: &DesiredCourse| (1000.0..1001.0).contains(&c.time);
     let mut got = Vec::new();
-    for _ in 0..3 {
-        let c = until_bus(&mut desired, "DesiredCourse", LONG, |c: &DesiredCourse| {
-            (1000.0..1001.0).contains(&c.time)
-        })
-        .await;
-        got.push(*c);
-    }
+    m.notify_doubles(
+        &[
+            ("DESIRED_DEPTH", 3.0),
+            ("DESIRED_SPEED", 1.5),
+            ("DESIRED_HEADING", 45.0),
+        ],
+        Some(1000.2),
+    )
+    .unwrap();
+    got.push(*until_bus(&mut desired, "DesiredCourse", LONG, in_window).await);
+    m.notify_doubles(&[("DESIRED_HEADING", 50.0)], Some(1000.3))
+        .unwrap();
+    m.notify_doubles(&[("DESIRED_SPEED", 1.25)], Some(1000.4))
+        .unwrap();
+    got.push(*until_bus(&mut desired, "DesiredCourse", LONG, in_window).await);
+    m.notify_doubles(&[("DESIRED_SPEED", 1.0)], Some(1000.5))
+        .unwrap();
+    got.push(*until_bus(&mut desired, "DesiredCourse", LONG, in_window).await);
     let course = |time, speed, heading, depth| DesiredCourse {
         time,
         speed: Some(speed),
@@ -618,4 +623,146 @@ async fn health_follows_park_drive_and_silence_and_desired_is_buffered() {
     translation.shutdown().await;
     helm.stop().await;
     broker.shutdown().await;
+}
+
+/// The CMD lines the driver wrote to the frontseat (raw_out), parsed: (heading, speed, depth).
+fn cmd_values(line: &str) -> Option<(f64, f64, f64)> {
+    let rest = line.strip_prefix("CMD,")?;
+    let get = |k: &str| -> f64 {
+        rest.split(',')
+            .find_map(|f| f.strip_prefix(k))
+            .and_then(|v| v.parse().ok())
+            .unwrap_or_else(|| panic!("CMD line without a numeric {k}: {line}"))
+    };
+    Some((get("HEADING:"), get("SPEED:"), get("DEPTH:")))
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_hostile_helm_over_moos_never_reaches_the_frontseat() {
+    use frontseat_actors::proto::goby::middleware::frontseat::protobuf::Raw;
+    let broker = Broker::bind("127.0.0.1:0").await.unwrap();
+    let port = broker.local_addr().port();
+    let sim = start_sim().await;
+    let bus = Bus::new();
+    let mut status = StatusWatch::new(&bus);
+    let (_s1, mut raw_out) = bus.subscribe_channel(
+        &groups::GOBY_MIDDLEWARE_FRONTSEAT_RAW_OUT,
+        "test",
+        1_000_000,
+    );
+    let (_s2, mut tstatus) =
+        bus.subscribe_channel(&groups::FRONTSEAT_TRANSLATION_STATUS, "test", 10_000);
+    let translation = start_translation(port, &bus, 5.0).await;
+    until_bus(&mut tstatus, "translation connected", LONG, |s| {
+        s.moos_connected == Some(true)
+    })
+    .await;
+    let drive = helm_heartbeat(&bus, HelmState::HelmDrive);
+    let service = InterfaceService::start(&config_for(&sim, WARP), &bus)
+        .await
+        .unwrap();
+    status
+        .until_state(InterfaceState::InterfaceCommand, LONG)
+        .await;
+    let helm = Helm::start(port, Script::new("DRIVE", 0.0, 0.0, false)).await;
+    // One helm iteration, in pHelmIvP's order (DEPTH, SPEED, HEADING); None = not posted.
+    // (One packet, as pHelmIvP's iteration: the broker holds it and hands it over whole.)
+    let iteration = |depth: Option<f64>, speed: f64, heading: Option<f64>| {
+        let mut v = Vec::new();
+        if let Some(d) = depth {
+            v.push(("DESIRED_DEPTH", d));
+        }
+        v.push(("DESIRED_SPEED", speed));
+        if let Some(h) = heading {
+            v.push(("DESIRED_HEADING", h));
+        }
+        helm.moos.notify_doubles(&v, None).unwrap();
+    };
+    // Waits until the interface has refused `n` setpoints in all (bounded; the event is a count).
+    let refused = async |n: u64| {
+        let deadline = Instant::now() + LONG;
+        loop {
+            let snap = service.snapshot(LONG).await.expect("snapshot");
+            if snap.setpoints_refused >= n {
+                return snap.setpoints_refused;
+            }
+            assert!(
+                Instant::now() < deadline,
+                "only {} setpoints refused, waiting for {n}",
+                snap.setpoints_refused
+            );
+            tokio::time::sleep(Duration::from_millis(5)).await;
+        }
+    };
+    let mut written: Vec<String> = Vec::new();
+    // Waits for the CMD the sentinel heading produces; everything written before it is kept.
+    let mut until_cmd = async |what: &str, pred: &dyn Fn(f64, f64, f64) -> bool| {
+        let deadline = Instant::now() + LONG;
+        loop {
+            let env = match timeout_at(deadline, raw_out.recv()).await {
+                Ok(Some(env)) => env,
+                other => panic!("waiting for {what}: {other:?}; written so far {written:?}"),
+            };
+            let raw: &Raw = &env.msg;
+            let line = String::from_utf8_lossy(raw.raw()).to_string();
+            let values = cmd_values(&line);
+            written.push(line);
+            if let Some((h, s, d)) = values
+                && pred(h, s, d)
+            {
+                return;
+            }
+        }
+    };
+    iteration(Some(0.0), 1.0, Some(10.0));
+    until_cmd("a valid course", &|h, s, d| (h, s, d) == (10.0, 1.0, 0.0)).await;
+    let hostile: [(Option<f64>, f64, Option<f64>); 7] = [
+        (Some(0.0), 1.0, Some(f64::NAN)),
+        (Some(0.0), 1e308, Some(45.0)),
+        (Some(0.0), f64::INFINITY, Some(45.0)),
+        (Some(0.0), -1.0, Some(45.0)),
+        (Some(-5.0), 1.0, Some(45.0)),
+        (Some(1e6), 1.0, Some(45.0)),
+        (Some(f64::NAN), 1.0, Some(45.0)),
+    ];
+    for (i, (d, s, h)) in hostile.into_iter().enumerate() {
+        iteration(d, s, h);
+        assert_eq!(refused(i as u64 + 1).await, i as u64 + 1);
+        let sentinel = 20.0 + i as f64;
+        iteration(Some(0.0), 1.0, Some(sentinel));
+        until_cmd("the sentinel after a hostile course", &|h, _, _| {
+            h == sentinel
+        })
+        .await;
+    }
+    // Out-of-range headings are wrapped, and a speed-only iteration keeps the last heading.
+    iteration(Some(0.0), 1.0, Some(725.0));
+    until_cmd("725° wrapped", &|h, _, _| h == 5.0).await;
+    iteration(None, 1.2, None);
+    until_cmd("speed-only keeps the heading", &|h, s, _| {
+        s == 1.2 && h == 5.0
+    })
+    .await;
+
+    for line in &written {
+        if let Some((h, s, d)) = cmd_values(line) {
+            assert!(
+                (0.0..360.0).contains(&h) && (0.0..=5.0).contains(&s) && (0.0..=300.0).contains(&d),
+                "the frontseat received {line}; all written: {written:?}"
+            );
+        }
+    }
+    let snap = service.snapshot(LONG).await.expect("snapshot");
+    assert_eq!(snap.setpoints_refused, hostile.len() as u64, "{written:?}");
+    assert_eq!(snap.status.state(), InterfaceState::InterfaceCommand);
+    assert_eq!(
+        sim.stats().cmd_errors,
+        0,
+        "the simulator never saw a bad CMD"
+    );
+    drive.abort();
+    helm.stop().await;
+    translation.shutdown().await;
+    service.shutdown(LONG).await;
+    sim.shutdown().await;
 }

@@ -108,12 +108,19 @@ async fn one_nav_line_and_one_setpoint_each_form_one_trace() {
         .clone()
         .expect("the envelope carries the publisher's trace context");
     let nav_trace = trace_id_of(&tp.traceparent);
+    // Wait for the whole chain: the read span ends (and is exported) after its children.
     let spans = spans_until(&exporter, "the NAV trace", |spans| {
-        spans.iter().any(|s| {
-            s.span_context.trace_id() == nav_trace
-                && s.name == "bus.deliver"
-                && attr(s, "subscriber").as_deref() == Some("test-helm")
-        })
+        spans
+            .iter()
+            .find(|s| {
+                s.span_context.trace_id() == nav_trace
+                    && s.name == "bus.deliver"
+                    && attr(s, "subscriber").as_deref() == Some("test-helm")
+            })
+            .is_some_and(|leaf| {
+                ancestry(spans, leaf).first().map(|r| r.name.as_ref())
+                    == Some("frontseat.socket_read")
+            })
     })
     .await;
     let leaf = spans

@@ -341,3 +341,132 @@ async fn python_helm_completes_its_triangle() {
         .expect("closest approach printed");
     assert!(closest < 15.0, "closest approach {closest} m:\n{out}");
 }
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_hostile_helm_over_zenoh_is_refused_before_the_frontseat() {
+    use frontseat_actors::proto::goby::middleware::frontseat::protobuf::{
+        CommandRequest, CommandResponse, Raw,
+    };
+    let stack = start_stack("hostile", "hauv").await;
+    let session = zenoh::open(client_config(&[format!("tcp/127.0.0.1:{}", stack.zenoh)]).unwrap())
+        .await
+        .unwrap();
+    let key = |g: &str| key_for("hauv", g);
+    let (rtx, mut raw_out) = tokio::sync::mpsc::unbounded_channel();
+    let _r = session
+        .declare_subscriber(key(groups::GOBY_MIDDLEWARE_FRONTSEAT_RAW_OUT.name()))
+        .callback(move |s| {
+            let raw = Raw::decode(&*s.payload().to_bytes()).unwrap();
+            let _ = rtx.send(String::from_utf8_lossy(raw.raw()).to_string());
+        })
+        .await
+        .unwrap();
+    let (ctx, mut responses) = tokio::sync::mpsc::unbounded_channel();
+    let _c = session
+        .declare_subscriber(key(
+            groups::GOBY_MIDDLEWARE_FRONTSEAT_COMMAND_RESPONSE.name()
+        ))
+        .callback(move |s| {
+            let _ = ctx.send(CommandResponse::decode(&*s.payload().to_bytes()).unwrap());
+        })
+        .await
+        .unwrap();
+    let (stx, mut status) = tokio::sync::mpsc::unbounded_channel();
+    let _s = session
+        .declare_subscriber(key(groups::GOBY_MIDDLEWARE_FRONTSEAT_STATUS.name()))
+        .callback(move |s| {
+            let _ = stx.send(InterfaceStatus::decode(&*s.payload().to_bytes()).unwrap());
+        })
+        .await
+        .unwrap();
+    let helm_key = key(groups::GOBY_MIDDLEWARE_FRONTSEAT_HELM_STATE.name());
+    let hb_session = session.clone();
+    let heartbeat = tokio::spawn(async move {
+        loop {
+            let drive = HelmStateReport {
+                state: HelmState::HelmDrive as i32,
+            };
+            let t = groups::GOBY_MIDDLEWARE_FRONTSEAT_HELM_STATE.type_name();
+            put_message(&hb_session, &helm_key, t, &drive, None).unwrap();
+            tokio::time::sleep(Duration::from_millis(100)).await;
+        }
+    });
+    let deadline = tokio::time::Instant::now() + LONG;
+    loop {
+        match tokio::time::timeout_at(deadline, status.recv()).await {
+            Ok(Some(s)) if s.state() == InterfaceState::InterfaceCommand => break,
+            Ok(Some(_)) => {}
+            _ => panic!("no COMMAND over Zenoh\ninterface log:\n{}", stack.log()),
+        }
+    }
+    let request_key = key(groups::GOBY_MIDDLEWARE_FRONTSEAT_COMMAND_REQUEST.name());
+    let send = |id: i32, course: DesiredCourse| {
+        let req = CommandRequest {
+            desired_course: Some(course),
+            response_requested: Some(true),
+            request_id: Some(id),
+            ..Default::default()
+        };
+        let t = groups::GOBY_MIDDLEWARE_FRONTSEAT_COMMAND_REQUEST.type_name();
+        put_message(&session, &request_key, t, &req, None).unwrap();
+    };
+    let course = |h: f64, s: f64, d: f64| DesiredCourse {
+        heading: Some(h),
+        speed: Some(s),
+        depth: Some(d),
+        ..Default::default()
+    };
+    let hostile = [
+        course(f64::NAN, 1.0, 0.0),
+        course(90.0, 1e308, 0.0),
+        course(90.0, f64::INFINITY, 0.0),
+        course(90.0, 1.0, -3.0),
+        course(90.0, 1.0, f64::NAN),
+        DesiredCourse {
+            pitch: Some(89.0),
+            ..course(90.0, 1.0, 0.0)
+        },
+    ];
+    for (i, c) in hostile.iter().enumerate() {
+        let id = 100 + i as i32;
+        send(id, *c);
+        let r = loop {
+            match tokio::time::timeout_at(deadline, responses.recv()).await {
+                Ok(Some(r)) if r.request_id == Some(id) => break r,
+                Ok(Some(_)) => {}
+                _ => panic!("no answer to hostile request {id}\n{}", stack.log()),
+            }
+        };
+        assert_eq!(r.request_successful, Some(false), "{c:?}");
+        assert_eq!(r.error_code, Some(6), "{r:?}");
+        assert!(r.error_string().contains("safety envelope"), "{r:?}");
+    }
+    // A valid request after them reaches the frontseat; nothing before it was a bad CMD.
+    send(200, course(33.0, 1.0, 0.0));
+    let mut written = Vec::new();
+    loop {
+        match tokio::time::timeout_at(deadline, raw_out.recv()).await {
+            Ok(Some(l)) => {
+                let done = l == "CMD,HEADING:33,SPEED:1,DEPTH:0";
+                written.push(l);
+                if done {
+                    break;
+                }
+            }
+            _ => panic!("the valid command never reached the frontseat: {written:?}"),
+        }
+    }
+    for l in written.iter().filter(|l| l.starts_with("CMD,")) {
+        assert!(
+            !l.contains("NaN") && !l.contains("inf") && !l.contains("-3") && l.len() < 60,
+            "the frontseat received {l}"
+        );
+    }
+    assert!(
+        stack.log().contains("refused by the safety envelope"),
+        "a WARN names the refusal\n{}",
+        stack.log()
+    );
+    heartbeat.abort();
+    session.close().await.unwrap();
+}

@@ -352,7 +352,7 @@ impl FsiState {
                 if safe == *course {
                     return Some(env);
                 }
-                let mut req = (*env.msg).clone();
+                let mut req = *env.msg;
                 req.desired_course = Some(safe);
                 Some(Envelope::rewrap(env, req))
             }

@@ -18,6 +18,7 @@ pub mod link;
 pub mod ratelog;
 pub mod sim_glue;
 pub mod state_machine;
+pub mod supervisor;
 pub mod telemetry;
 pub mod translation;
 

@@ -111,6 +111,7 @@ impl StateMachine {
         s.set_state(self.state);
         s.set_frontseat_state(inputs.frontseat);
         s.set_helm_state(inputs.helm);
+        s.frontseat_providing_data = Some(inputs.providing_data);
         if self.helm_error != HelmError::ErrorHelmNone {
             s.set_helm_error(self.helm_error);
         }

@@ -14,7 +14,10 @@ use std::time::Duration;
 
 use frontseat_config::MoosConfig;
 use frontseat_moos::{DataType, MoosClient, MoosClientConfig, MoosError, MoosEvent, MoosMessage};
-use tokio::sync::{mpsc, watch};
+use std::sync::Arc;
+
+use ractor::{Actor, ActorProcessingErr, ActorRef};
+use tokio::sync::{Notify, mpsc, watch};
 use tokio::time::Instant;
 
 use crate::bus::{Bus, Subscription, Undeliverable};
@@ -406,6 +409,17 @@ pub async fn spawn(
     vehicle_name: &str,
     bus: &Bus,
 ) -> Result<TranslationHandle, TranslationError> {
+    spawn_with_chaos(cfg, vehicle_name, bus, None).await
+}
+
+/// [`spawn`], with a switch that makes the translation panic on its data path (chaos tests and
+/// `[chaos]` only): `chaos.notify_one()` panics the running translation once.
+pub async fn spawn_with_chaos(
+    cfg: &MoosConfig,
+    vehicle_name: &str,
+    bus: &Bus,
+    chaos: Option<Arc<Notify>>,
+) -> Result<TranslationHandle, TranslationError> {
     if cfg.app_name.is_empty() {
         return Err(TranslationError::Config(
             "app_name must not be empty".into(),
@@ -455,7 +469,7 @@ pub async fn spawn(
         time_warp = cfg.time_warp,
         "FrontSeatTranslation starting"
     );
-    let task = tokio::spawn(task.run(events, inbox, subs, stop_rx));
+    let task = tokio::spawn(task.run(events, inbox, subs, stop_rx, chaos));
     Ok(TranslationHandle {
         stop: stop_tx,
         status: status_rx,
@@ -486,13 +500,19 @@ impl Task {
         mut inbox: mpsc::UnboundedReceiver<FrontSeatTranslationInbox>,
         subs: Vec<Subscription>,
         mut stop: watch::Receiver<bool>,
+        chaos: Option<Arc<Notify>>,
     ) {
+        let chaos_armed = chaos.is_some();
+        let chaos = chaos.unwrap_or_default();
         let mut tick = tokio::time::interval(STATUS_PERIOD);
         tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
         loop {
             tokio::select! {
                 biased;
                 r = stop.changed() => if r.is_err() || *stop.borrow() { break },
+                () = chaos.notified(), if chaos_armed => {
+                    panic!("chaos: FrontSeatTranslation panic injected");
+                }
                 m = inbox.recv() => match m {
                     Some(FrontSeatTranslationInbox::NodeStatus(env)) => {
                         let span = tracing::trace_span!(
@@ -653,6 +673,109 @@ impl Task {
             self.ports.publish_status(s);
         }
         self.status_tx.send_replace(s);
+    }
+}
+
+/// The FrontSeatTranslation as a supervised actor of the root supervisor: it owns one running
+/// translation (MOOS client, registrations, bus subscriptions, the data-path task). The data path
+/// stays a task fed directly by the MOOS client and the bus (no extra hop through a mailbox); the
+/// actor watches it, so a panic on the data path fails the actor and its supervisor restarts it,
+/// which reconnects and re-registers with the MOOSDB.
+pub struct TranslationActor;
+
+#[derive(Clone)]
+pub struct TranslationArgs {
+    pub cfg: MoosConfig,
+    pub vehicle: String,
+    pub bus: Bus,
+    /// Survives restarts: a chaos test can panic whichever translation runs now.
+    pub chaos: Option<Arc<Notify>>,
+}
+
+pub enum TranslationMsg {
+    /// The data-path task ended: `Some(why)` when it panicked or ended on its own.
+    TaskEnded(String),
+}
+
+pub struct TranslationActorState {
+    handle: Option<TranslationHandle>,
+}
+
+impl Actor for TranslationActor {
+    type Msg = TranslationMsg;
+    type State = TranslationActorState;
+    type Arguments = TranslationArgs;
+
+    async fn pre_start(
+        &self,
+        myself: ActorRef<Self::Msg>,
+        args: TranslationArgs,
+    ) -> Result<Self::State, ActorProcessingErr> {
+        let mut handle = spawn_with_chaos(&args.cfg, &args.vehicle, &args.bus, args.chaos).await?;
+        if let Some(task) = handle.task.take() {
+            tokio::spawn(async move {
+                let why = match task.await {
+                    Ok(()) => "the translation task ended by itself".to_string(),
+                    Err(e) if e.is_panic() => {
+                        let p = e.into_panic();
+                        p.downcast_ref::<&str>()
+                            .map(|s| s.to_string())
+                            .or_else(|| p.downcast_ref::<String>().cloned())
+                            .unwrap_or_else(|| "panic".into())
+                    }
+                    Err(e) => e.to_string(),
+                };
+                // Gone already when the actor itself is stopping: nothing to report then.
+                let _ = myself.cast(TranslationMsg::TaskEnded(why));
+            });
+        }
+        Ok(TranslationActorState {
+            handle: Some(handle),
+        })
+    }
+
+    async fn handle(
+        &self,
+        _myself: ActorRef<Self::Msg>,
+        msg: Self::Msg,
+        _st: &mut Self::State,
+    ) -> Result<(), ActorProcessingErr> {
+        match msg {
+            TranslationMsg::TaskEnded(why) => {
+                Err(format!("FrontSeatTranslation data path ended: {why}").into())
+            }
+        }
+    }
+
+    async fn post_stop(
+        &self,
+        _myself: ActorRef<Self::Msg>,
+        st: &mut Self::State,
+    ) -> Result<(), ActorProcessingErr> {
+        if let Some(h) = st.handle.take() {
+            h.shutdown().await;
+        }
+        Ok(())
+    }
+}
+
+/// The supervisor's child spec of the translation.
+pub fn child_spec(
+    args: TranslationArgs,
+    policy: crate::supervisor::Policy,
+) -> crate::supervisor::ChildSpec {
+    crate::supervisor::ChildSpec {
+        name: "FrontSeatTranslation".into(),
+        policy,
+        start: Arc::new(move |sup| {
+            let args = args.clone();
+            Box::pin(async move {
+                let (actor, _join) = Actor::spawn_linked(None, TranslationActor, args, sup)
+                    .await
+                    .map_err(|e| e.to_string())?;
+                Ok(actor.get_cell())
+            })
+        }),
     }
 }
 

@@ -379,6 +379,64 @@ pub struct SupervisionConfig {
     /// Sliding window over which restarts are counted. Unit: s.
     #[schemars(extend("exclusiveMinimum" = 0.0))]
     pub restart_window_s: f64,
+    /// The FrontSeatTranslation (MOOS bridge), supervised by the root supervisor.
+    pub translation: RestartConfig,
+}
+
+/// When a supervised actor ends.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "kebab-case")]
+pub enum RestartPolicy {
+    /// Never restart; a failure ends the service (non-zero exit).
+    Never,
+    /// Restart after a failure (a panic or an error), not after an orderly stop.
+    OnFailure,
+    /// Restart whenever it ends.
+    Always,
+}
+
+/// How the root supervisor restarts one actor (OTP's and dora-rs's knobs).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields, default)]
+pub struct RestartConfig {
+    /// `never`, `on-failure` or `always`.
+    pub policy: RestartPolicy,
+    /// Restarts allowed within restart_window_s; one more ends the service with a non-zero exit
+    /// so that systemd restarts the process.
+    pub max_restarts: u32,
+    /// Sliding window over which restarts are counted. Unit: s.
+    #[schemars(extend("exclusiveMinimum" = 0.0))]
+    pub restart_window_s: f64,
+    /// Delay before the first restart; doubles per restart in the window up to backoff_max_ms.
+    /// Unit: ms.
+    #[schemars(range(min = 1))]
+    pub backoff_initial_ms: u64,
+    /// Cap of the restart delay. Unit: ms.
+    #[schemars(range(min = 1))]
+    pub backoff_max_ms: u64,
+}
+
+impl Default for RestartConfig {
+    fn default() -> Self {
+        Self {
+            policy: RestartPolicy::OnFailure,
+            max_restarts: 10,
+            restart_window_s: 60.0,
+            backoff_initial_ms: 50,
+            backoff_max_ms: 2000,
+        }
+    }
+}
+
+impl RestartConfig {
+    pub(crate) fn check_at(&self, prefix: &str, c: &mut Checker) {
+        let initial = at(prefix, "backoff_initial_ms");
+        let max = at(prefix, "backoff_max_ms");
+        c.at_least(&initial, self.backoff_initial_ms, 1);
+        c.at_least(&max, self.backoff_max_ms, 1);
+        c.ordered(&initial, self.backoff_initial_ms, &max, self.backoff_max_ms);
+        c.positive(&at(prefix, "restart_window_s"), self.restart_window_s);
+    }
 }
 
 impl Default for SupervisionConfig {
@@ -388,6 +446,7 @@ impl Default for SupervisionConfig {
             restart_max_delay_ms: 2000,
             max_restarts: 10,
             restart_window_s: 60.0,
+            translation: RestartConfig::default(),
         }
     }
 }
@@ -405,6 +464,7 @@ impl SupervisionConfig {
             self.restart_max_delay_ms,
         );
         c.positive(&at(prefix, "restart_window_s"), self.restart_window_s);
+        self.translation.check_at(&at(prefix, "translation"), c);
     }
 }
 

@@ -25,8 +25,8 @@ pub use error::{ConfigError, FieldError};
 pub use gateway::GatewayConfig;
 pub use interface::{
     BASIC_SIMULATOR, BasicSimulatorConfig, BusConfig, ChaosConfig, DriverConfig, InterfaceConfig,
-    LimitsConfig, MAX_QUEUE_CAPACITY, SimStartConfig, SimVehicleConfig, SupervisionConfig,
-    VehicleType,
+    LimitsConfig, MAX_QUEUE_CAPACITY, RestartConfig, RestartPolicy, SimStartConfig,
+    SimVehicleConfig, SupervisionConfig, VehicleType,
 };
 pub use sections::{
     DEFAULT_ORIGIN_LAT, DEFAULT_ORIGIN_LON, InterprocessConfig, InterprocessMode, LatLonConfig,

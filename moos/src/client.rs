@@ -330,6 +330,38 @@ impl MoosClient {
         self.notify(key, DataType::Double, value, &[], time)
     }
 
+    /// Post several doubles so that they leave in the same packet, as one application iteration
+    /// does (pHelmIvP posts its DESIRED_* of one iteration together): queued under one lock, so
+    /// the writer takes them together. Stamped with one MOOS time (`None` = now).
+    pub fn notify_doubles(&self, values: &[(&str, f64)], time: Option<f64>) -> Result<()> {
+        let sh = self.shared();
+        let name = sh.cfg.name.as_str();
+        let time = time.unwrap_or_else(|| sh.now());
+        let mut fields = Vec::with_capacity(values.len());
+        for (key, v) in values {
+            check_key(key)?;
+            fields.push(Fields::notify_double(name, key, *v, time));
+        }
+        let mut st = sh.lock();
+        if st.closed {
+            return Err(MoosError::Shutdown);
+        }
+        for f in fields {
+            let b = st.encode(f)?;
+            if st.outbox.len() >= sh.cfg.queue_limit {
+                st.outbox.pop_front();
+                inc(&sh.counters.dropped_queue_full);
+            }
+            st.outbox.push_back(b);
+        }
+        let connected = st.connected;
+        drop(st);
+        if connected {
+            sh.wake.notify_one();
+        }
+        Ok(())
+    }
+
     /// Post a string.
     pub fn notify_string(&self, key: &str, value: &str, time: Option<f64>) -> Result<()> {
         self.notify(key, DataType::String, -1.0, value.as_bytes(), time)

@@ -1,0 +1,483 @@
+//! The supervision tree's generic supervisor: a ractor actor that starts its children linked to
+//! itself and restarts them by policy, the way OTP and dora-rs do it — never / on-failure /
+//! always, at most `max_restarts` within `restart_window`, after a delay that doubles from
+//! `backoff_initial` to `backoff_max`. Past the limit (or when a `never` child fails) it gives up
+//! and reports a [`ServiceExit::RestartLimit`], so the process exits non-zero and systemd
+//! restarts it. Every restart is logged and counted; [`SupervisorSnapshot`] says who is up.
+//!
+//! The pure decision ([`Decider`]) is separate from the actor so it is table-tested.
+
+use std::collections::VecDeque;
+use std::future::Future;
+use std::pin::Pin;
+use std::sync::Arc;
+use std::time::Duration;
+
+use frontseat_config::{RestartConfig, RestartPolicy};
+use ractor::{Actor, ActorCell, ActorProcessingErr, ActorRef, RpcReplyPort, SupervisionEvent};
+use tokio::sync::watch;
+use tokio::time::Instant;
+
+use crate::interface::ServiceExit;
+
+/// What a supervisor knows about how to restart one child.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Policy {
+    pub restart: RestartPolicy,
+    pub max_restarts: u32,
+    pub window: Duration,
+    pub backoff_initial: Duration,
+    pub backoff_max: Duration,
+}
+
+impl From<&RestartConfig> for Policy {
+    fn from(c: &RestartConfig) -> Self {
+        Self {
+            restart: c.policy,
+            max_restarts: c.max_restarts,
+            window: Duration::from_secs_f64(c.restart_window_s.max(0.0)),
+            backoff_initial: Duration::from_millis(c.backoff_initial_ms),
+            backoff_max: Duration::from_millis(c.backoff_max_ms.max(c.backoff_initial_ms)),
+        }
+    }
+}
+
+/// How a child ended.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Ending {
+    Failed,
+    Stopped,
+}
+
+/// What to do about it.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Decision {
+    /// Restart after this delay (the n-th restart in the window).
+    Restart { after: Duration, nth: u32 },
+    /// Leave it down (an orderly end under on-failure or never).
+    LeaveDown,
+    /// Give up: the process should end non-zero.
+    GiveUp(String),
+}
+
+/// The restart bookkeeping of one child: pure, clock passed in.
+#[derive(Clone, Debug)]
+pub struct Decider {
+    policy: Policy,
+    recent: VecDeque<Instant>,
+    pub restarts: u32,
+}
+
+impl Decider {
+    pub fn new(policy: Policy) -> Self {
+        Self {
+            policy,
+            recent: VecDeque::new(),
+            restarts: 0,
+        }
+    }
+
+    pub fn decide(&mut self, name: &str, ending: Ending, now: Instant) -> Decision {
+        let wanted = match (self.policy.restart, ending) {
+            (RestartPolicy::Always, _) | (RestartPolicy::OnFailure, Ending::Failed) => true,
+            (RestartPolicy::Never, Ending::Failed) => {
+                return Decision::GiveUp(format!(
+                    "{name} failed and its restart policy is `never`"
+                ));
+            }
+            _ => false,
+        };
+        if !wanted {
+            return Decision::LeaveDown;
+        }
+        while let Some(t) = self.recent.front() {
+            if now.saturating_duration_since(*t) > self.policy.window {
+                self.recent.pop_front();
+            } else {
+                break;
+            }
+        }
+        if self.recent.len() as u32 >= self.policy.max_restarts {
+            return Decision::GiveUp(format!(
+                "{name} ended {} times within {:?} (max_restarts {}); giving up so the service manager restarts the process",
+                self.recent.len() + 1,
+                self.policy.window,
+                self.policy.max_restarts
+            ));
+        }
+        let n = self.recent.len() as u32;
+        let after = self
+            .policy
+            .backoff_initial
+            .saturating_mul(2u32.saturating_pow(n))
+            .min(self.policy.backoff_max);
+        self.recent.push_back(now);
+        self.restarts += 1;
+        Decision::Restart {
+            after,
+            nth: self.restarts,
+        }
+    }
+}
+
+/// Starts one child linked to the supervisor cell given; the child's cell comes back.
+pub type StartFn = Arc<
+    dyn Fn(ActorCell) -> Pin<Box<dyn Future<Output = Result<ActorCell, String>> + Send>>
+        + Send
+        + Sync,
+>;
+
+/// One child of a supervisor.
+#[derive(Clone)]
+pub struct ChildSpec {
+    pub name: String,
+    pub policy: Policy,
+    pub start: StartFn,
+}
+
+/// One child as the supervisor sees it.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct ChildReport {
+    pub name: String,
+    pub up: bool,
+    pub restarts: u32,
+    pub last_failure: Option<String>,
+}
+
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct SupervisorSnapshot {
+    pub name: String,
+    pub children: Vec<ChildReport>,
+}
+
+pub enum SupervisorMsg {
+    Restart(usize),
+    Snapshot(RpcReplyPort<SupervisorSnapshot>),
+}
+
+pub struct SupervisorArgs {
+    pub name: String,
+    pub children: Vec<ChildSpec>,
+    pub exit: watch::Sender<Option<ServiceExit>>,
+}
+
+struct Child {
+    spec: ChildSpec,
+    cell: Option<ActorCell>,
+    decider: Decider,
+    last_failure: Option<String>,
+}
+
+pub struct SupervisorState {
+    name: String,
+    children: Vec<Child>,
+    exit: watch::Sender<Option<ServiceExit>>,
+    giving_up: bool,
+}
+
+pub struct Supervisor;
+
+impl SupervisorState {
+    fn index_of(&self, cell: &ActorCell) -> Option<usize> {
+        let id = cell.get_id();
+        self.children
+            .iter()
+            .position(|c| c.cell.as_ref().is_some_and(|x| x.get_id() == id))
+    }
+
+    fn ended(&mut self, myself: &ActorRef<SupervisorMsg>, i: usize, ending: Ending, why: String) {
+        let sup = self.name.clone();
+        let child = &mut self.children[i];
+        child.cell = None;
+        if ending == Ending::Failed {
+            child.last_failure = Some(why.clone());
+        }
+        if self.giving_up {
+            return;
+        }
+        match child
+            .decider
+            .decide(&child.spec.name, ending, Instant::now())
+        {
+            Decision::Restart { after, nth } => {
+                tracing::warn!(
+                    supervisor = %sup,
+                    child = %child.spec.name,
+                    restart = nth,
+                    delay = ?after,
+                    %why,
+                    "supervised actor ended; restarting"
+                );
+                myself.send_after(after, move || SupervisorMsg::Restart(i));
+            }
+            Decision::LeaveDown => {
+                tracing::info!(supervisor = %sup, child = %child.spec.name, %why, "supervised actor stopped");
+            }
+            Decision::GiveUp(reason) => {
+                tracing::error!(supervisor = %sup, child = %child.spec.name, "{reason}");
+                self.giving_up = true;
+                self.exit
+                    .send_replace(Some(ServiceExit::RestartLimit(reason)));
+                myself.stop(Some("restart limit".into()));
+            }
+        }
+    }
+}
+
+impl Actor for Supervisor {
+    type Msg = SupervisorMsg;
+    type State = SupervisorState;
+    type Arguments = SupervisorArgs;
+
+    async fn pre_start(
+        &self,
+        myself: ActorRef<Self::Msg>,
+        args: SupervisorArgs,
+    ) -> Result<Self::State, ActorProcessingErr> {
+        let mut children = Vec::with_capacity(args.children.len());
+        for spec in args.children {
+            let cell = (spec.start)(myself.get_cell())
+                .await
+                .map_err(|e| format!("{}: {e}", spec.name))?;
+            children.push(Child {
+                decider: Decider::new(spec.policy.clone()),
+                spec,
+                cell: Some(cell),
+                last_failure: None,
+            });
+        }
+        Ok(SupervisorState {
+            name: args.name,
+            children,
+            exit: args.exit,
+            giving_up: false,
+        })
+    }
+
+    async fn handle(
+        &self,
+        myself: ActorRef<Self::Msg>,
+        msg: Self::Msg,
+        st: &mut Self::State,
+    ) -> Result<(), ActorProcessingErr> {
+        match msg {
+            SupervisorMsg::Restart(i) => {
+                if st.giving_up || st.children.get(i).is_none_or(|c| c.cell.is_some()) {
+                    return Ok(());
+                }
+                let start = st.children[i].spec.start.clone();
+                match start(myself.get_cell()).await {
+                    Ok(cell) => {
+                        tracing::info!(supervisor = %st.name, child = %st.children[i].spec.name, "supervised actor restarted");
+                        st.children[i].cell = Some(cell);
+                    }
+                    Err(e) => {
+                        // A start that fails counts as one more failure of the child.
+                        st.ended(&myself, i, Ending::Failed, format!("restart failed: {e}"));
+                    }
+                }
+            }
+            SupervisorMsg::Snapshot(reply) => {
+                let _ = reply.send(SupervisorSnapshot {
+                    name: st.name.clone(),
+                    children: st
+                        .children
+                        .iter()
+                        .map(|c| ChildReport {
+                            name: c.spec.name.clone(),
+                            up: c.cell.is_some(),
+                            restarts: c.decider.restarts,
+                            last_failure: c.last_failure.clone(),
+                        })
+                        .collect(),
+                });
+            }
+        }
+        Ok(())
+    }
+
+    async fn handle_supervisor_evt(
+        &self,
+        myself: ActorRef<Self::Msg>,
+        evt: SupervisionEvent,
+        st: &mut Self::State,
+    ) -> Result<(), ActorProcessingErr> {
+        // Overridden so that a child's end never stops the supervisor itself (ractor's default).
+        match evt {
+            SupervisionEvent::ActorFailed(cell, err) => {
+                if let Some(i) = st.index_of(&cell) {
+                    st.ended(&myself, i, Ending::Failed, err.to_string());
+                }
+            }
+            SupervisionEvent::ActorTerminated(cell, _, reason) => {
+                if let Some(i) = st.index_of(&cell) {
+                    let why = reason.unwrap_or_else(|| "stopped".into());
+                    st.ended(&myself, i, Ending::Stopped, why);
+                }
+            }
+            _ => {}
+        }
+        Ok(())
+    }
+
+    async fn post_stop(
+        &self,
+        _myself: ActorRef<Self::Msg>,
+        st: &mut Self::State,
+    ) -> Result<(), ActorProcessingErr> {
+        for c in &st.children {
+            if let Some(cell) = &c.cell {
+                cell.stop(Some("supervisor stopping".into()));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// A running supervisor and the exit it reports.
+pub struct SupervisorHandle {
+    actor: ActorRef<SupervisorMsg>,
+    join: tokio::task::JoinHandle<()>,
+    exit: watch::Receiver<Option<ServiceExit>>,
+}
+
+impl SupervisorHandle {
+    pub async fn start(name: &str, children: Vec<ChildSpec>) -> Result<Self, String> {
+        let (tx, rx) = watch::channel(None);
+        let (actor, join) = Actor::spawn(
+            None,
+            Supervisor,
+            SupervisorArgs {
+                name: name.to_string(),
+                children,
+                exit: tx,
+            },
+        )
+        .await
+        .map_err(|e| e.to_string())?;
+        Ok(Self {
+            actor,
+            join,
+            exit: rx,
+        })
+    }
+
+    pub async fn snapshot(&self, within: Duration) -> Option<SupervisorSnapshot> {
+        match self.actor.call(SupervisorMsg::Snapshot, Some(within)).await {
+            Ok(ractor::rpc::CallResult::Success(s)) => Some(s),
+            _ => None,
+        }
+    }
+
+    /// Resolves when the supervisor gave up (restart limit) or stopped.
+    pub async fn wait(&mut self) -> ServiceExit {
+        loop {
+            if let Some(e) = self.exit.borrow().clone() {
+                return e;
+            }
+            if self.exit.changed().await.is_err() {
+                return self.exit.borrow().clone().unwrap_or(ServiceExit::Clean);
+            }
+        }
+    }
+
+    /// Stops every child and the supervisor.
+    pub async fn shutdown(self, within: Duration) {
+        self.actor.stop(Some("shutdown".into()));
+        let _ = tokio::time::timeout(within, self.join).await;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn policy(restart: RestartPolicy, max: u32) -> Policy {
+        Policy {
+            restart,
+            max_restarts: max,
+            window: Duration::from_secs(60),
+            backoff_initial: Duration::from_millis(100),
+            backoff_max: Duration::from_millis(1000),
+        }
+    }
+
+    #[tokio::test(start_paused = true)]
+    async fn policy_table() {
+        let now = Instant::now();
+        let rows: [(&str, RestartPolicy, Ending, bool); 6] = [
+            (
+                "on-failure restarts a failure",
+                RestartPolicy::OnFailure,
+                Ending::Failed,
+                true,
+            ),
+            (
+                "on-failure leaves a stop down",
+                RestartPolicy::OnFailure,
+                Ending::Stopped,
+                false,
+            ),
+            (
+                "always restarts a failure",
+                RestartPolicy::Always,
+                Ending::Failed,
+                true,
+            ),
+            (
+                "always restarts a stop",
+                RestartPolicy::Always,
+                Ending::Stopped,
+                true,
+            ),
+            (
+                "never leaves a stop down",
+                RestartPolicy::Never,
+                Ending::Stopped,
+                false,
+            ),
+            (
+                "never gives up on a failure",
+                RestartPolicy::Never,
+                Ending::Failed,
+                false,
+            ),
+        ];
+        for (name, p, ending, restarts) in rows {
+            let d = Decider::new(policy(p, 5)).decide("child", ending, now);
+            assert_eq!(
+                matches!(d, Decision::Restart { .. }),
+                restarts,
+                "{name}: {d:?}"
+            );
+            if p == RestartPolicy::Never && ending == Ending::Failed {
+                assert!(matches!(d, Decision::GiveUp(_)), "{name}");
+            }
+        }
+    }
+
+    #[tokio::test(start_paused = true)]
+    async fn backoff_doubles_to_the_cap_and_the_window_forgives() {
+        let mut d = Decider::new(policy(RestartPolicy::OnFailure, 5));
+        let mut delays = Vec::new();
+        for _ in 0..5 {
+            match d.decide("c", Ending::Failed, Instant::now()) {
+                Decision::Restart { after, .. } => delays.push(after.as_millis()),
+                other => panic!("{other:?}"),
+            }
+        }
+        assert_eq!(delays, vec![100, 200, 400, 800, 1000]);
+        assert!(matches!(
+            d.decide("c", Ending::Failed, Instant::now()),
+            Decision::GiveUp(_)
+        ));
+        tokio::time::advance(Duration::from_secs(61)).await;
+        assert_eq!(
+            d.decide("c", Ending::Failed, Instant::now()),
+            Decision::Restart {
+                after: Duration::from_millis(100),
+                nth: 6
+            }
+        );
+    }
+}

@@ -46,6 +46,10 @@ pub struct WebConfig {
     /// Largest request body (a commander send). Unit: bytes.
     #[schemars(range(min = 256, max = 1048576))]
     pub max_body_bytes: usize,
+    /// A connection that neither sends nor receives for this long is closed (an open scope tab
+    /// receives a keep-alive every 5 s, so only idle or stalled sockets are). Unit: s, 1 to 3600.
+    #[schemars(range(min = 1, max = 3600))]
+    pub idle_timeout_s: u64,
 }
 
 impl Default for WebConfig {
@@ -59,6 +63,7 @@ impl Default for WebConfig {
             client_queue: 512,
             history: 200,
             max_body_bytes: 16 * 1024,
+            idle_timeout_s: 30,
         }
     }
 }
@@ -106,6 +111,7 @@ impl WebConfig {
             256,
             1 << 20,
         );
+        c.count(&at(prefix, "idle_timeout_s"), self.idle_timeout_s, 1, 3600);
     }
 
     /// Advice that does not make the config invalid (printed by `--check`).

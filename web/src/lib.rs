@@ -139,6 +139,7 @@ impl WebService {
             inner: listener,
             permits: Arc::new(Semaphore::new(cfg.max_connections)),
             counters: server_counters.clone(),
+            idle: Duration::from_secs(cfg.idle_timeout_s.max(1)),
         };
         let server = tokio::spawn(async move {
             if let Err(e) = axum::serve(bounded, app).await {

@@ -2,6 +2,7 @@
 //! the page never polls), history and schema look-ups, and the commander's send. Every request
 //! passes `auth`; connections, event streams and bodies are bounded.
 
+use std::future::Future as _;
 use std::pin::Pin;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -388,11 +389,24 @@ pub struct BoundedListener {
     pub inner: TcpListener,
     pub permits: Arc<Semaphore>,
     pub counters: Arc<ServerCounters>,
+    pub idle: Duration,
 }
 
+/// One served connection: holds its slot, and ends itself after `idle` without a byte either
+/// way, so sockets that never send a request cannot hold every slot (hyper has no header
+/// timeout of its own here).
 pub struct BoundedStream {
     stream: TcpStream,
     _permit: OwnedSemaphorePermit,
+    idle: Duration,
+    last: tokio::time::Instant,
+    timer: Pin<Box<tokio::time::Sleep>>,
+}
+
+impl BoundedStream {
+    fn active(&mut self) {
+        self.last = tokio::time::Instant::now();
+    }
 }
 
 impl axum::serve::Listener for BoundedListener {
@@ -413,10 +427,14 @@ impl axum::serve::Listener for BoundedListener {
             match self.permits.clone().try_acquire_owned() {
                 Ok(permit) => {
                     let _ = stream.set_nodelay(true);
+                    let now = tokio::time::Instant::now();
                     return (
                         BoundedStream {
                             stream,
                             _permit: permit,
+                            idle: self.idle,
+                            last: now,
+                            timer: Box::pin(tokio::time::sleep_until(now + self.idle)),
                         },
                         addr,
                     );
@@ -446,7 +464,34 @@ impl AsyncRead for BoundedStream {
         cx: &mut Context<'_>,
         buf: &mut ReadBuf<'_>,
     ) -> Poll<std::io::Result<()>> {
-        Pin::new(&mut self.stream).poll_read(cx, buf)
+        let before = buf.filled().len();
+        match Pin::new(&mut self.stream).poll_read(cx, buf) {
+            Poll::Ready(r) => {
+                if buf.filled().len() > before {
+                    self.active();
+                }
+                Poll::Ready(r)
+            }
+            Poll::Pending => {
+                // Waiting for the peer: wake up at the idle deadline and close if nothing moved.
+                loop {
+                    let deadline = self.last + self.idle;
+                    if self.timer.deadline() != deadline {
+                        self.timer.as_mut().reset(deadline);
+                    }
+                    match self.timer.as_mut().poll(cx) {
+                        Poll::Pending => return Poll::Pending,
+                        Poll::Ready(()) if self.last + self.idle <= tokio::time::Instant::now() => {
+                            return Poll::Ready(Err(std::io::Error::new(
+                                std::io::ErrorKind::TimedOut,
+                                "idle connection",
+                            )));
+                        }
+                        Poll::Ready(()) => continue,
+                    }
+                }
+            }
+        }
     }
 }
 
@@ -456,7 +501,11 @@ impl AsyncWrite for BoundedStream {
         cx: &mut Context<'_>,
         buf: &[u8],
     ) -> Poll<std::io::Result<usize>> {
-        Pin::new(&mut self.stream).poll_write(cx, buf)
+        let r = Pin::new(&mut self.stream).poll_write(cx, buf);
+        if matches!(r, Poll::Ready(Ok(n)) if n > 0) {
+            self.active();
+        }
+        r
     }
     fn poll_flush(mut self: Pin<&mut Self>, cx: &mut Context<'_>) -> Poll<std::io::Result<()>> {
         Pin::new(&mut self.stream).poll_flush(cx)

@@ -478,3 +478,37 @@ async fn a_failed_hub_is_restarted_and_tabs_get_a_new_stream() {
     );
     web.shutdown(Duration::from_secs(2)).await;
 }
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn an_idle_socket_is_closed_and_frees_its_slot() {
+    let (_bus, web) = start(
+        WebConfig {
+            max_connections: 1,
+            idle_timeout_s: 2,
+            ..cfg()
+        },
+        None,
+    )
+    .await;
+    let addr = web.local_addr();
+    // Connects and never sends a request: closed after the idle timeout.
+    let mut idle = tokio::net::TcpStream::connect(addr).await.unwrap();
+    let mut buf = [0u8; 16];
+    let n = tokio::time::timeout(TIMEOUT, idle.read(&mut buf))
+        .await
+        .expect("the idle socket is closed in time")
+        .unwrap_or(0);
+    assert_eq!(n, 0);
+    // Its slot is free again.
+    assert_eq!(get(addr, "/api/info").await.status, 200);
+    // An open tab stays: keep-alives count as traffic.
+    let mut tab = Sse::open(addr, "/api/events").await;
+    assert_eq!(tab.next().await.unwrap()["kind"], "snapshot");
+    let mut stats = 0;
+    while stats < 3 {
+        if tab.next().await.expect("the tab stays open")["kind"] == "stats" {
+            stats += 1;
+        }
+    }
+    web.shutdown(Duration::from_secs(2)).await;
+}

@@ -6,10 +6,13 @@
 //! simulator's own capacity bench, P4 and P5 run this very binary as child processes (`procs`).
 //! Z1–Z3 and T1 run `frontseat interface` as a child with its Zenoh gateway on (and for T1 a
 //! second child exporting traces to a loopback OTLP sink), this process being the frontseat and
-//! the Zenoh helm (`xproc`). W1 runs the web scope in this process and reads its event stream
-//! over loopback (`web`).
+//! the Zenoh helm (`xproc`).
+//! L0 is the bench's own floor (a loopback line → the reader wakes) and every latency row is
+//! also given as a ratio over it (`floor`).
+//! W1 runs the web scope in this process and reads its event stream over loopback (`web`).
 //! Figures are measured, never asserted: no test checks a timing.
 
+mod floor;
 mod frontseat;
 mod inproc;
 mod procs;
@@ -191,6 +194,7 @@ pub async fn run(args: BenchArgs) -> ExitCode {
         }
     );
     // One after the other: on a small machine the rows must not disturb each other.
+    let l0 = floor::run(plan.inproc.p1_count, plan.inproc.p1_rate_hz).await;
     let mut inproc_rows = inproc::run(plan.inproc).await.into_iter();
     let p3 = capacity(&plan).await;
     let mut proc_rows = procs::run(plan.start_runs, plan.settle, plan.footprint_window)
@@ -198,7 +202,7 @@ pub async fn run(args: BenchArgs) -> ExitCode {
         .into_iter();
     let xproc_rows = xproc::run(plan.xproc).await;
     let w1 = web::run(plan.web).await;
-    let mut rows = Vec::new();
+    let mut rows = vec![l0];
     rows.extend(inproc_rows.next()); // P1
     rows.extend(inproc_rows.next()); // P2
     rows.push(p3);
@@ -208,6 +212,7 @@ pub async fn run(args: BenchArgs) -> ExitCode {
     rows.extend(inproc_rows); // M1, M2
     rows.extend(xproc_rows); // Z1, Z2, Z3, T1
     rows.push(w1);
+    floor::add_ratios(&mut rows);
     let elapsed = started.elapsed();
 
     let out = if args.json {

@@ -98,7 +98,7 @@ pub async fn moos_gateway(cfg: GatewayConfig) -> ExitCode {
     );
     notifier.ready();
     let watchdog = crate::systemd::spawn_watchdog(notifier.clone(), || async { true });
-    crate::service::shutdown_signal().await;
+    crate::shutdown::shutdown_signal().await;
     notifier.stopping();
     if let Some(w) = watchdog {
         w.abort();

@@ -8,6 +8,7 @@ mod demo;
 mod driver_host;
 mod gateway_cmd;
 mod service;
+mod shutdown;
 mod systemd;
 
 use std::path::PathBuf;
@@ -173,6 +174,7 @@ fn main() -> ExitCode {
     match cli.command {
         Command::Interfaces => {
             print!("{}", frontseat_actors::generated::RESOLVED_INTERFACES_YAML);
+            print!("{}", frontseat_actors::supervisor::TREE);
             ExitCode::SUCCESS
         }
         Command::Interface { cfg } => {

@@ -17,29 +17,7 @@ use crate::systemd::{self, Notifier};
 /// How long an orderly shutdown may take before we give up waiting.
 pub const SHUTDOWN_BOUND: Duration = Duration::from_secs(3);
 
-/// Resolves on SIGTERM or SIGINT.
-pub async fn shutdown_signal() {
-    #[cfg(unix)]
-    {
-        use tokio::signal::unix::{SignalKind, signal};
-        match signal(SignalKind::terminate()) {
-            Ok(mut term) => {
-                tokio::select! {
-                    _ = term.recv() => tracing::info!("SIGTERM received"),
-                    _ = tokio::signal::ctrl_c() => tracing::info!("SIGINT received"),
-                }
-            }
-            Err(e) => {
-                tracing::warn!(error = %e, "cannot listen for SIGTERM; only SIGINT stops the service");
-                let _ = tokio::signal::ctrl_c().await;
-            }
-        }
-    }
-    #[cfg(not(unix))]
-    {
-        let _ = tokio::signal::ctrl_c().await;
-    }
-}
+pub use crate::shutdown::shutdown_signal;
 
 pub fn exit_code(exit: &ServiceExit) -> ExitCode {
     match exit {
@@ -80,6 +58,7 @@ pub async fn interface(config: InterfaceConfig) -> ExitCode {
                 vehicle: config.name.clone(),
                 bus: bus.clone(),
                 chaos: None,
+                observer: Default::default(),
             },
             (&config.supervision.translation).into(),
         ));

@@ -4,8 +4,8 @@
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
-const ROWS: [&str; 13] = [
-    "P1", "P2", "P3", "P4", "P5", "P6", "M1", "M2", "Z1", "Z2", "Z3", "T1", "W1",
+const ROWS: [&str; 14] = [
+    "L0", "P1", "P2", "P3", "P4", "P5", "P6", "M1", "M2", "Z1", "Z2", "Z3", "T1", "W1",
 ];
 
 /// Runs the binary with a deadline (it spawns children of its own; a hang must fail the test).
@@ -55,7 +55,7 @@ fn quick_bench_prints_every_row_and_exits_0() {
         assert!(!row.contains("n/a"), "{row}");
         assert!(row.chars().any(|c| c.is_ascii_digit()), "{row}");
     }
-    for id in ["P1", "P2", "P5", "M1", "M2", "Z1", "Z2"] {
+    for id in ["L0", "P1", "P2", "P5", "M1", "M2", "Z1", "Z2", "W1"] {
         let row = stdout
             .lines()
             .find(|l| l.starts_with(&format!("| {id} |")))
@@ -67,6 +67,10 @@ fn quick_bench_prints_every_row_and_exits_0() {
                 cell.ends_with("µs") || cell.ends_with("ms") || cell.ends_with(" s"),
                 "{id}: `{cell}` in {row}"
             );
+        }
+        // The data-path rows are also given as ratios over the floor of the same run.
+        if id != "L0" && id != "P5" {
+            assert!(row.contains("over L0 (p50 / p99)"), "{row}");
         }
     }
 }

@@ -766,3 +766,92 @@ async fn a_hostile_helm_over_moos_never_reaches_the_frontseat() {
     service.shutdown(LONG).await;
     sim.shutdown().await;
 }
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_panic_in_the_translation_is_restarted_and_the_bridge_flows_again() {
+    use frontseat_actors::proto::goby::middleware::frontseat::protobuf::Raw;
+    use frontseat_actors::supervisor::SupervisorHandle;
+    let broker = Broker::bind("127.0.0.1:0").await.unwrap();
+    let port = broker.local_addr().port();
+    let sim = start_sim().await;
+    let bus = Bus::new();
+    let mut status = StatusWatch::new(&bus);
+    let (_s1, mut raw_out) = bus.subscribe_channel(
+        &groups::GOBY_MIDDLEWARE_FRONTSEAT_RAW_OUT,
+        "test",
+        1_000_000,
+    );
+    let chaos = Arc::new(tokio::sync::Notify::new());
+    let cfg = config_for(&sim, WARP);
+    let root = SupervisorHandle::start(
+        "root",
+        vec![translation::child_spec(
+            translation::TranslationArgs {
+                cfg: moos_config(port, 5.0),
+                vehicle: "test-auv".into(),
+                bus: bus.clone(),
+                chaos: Some(chaos.clone()),
+                observer: Default::default(),
+            },
+            (&cfg.supervision.translation).into(),
+        )],
+    )
+    .await
+    .unwrap();
+    let script = Script::new("DRIVE", 90.0, 1.0, true);
+    let mut helm = Helm::start(port, script.clone()).await;
+    helm.run();
+    let service = InterfaceService::start(&cfg, &bus).await.unwrap();
+    status
+        .until_state(InterfaceState::InterfaceCommand, LONG)
+        .await;
+    helm.until("NAV_X before the panic", LONG, |m| m.key == "NAV_X")
+        .await;
+
+    // The translation's data path panics: its supervisor restarts it.
+    chaos.notify_one();
+    let deadline = Instant::now() + LONG;
+    let restarted_at = loop {
+        let snap = root.snapshot(LONG).await.expect("supervisor answers");
+        let t = &snap.children[0];
+        if t.restarts == 1 && t.up {
+            assert!(
+                t.last_failure
+                    .as_deref()
+                    .is_some_and(|f| f.contains("chaos: FrontSeatTranslation panic")),
+                "{t:?}"
+            );
+            break Instant::now();
+        }
+        assert!(Instant::now() < deadline, "never restarted: {snap:?}");
+        tokio::time::sleep(Duration::from_millis(5)).await;
+    };
+    // Re-registered with the MOOSDB: NAV_* reach the helm again...
+    helm.drain();
+    helm.until("NAV_X after the restart", LONG, |m| m.key == "NAV_X")
+        .await;
+    eprintln!(
+        "NAV_X flowing again {:?} after the restart",
+        restarted_at.elapsed()
+    );
+    // ...and the helm's setpoints are accepted again: a new heading reaches the frontseat.
+    script.set_heading(200.0);
+    let deadline = Instant::now() + LONG;
+    loop {
+        match timeout_at(deadline, raw_out.recv()).await {
+            Ok(Some(env)) => {
+                let raw: &Raw = &env.msg;
+                if raw.raw().starts_with(b"CMD,HEADING:200,") {
+                    break;
+                }
+            }
+            other => panic!("no CMD with the new heading after the restart: {other:?}"),
+        }
+    }
+    let snap = root.snapshot(LONG).await.unwrap();
+    assert_eq!(snap.children[0].restarts, 1);
+    helm.stop().await;
+    root.shutdown(LONG).await;
+    service.shutdown(LONG).await;
+    sim.shutdown().await;
+}

@@ -65,18 +65,8 @@ impl<T> Group<T> {
 pub trait BusMessage: prost::Message + Default + Clone + Send + Sync + 'static {}
 impl<T: prost::Message + Default + Clone + Send + Sync + 'static> BusMessage for T {}
 
-/// The publisher's trace context in W3C `traceparent` form; empty when tracing is off.
-#[derive(Clone, Debug, Default, PartialEq, Eq)]
-pub struct TraceContext {
-    pub traceparent: String,
-}
-
-impl TraceContext {
-    /// The trace id part of the traceparent (`00-<trace id>-<span id>-<flags>`), or "".
-    pub fn trace_id(&self) -> &str {
-        self.traceparent.split('-').nth(1).unwrap_or("")
-    }
-}
+/// The trace context an envelope carries (defined with the telemetry, which makes it).
+pub use crate::telemetry::TraceContext;
 
 /// Whether a message was published in this process or imported from another (so the gateway
 /// does not export it again).

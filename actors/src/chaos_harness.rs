@@ -31,7 +31,8 @@ use crate::proto::goby::middleware::frontseat::protobuf::{
     CommandRequest, DesiredCourse, HelmState, HelmStateReport, InterfaceState,
 };
 use crate::sim_glue::{self, EmbeddedSimulator};
-use crate::translation::{self, TranslationHandle};
+use crate::supervisor::SupervisorHandle;
+use crate::translation;
 
 /// The config `frontseat chaos` uses without `-c`: chaos enabled, warped, short reconnect and
 /// restart delays, and a restart limit that a fault every few hundred milliseconds stays under.
@@ -126,10 +127,12 @@ pub enum FaultKind {
     HelmPark,
     StalledSubscriber,
     MoosRestart,
+    TranslationPanic,
+    VehiclePanic,
 }
 
 impl FaultKind {
-    pub const ALL: [FaultKind; 13] = [
+    pub const ALL: [FaultKind; 15] = [
         FaultKind::DriverPanic,
         FaultKind::DriverKill,
         FaultKind::DropConnection,
@@ -143,6 +146,8 @@ impl FaultKind {
         FaultKind::HelmPark,
         FaultKind::StalledSubscriber,
         FaultKind::MoosRestart,
+        FaultKind::TranslationPanic,
+        FaultKind::VehiclePanic,
     ];
 
     pub fn name(self) -> &'static str {
@@ -160,6 +165,8 @@ impl FaultKind {
             FaultKind::HelmPark => "helm PARK/DRIVE flap",
             FaultKind::StalledSubscriber => "stalled bus subscriber",
             FaultKind::MoosRestart => "MOOS broker restarted",
+            FaultKind::TranslationPanic => "FrontSeatTranslation panic",
+            FaultKind::VehiclePanic => "simulated vehicle panic",
         }
     }
 
@@ -171,6 +178,7 @@ impl FaultKind {
             FaultKind::SimRestart | FaultKind::Oversized => 2,
             FaultKind::CtrlAuv | FaultKind::CtrlIdle => 2,
             FaultKind::StalledSubscriber | FaultKind::MoosRestart => 2,
+            FaultKind::TranslationPanic | FaultKind::VehiclePanic => 2,
             FaultKind::CtrlPayload => 1,
         }
     }
@@ -223,7 +231,7 @@ pub fn plan(seed: u64, faults: u32, moos: bool, nav_timeout_s: f64) -> Vec<Plann
     let mut rng = Rng::new(seed);
     let kinds: Vec<FaultKind> = FaultKind::ALL
         .into_iter()
-        .filter(|k| moos || *k != FaultKind::MoosRestart)
+        .filter(|k| moos || !matches!(k, FaultKind::MoosRestart | FaultKind::TranslationPanic))
         .collect();
     let total: u64 = kinds.iter().map(|k| k.weight()).sum();
     let ms = |rng: &mut Rng, lo: f64, hi: f64| Duration::from_secs_f64(rng.range(lo, hi) / 1000.0);
@@ -384,6 +392,8 @@ const INJECTED_PANIC: &str = "chaos: injected driver panic";
 static RUNNING: AtomicBool = AtomicBool::new(false);
 static INJECTED_PANICS_SEEN: AtomicU64 = AtomicU64::new(0);
 static OTHER_PANICS: AtomicU64 = AtomicU64::new(0);
+/// Injected panics of the translation and of simulated vehicles ("chaos: … panic injected").
+static INJECTED_OTHER_SEEN: AtomicU64 = AtomicU64::new(0);
 static OTHER_PANIC_TEXT: Mutex<Vec<String>> = Mutex::new(Vec::new());
 
 type Hook = dyn Fn(&std::panic::PanicHookInfo<'_>) + Send + Sync + 'static;
@@ -402,6 +412,7 @@ impl PanicWatch {
         }
         INJECTED_PANICS_SEEN.store(0, Ordering::SeqCst);
         OTHER_PANICS.store(0, Ordering::SeqCst);
+        INJECTED_OTHER_SEEN.store(0, Ordering::SeqCst);
         OTHER_PANIC_TEXT
             .lock()
             .unwrap_or_else(|p| p.into_inner())
@@ -417,6 +428,8 @@ impl PanicWatch {
                 .unwrap_or_default();
             if msg == INJECTED_PANIC {
                 INJECTED_PANICS_SEEN.fetch_add(1, Ordering::SeqCst);
+            } else if msg.starts_with("chaos: ") && msg.ends_with("panic injected") {
+                INJECTED_OTHER_SEEN.fetch_add(1, Ordering::SeqCst);
             } else {
                 OTHER_PANICS.fetch_add(1, Ordering::SeqCst);
                 let at = info
@@ -781,14 +794,35 @@ where
 struct Moos {
     addr: SocketAddr,
     broker: Option<BrokerHandle>,
-    bridge: TranslationHandle,
+    /// The translation runs under a supervisor, as in `frontseat interface`.
+    root: SupervisorHandle,
+    bridge: translation::TranslationObserver,
+    panic: Arc<tokio::sync::Notify>,
+    app_name: String,
 }
 
 impl Moos {
+    fn counters(&self) -> translation::TranslationCounters {
+        self.bridge.counters().unwrap_or_default()
+    }
+
+    async fn restarts(&self, within: Duration) -> u32 {
+        self.root
+            .snapshot(within)
+            .await
+            .map_or(0, |s| s.children.iter().map(|c| c.restarts).sum())
+    }
+
+    fn connected(&self) -> bool {
+        self.bridge
+            .status()
+            .is_some_and(|s| s.moos_connected == Some(true))
+    }
+
     async fn wait_connected(&self, within: Duration) -> bool {
         let deadline = Instant::now() + within;
         while Instant::now() < deadline {
-            if self.bridge.status().moos_connected == Some(true) {
+            if self.connected() {
                 return true;
             }
             tokio::time::sleep(Duration::from_millis(5)).await;
@@ -815,6 +849,7 @@ struct Run {
     stall_deliveries: Vec<u64>,
     stall_drops: u64,
     moos_reconnects: Vec<Duration>,
+    translation_restarts: Vec<Duration>,
     violations: Vec<String>,
     by_kind: BTreeMap<FaultKind, KindStats>,
 }
@@ -959,6 +994,17 @@ impl Run {
                 self.moos_restart(i, f.hold).await;
                 Instant::now()
             }
+            FaultKind::TranslationPanic => {
+                let t = Instant::now();
+                self.translation_panic(i).await;
+                one_shot(t)
+            }
+            FaultKind::VehiclePanic => {
+                let t = Instant::now();
+                self.sim_fault(sim_fault::Fault::Panic(true));
+                self.monitor.until_left_command(f.hold).await;
+                one_shot(t)
+            }
         }
     }
 
@@ -1004,6 +1050,31 @@ impl Run {
         }
     }
 
+    /// The translation panics on its data path: its supervisor must restart it, and the new one
+    /// must reconnect to the MOOSDB and post NAV again, within the recovery bound.
+    async fn translation_panic(&mut self, i: u32) {
+        let bound = self.opts.recovery_bound;
+        let Some(m) = self.moos.as_mut() else { return };
+        let before = m.restarts(bound).await;
+        let t0 = Instant::now();
+        m.panic.notify_one();
+        let deadline = t0 + bound;
+        loop {
+            let restarted = m.restarts(bound).await > before;
+            if restarted && m.connected() && m.counters().node_status_posted > 0 {
+                self.translation_restarts.push(t0.elapsed());
+                break;
+            }
+            if Instant::now() >= deadline {
+                self.violations.push(format!(
+                    "fault #{i} (translation panic): not restarted with NAV flowing to MOOS within {bound:?}"
+                ));
+                break;
+            }
+            tokio::time::sleep(Duration::from_millis(5)).await;
+        }
+    }
+
     async fn moos_restart(&mut self, i: u32, down: Duration) {
         let bound = self.opts.recovery_bound;
         let Some(m) = self.moos.as_mut() else { return };
@@ -1012,7 +1083,7 @@ impl Run {
                 "fault #{i} (MOOS restart): bridge not connected within {bound:?} before the restart"
             ));
         }
-        let r0 = m.bridge.counters().reconnects;
+
         if let Some(b) = m.broker.take() {
             b.shutdown().await;
         }
@@ -1030,8 +1101,13 @@ impl Run {
         let t0 = Instant::now();
         let deadline = t0 + bound;
         loop {
-            if m.bridge.counters().reconnects > r0 && m.bridge.status().moos_connected == Some(true)
-            {
+            // Reconnected = registered with the new broker (whichever translation instance runs
+            // now: one restarted meanwhile connects afresh, with its counters at zero).
+            let registered = m
+                .broker
+                .as_ref()
+                .is_some_and(|b| b.client_names().contains(&m.app_name));
+            if registered && m.connected() {
                 self.moos_reconnects.push(t0.elapsed());
                 break;
             }
@@ -1095,13 +1171,30 @@ pub async fn run(
         mc.port = addr.port();
         mc.time_warp = 1.0;
         config.moos = Some(mc.clone());
-        let bridge = translation::spawn(&mc, &config.name, &bus)
-            .await
-            .map_err(|e| ChaosHarnessError::Translation(e.to_string()))?;
+        let bridge = translation::TranslationObserver::default();
+        let panic = Arc::new(tokio::sync::Notify::new());
+        let root = SupervisorHandle::start(
+            "root",
+            vec![translation::child_spec(
+                translation::TranslationArgs {
+                    cfg: mc.clone(),
+                    vehicle: config.name.clone(),
+                    bus: bus.clone(),
+                    chaos: Some(panic.clone()),
+                    observer: bridge.clone(),
+                },
+                (&config.supervision.translation).into(),
+            )],
+        )
+        .await
+        .map_err(ChaosHarnessError::Translation)?;
         Some(Moos {
             addr,
             broker: Some(broker),
+            root,
             bridge,
+            panic,
+            app_name: mc.app_name.clone(),
         })
     } else {
         config.moos = None;
@@ -1128,6 +1221,7 @@ pub async fn run(
         stall_deliveries: Vec::new(),
         stall_drops: 0,
         moos_reconnects: Vec::new(),
+        translation_restarts: Vec::new(),
         violations: Vec::new(),
         by_kind: BTreeMap::new(),
         opts: opts.clone(),
@@ -1252,7 +1346,7 @@ pub async fn run(
     agent.stop();
     let moos_bridge = run.moos.take();
     if let Some(m) = moos_bridge {
-        m.bridge.shutdown().await;
+        m.root.shutdown(Duration::from_secs(4)).await;
         if let Some(b) = m.broker {
             b.shutdown().await;
         }
@@ -1370,22 +1464,27 @@ pub async fn run(
     }
     let other = OTHER_PANICS.load(Ordering::SeqCst);
     let seen = INJECTED_PANICS_SEEN.load(Ordering::SeqCst);
+    let seen_other = INJECTED_OTHER_SEEN.load(Ordering::SeqCst);
+    let other_injected: u64 = [FaultKind::TranslationPanic, FaultKind::VehiclePanic]
+        .iter()
+        .map(|k| run.by_kind.get(k).map_or(0, |s| s.injected as u64))
+        .sum();
     let texts = OTHER_PANIC_TEXT
         .lock()
         .map(|v| v.clone())
         .unwrap_or_default();
     inv.push(Invariant {
-        name: "no panic escaped (injected driver panics absorbed by supervision)",
+        name: "no panic escaped (injected driver, translation and vehicle panics absorbed by supervision)",
         bound: "0 other panics".into(),
         measured: format!(
-            "{other} other panics{}; {seen} injected panics raised and absorbed",
+            "{other} other panics{}; {seen} injected driver panics and {seen_other}/{other_injected} translation/vehicle panics raised and absorbed",
             if texts.is_empty() {
                 String::new()
             } else {
                 format!(" ({})", texts.join("; "))
             }
         ),
-        ok: other == 0 && seen == run.injected_panics,
+        ok: other == 0 && seen == run.injected_panics && seen_other == other_injected,
     });
     let crashes = run.injected_panics + run.injected_kills;
     let restarts = snapshot.as_ref().map(|s| u64::from(s.driver_restarts));
@@ -1441,6 +1540,27 @@ pub async fn run(
                 fmt_ms(mr.last().copied().unwrap_or_default())
             ),
             ok: mr.len() == restarts,
+        });
+    }
+
+    if opts.moos {
+        let mut tr = run.translation_restarts.clone();
+        tr.sort();
+        let panics = run
+            .by_kind
+            .get(&FaultKind::TranslationPanic)
+            .map_or(0, |k| k.injected) as usize;
+        inv.push(Invariant {
+            name: "a panicked FrontSeatTranslation is restarted and posts NAV to MOOS again",
+            bound: format!("≤ {} wall each", fmt_ms(bound)),
+            measured: format!(
+                "{}/{} restarted; p50 {}, max {}",
+                tr.len(),
+                panics,
+                fmt_ms(percentile(&tr, 50.0)),
+                fmt_ms(tr.last().copied().unwrap_or_default())
+            ),
+            ok: tr.len() == panics,
         });
     }
 

@@ -42,3 +42,11 @@ impl SimClock {
             .unwrap_or(0.0)
     }
 }
+
+static HEARTBEAT_EPOCH: std::sync::OnceLock<std::time::Instant> = std::sync::OnceLock::new();
+
+/// Milliseconds on a process-wide monotonic clock, for the driver heartbeat.
+pub fn heartbeat_now() -> u64 {
+    let epoch = HEARTBEAT_EPOCH.get_or_init(std::time::Instant::now);
+    epoch.elapsed().as_millis() as u64
+}

@@ -182,7 +182,7 @@ impl Actor for DriverActor {
                 state.driver.do_loop(now, &mut sink);
                 state
                     .heartbeat
-                    .store(crate::interface::heartbeat_now(), Ordering::Relaxed);
+                    .store(crate::clock::heartbeat_now(), Ordering::Relaxed);
             }
             DriverMsg::Stop => {
                 state.driver.stop();

@@ -161,13 +161,7 @@ pub struct Snapshot {
 /// probe calls it hung (wall time; ticks come every 100 ms / warp).
 pub const DRIVER_HUNG_AFTER: Duration = Duration::from_secs(2);
 
-static HEARTBEAT_EPOCH: std::sync::OnceLock<std::time::Instant> = std::sync::OnceLock::new();
-
-/// Milliseconds on a process-wide monotonic clock, for the driver heartbeat.
-pub fn heartbeat_now() -> u64 {
-    let epoch = HEARTBEAT_EPOCH.get_or_init(std::time::Instant::now);
-    epoch.elapsed().as_millis() as u64
-}
+pub use crate::clock::heartbeat_now;
 
 #[derive(Default, Clone, Copy, Debug)]
 struct Counters {

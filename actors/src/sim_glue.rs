@@ -63,6 +63,7 @@ pub fn fault_from_proto(f: &SimFault) -> Option<Fault> {
         sim_fault::Fault::StopNavSeconds(s) => Fault::StopNav { seconds: *s },
         sim_fault::Fault::GarbageLines(n) => Fault::Garbage { lines: *n },
         sim_fault::Fault::OversizedLine(_) => Fault::OversizedLine,
+        sim_fault::Fault::Panic(_) => Fault::Panic,
         sim_fault::Fault::Ctrl(c) => match sim_fault::Ctrl::try_from(*c).ok()? {
             sim_fault::Ctrl::Payload => Fault::Ctrl(CtrlState::Payload),
             sim_fault::Ctrl::Auv => Fault::Ctrl(CtrlState::Auv),

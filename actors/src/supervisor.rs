@@ -388,6 +388,22 @@ impl SupervisorHandle {
     }
 }
 
+/// Who supervises whom, as `frontseat interfaces` prints it.
+pub const TREE: &str = "\
+# supervision tree
+# frontseat interface
+#   root supervisor                 gives up past a child's restart limit: exit 3 (systemd restarts)
+#   ├── FrontSeatTranslation        with [moos]; [supervision.translation]: policy never|on-failure|always,
+#   │                               max_restarts within restart_window_s, backoff_initial_ms doubling to backoff_max_ms
+#   FrontSeatInterface              its own failure ends the service: exit 4
+#   └── DriverActor                 [supervision]: restart after restart_initial_delay_ms doubling to
+#                                   restart_max_delay_ms, at most max_restarts within restart_window_s, then exit 3
+#   Zenoh gateway                   with [interprocess] enabled; the Zenoh session reconnects by itself
+# frontseat sim
+#   SimServer
+#   └── one task per vehicle connection   a panic closes only that connection (SimStats.vehicle_panics)
+";
+
 #[cfg(test)]
 mod tests {
     use super::*;

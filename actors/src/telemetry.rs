@@ -21,7 +21,18 @@ use tracing_subscriber::Layer;
 use tracing_subscriber::layer::SubscriberExt;
 use tracing_subscriber::util::SubscriberInitExt;
 
-use crate::bus::TraceContext;
+/// The publisher's trace context in W3C `traceparent` form; empty when tracing is off.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct TraceContext {
+    pub traceparent: String,
+}
+
+impl TraceContext {
+    /// The trace id part of the traceparent (`00-<trace id>-<span id>-<flags>`), or "".
+    pub fn trace_id(&self) -> &str {
+        self.traceparent.split('-').nth(1).unwrap_or("")
+    }
+}
 
 static ENABLED: AtomicBool = AtomicBool::new(false);
 

@@ -385,6 +385,14 @@ impl TranslationHandle {
         }
     }
 
+    /// Receivers of the status and counters, for an observer that outlives this handle.
+    pub fn watch(&self) -> TranslationWatch {
+        TranslationWatch {
+            status: self.status.clone(),
+            counters: self.counters.clone(),
+        }
+    }
+
     /// The latest status (the one last published, or the initial one).
     pub fn status(&self) -> TranslationStatus {
         *self.status.borrow()
@@ -676,6 +684,42 @@ impl Task {
     }
 }
 
+/// The status and counters of one running translation.
+#[derive(Clone, Debug)]
+pub struct TranslationWatch {
+    status: watch::Receiver<TranslationStatus>,
+    counters: watch::Receiver<TranslationCounters>,
+}
+
+impl TranslationWatch {
+    pub fn status(&self) -> TranslationStatus {
+        *self.status.borrow()
+    }
+    pub fn counters(&self) -> TranslationCounters {
+        *self.counters.borrow()
+    }
+}
+
+/// The watch of whichever translation runs now: its supervisor replaces the translation on a
+/// restart, and with it the counters (they start again from zero).
+#[derive(Clone, Debug, Default)]
+pub struct TranslationObserver(Arc<std::sync::Mutex<Option<TranslationWatch>>>);
+
+impl TranslationObserver {
+    fn set(&self, w: TranslationWatch) {
+        *self.0.lock().unwrap_or_else(|p| p.into_inner()) = Some(w);
+    }
+    pub fn current(&self) -> Option<TranslationWatch> {
+        self.0.lock().unwrap_or_else(|p| p.into_inner()).clone()
+    }
+    pub fn status(&self) -> Option<TranslationStatus> {
+        self.current().map(|w| w.status())
+    }
+    pub fn counters(&self) -> Option<TranslationCounters> {
+        self.current().map(|w| w.counters())
+    }
+}
+
 /// The FrontSeatTranslation as a supervised actor of the root supervisor: it owns one running
 /// translation (MOOS client, registrations, bus subscriptions, the data-path task). The data path
 /// stays a task fed directly by the MOOS client and the bus (no extra hop through a mailbox); the
@@ -690,6 +734,8 @@ pub struct TranslationArgs {
     pub bus: Bus,
     /// Survives restarts: a chaos test can panic whichever translation runs now.
     pub chaos: Option<Arc<Notify>>,
+    /// Survives restarts: sees the status and counters of whichever translation runs now.
+    pub observer: TranslationObserver,
 }
 
 pub enum TranslationMsg {
@@ -712,6 +758,7 @@ impl Actor for TranslationActor {
         args: TranslationArgs,
     ) -> Result<Self::State, ActorProcessingErr> {
         let mut handle = spawn_with_chaos(&args.cfg, &args.vehicle, &args.bus, args.chaos).await?;
+        args.observer.set(handle.watch());
         if let Some(task) = handle.task.take() {
             tokio::spawn(async move {
                 let why = match task.await {

@@ -444,6 +444,7 @@ impl Session {
                     }
                 }
             }
+            Fault::Panic => panic!("chaos: simulated vehicle {} panic injected", self.id),
             Fault::OversizedLine => {
                 self.out
                     .resize(self.out.len() + OVERSIZED_FAULT_BYTES, b'X');

@@ -78,6 +78,9 @@ pub enum Fault {
     /// Send `CTRL,STATE:<state>`; AUV makes CMD answer ERROR until PAYLOAD; IDLE also ends the
     /// run (no NAV until the next START).
     Ctrl(CtrlState),
+    /// The vehicle's task panics (chaos): only its connection closes; the server counts it and
+    /// every other vehicle keeps its ticks.
+    Panic,
 }
 
 /// Ground truth of one vehicle at one reported tick.
@@ -124,6 +127,8 @@ pub struct SimStats {
     pub worst_lateness: Duration,
     /// Faults carried out.
     pub faults: u64,
+    /// Vehicle tasks that panicked (each closed only its own connection).
+    pub vehicle_panics: u64,
 }
 
 /// Everything that can go wrong in this crate.

@@ -1,5 +1,5 @@
 //! One started vehicle: its START parameters, the vehicle model, the tick schedule, the control
-//! state and the scheduled faults. Owned by a connection; parked in [`crate::shared::Shared`]
+//! state and the scheduled faults. Owned by a connection; parked in the server's shared state
 //! while its client reconnects.
 
 use tokio::time::Instant;

@@ -124,6 +124,7 @@ impl SimHandle {
             dropped_ticks: g(&c.dropped_ticks),
             worst_lateness: Duration::from_nanos(g(&c.worst_lateness_ns)),
             faults: g(&c.faults),
+            vehicle_panics: g(&c.vehicle_panics),
         }
     }
 
@@ -147,8 +148,13 @@ async fn accept_loop(listener: TcpListener, shared: Arc<Shared>, mut stop: watch
         tokio::select! {
             () = async { let _ = stop.wait_for(|s| *s).await; } => break,
             Some(done) = tasks.join_next(), if !tasks.is_empty() => {
+                // The server supervises its vehicles: a panic ends one connection, never the
+                // server or another vehicle.
                 if let Err(e) = done {
-                    tracing::error!(error = %e, "vehicle task failed");
+                    if e.is_panic() {
+                        Counters::add(&shared.counters.vehicle_panics, 1);
+                    }
+                    tracing::error!(error = %e, "vehicle task failed: its connection is closed; the other vehicles go on");
                 }
             }
             accepted = listener.accept() => match accepted {

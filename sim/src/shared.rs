@@ -27,6 +27,7 @@ pub(crate) struct Counters {
     pub dropped_ticks: AtomicU64,
     pub worst_lateness_ns: AtomicU64,
     pub faults: AtomicU64,
+    pub vehicle_panics: AtomicU64,
 }
 
 impl Counters {

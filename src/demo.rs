@@ -32,6 +32,10 @@ pub struct DemoArgs {
     /// Print one status line per simulated second instead of a live line.
     #[arg(long)]
     pub lines: bool,
+    /// Fly a vehicle emulator through its real driver over a pseudo-terminal instead of the
+    /// basic simulator: iver3 or waveglider_sv2.
+    #[arg(long, value_enum, default_value_t = crate::vehicle_sim::VehicleKind::Basic)]
+    pub vehicle: crate::vehicle_sim::VehicleKind,
     /// Also serve the web scope and commander (on 127.0.0.1:50001 unless --web-listen).
     #[arg(long)]
     pub web: bool,
@@ -41,6 +45,10 @@ pub struct DemoArgs {
 }
 
 pub async fn run(args: DemoArgs) -> ExitCode {
+    if args.vehicle != crate::vehicle_sim::VehicleKind::Basic {
+        let kind = args.vehicle;
+        return crate::vehicle_sim::run_demo(args, kind).await;
+    }
     if !(args.warp.is_finite() && args.warp > 0.0 && args.warp <= 1000.0) {
         eprintln!("--warp must be in (0, 1000]");
         return ExitCode::from(2);

@@ -1,17 +1,20 @@
-//! Zenoh for the services: the gateway `frontseat interface` starts when `[interprocess] enabled`
-//! (hosting the FrontSeatInterface, plus the FrontSeatTranslation when it runs the MOOS bridge
-//! in-process), and `frontseat moos-gateway` — the FrontSeatTranslation alone between a MOOSDB
-//! and the interface reached over Zenoh, as Goby3's goby_moos_gateway.
+//! Zenoh and Goby3 for the services: the gateways `frontseat interface` starts when
+//! `[interprocess] enabled` (Zenoh) and `[goby3] enabled` (a gobyd client), hosting the
+//! FrontSeatInterface, plus the FrontSeatTranslation when it runs the MOOS bridge in-process; and
+//! `frontseat moos-gateway` — the FrontSeatTranslation alone between a MOOSDB and the interface
+//! reached over Zenoh and/or gobyd, as Goby3's goby_moos_gateway.
 
 use std::process::ExitCode;
 
 use frontseat_actors::bus::Bus;
+use frontseat_config::Goby3Config;
 use frontseat_config::{GatewayConfig, InterfaceConfig};
+use frontseat_gateway::goby3::{Goby3Handle, Goby3Settings};
 use frontseat_gateway::{GatewayError, GatewayHandle, GatewayOptions};
 
 /// The actors `frontseat interface` hosts, hence what its gateway exports and imports.
 pub fn interface_actors(cfg: &InterfaceConfig) -> Vec<&'static str> {
-    let mut hosted = vec!["FrontSeatInterface"];
+    let mut hosted = vec!["FrontSeatInterface", "RootSupervisor"];
     if cfg.moos.is_some() {
         hosted.push("FrontSeatTranslation");
     }
@@ -39,6 +42,21 @@ pub async fn start_for_interface(
     .map(Some)
 }
 
+/// Starts the Goby3 transport for `hosted` actors; `None` when `[goby3] enabled = false`. It
+/// returns at once: gobyd is joined (and re-joined) in the background.
+pub fn start_goby3(
+    cfg: &Goby3Config,
+    name: &str,
+    bus: &Bus,
+    hosted: &[&str],
+) -> Result<Option<Goby3Handle>, GatewayError> {
+    if !cfg.enabled {
+        return Ok(None);
+    }
+    let settings = Goby3Settings::from_config(cfg, name)?;
+    frontseat_gateway::goby3::start(bus, settings, hosted, GatewayOptions::default()).map(Some)
+}
+
 /// A hint for the commonest failure: the interface already listens on the default endpoint.
 fn open_hint(e: &GatewayError) -> &'static str {
     match e {
@@ -62,19 +80,31 @@ pub async fn moos_gateway(cfg: GatewayConfig) -> ExitCode {
             return ExitCode::from(2);
         }
     };
-    // The gateway first, so that what the MOOS side publishes from its first moment is exported.
-    let gateway = match frontseat_gateway::start(
-        &bus,
-        &cfg.interprocess,
-        &platform,
-        &["FrontSeatTranslation"],
-        GatewayOptions::default(),
-    )
-    .await
-    {
+    // The gateways first, so that what the MOOS side publishes from its first moment is exported.
+    let hosted = ["FrontSeatTranslation"];
+    let gateway = if cfg.interprocess.enabled {
+        match frontseat_gateway::start(
+            &bus,
+            &cfg.interprocess,
+            &platform,
+            &hosted,
+            GatewayOptions::default(),
+        )
+        .await
+        {
+            Ok(g) => Some(g),
+            Err(e) => {
+                tracing::error!(error = %e, hint = open_hint(&e), "cannot start the Zenoh gateway");
+                return ExitCode::from(2);
+            }
+        }
+    } else {
+        None
+    };
+    let goby3 = match start_goby3(&cfg.goby3, &cfg.name, &bus, &hosted) {
         Ok(g) => g,
         Err(e) => {
-            tracing::error!(error = %e, hint = open_hint(&e), "cannot start the Zenoh gateway");
+            tracing::error!(error = %e, "cannot start the Goby3 transport");
             return ExitCode::from(2);
         }
     };
@@ -87,13 +117,17 @@ pub async fn moos_gateway(cfg: GatewayConfig) -> ExitCode {
         Ok(t) => t,
         Err(e) => {
             tracing::error!(error = %e, "cannot start the FrontSeatTranslation");
-            gateway.close().await;
+            if let Some(g) = gateway {
+                g.close().await;
+            }
             return ExitCode::from(2);
         }
     };
     tracing::info!(
         platform = %platform,
         moosdb = %format!("{}:{}", cfg.moos.server, cfg.moos.port),
+        zenoh = cfg.interprocess.enabled,
+        goby3 = cfg.goby3.enabled,
         "MOOS gateway running"
     );
     notifier.ready();
@@ -105,8 +139,16 @@ pub async fn moos_gateway(cfg: GatewayConfig) -> ExitCode {
     }
     translation.shutdown().await;
     reporter.abort();
-    let stats = gateway.stats();
-    gateway.close().await;
-    tracing::info!(?stats, "MOOS gateway stopped");
+    if let Some(g) = goby3 {
+        let stats = g.stats();
+        g.close().await;
+        tracing::info!(?stats, "Goby3 transport stopped");
+    }
+    if let Some(g) = gateway {
+        let stats = g.stats();
+        g.close().await;
+        tracing::info!(?stats, "Zenoh gateway stopped");
+    }
+    tracing::info!("MOOS gateway stopped");
     ExitCode::SUCCESS
 }

@@ -10,6 +10,7 @@ mod gateway_cmd;
 mod service;
 mod shutdown;
 mod systemd;
+mod vehicle_sim;
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -66,6 +67,9 @@ enum Command {
         /// Address to bind (overrides the config; default 127.0.0.1, loopback only).
         #[arg(long, value_name = "ADDR")]
         bind: Option<String>,
+        /// A vehicle emulator instead of the basic simulator (`--vehicle iver3|waveglider_sv2`).
+        #[command(flatten)]
+        emulator: vehicle_sim::EmulatorArgs,
     },
     /// The MOOS bridge alone (Goby3's goby_moos_gateway): FrontSeatTranslation between a MOOSDB
     /// (pHelmIvP) and the interface, reached over Zenoh.
@@ -189,7 +193,17 @@ fn main() -> ExitCode {
             let name = config.name.clone();
             run_traced(&tel, "interface", &name, service::interface(config))
         }
-        Command::Sim { cfg, port, bind } => {
+        Command::Sim { emulator, .. } if emulator.vehicle != vehicle_sim::VehicleKind::Basic => {
+            run_traced(
+                &Default::default(),
+                "sim",
+                "",
+                vehicle_sim::run_emulator(emulator),
+            )
+        }
+        Command::Sim {
+            cfg, port, bind, ..
+        } => {
             if let Some(code) = config_commands::<frontseat_config::SimConfig>(&cfg) {
                 return code;
             }

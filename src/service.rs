@@ -40,6 +40,18 @@ pub async fn interface(config: InterfaceConfig) -> ExitCode {
             return ExitCode::from(2);
         }
     };
+    let goby3 = match crate::gateway_cmd::start_goby3(
+        &config.goby3,
+        &config.name,
+        &bus,
+        &crate::gateway_cmd::interface_actors(&config),
+    ) {
+        Ok(g) => g,
+        Err(e) => {
+            tracing::error!(error = %e, "cannot start the Goby3 transport");
+            return ExitCode::from(2);
+        }
+    };
     let reporter = systemd::spawn_status_reporter(notifier.clone(), &bus);
     let mut service = match InterfaceService::start(&config, &bus).await {
         Ok(s) => s,
@@ -63,7 +75,7 @@ pub async fn interface(config: InterfaceConfig) -> ExitCode {
             (&config.supervision.translation).into(),
         ));
     }
-    let mut root = match SupervisorHandle::start("root", children).await {
+    let mut root = match SupervisorHandle::start("root", children, Some(&bus)).await {
         Ok(r) => r,
         Err(e) => {
             tracing::error!(error = %e, "cannot start the MOOS bridge (FrontSeatTranslation)");
@@ -94,6 +106,7 @@ pub async fn interface(config: InterfaceConfig) -> ExitCode {
         frontseat = %format!("{}:{}", config.driver.basic_simulator.tcp_address, config.driver.basic_simulator.tcp_port),
         moos = config.moos.is_some(),
         interprocess = config.interprocess.enabled,
+        goby3 = config.goby3.enabled,
         "frontseat interface running"
     );
     let exit = tokio::select! {
@@ -117,6 +130,9 @@ pub async fn interface(config: InterfaceConfig) -> ExitCode {
     }
     root.shutdown(SHUTDOWN_BOUND).await;
     if let Some(g) = gateway {
+        let _ = tokio::time::timeout(SHUTDOWN_BOUND, g.close()).await;
+    }
+    if let Some(g) = goby3 {
         let _ = tokio::time::timeout(SHUTDOWN_BOUND, g.close()).await;
     }
     reporter.abort();

@@ -8,8 +8,13 @@ const ROWS: [&str; 14] = [
     "L0", "P1", "P2", "P3", "P4", "P5", "P6", "M1", "M2", "Z1", "Z2", "Z3", "T1", "W1",
 ];
 
+/// One bench at a time: two at once on a 2-core machine starve each other's children (the
+/// rows measure a machine, not a contest).
+static ONE_AT_A_TIME: std::sync::Mutex<()> = std::sync::Mutex::new(());
+
 /// Runs the binary with a deadline (it spawns children of its own; a hang must fail the test).
 fn run_bench(args: &[&str]) -> (bool, String, String) {
+    let _one = ONE_AT_A_TIME.lock().unwrap_or_else(|p| p.into_inner());
     let mut child = Command::new(env!("CARGO_BIN_EXE_frontseat"))
         .arg("bench")
         .args(args)

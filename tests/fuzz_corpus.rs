@@ -49,3 +49,13 @@ fn moos_decode_corpus() {
 fn config_corpus() {
     replay("config", targets::config);
 }
+
+#[test]
+fn sv2_frame_corpus() {
+    replay("sv2_frame", targets::sv2_frame);
+}
+
+#[test]
+fn iver_sentence_corpus() {
+    replay("iver_sentence", targets::iver_sentence);
+}

@@ -781,6 +781,8 @@ async fn a_panic_in_the_translation_is_restarted_and_the_bridge_flows_again() {
         "test",
         1_000_000,
     );
+    let (_s2, mut supervision) =
+        bus.subscribe_channel(&groups::FRONTSEAT_SUPERVISION_STATUS, "test", 10_000);
     let chaos = Arc::new(tokio::sync::Notify::new());
     let cfg = config_for(&sim, WARP);
     let root = SupervisorHandle::start(
@@ -795,6 +797,7 @@ async fn a_panic_in_the_translation_is_restarted_and_the_bridge_flows_again() {
             },
             (&cfg.supervision.translation).into(),
         )],
+        Some(&bus),
     )
     .await
     .unwrap();
@@ -850,6 +853,21 @@ async fn a_panic_in_the_translation_is_restarted_and_the_bridge_flows_again() {
     }
     let snap = root.snapshot(LONG).await.unwrap();
     assert_eq!(snap.children[0].restarts, 1);
+    // The restart is visible on the bus (and so over Zenoh, Goby3 and the web scope).
+    until_bus(
+        &mut supervision,
+        "supervision status with the restart",
+        LONG,
+        |s| {
+            s.children.iter().any(|c| {
+                c.name() == "FrontSeatTranslation"
+                    && c.restarts() == 1
+                    && c.up()
+                    && c.last_failure().contains("panic")
+            })
+        },
+    )
+    .await;
     helm.stop().await;
     root.shutdown(LONG).await;
     service.shutdown(LONG).await;

@@ -201,10 +201,16 @@ impl<T: BusMessage> AnySlot for Slot<T> {
     }
 }
 
+/// The name under which the Goby3 (gobyd) transport reports its link.
+pub const GOBY3_LINK: &str = "goby3";
+
 struct Inner {
     slots: RwLock<HashMap<&'static str, Arc<dyn AnySlot>>>,
     next_id: AtomicU64,
     dropped_total: AtomicU64,
+    /// Up/down of this process's links to other processes (e.g. "goby3"), set by the gateways
+    /// that own them and read by whoever reports status: neither depends on the other.
+    links: RwLock<Vec<(&'static str, bool)>>,
 }
 
 /// The bus. Cheap to clone; every clone is the same bus.
@@ -255,6 +261,7 @@ impl Bus {
                 slots: RwLock::new(HashMap::new()),
                 next_id: AtomicU64::new(1),
                 dropped_total: AtomicU64::new(0),
+                links: RwLock::new(Vec::new()),
             }),
         }
     }
@@ -441,6 +448,21 @@ impl Bus {
 
     pub fn total_dropped(&self) -> u64 {
         self.inner.dropped_total.load(Ordering::Relaxed)
+    }
+
+    /// Records whether the link `name` (a transport to other processes) is up.
+    pub fn set_link_up(&self, name: &'static str, up: bool) {
+        let mut links = self.inner.links.write().unwrap_or_else(|p| p.into_inner());
+        match links.iter_mut().find(|(n, _)| *n == name) {
+            Some(l) => l.1 = up,
+            None => links.push((name, up)),
+        }
+    }
+
+    /// Whether link `name` is up; `None` when this process runs no such link.
+    pub fn link_up(&self, name: &str) -> Option<bool> {
+        let links = self.inner.links.read().unwrap_or_else(|p| p.into_inner());
+        links.iter().find(|(n, _)| *n == name).map(|l| l.1)
     }
 }
 

@@ -1185,6 +1185,7 @@ pub async fn run(
                 },
                 (&config.supervision.translation).into(),
             )],
+            Some(&bus),
         )
         .await
         .map_err(ChaosHarnessError::Translation)?;

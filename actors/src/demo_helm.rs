@@ -205,8 +205,9 @@ pub async fn run(
                 DemoHelmInbox::Status(env) => {
                     status = *env.msg;
                     live.interface = state_words(status.state()).to_string();
-                    live.frontseat = format!("{:?}", status.frontseat_state());
-                    live.helm = format!("{:?}", status.helm_state());
+                    // Goby3's words: the protobuf enum names a Goby3 user knows.
+                    live.frontseat = status.frontseat_state().as_str_name().to_string();
+                    live.helm = status.helm_state().as_str_name().to_string();
                 }
             },
         }
@@ -244,7 +245,28 @@ pub fn track_csv(track: &[TrackPoint]) -> String {
     s
 }
 
-/// A self-contained SVG of the track, north up, one colour per leg, the start marked.
+/// A grid spacing of 1, 2 or 5 × 10^k metres giving about `lines` lines across `span`.
+fn nice_step(span: f64, lines: f64) -> f64 {
+    let raw = (span / lines).max(1e-9);
+    let k = 10f64.powf(raw.log10().floor());
+    [1.0, 2.0, 5.0, 10.0]
+        .into_iter()
+        .map(|m| m * k)
+        .find(|s| *s >= raw)
+        .unwrap_or(10.0 * k)
+}
+
+const LEG_COLOURS: [(Leg, &str); 5] = [
+    (Leg::WaitingForCommand, "#999999"),
+    (Leg::East, "#d62728"),
+    (Leg::South, "#1f77b4"),
+    (Leg::NorthWest, "#2ca02c"),
+    (Leg::Done, "#555555"),
+];
+
+/// A self-contained SVG of the track in the local grid (Goby3's: x east, y north of the datum,
+/// metres), north up: a labelled metre grid, axes titles, a scale bar, one colour per leg with a
+/// legend, and the start marked.
 pub fn track_svg(track: &[TrackPoint]) -> String {
     let (mut minx, mut maxx, mut miny, mut maxy) = (0.0f64, 0.0f64, 0.0f64, 0.0f64);
     for p in track {
@@ -254,29 +276,85 @@ pub fn track_svg(track: &[TrackPoint]) -> String {
         maxy = maxy.max(p.y);
     }
     let span = (maxx - minx).max(maxy - miny).max(10.0);
-    let size = 600.0;
-    let pad = 40.0;
-    let scale = (size - 2.0 * pad) / span;
-    let px = |x: f64| pad + (x - minx) * scale;
-    let py = |y: f64| size - pad - (y - miny) * scale;
+    // Centre the square view on the track.
+    let (cx, cy) = ((minx + maxx) / 2.0, (miny + maxy) / 2.0);
+    let (minx, miny) = (cx - span / 2.0, cy - span / 2.0);
+    let (w, h) = (760.0, 680.0);
+    let (left, top, plot) = (70.0, 40.0, 560.0);
+    let scale = plot / span;
+    let px = |x: f64| left + (x - minx) * scale;
+    let py = |y: f64| top + plot - (y - miny) * scale;
     let mut s = String::new();
     let _ = writeln!(
         s,
-        r#"<svg xmlns="http://www.w3.org/2000/svg" width="{size}" height="{size}" viewBox="0 0 {size} {size}">"#
+        r#"<svg xmlns="http://www.w3.org/2000/svg" width="{w}" height="{h}" viewBox="0 0 {w} {h}" font-family="sans-serif">"#
     );
     let _ = writeln!(s, r#"<rect width="100%" height="100%" fill="white"/>"#);
     let _ = writeln!(
         s,
-        r#"<text x="10" y="20" font-family="sans-serif" font-size="14">frontseat demo track (x east, y north; {:.0} m across)</text>"#,
-        span
+        r#"<text x="{left}" y="24" font-size="15">frontseat demo track — local grid (x east, y north of the datum)</text>"#
     );
-    for (leg, colour) in [
-        (Leg::WaitingForCommand, "#999999"),
-        (Leg::East, "#d62728"),
-        (Leg::South, "#1f77b4"),
-        (Leg::NorthWest, "#2ca02c"),
-        (Leg::Done, "#999999"),
-    ] {
+    // Grid and tick labels.
+    let step = nice_step(span, 8.0);
+    let _ = writeln!(s, r##"<g stroke="#e4e4e4" stroke-width="1">"##);
+    let first = |lo: f64| (lo / step).ceil() as i64;
+    let last = |lo: f64| ((lo + span) / step).floor() as i64;
+    for i in first(minx)..=last(minx) {
+        let x = px(i as f64 * step);
+        let _ = writeln!(
+            s,
+            r#"<line x1="{x:.1}" y1="{top}" x2="{x:.1}" y2="{:.1}"/>"#,
+            top + plot
+        );
+    }
+    for i in first(miny)..=last(miny) {
+        let y = py(i as f64 * step);
+        let _ = writeln!(
+            s,
+            r#"<line x1="{left}" y1="{y:.1}" x2="{:.1}" y2="{y:.1}"/>"#,
+            left + plot
+        );
+    }
+    let _ = writeln!(s, "</g>");
+    let _ = writeln!(s, r##"<g font-size="11" fill="#444">"##);
+    for i in first(minx)..=last(minx) {
+        let v = i as f64 * step;
+        let _ = writeln!(
+            s,
+            r#"<text x="{:.1}" y="{:.1}" text-anchor="middle">{v:.0}</text>"#,
+            px(v),
+            top + plot + 16.0
+        );
+    }
+    for i in first(miny)..=last(miny) {
+        let v = i as f64 * step;
+        let _ = writeln!(
+            s,
+            r#"<text x="{:.1}" y="{:.1}" text-anchor="end">{v:.0}</text>"#,
+            left - 6.0,
+            py(v) + 4.0
+        );
+    }
+    let _ = writeln!(s, "</g>");
+    let _ = writeln!(
+        s,
+        r##"<rect x="{left}" y="{top}" width="{plot}" height="{plot}" fill="none" stroke="#888"/>"##
+    );
+    // Axes titles.
+    let _ = writeln!(
+        s,
+        r#"<text x="{:.1}" y="{:.1}" font-size="13" text-anchor="middle">x — east of the datum (m)</text>"#,
+        left + plot / 2.0,
+        top + plot + 36.0
+    );
+    let _ = writeln!(
+        s,
+        r#"<text x="18" y="{:.1}" font-size="13" text-anchor="middle" transform="rotate(-90 18 {:.1})">y — north of the datum (m)</text>"#,
+        top + plot / 2.0,
+        top + plot / 2.0
+    );
+    // The track, one colour per leg.
+    for (leg, colour) in LEG_COLOURS {
         let pts: Vec<String> = track
             .iter()
             .filter(|p| p.leg == leg)
@@ -285,7 +363,7 @@ pub fn track_svg(track: &[TrackPoint]) -> String {
         if pts.len() > 1 {
             let _ = writeln!(
                 s,
-                r#"<polyline fill="none" stroke="{colour}" stroke-width="2" points="{}"><title>{}</title></polyline>"#,
+                r#"<polyline fill="none" stroke="{colour}" stroke-width="2.5" points="{}"><title>{}</title></polyline>"#,
                 pts.join(" "),
                 leg.name()
             );
@@ -296,6 +374,54 @@ pub fn track_svg(track: &[TrackPoint]) -> String {
         r#"<circle cx="{:.1}" cy="{:.1}" r="5" fill="black"><title>start</title></circle>"#,
         px(0.0),
         py(0.0)
+    );
+    // Legend.
+    let lx = left + plot + 20.0;
+    let _ = writeln!(
+        s,
+        r#"<text x="{lx}" y="{:.1}" font-size="13">legs</text>"#,
+        top + 14.0
+    );
+    let mut ly = top + 36.0;
+    for (leg, colour) in LEG_COLOURS {
+        if !track.iter().any(|p| p.leg == leg) {
+            continue;
+        }
+        let _ = writeln!(
+            s,
+            r#"<line x1="{lx}" y1="{ly:.1}" x2="{:.1}" y2="{ly:.1}" stroke="{colour}" stroke-width="3"/><text x="{:.1}" y="{:.1}" font-size="12">{}</text>"#,
+            lx + 24.0,
+            lx + 30.0,
+            ly + 4.0,
+            leg.name()
+        );
+        ly += 20.0;
+    }
+    let _ = writeln!(
+        s,
+        r#"<circle cx="{:.1}" cy="{ly:.1}" r="5" fill="black"/><text x="{:.1}" y="{:.1}" font-size="12">start</text>"#,
+        lx + 12.0,
+        lx + 30.0,
+        ly + 4.0
+    );
+    // Scale bar: one grid step.
+    let bar = step * scale;
+    let by = top + plot - 20.0;
+    let bx = left + 20.0;
+    let _ = writeln!(
+        s,
+        r#"<g><rect x="{:.1}" y="{:.1}" width="{:.1}" height="22" fill="white" fill-opacity="0.8"/><line x1="{bx}" y1="{by}" x2="{:.1}" y2="{by}" stroke="black" stroke-width="3"/><text x="{:.1}" y="{:.1}" font-size="12" text-anchor="middle">{step:.0} m</text></g>"#,
+        bx - 6.0,
+        by - 16.0,
+        bar + 12.0,
+        bx + bar,
+        bx + bar / 2.0,
+        by - 5.0
+    );
+    let _ = writeln!(
+        s,
+        r##"<text x="{lx}" y="{:.1}" font-size="11" fill="#444">grid {step:.0} m</text>"##,
+        top + plot
     );
     s.push_str("</svg>\n");
     s

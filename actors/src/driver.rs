@@ -25,6 +25,8 @@ pub trait SignalSink {
 pub enum DriverIoEvent {
     Connected(crate::link::LineWriter),
     Line(String),
+    /// A CRC-checked binary frame, unescaped, start byte included (framed links only).
+    Frame(Vec<u8>),
     /// Bytes that could not be a line (invalid UTF-8, oversized); the link goes on or closes.
     BadInput(String),
     Disconnected(String),

@@ -249,6 +249,7 @@ impl FsiState {
             driver: Some(self.s.driver_name.clone()),
             setpoints_refused: Some(self.counters.setpoints_refused),
             nav_refused: Some(self.counters.nav_refused),
+            goby3_link_up: self.bus.link_up(crate::bus::GOBY3_LINK),
         };
         self.ports.publish_detail(detail);
     }

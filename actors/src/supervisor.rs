@@ -18,7 +18,10 @@ use ractor::{Actor, ActorCell, ActorProcessingErr, ActorRef, RpcReplyPort, Super
 use tokio::sync::watch;
 use tokio::time::Instant;
 
+use crate::bus::Bus;
 use crate::interface::ServiceExit;
+use crate::ports::RootSupervisorPorts;
+use crate::proto::frontseat::protobuf::{SupervisedActor, SupervisionStatus};
 
 /// What a supervisor knows about how to restart one child.
 #[derive(Clone, Debug, PartialEq)]
@@ -159,6 +162,8 @@ pub struct SupervisorArgs {
     pub name: String,
     pub children: Vec<ChildSpec>,
     pub exit: watch::Sender<Option<ServiceExit>>,
+    /// Where the status goes (`frontseat::supervision::status`), if anywhere.
+    pub bus: Option<Bus>,
 }
 
 struct Child {
@@ -173,11 +178,48 @@ pub struct SupervisorState {
     children: Vec<Child>,
     exit: watch::Sender<Option<ServiceExit>>,
     giving_up: bool,
+    ports: Option<RootSupervisorPorts>,
 }
 
 pub struct Supervisor;
 
 impl SupervisorState {
+    fn snapshot(&self) -> SupervisorSnapshot {
+        SupervisorSnapshot {
+            name: self.name.clone(),
+            children: self
+                .children
+                .iter()
+                .map(|c| ChildReport {
+                    name: c.spec.name.clone(),
+                    up: c.cell.is_some(),
+                    restarts: c.decider.restarts,
+                    last_failure: c.last_failure.clone(),
+                })
+                .collect(),
+        }
+    }
+
+    /// Every start, end and restart is visible on the bus (and so over Zenoh, Goby3, the web).
+    fn publish(&self) {
+        let Some(ports) = &self.ports else { return };
+        let snap = self.snapshot();
+        ports.publish_status(SupervisionStatus {
+            supervisor: Some(snap.name),
+            children: snap
+                .children
+                .into_iter()
+                .map(|c| SupervisedActor {
+                    name: Some(c.name),
+                    up: Some(c.up),
+                    restarts: Some(c.restarts),
+                    last_failure: c.last_failure,
+                })
+                .collect(),
+            gave_up: Some(self.giving_up),
+        });
+    }
+
     fn index_of(&self, cell: &ActorCell) -> Option<usize> {
         let id = cell.get_id();
         self.children
@@ -195,10 +237,15 @@ impl SupervisorState {
         if self.giving_up {
             return;
         }
-        match child
+        let decision = child
             .decider
-            .decide(&child.spec.name, ending, Instant::now())
-        {
+            .decide(&child.spec.name, ending, Instant::now());
+        if let Decision::GiveUp(_) = decision {
+            self.giving_up = true;
+        }
+        self.publish();
+        let child = &mut self.children[i];
+        match decision {
             Decision::Restart { after, nth } => {
                 tracing::warn!(
                     supervisor = %sup,
@@ -215,7 +262,6 @@ impl SupervisorState {
             }
             Decision::GiveUp(reason) => {
                 tracing::error!(supervisor = %sup, child = %child.spec.name, "{reason}");
-                self.giving_up = true;
                 self.exit
                     .send_replace(Some(ServiceExit::RestartLimit(reason)));
                 myself.stop(Some("restart limit".into()));
@@ -246,12 +292,15 @@ impl Actor for Supervisor {
                 last_failure: None,
             });
         }
-        Ok(SupervisorState {
+        let st = SupervisorState {
             name: args.name,
             children,
             exit: args.exit,
             giving_up: false,
-        })
+            ports: args.bus.as_ref().map(RootSupervisorPorts::new),
+        };
+        st.publish();
+        Ok(st)
     }
 
     async fn handle(
@@ -270,6 +319,7 @@ impl Actor for Supervisor {
                     Ok(cell) => {
                         tracing::info!(supervisor = %st.name, child = %st.children[i].spec.name, "supervised actor restarted");
                         st.children[i].cell = Some(cell);
+                        st.publish();
                     }
                     Err(e) => {
                         // A start that fails counts as one more failure of the child.
@@ -278,19 +328,7 @@ impl Actor for Supervisor {
                 }
             }
             SupervisorMsg::Snapshot(reply) => {
-                let _ = reply.send(SupervisorSnapshot {
-                    name: st.name.clone(),
-                    children: st
-                        .children
-                        .iter()
-                        .map(|c| ChildReport {
-                            name: c.spec.name.clone(),
-                            up: c.cell.is_some(),
-                            restarts: c.decider.restarts,
-                            last_failure: c.last_failure.clone(),
-                        })
-                        .collect(),
-                });
+                let _ = reply.send(st.snapshot());
             }
         }
         Ok(())
@@ -342,7 +380,12 @@ pub struct SupervisorHandle {
 }
 
 impl SupervisorHandle {
-    pub async fn start(name: &str, children: Vec<ChildSpec>) -> Result<Self, String> {
+    /// A supervisor whose status goes on `bus` (`frontseat::supervision::status`) when given.
+    pub async fn start(
+        name: &str,
+        children: Vec<ChildSpec>,
+        bus: Option<&Bus>,
+    ) -> Result<Self, String> {
         let (tx, rx) = watch::channel(None);
         let (actor, join) = Actor::spawn(
             None,
@@ -351,6 +394,7 @@ impl SupervisorHandle {
                 name: name.to_string(),
                 children,
                 exit: tx,
+                bus: bus.cloned(),
             },
         )
         .await

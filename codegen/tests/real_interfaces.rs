@@ -75,6 +75,7 @@ fn real_interface_yaml_compiles() {
             "DriverActor",
             "FrontSeatInterface",
             "FrontSeatTranslation",
+            "RootSupervisor",
             "Simulator",
             "WebCommander"
         ]

@@ -1,10 +1,11 @@
 //! Configuration of `frontseat moos-gateway`: the FrontSeatTranslation on its own, between a
-//! MOOSDB and the interface reached over Zenoh (Goby3's goby_moos_gateway).
+//! MOOSDB and the interface reached over Zenoh and/or gobyd (Goby3's goby_moos_gateway).
 
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
 use crate::check::Checker;
+use crate::goby3::Goby3Config;
 use crate::sections::{InterprocessConfig, MoosConfig, TelemetryConfig};
 use crate::{FieldError, ServiceConfig};
 
@@ -18,9 +19,13 @@ pub struct GatewayConfig {
     pub name: String,
     /// The MOOSDB to bridge (required; an empty [moos] table means all defaults).
     pub moos: MoosConfig,
-    /// Zenoh transport to reach the interface; enabled by default here, and it must stay enabled.
+    /// Zenoh transport to reach the interface; enabled by default here. Zenoh, [goby3] or both
+    /// must be enabled.
     #[serde(default = "gateway_interprocess")]
     pub interprocess: InterprocessConfig,
+    /// Reaching the interface through a Goby3 gobyd instead of (or beside) Zenoh.
+    #[serde(default)]
+    pub goby3: Goby3Config,
     /// OpenTelemetry trace export.
     #[serde(default)]
     pub telemetry: TelemetryConfig,
@@ -43,6 +48,7 @@ impl Default for GatewayConfig {
             name: String::new(),
             moos: MoosConfig::default(),
             interprocess: gateway_interprocess(),
+            goby3: Goby3Config::default(),
             telemetry: TelemetryConfig::default(),
         }
     }
@@ -54,14 +60,15 @@ impl ServiceConfig for GatewayConfig {
     fn validate(&self) -> Vec<FieldError> {
         let mut c = Checker::default();
         self.moos.check("moos", &mut c);
-        if !self.interprocess.enabled {
+        if !self.interprocess.enabled && !self.goby3.enabled {
             c.push(FieldError::new(
                 "interprocess.enabled",
                 false,
-                "the gateway reaches the interface only over Zenoh; it must be true",
+                "the gateway reaches the interface over Zenoh or gobyd: enable [interprocess] or [goby3]",
             ));
         }
         self.interprocess.check("interprocess", &mut c);
+        self.goby3.check("goby3", &mut c);
         self.telemetry.check("telemetry", &mut c);
         c.errors
     }

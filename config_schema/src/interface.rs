@@ -6,6 +6,7 @@ use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
 use crate::check::{Checker, at};
+use crate::goby3::Goby3Config;
 use crate::sections::{
     DEFAULT_ORIGIN_LAT, DEFAULT_ORIGIN_LON, InterprocessConfig, LatLonConfig, MoosConfig,
     TelemetryConfig,
@@ -120,6 +121,8 @@ pub struct InterfaceConfig {
     pub moos: Option<MoosConfig>,
     /// Inter-process and multi-host publish/subscribe over Zenoh.
     pub interprocess: InterprocessConfig,
+    /// Joining an existing Goby3 system through its gobyd (beside or instead of Zenoh).
+    pub goby3: Goby3Config,
     /// OpenTelemetry trace export.
     pub telemetry: TelemetryConfig,
     /// Fault injection for chaos testing.
@@ -147,6 +150,7 @@ impl Default for InterfaceConfig {
             limits: LimitsConfig::default(),
             moos: None,
             interprocess: InterprocessConfig::default(),
+            goby3: Goby3Config::default(),
             telemetry: TelemetryConfig::default(),
             chaos: ChaosConfig::default(),
             bus: BusConfig::default(),
@@ -175,6 +179,7 @@ impl ServiceConfig for InterfaceConfig {
             m.check("moos", &mut c);
         }
         self.interprocess.check("interprocess", &mut c);
+        self.goby3.check("goby3", &mut c);
         self.telemetry.check("telemetry", &mut c);
         self.bus.check("bus", &mut c);
         self.web.check("web", &mut c);
@@ -190,7 +195,8 @@ impl ServiceConfig for InterfaceConfig {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields, default)]
 pub struct DriverConfig {
-    /// Built-in driver to run when no library is given: "basic_simulator".
+    /// Built-in driver to run when no library is given: "basic_simulator", "iver3" or
+    /// "waveglider_sv2".
     pub name: String,
     /// Path to a driver plugin (shared library) to load instead of a built-in driver;
     /// FRONTSEAT_DRIVER_LIBRARY in the environment does the same.
@@ -199,10 +205,21 @@ pub struct DriverConfig {
     pub library: Option<String>,
     /// Settings of the basic simulator driver (Goby3's basic_simulator_config).
     pub basic_simulator: BasicSimulatorConfig,
+    /// Settings of the Iver3 driver (Goby3's iver_config), used when name = "iver3".
+    pub iver3: Iver3Config,
+    /// Settings of the Wave Glider SV2 driver (Goby3's waveglider_sv2_config), used when
+    /// name = "waveglider_sv2".
+    pub waveglider_sv2: WavegliderSv2Config,
 }
 
-/// Name of the one built-in driver.
+/// Name of the basic simulator driver (the default).
 pub const BASIC_SIMULATOR: &str = "basic_simulator";
+/// Name of the Iver3 (UVC Remote Helm) driver.
+pub const IVER3: &str = "iver3";
+/// Name of the Wave Glider SV2 driver.
+pub const WAVEGLIDER_SV2: &str = "waveglider_sv2";
+/// Every built-in driver.
+pub const BUILT_IN_DRIVERS: [&str; 3] = [BASIC_SIMULATOR, IVER3, WAVEGLIDER_SV2];
 
 impl Default for DriverConfig {
     fn default() -> Self {
@@ -210,6 +227,8 @@ impl Default for DriverConfig {
             name: BASIC_SIMULATOR.into(),
             library: None,
             basic_simulator: BasicSimulatorConfig::default(),
+            iver3: Iver3Config::default(),
+            waveglider_sv2: WavegliderSv2Config::default(),
         }
     }
 }
@@ -218,15 +237,23 @@ impl DriverConfig {
     fn check(&self, prefix: &str, c: &mut Checker) {
         match &self.library {
             Some(lib) => c.non_empty(&at(prefix, "library"), lib),
-            None if self.name != BASIC_SIMULATOR => c.push(FieldError::new(
+            None if !BUILT_IN_DRIVERS.contains(&self.name.as_str()) => c.push(FieldError::new(
                 at(prefix, "name"),
                 format!("{:?}", self.name),
-                format!("unknown built-in driver; the built-in is \"{BASIC_SIMULATOR}\" (or set library)"),
+                format!("unknown built-in driver; the built-ins are {BUILT_IN_DRIVERS:?} (or set library)"),
             )),
             None => {}
         }
         self.basic_simulator
             .check(&at(prefix, "basic_simulator"), c);
+        // A vehicle driver's settings are checked only when it is the one selected: its
+        // required fields (serial port, Remote Helm version) have no sensible default.
+        if self.library.is_none() && self.name == IVER3 {
+            self.iver3.check(&at(prefix, "iver3"), c);
+        }
+        if self.library.is_none() && self.name == WAVEGLIDER_SV2 {
+            self.waveglider_sv2.check(&at(prefix, "waveglider_sv2"), c);
+        }
     }
 }
 
@@ -577,6 +604,312 @@ impl BusConfig {
             self.queue_capacity as u64,
             1,
             MAX_QUEUE_CAPACITY as u64,
+        );
+    }
+}
+
+/// How a vehicle driver reaches the vehicle.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum TransportKind {
+    /// The serial port named by the driver's serial port setting.
+    #[default]
+    Serial,
+    /// A TCP connection to tcp_address:tcp_port (a serial-over-IP adapter, or an emulator).
+    Tcp,
+}
+
+/// Serial parity.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum ParityConfig {
+    #[default]
+    None,
+    Odd,
+    Even,
+}
+
+/// Serial flow control.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum FlowControlConfig {
+    #[default]
+    None,
+    /// XON/XOFF.
+    Software,
+    /// RTS/CTS.
+    Hardware,
+}
+
+/// A FrontSeatState, by Goby3's proto name.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "SCREAMING_SNAKE_CASE")]
+pub enum FrontSeatStateName {
+    FrontseatNotConnected,
+    FrontseatIdle,
+    FrontseatInControl,
+    FrontseatAcceptingCommands,
+}
+
+/// The link settings both vehicle drivers share (ours; Goby3 has only port and baud).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields, default)]
+pub struct VehicleLinkConfig {
+    /// Serial port or TCP.
+    pub transport: TransportKind,
+    /// Data bits per character, 5 to 8.
+    #[schemars(range(min = 5, max = 8))]
+    pub data_bits: u8,
+    /// Serial parity: "none", "odd" or "even".
+    pub parity: ParityConfig,
+    /// Stop bits, 1 or 2.
+    #[schemars(range(min = 1, max = 2))]
+    pub stop_bits: u8,
+    /// Serial flow control: "none", "software" (XON/XOFF) or "hardware" (RTS/CTS).
+    pub flow_control: FlowControlConfig,
+    /// Host of the serial-over-IP adapter when transport = "tcp".
+    pub tcp_address: String,
+    /// TCP port when transport = "tcp".
+    pub tcp_port: u16,
+    /// First delay before reopening a vanished device or lost connection; doubles per failure
+    /// up to reconnect_max_ms. Unit: ms.
+    #[schemars(range(min = 1))]
+    pub reconnect_initial_ms: u64,
+    /// Cap of the reopen delay. Unit: ms.
+    #[schemars(range(min = 1))]
+    pub reconnect_max_ms: u64,
+    /// A command that asked for a response and got no acknowledgement from the vehicle within
+    /// this long is answered as failed. Unit: s.
+    #[schemars(extend("exclusiveMinimum" = 0.0))]
+    pub ack_timeout: f64,
+}
+
+impl Default for VehicleLinkConfig {
+    fn default() -> Self {
+        Self {
+            transport: TransportKind::Serial,
+            data_bits: 8,
+            parity: ParityConfig::None,
+            stop_bits: 1,
+            flow_control: FlowControlConfig::None,
+            tcp_address: "127.0.0.1".into(),
+            tcp_port: 54330,
+            reconnect_initial_ms: 100,
+            reconnect_max_ms: 5000,
+            ack_timeout: 5.0,
+        }
+    }
+}
+
+impl VehicleLinkConfig {
+    /// `serial_port_path` is the full path of the driver's serial port field (it lives beside
+    /// this section, under Goby3's name).
+    fn check(&self, prefix: &str, serial_port_path: &str, serial_port: &str, c: &mut Checker) {
+        match self.transport {
+            TransportKind::Serial => c.non_empty(serial_port_path, serial_port),
+            TransportKind::Tcp => {
+                c.non_empty(&at(prefix, "tcp_address"), &self.tcp_address);
+                c.port(&at(prefix, "tcp_port"), self.tcp_port);
+            }
+        }
+        c.count(&at(prefix, "data_bits"), u64::from(self.data_bits), 5, 8);
+        c.count(&at(prefix, "stop_bits"), u64::from(self.stop_bits), 1, 2);
+        let initial = at(prefix, "reconnect_initial_ms");
+        let max = at(prefix, "reconnect_max_ms");
+        c.at_least(&initial, self.reconnect_initial_ms, 1);
+        c.at_least(&max, self.reconnect_max_ms, 1);
+        c.ordered(
+            &initial,
+            self.reconnect_initial_ms,
+            &max,
+            self.reconnect_max_ms,
+        );
+        c.positive(&at(prefix, "ack_timeout"), self.ack_timeout);
+    }
+}
+
+/// FrontSeatState for each UVC mode (Goby3's IverModeAssignments, same defaults).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields, default)]
+pub struct IverModeAssignments {
+    /// Mode letter missing or not known.
+    pub unknown: FrontSeatStateName,
+    /// `N`.
+    pub normal: FrontSeatStateName,
+    /// `S`.
+    pub stopped: FrontSeatStateName,
+    /// `P`.
+    pub parking: FrontSeatStateName,
+    /// `M`.
+    pub manual_override: FrontSeatStateName,
+    /// `m` or `Mp`.
+    pub manual_parking: FrontSeatStateName,
+    /// `A`.
+    pub servo_mode: FrontSeatStateName,
+    /// `W`.
+    pub mission_mode: FrontSeatStateName,
+}
+
+impl Default for IverModeAssignments {
+    fn default() -> Self {
+        use FrontSeatStateName::*;
+        Self {
+            unknown: FrontseatIdle,
+            normal: FrontseatAcceptingCommands,
+            stopped: FrontseatIdle,
+            parking: FrontseatInControl,
+            manual_override: FrontseatAcceptingCommands,
+            manual_parking: FrontseatAcceptingCommands,
+            servo_mode: FrontseatAcceptingCommands,
+            mission_mode: FrontseatAcceptingCommands,
+        }
+    }
+}
+
+/// The Iver3 driver (UVC Remote Helm NMEA). Field names and units follow Goby3's iver_config.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields, default)]
+pub struct Iver3Config {
+    /// Serial device connected to Remote Helm (required for transport = "serial").
+    #[schemars(example = &"/dev/ttyUSB0")]
+    pub serial_port: String,
+    /// Unit: baud.
+    #[schemars(range(min = 1))]
+    pub serial_baud: u32,
+    /// If set, every valid $--RMC from the UVC is copied to this serial port at 4800 baud
+    /// (8N1), for an NTP reference clock.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    #[schemars(example = &"/dev/ttyUSB2")]
+    pub ntp_serial_port: Option<String>,
+    /// Value of $OMS field 3. Unit: degrees.
+    pub max_pitch_angle_degrees: i32,
+    /// Remote Helm major version (required): below 5 $OMS depth is in feet, from 5 in metres.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    #[schemars(example = &5)]
+    pub remote_helm_version_major: Option<i32>,
+    /// $OMS timeout field: the UVC drops a command not refreshed within it. Unit: s, 0 to 120.
+    #[schemars(range(min = 0, max = 120))]
+    pub oms_timeout: u32,
+    /// FrontSeatState for each UVC mode.
+    pub mode_assignments: IverModeAssignments,
+    /// The frontseat stops providing data after this long without $OSI or $C (Goby3's fixed
+    /// allowed_skew). Unit: s.
+    #[schemars(extend("exclusiveMinimum" = 0.0))]
+    pub providing_data_timeout: f64,
+    /// Transport, serial framing, reconnect and acknowledgement settings.
+    pub link: VehicleLinkConfig,
+}
+
+impl Default for Iver3Config {
+    fn default() -> Self {
+        Self {
+            serial_port: String::new(),
+            serial_baud: 19200,
+            ntp_serial_port: None,
+            max_pitch_angle_degrees: 45,
+            remote_helm_version_major: None,
+            oms_timeout: 5,
+            mode_assignments: IverModeAssignments::default(),
+            providing_data_timeout: 10.0,
+            link: VehicleLinkConfig::default(),
+        }
+    }
+}
+
+impl Iver3Config {
+    fn check(&self, prefix: &str, c: &mut Checker) {
+        self.link.check(
+            &at(prefix, "link"),
+            &at(prefix, "serial_port"),
+            &self.serial_port,
+            c,
+        );
+        c.at_least(&at(prefix, "serial_baud"), u64::from(self.serial_baud), 1);
+        c.count(
+            &at(prefix, "oms_timeout"),
+            u64::from(self.oms_timeout),
+            0,
+            120,
+        );
+        if self.remote_helm_version_major.is_none() {
+            c.push(FieldError::new(
+                at(prefix, "remote_helm_version_major"),
+                "missing".to_string(),
+                "required (as in Goby3): below 5 $OMS depth is sent in feet, from 5 in metres"
+                    .to_string(),
+            ));
+        }
+        c.positive(
+            &at(prefix, "providing_data_timeout"),
+            self.providing_data_timeout,
+        );
+    }
+}
+
+/// The Wave Glider SV2 driver (payload protocol to the C&C board). Field names and units
+/// follow Goby3's waveglider_sv2_config.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields, default)]
+pub struct WavegliderSv2Config {
+    /// Serial device to the C&C "PM" port (required for transport = "serial").
+    #[schemars(example = &"/dev/ttyUSB1")]
+    pub pm_serial_port: String,
+    /// Unit: baud.
+    #[schemars(range(min = 1))]
+    pub pm_serial_baud: u32,
+    /// High byte of the driver's address, 0 to 255.
+    #[schemars(range(min = 0, max = 255))]
+    pub board_id: u32,
+    /// Low byte of the driver's address, 0 to 255.
+    #[schemars(range(min = 0, max = 255))]
+    pub task_id: u32,
+    /// The frontseat stops providing data after this long without a status request (Goby3's
+    /// fixed 30 s). Unit: s.
+    #[schemars(extend("exclusiveMinimum" = 0.0))]
+    pub providing_data_timeout: f64,
+    /// Publish a NodeStatus from the position in each status request whose fix is valid
+    /// (Goby3 publishes no navigation; the position unit is our reading, see
+    /// docs/goby3-differences.md).
+    pub publish_navigation: bool,
+    /// Transport, serial framing, reconnect and acknowledgement settings.
+    pub link: VehicleLinkConfig,
+}
+
+impl Default for WavegliderSv2Config {
+    fn default() -> Self {
+        Self {
+            pm_serial_port: String::new(),
+            pm_serial_baud: 115_200,
+            board_id: 0x03,
+            task_id: 0x01,
+            providing_data_timeout: 30.0,
+            publish_navigation: false,
+            link: VehicleLinkConfig {
+                ack_timeout: 10.0,
+                ..VehicleLinkConfig::default()
+            },
+        }
+    }
+}
+
+impl WavegliderSv2Config {
+    fn check(&self, prefix: &str, c: &mut Checker) {
+        self.link.check(
+            &at(prefix, "link"),
+            &at(prefix, "pm_serial_port"),
+            &self.pm_serial_port,
+            c,
+        );
+        c.at_least(
+            &at(prefix, "pm_serial_baud"),
+            u64::from(self.pm_serial_baud),
+            1,
+        );
+        c.count(&at(prefix, "board_id"), u64::from(self.board_id), 0, 255);
+        c.count(&at(prefix, "task_id"), u64::from(self.task_id), 0, 255);
+        c.positive(
+            &at(prefix, "providing_data_timeout"),
+            self.providing_data_timeout,
         );
     }
 }

@@ -9,6 +9,7 @@ mod check;
 mod error;
 mod example;
 mod gateway;
+mod goby3;
 mod interface;
 mod sections;
 mod sim;
@@ -23,10 +24,13 @@ use serde::de::DeserializeOwned;
 
 pub use error::{ConfigError, FieldError};
 pub use gateway::GatewayConfig;
+pub use goby3::{Goby3Config, Goby3Transport};
 pub use interface::{
-    BASIC_SIMULATOR, BasicSimulatorConfig, BusConfig, ChaosConfig, DriverConfig, InterfaceConfig,
-    LimitsConfig, MAX_QUEUE_CAPACITY, RestartConfig, RestartPolicy, SimStartConfig,
-    SimVehicleConfig, SupervisionConfig, VehicleType,
+    BASIC_SIMULATOR, BUILT_IN_DRIVERS, BasicSimulatorConfig, BusConfig, ChaosConfig, DriverConfig,
+    FlowControlConfig, FrontSeatStateName, IVER3, InterfaceConfig, Iver3Config,
+    IverModeAssignments, LimitsConfig, MAX_QUEUE_CAPACITY, ParityConfig, RestartConfig,
+    RestartPolicy, SimStartConfig, SimVehicleConfig, SupervisionConfig, TransportKind,
+    VehicleLinkConfig, VehicleType, WAVEGLIDER_SV2, WavegliderSv2Config,
 };
 pub use sections::{
     DEFAULT_ORIGIN_LAT, DEFAULT_ORIGIN_LON, InterprocessConfig, InterprocessMode, LatLonConfig,

@@ -190,6 +190,12 @@ pub struct TelemetryConfig {
     /// Fraction of traces sampled. Unit: ratio, 0 to 1.
     #[schemars(range(min = 0.0, max = 1.0))]
     pub sampling_ratio: f64,
+    /// Navigation is sampled, everything else kept: at most this many traces per second start at
+    /// a navigation line from the frontseat; setpoints, state changes, restarts, faults and refused
+    /// commands are always traced. OTEL_TRACES_SAMPLER, when set, wins. Unit: traces/s, 0 to 1000
+    /// (0 = no navigation traces).
+    #[schemars(range(min = 0.0, max = 1000.0))]
+    pub nav_traces_per_s: f64,
 }
 
 impl Default for TelemetryConfig {
@@ -199,6 +205,7 @@ impl Default for TelemetryConfig {
             endpoint: "http://127.0.0.1:4318".into(),
             service_name: String::new(),
             sampling_ratio: 1.0,
+            nav_traces_per_s: 10.0,
         }
     }
 }
@@ -213,5 +220,11 @@ impl TelemetryConfig {
             ));
         }
         c.within(&at(prefix, "sampling_ratio"), self.sampling_ratio, 0.0, 1.0);
+        c.within(
+            &at(prefix, "nav_traces_per_s"),
+            self.nav_traces_per_s,
+            0.0,
+            1000.0,
+        );
     }
 }

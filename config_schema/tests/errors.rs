@@ -421,7 +421,25 @@ fn gateway_rules() {
     rejects::<G>(
         "[moos]\n[interprocess]\nenabled = false\n",
         "interprocess.enabled",
-        "must be true",
+        "enable [interprocess] or [goby3]",
+    );
+    // gobyd alone is enough.
+    assert!(
+        frontseat_config::parse::<G>(
+            "[moos]\n[interprocess]\nenabled = false\n[goby3]\nenabled = true\n",
+            "t"
+        )
+        .is_ok()
+    );
+    rejects::<G>(
+        "[moos]\n[goby3]\nenabled = true\ntransport = \"tcp\"\ntcp_port = 0\n",
+        "goby3.tcp_port",
+        "port 0",
+    );
+    rejects::<G>(
+        "[moos]\n[goby3]\nclient_name = \"gobyd\"\n",
+        "goby3.client_name",
+        "gobyd's own name",
     );
     rejects::<G>(
         "[moos]\n[telemetry]\nsampling_ratio = 3\n",

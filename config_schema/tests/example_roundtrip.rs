@@ -92,6 +92,10 @@ fn interface_example_has_every_setting_and_commented_ones_work() {
     rest.moos = None;
     rest.origin.altitude = None;
     rest.driver.library = None;
+    assert_eq!(on.driver.iver3.remote_helm_version_major, Some(5));
+    rest.driver.iver3.remote_helm_version_major = None;
+    assert!(on.driver.iver3.ntp_serial_port.is_some());
+    rest.driver.iver3.ntp_serial_port = None;
     assert_eq!(rest, InterfaceConfig::default());
 }
 

@@ -5,17 +5,22 @@
 //! Pure parts: [`vehicle`] (dynamics), [`codec`] (lines), [`schedule`] (tick deadlines); the
 //! server and its connections are tasks that own their state and talk through channels.
 //! The protocol is written down in `PROTOCOL.md`.
-#![forbid(unsafe_code)]
+// One audited `unsafe` block: registering the pty master with tokio (see pty.rs).
+#![deny(unsafe_code)]
 
 pub mod bench;
 pub mod codec;
 mod connection;
+pub mod emulator;
 pub mod geodesy;
+pub mod iver3;
+pub mod pty;
 mod run;
 pub mod schedule;
 mod server;
 mod shared;
 pub mod vehicle;
+pub mod waveglider_sv2;
 
 pub use bench::{CapacityReport, capacity_bench};
 pub use codec::CtrlState;

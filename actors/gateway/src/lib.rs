@@ -1,11 +1,13 @@
-//! The Zenoh gateway: carries the `interprocess` groups of `interface_yaml/` between this
+//! The gateway: carries the `interprocess` groups of `interface_yaml/` between this
 //! process's bus and other processes or hosts. What is exported and imported follows from the
 //! actors the process hosts (see [`plan`]); nothing is wired by hand. Key expression
 //! `<platform>/<group with "::" → "/">`, payload the protobuf bytes, encoding
 //! `application/protobuf;<message type>`, attachment the W3C traceparent of the publisher.
-//! Kept out of frontseat-actors so that crate's tests do not pay Zenoh's build.
+//! Kept out of frontseat-actors so that crate's tests do not pay Zenoh's build. The same plan
+//! also drives a second transport, [`goby3`]: a client of an existing Goby3 system's gobyd.
 #![forbid(unsafe_code)]
 
+pub mod goby3;
 pub mod plan;
 pub mod session;
 pub mod wire;
@@ -25,7 +27,7 @@ use zenoh::bytes::Encoding;
 use zenoh::qos::CongestionControl;
 use zenoh::sample::{Locality, Sample, SampleKind};
 
-pub use plan::{Plan, Route, key_for, plan};
+pub use plan::{Plan, Route, key_for, plan, routes};
 pub use session::{client_config, zenoh_config};
 /// The Zenoh this gateway is built with, for helms, tools and tests that talk to it directly.
 pub use zenoh;

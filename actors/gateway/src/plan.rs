@@ -41,10 +41,20 @@ pub fn check_platform(platform: &str) -> Result<(), GatewayError> {
     Ok(())
 }
 
-/// The routes of a process hosting `hosted` actors. A hosted name that no group mentions is an
-/// error: a typo would otherwise silently export nothing.
+/// The routes of a process hosting `hosted` actors, with Zenoh keys under `platform`.
 pub fn plan(groups: &[GroupInfo], platform: &str, hosted: &[&str]) -> Result<Plan, GatewayError> {
     check_platform(platform)?;
+    let mut out = routes(groups, hosted)?;
+    for r in out.exports.iter_mut().chain(out.imports.iter_mut()) {
+        r.key = key_for(platform, r.group);
+    }
+    Ok(out)
+}
+
+/// The routes of a process hosting `hosted` actors, for a transport that needs no Zenoh key
+/// (`key` is left empty). A hosted name that no group mentions is an error: a typo would
+/// otherwise silently export nothing.
+pub fn routes(groups: &[GroupInfo], hosted: &[&str]) -> Result<Plan, GatewayError> {
     for actor in hosted {
         let known = groups
             .iter()
@@ -58,7 +68,7 @@ pub fn plan(groups: &[GroupInfo], platform: &str, hosted: &[&str]) -> Result<Pla
         let route = || Route {
             group: g.name,
             type_name: g.type_name,
-            key: key_for(platform, g.name),
+            key: String::new(),
         };
         if g.publishers.iter().any(|p| hosted.contains(p)) {
             out.exports.push(route());

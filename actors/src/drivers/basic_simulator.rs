@@ -257,6 +257,10 @@ impl Driver for BasicSimulatorDriver {
                 self.write(&start, sig);
             }
             DriverIoEvent::Line(line) => self.handle_line(&line, now, sig),
+            DriverIoEvent::Frame(_) => {
+                self.bad_lines += 1;
+                tracing::warn!("binary frame on the basic simulator's line link; ignored");
+            }
             DriverIoEvent::BadInput(what) => {
                 self.bad_lines += 1;
                 tracing::warn!(%what, "bad input from the frontseat");

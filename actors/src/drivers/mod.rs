@@ -2,14 +2,16 @@
 //! one (see plugin.rs), otherwise the built-in driver the config names (`driver.name`).
 
 pub mod basic_simulator;
+pub mod iver3;
 pub mod plugin;
+pub mod waveglider_sv2;
 
 use crate::driver::{Driver, DriverFactory};
 use frontseat_config::InterfaceConfig;
 
 #[derive(Debug, thiserror::Error)]
 pub enum DriverSelectError {
-    #[error("unknown driver `{0}` (built-in drivers: basic_simulator)")]
+    #[error("unknown driver `{0}` (built-in drivers: basic_simulator, iver3, waveglider_sv2)")]
     Unknown(String),
     #[error(transparent)]
     Plugin(#[from] plugin::PluginError),
@@ -40,6 +42,62 @@ pub fn factory_with_env(
                     as Box<dyn Driver>
             }))
         }
+        frontseat_config::IVER3 => {
+            let settings = iver3::Settings::from_config(cfg);
+            Ok(std::sync::Arc::new(move || {
+                Box::new(iver3::Iver3Driver::new(settings.clone())) as Box<dyn Driver>
+            }))
+        }
+        frontseat_config::WAVEGLIDER_SV2 => {
+            let settings = waveglider_sv2::Settings::from_config(cfg);
+            Ok(std::sync::Arc::new(move || {
+                Box::new(waveglider_sv2::WavegliderSv2Driver::new(settings.clone()))
+                    as Box<dyn Driver>
+            }))
+        }
         other => Err(DriverSelectError::Unknown(other.to_string())),
+    }
+}
+
+/// The byte link a vehicle driver's config describes: its serial port (Goby3's port and baud
+/// fields) or TCP, with the shared framing, parity, flow control and backoff settings.
+pub fn vehicle_link(
+    c: &frontseat_config::VehicleLinkConfig,
+    serial_port: &str,
+    serial_baud: u32,
+    framing: crate::link::framing::Framing,
+) -> crate::link::byte::ByteLinkConfig {
+    use crate::link::byte::Transport;
+    use crate::link::serial::{SerialFlowControl, SerialParity, SerialSettings};
+    use frontseat_config::{FlowControlConfig, ParityConfig, TransportKind};
+    let transport = match c.transport {
+        TransportKind::Serial => Transport::Serial(SerialSettings {
+            path: serial_port.to_string(),
+            baud: serial_baud,
+            data_bits: c.data_bits,
+            parity: match c.parity {
+                ParityConfig::None => SerialParity::None,
+                ParityConfig::Odd => SerialParity::Odd,
+                ParityConfig::Even => SerialParity::Even,
+            },
+            stop_bits: c.stop_bits,
+            flow_control: match c.flow_control {
+                FlowControlConfig::None => SerialFlowControl::None,
+                FlowControlConfig::Software => SerialFlowControl::Software,
+                FlowControlConfig::Hardware => SerialFlowControl::Hardware,
+            },
+        }),
+        TransportKind::Tcp => Transport::Tcp {
+            host: c.tcp_address.clone(),
+            port: c.tcp_port,
+        },
+    };
+    crate::link::byte::ByteLinkConfig {
+        transport,
+        framing,
+        backoff_initial: std::time::Duration::from_millis(c.reconnect_initial_ms.max(1)),
+        backoff_max: std::time::Duration::from_millis(
+            c.reconnect_max_ms.max(c.reconnect_initial_ms).max(1),
+        ),
     }
 }

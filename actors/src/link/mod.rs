@@ -1,6 +1,12 @@
-//! A reconnecting TCP line link for drivers: connects without blocking the driver, retries with
-//! capped exponential backoff, reads `\r\n` (or `\n`) terminated lines with a size bound, and
-//! hands every event to the driver actor the moment it happens.
+//! Byte links for drivers. This file: the reconnecting TCP line link of the basic simulator
+//! driver (connects without blocking the driver, retries with capped exponential backoff, reads
+//! `\r\n` (or `\n`) terminated lines with a size bound, and hands every event to the driver
+//! actor the moment it happens) and the writer every link hands out. [`byte`] generalises it to
+//! serial ports ([`serial`]) and binary frames ([`framing`]) for the vehicle drivers.
+
+pub mod byte;
+pub mod framing;
+pub mod serial;
 
 use std::time::Duration;
 
@@ -12,7 +18,7 @@ use crate::driver::{DriverIoEvent, IoSender};
 
 /// Lines waiting to be written before further writes are refused (a stalled frontseat must
 /// not grow our memory).
-const WRITE_QUEUE: usize = 1024;
+pub(crate) const WRITE_QUEUE: usize = 1024;
 
 #[derive(Clone, Debug)]
 pub struct LinkConfig {
@@ -48,6 +54,17 @@ impl LineWriter {
             mpsc::error::TrySendError::Full(_) => WriteError::Full,
             mpsc::error::TrySendError::Closed(_) => WriteError::Closed,
         })
+    }
+    /// Queues bytes as they are (binary frames).
+    pub fn write_bytes(&self, bytes: Vec<u8>) -> Result<(), WriteError> {
+        self.tx.try_send(bytes).map_err(|e| match e {
+            mpsc::error::TrySendError::Full(_) => WriteError::Full,
+            mpsc::error::TrySendError::Closed(_) => WriteError::Closed,
+        })
+    }
+    /// A writer around a channel (the byte links, and tests of drivers without a socket).
+    pub(crate) fn from_sender(tx: mpsc::Sender<Vec<u8>>) -> Self {
+        Self { tx }
     }
     /// A writer whose lines go to a channel; for tests of drivers without a socket.
     pub fn for_test() -> (Self, mpsc::Receiver<Vec<u8>>) {

@@ -1,0 +1,178 @@
+//! The Goby3 transport of the gateway: makes this process a client of an existing Goby3 system's
+//! gobyd, like any Goby3 application. The groups come from the same [`crate::plan`] as Zenoh's
+//! (every interprocess group a hosted actor publishes goes out, every one it subscribes comes
+//! in), framed as Goby3 does (`/group/PROTOBUF/type/pid/thread/` NUL payload, see [`frame`]);
+//! what was imported is never exported again. The connection lives in a background task
+//! ([`link`]) that never blocks the bus: gobyd absent, restarted or gone is logged, counted,
+//! retried with capped backoff, and reported as the bus link [`GOBY3_LINK`].
+
+pub mod frame;
+mod link;
+pub mod manager;
+mod settings;
+pub mod standin;
+mod traffic;
+
+use std::sync::Arc;
+use std::sync::atomic::Ordering;
+use std::time::Duration;
+
+use frontseat_actors::bus::{Bus, GOBY3_LINK, Origin, Subscription, Undeliverable};
+use frontseat_actors::generated::{EncodedEnvelope, groups, interprocess_subscribe_encoded};
+use tokio::sync::{mpsc, watch};
+
+use crate::{GatewayError, GatewayOptions, Plan, plan};
+pub use manager::Transport;
+pub use settings::Goby3Settings;
+use traffic::{Counters, Exporter, Importer};
+pub use traffic::{Goby3Stats, Origin3};
+
+/// The running Goby3 transport. Dropping it stops the link task; [`Goby3Handle::close`] also
+/// unsubscribes from the bus.
+pub struct Goby3Handle {
+    plan: Plan,
+    settings: Goby3Settings,
+    me: Origin3,
+    counters: Arc<Counters>,
+    bus_subs: Vec<Subscription>,
+    stop: watch::Sender<bool>,
+    task: tokio::task::JoinHandle<()>,
+}
+
+impl std::fmt::Debug for Goby3Handle {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Goby3Handle")
+            .field("settings", &self.settings)
+            .field("stats", &self.stats())
+            .finish()
+    }
+}
+
+impl Goby3Handle {
+    pub fn stats(&self) -> Goby3Stats {
+        self.counters.snapshot()
+    }
+    pub fn link_up(&self) -> bool {
+        self.counters.link_up.load(Ordering::Relaxed)
+    }
+    pub fn plan(&self) -> &Plan {
+        &self.plan
+    }
+    pub fn settings(&self) -> &Goby3Settings {
+        &self.settings
+    }
+    /// The pid and thread id our frames carry.
+    pub fn origin(&self) -> Origin3 {
+        self.me
+    }
+    /// Unsubscribes from the bus and ends the link (sockets closed, nothing more sent).
+    pub async fn close(mut self) {
+        for s in std::mem::take(&mut self.bus_subs) {
+            s.cancel();
+        }
+        let _ = self.stop.send(true);
+        let task = std::mem::replace(&mut self.task, tokio::spawn(async {}));
+        if tokio::time::timeout(Duration::from_secs(2), task)
+            .await
+            .is_err()
+        {
+            tracing::warn!("Goby3 link did not stop within 2 s");
+        }
+    }
+}
+
+impl Drop for Goby3Handle {
+    fn drop(&mut self) {
+        self.task.abort();
+    }
+}
+
+/// Starts the Goby3 transport for a process hosting `hosted` actors (e.g.
+/// `["FrontSeatInterface"]`). Returns at once: joining gobyd happens in the background, and
+/// until it has, local publications are dropped and counted. Needs a tokio runtime.
+pub fn start(
+    bus: &Bus,
+    settings: Goby3Settings,
+    hosted: &[&str],
+    opts: GatewayOptions,
+) -> Result<Goby3Handle, GatewayError> {
+    let plan = plan::routes(groups::ALL, hosted)?;
+    let counters = Arc::new(Counters::default());
+    let me = Origin3::this_process();
+
+    let (tx, rx) = mpsc::unbounded_channel::<(usize, EncodedEnvelope)>();
+    let mut bus_subs = Vec::with_capacity(plan.exports.len());
+    for (i, r) in plan.exports.iter().enumerate() {
+        let tx = tx.clone();
+        let c = counters.clone();
+        // The bus bounds what is in flight per group (export_capacity): the channel cannot grow
+        // past that even while gobyd is slow.
+        let sub = interprocess_subscribe_encoded(
+            bus,
+            r.group,
+            "goby3-gateway",
+            opts.export_capacity,
+            move |env| {
+                if env.meta.origin == Origin::Imported {
+                    c.not_echoed.fetch_add(1, Ordering::Relaxed);
+                    return Ok(());
+                }
+                tx.send((i, env)).map_err(|_| Undeliverable)
+            },
+        )
+        .ok_or_else(|| GatewayError::NotInterprocess(r.group.to_string()))?;
+        bus_subs.push(sub);
+    }
+    drop(tx);
+
+    let exporter = Exporter {
+        routes: plan
+            .exports
+            .iter()
+            .map(|r| (r.group.to_string(), r.type_name))
+            .collect(),
+        me,
+    };
+    let importer = Importer {
+        bus: bus.clone(),
+        routes: plan
+            .imports
+            .iter()
+            .map(|r| (r.group.to_string(), r.type_name, r.group))
+            .collect(),
+        me,
+        max: opts.max_payload,
+        counters: counters.clone(),
+    };
+    bus.set_link_up(GOBY3_LINK, false);
+    let (stop, stop_rx) = watch::channel(false);
+    let task = tokio::spawn(link::run(
+        link::Link {
+            settings: settings.clone(),
+            me,
+            counters: counters.clone(),
+            bus: bus.clone(),
+        },
+        exporter,
+        importer,
+        rx,
+        stop_rx,
+    ));
+    tracing::info!(
+        platform = %settings.platform,
+        manager = %settings.transport.manager_endpoint(),
+        client_name = %settings.client_name,
+        exports = ?plan.exports.iter().map(|r| r.group).collect::<Vec<_>>(),
+        imports = ?plan.imports.iter().map(|r| r.group).collect::<Vec<_>>(),
+        "Goby3 transport started; joining gobyd in the background"
+    );
+    Ok(Goby3Handle {
+        plan,
+        settings,
+        me,
+        counters,
+        bus_subs,
+        stop,
+        task,
+    })
+}

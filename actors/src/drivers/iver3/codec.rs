@@ -1,0 +1,165 @@
+//! The Iver3 driver's edge: the Remote Helm sentences (shared with the emulator, from
+//! `frontseat_sim::iver3::codec`) and the one place where the UVC's units (feet, knots) and
+//! mode letters become Goby's (metres, m/s, FrontSeatState) and back. Pure and table-tested.
+
+pub use frontseat_sim::iver3::codec::*;
+
+use crate::proto::goby::middleware::frontseat::protobuf::{
+    DesiredCourse, EulerAngles, NodeStatus, Speed,
+};
+use crate::proto::goby::middleware::protobuf::LatLonPoint;
+
+pub const METRES_PER_FOOT: f64 = 0.3048;
+
+/// The UVC's modes (Goby3's IverState.IverMode).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum IverMode {
+    Unknown,
+    Normal,
+    Stopped,
+    Parking,
+    ManualOverride,
+    ManualParking,
+    Servo,
+    Mission,
+}
+
+impl IverMode {
+    /// The `$OSI` mode field. Goby3 looks at the first character only, which reads PeRL's
+    /// manual-parking `Mp` as manual override; both `m` and `Mp` are manual parking here.
+    pub fn from_field(f: &str) -> IverMode {
+        if f == "Mp" {
+            return IverMode::ManualParking;
+        }
+        match f.chars().next() {
+            Some('N') => IverMode::Normal,
+            Some('S') => IverMode::Stopped,
+            Some('P') => IverMode::Parking,
+            Some('M') => IverMode::ManualOverride,
+            Some('m') => IverMode::ManualParking,
+            Some('A') => IverMode::Servo,
+            Some('W') => IverMode::Mission,
+            _ => IverMode::Unknown,
+        }
+    }
+}
+
+/// `$OSI` → NodeStatus: feet → metres, knots → m/s. Time is the backseat clock at reception
+/// (as in Goby3); local_fix is filled by the interface.
+pub fn osi_to_node_status(o: &Osi, now_unix: f64) -> NodeStatus {
+    NodeStatus {
+        time: now_unix,
+        global_fix: LatLonPoint {
+            lat: o.lat,
+            lon: o.lon,
+            depth: Some(o.depth_ft * METRES_PER_FOOT),
+            altitude: Some(o.altimeter_ft * METRES_PER_FOOT),
+        },
+        pose: EulerAngles {
+            heading: Some(o.heading),
+            ..Default::default()
+        },
+        speed: Speed {
+            over_ground: o.speed_kn * MPS_PER_KNOT,
+            over_water: None,
+        },
+        ..Default::default()
+    }
+}
+
+/// Heading into [0, 360) as it will be printed (one decimal): 359.96 would print as 360.0,
+/// which Goby3 sends; it is 0.0 here.
+pub fn oms_heading(h: f64) -> f64 {
+    let r = (h.rem_euclid(360.0) * 10.0).round() / 10.0;
+    if r >= 360.0 { 0.0 } else { r }
+}
+
+/// DesiredCourse (metres, m/s) → `$OMS` (feet or metres by Remote Helm version, knots).
+pub fn course_to_oms(
+    c: &DesiredCourse,
+    remote_helm_version_major: i32,
+    max_pitch_angle_degrees: i32,
+    oms_timeout: u32,
+) -> Oms {
+    let depth_m = c.depth();
+    let depth = if Oms::depth_unit_is_feet(remote_helm_version_major) {
+        depth_m / METRES_PER_FOOT
+    } else {
+        depth_m
+    };
+    Oms {
+        heading: oms_heading(c.heading()),
+        depth,
+        max_pitch: f64::from(max_pitch_angle_degrees),
+        speed_kn: c.speed() / MPS_PER_KNOT,
+        timeout_s: oms_timeout,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn course(heading: f64, depth: f64, speed: f64) -> DesiredCourse {
+        DesiredCourse {
+            time: 0.0,
+            heading: Some(heading),
+            depth: Some(depth),
+            speed: Some(speed),
+            ..Default::default()
+        }
+    }
+
+    #[test]
+    fn oms_lines_for_both_remote_helm_generations() {
+        let cases = [
+            // (heading, depth m, speed m/s, RH major, line)
+            (180.0, 3.0, 1.5, 5, "$OMS,180.0,3.0,45.0,2.9,5*78"),
+            (180.0, 3.0, 1.5, 4, "$OMS,180.0,9.8,45.0,2.9,5*7A"),
+            (-90.0, 0.0, 0.0, 5, "$OMS,270.0,0.0,45.0,0.0,5*75"),
+            (359.96, 0.0, 0.0, 5, "$OMS,0.0,0.0,45.0,0.0,5*71"),
+            (720.0 + 45.0, 10.0, 2.0, 3, "$OMS,45.0,32.8,45.0,3.9,5*40"),
+        ];
+        for (h, d, s, rh, want) in cases {
+            let line = Sentence::Oms(course_to_oms(&course(h, d, s), rh, 45, 5)).to_line();
+            let body = &want[1..want.len() - 3];
+            let want = with_checksum(body);
+            assert_eq!(line, want, "{h} {d} {s} rh{rh}");
+        }
+    }
+
+    #[test]
+    fn osi_units_become_si() {
+        let Sentence::Osi(o) = Sentence::parse(
+            "$OSI,7F7F7F7F80,N,0,42.358400,-71.087600,2.9,0.0,N,32.8,P0,-14.5,demo.mis,0,90.0,10.5*47",
+        )
+        .unwrap() else {
+            panic!()
+        };
+        let ns = osi_to_node_status(&o, 1.0);
+        assert!((ns.global_fix.depth() - 3.2004).abs() < 1e-9);
+        assert!((ns.global_fix.altitude() - 9.99744).abs() < 1e-9);
+        assert!((ns.speed.over_ground - 2.9 * 1852.0 / 3600.0).abs() < 1e-12);
+        assert_eq!(ns.pose.heading(), 90.0);
+        assert_eq!((ns.global_fix.lat, ns.global_fix.lon), (42.3584, -71.0876));
+    }
+
+    #[test]
+    fn mode_letters() {
+        for (f, m) in [
+            ("N", IverMode::Normal),
+            ("S", IverMode::Stopped),
+            ("P", IverMode::Parking),
+            ("M", IverMode::ManualOverride),
+            ("m", IverMode::ManualParking),
+            ("mP", IverMode::ManualParking),
+            ("Mp", IverMode::ManualParking),
+            ("A", IverMode::Servo),
+            ("W", IverMode::Mission),
+            ("", IverMode::Unknown),
+            ("X", IverMode::Unknown),
+        ] {
+            assert_eq!(IverMode::from_field(f), m, "{f:?}");
+        }
+    }
+}

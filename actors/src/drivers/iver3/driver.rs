@@ -1,0 +1,706 @@
+//! The Iver3 driver: Goby3's `IverFrontSeat` over a serial port (or serial-over-IP TCP), with
+//! its gaps closed — the state drops to NOT_CONNECTED when the port goes away, `$OSI` counts as
+//! data, `$ACK` becomes a CommandResponse, `$C` before any `$OSI` publishes nothing, and the
+//! `Mp` manual-parking mode is recognised. Polls with `$OSD` on every loop tick.
+
+use std::collections::VecDeque;
+use std::sync::Arc;
+use std::time::Duration;
+
+use frontseat_config::{FrontSeatStateName, InterfaceConfig, IverModeAssignments};
+
+use super::codec::{self, IverMode, Sentence, ack_type};
+use crate::clock::SimClock;
+use crate::driver::{Driver, DriverContext, DriverIoEvent, SignalSink, raw_ascii};
+use crate::drivers::vehicle_link;
+use crate::link::LineWriter;
+use crate::link::byte::{self, ByteLinkConfig, LinkStats, Transport};
+use crate::link::framing::Framing;
+use crate::link::serial::SerialSettings;
+use crate::proto::goby::middleware::frontseat::protobuf::{
+    CommandRequest, CommandResponse, FrontSeatState, InterfaceData, NodeStatus, Raw,
+};
+use crate::ratelog::{LogDecision, RateLimitedLog};
+
+/// Goby3's fixed baud of the NTP copy port.
+const NTP_BAUD: u32 = 4800;
+
+/// Commands waiting for an `$ACK` at most (older ones are answered as failed).
+const MAX_PENDING: usize = 64;
+
+#[derive(Clone, Debug)]
+pub struct Settings {
+    pub link: ByteLinkConfig,
+    /// Where RMC sentences are copied for NTP (4800 8N1), if anywhere.
+    pub ntp_link: Option<ByteLinkConfig>,
+    pub max_pitch_angle_degrees: i32,
+    pub remote_helm_version_major: i32,
+    pub oms_timeout: u32,
+    pub modes: ModeTable,
+    pub providing_data_timeout: Duration,
+    pub ack_timeout: Duration,
+}
+
+/// FrontSeatState per UVC mode.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ModeTable(pub IverModeAssignments);
+
+pub fn state_of(name: FrontSeatStateName) -> FrontSeatState {
+    match name {
+        FrontSeatStateName::FrontseatNotConnected => FrontSeatState::FrontseatNotConnected,
+        FrontSeatStateName::FrontseatIdle => FrontSeatState::FrontseatIdle,
+        FrontSeatStateName::FrontseatInControl => FrontSeatState::FrontseatInControl,
+        FrontSeatStateName::FrontseatAcceptingCommands => {
+            FrontSeatState::FrontseatAcceptingCommands
+        }
+    }
+}
+
+impl ModeTable {
+    pub fn state(&self, m: IverMode) -> FrontSeatState {
+        let a = &self.0;
+        state_of(match m {
+            IverMode::Unknown => a.unknown,
+            IverMode::Normal => a.normal,
+            IverMode::Stopped => a.stopped,
+            IverMode::Parking => a.parking,
+            IverMode::ManualOverride => a.manual_override,
+            IverMode::ManualParking => a.manual_parking,
+            IverMode::Servo => a.servo_mode,
+            IverMode::Mission => a.mission_mode,
+        })
+    }
+}
+
+impl Settings {
+    pub fn from_config(cfg: &InterfaceConfig) -> Self {
+        let c = &cfg.driver.iver3;
+        Self {
+            link: vehicle_link(
+                &c.link,
+                &c.serial_port,
+                c.serial_baud,
+                Framing::Lines {
+                    max_line_bytes: codec::MAX_SENTENCE,
+                },
+            ),
+            ntp_link: c.ntp_serial_port.as_ref().map(|p| ByteLinkConfig {
+                transport: Transport::Serial(SerialSettings::new_8n1(p.clone(), NTP_BAUD)),
+                framing: Framing::Lines {
+                    max_line_bytes: codec::MAX_SENTENCE,
+                },
+                backoff_initial: Duration::from_millis(c.link.reconnect_initial_ms.max(1)),
+                backoff_max: Duration::from_millis(c.link.reconnect_max_ms.max(1)),
+            }),
+            max_pitch_angle_degrees: c.max_pitch_angle_degrees,
+            // Validation requires it; 5 (metres) only if a caller skipped validation.
+            remote_helm_version_major: c.remote_helm_version_major.unwrap_or(5),
+            oms_timeout: c.oms_timeout.min(120),
+            modes: ModeTable(c.mode_assignments.clone()),
+            providing_data_timeout: Duration::from_secs_f64(c.providing_data_timeout.max(0.0)),
+            ack_timeout: Duration::from_secs_f64(c.link.ack_timeout.max(0.0)),
+        }
+    }
+}
+
+#[derive(Debug)]
+struct Pending {
+    ack_type: u32,
+    request_id: Option<i32>,
+    respond: bool,
+    deadline: Duration,
+}
+
+/// What the driver counted (read by tests and the logs).
+#[derive(Debug, Default, Clone, PartialEq)]
+pub struct IverCounters {
+    pub osi: u64,
+    pub compass: u64,
+    pub acks: u64,
+    pub unmatched_acks: u64,
+    pub bad_lines: u64,
+    pub ignored: u64,
+    pub write_failures: u64,
+    pub ack_timeouts: u64,
+}
+
+pub struct Iver3Driver {
+    settings: Settings,
+    writer: Option<LineWriter>,
+    link_task: Option<tokio::task::JoinHandle<()>>,
+    pub link_stats: Arc<LinkStats>,
+    /// The NTP copy port's writer while it is open (filled by its own link task).
+    ntp: Arc<std::sync::Mutex<Option<LineWriter>>>,
+    ntp_task: Option<tokio::task::JoinHandle<()>>,
+    state: FrontSeatState,
+    mode: IverMode,
+    last_data: Option<Duration>,
+    providing_data: bool,
+    /// The latest `$OSI` navigation, so `$C` can republish it with new pitch and roll.
+    status: Option<NodeStatus>,
+    pending: VecDeque<Pending>,
+    bad_log: RateLimitedLog,
+    pub counters: IverCounters,
+}
+
+impl Iver3Driver {
+    pub fn new(settings: Settings) -> Self {
+        Self {
+            settings,
+            writer: None,
+            link_task: None,
+            link_stats: Arc::new(LinkStats::default()),
+            ntp: Arc::new(std::sync::Mutex::new(None)),
+            ntp_task: None,
+            state: FrontSeatState::FrontseatNotConnected,
+            mode: IverMode::Unknown,
+            last_data: None,
+            providing_data: false,
+            status: None,
+            pending: VecDeque::new(),
+            bad_log: RateLimitedLog::for_bad_input(),
+            counters: IverCounters::default(),
+        }
+    }
+
+    pub fn mode(&self) -> IverMode {
+        self.mode
+    }
+
+    fn write(&mut self, line: &str, sig: &mut dyn SignalSink) -> bool {
+        let Some(w) = &self.writer else {
+            self.counters.write_failures += 1;
+            return false;
+        };
+        match w.write_line(line) {
+            Ok(()) => {
+                sig.raw_to_frontseat(raw_ascii(line, ""));
+                true
+            }
+            Err(e) => {
+                self.counters.write_failures += 1;
+                if let LogDecision::Log {
+                    suppressed_before: suppressed,
+                } = self.bad_log.decide(tokio::time::Instant::now())
+                {
+                    tracing::warn!(line, error = %e, suppressed, "line to the Iver not sent");
+                }
+                false
+            }
+        }
+    }
+
+    fn bad(&mut self, what: &str) {
+        self.counters.bad_lines += 1;
+        if let LogDecision::Log {
+            suppressed_before: suppressed,
+        } = self.bad_log.decide(tokio::time::Instant::now())
+        {
+            tracing::warn!(%what, suppressed, "bad input from the Iver");
+        }
+    }
+
+    fn fresh_data(&mut self, now: Duration) {
+        self.last_data = Some(now);
+        self.providing_data = true;
+    }
+
+    fn handle_line(&mut self, line: &str, now: Duration, sig: &mut dyn SignalSink) {
+        sig.raw_from_frontseat(raw_ascii(line, ""));
+        let s = match Sentence::parse(line) {
+            Ok(s) => s,
+            Err(e) => {
+                self.bad(&format!("{e}: {}", crate::telemetry::truncate(line)));
+                return;
+            }
+        };
+        match s {
+            Sentence::Osi(o) => {
+                self.counters.osi += 1;
+                self.mode = IverMode::from_field(&o.mode);
+                self.state = self.settings.modes.state(self.mode);
+                let mut ns = codec::osi_to_node_status(&o, SimClock::unix_now());
+                if let Some(prev) = &self.status {
+                    ns.pose.pitch = prev.pose.pitch;
+                    ns.pose.roll = prev.pose.roll;
+                }
+                self.status = Some(ns.clone());
+                self.fresh_data(now);
+                sig.data_from_frontseat(InterfaceData {
+                    node_status: Some(ns),
+                    ..Default::default()
+                });
+            }
+            Sentence::Compass(c) => {
+                self.counters.compass += 1;
+                self.fresh_data(now);
+                if let Some(ns) = &mut self.status {
+                    ns.pose.pitch = Some(c.pitch);
+                    ns.pose.roll = Some(c.roll);
+                    ns.time = SimClock::unix_now();
+                    let ns = ns.clone();
+                    sig.data_from_frontseat(InterfaceData {
+                        node_status: Some(ns),
+                        ..Default::default()
+                    });
+                }
+            }
+            Sentence::Ack(a) => {
+                self.counters.acks += 1;
+                match self.pending.iter().position(|p| p.ack_type == a.msg_type) {
+                    Some(i) => {
+                        if let Some(p) = self.pending.remove(i)
+                            && p.respond
+                        {
+                            let ok = a.status == 0;
+                            sig.command_response(CommandResponse {
+                                request_successful: Some(ok),
+                                request_id: p.request_id,
+                                error_code: Some(a.err as i32),
+                                error_string: (!ok).then(|| {
+                                    format!("UVC answered $ACK status {} error {}", a.status, a.err)
+                                }),
+                            });
+                        }
+                    }
+                    None => {
+                        // $ACK of $OSD polls, or of raw commands: nothing to answer.
+                        if a.msg_type != ack_type::OSD {
+                            self.counters.unmatched_acks += 1;
+                        }
+                    }
+                }
+            }
+            Sentence::Rmc { .. } => {
+                // Copied verbatim (checksum and all) for the NTP reference clock, as Goby3.
+                let w = self.ntp.lock().unwrap_or_else(|p| p.into_inner()).clone();
+                if let Some(w) = w
+                    && w.write_line(line).is_err()
+                {
+                    self.counters.write_failures += 1;
+                }
+            }
+            _ => {
+                self.counters.ignored += 1;
+                tracing::trace!(line, "ignoring sentence from the Iver");
+            }
+        }
+    }
+
+    fn fail(req: &CommandRequest, why: &str, sig: &mut dyn SignalSink) {
+        if req.response_requested() {
+            sig.command_response(CommandResponse {
+                request_successful: Some(false),
+                request_id: req.request_id,
+                error_code: Some(1),
+                error_string: Some(why.to_string()),
+            });
+        }
+    }
+}
+
+impl Drop for Iver3Driver {
+    fn drop(&mut self) {
+        for t in [self.link_task.take(), self.ntp_task.take()]
+            .into_iter()
+            .flatten()
+        {
+            t.abort();
+        }
+    }
+}
+
+impl Driver for Iver3Driver {
+    fn name(&self) -> &str {
+        "iver3"
+    }
+
+    fn start(&mut self, ctx: DriverContext) {
+        self.link_task = Some(byte::spawn(
+            self.settings.link.clone(),
+            ctx.io,
+            self.link_stats.clone(),
+        ));
+        if let Some(ntp) = self.settings.ntp_link.clone() {
+            // Write-only: what the NTP side sends back is discarded (as Goby3), so its events
+            // stay on its own task instead of the driver's mailbox.
+            let slot = self.ntp.clone();
+            let io = crate::driver::IoSender::new(move |ev| {
+                let mut s = slot.lock().unwrap_or_else(|p| p.into_inner());
+                match ev {
+                    DriverIoEvent::Connected(w) => *s = Some(w),
+                    DriverIoEvent::Disconnected(_) => *s = None,
+                    _ => {}
+                }
+                true
+            });
+            self.ntp_task = Some(byte::spawn(ntp, io, Arc::new(LinkStats::default())));
+        }
+    }
+
+    fn handle_io(&mut self, ev: DriverIoEvent, now: Duration, sig: &mut dyn SignalSink) {
+        match ev {
+            DriverIoEvent::Connected(w) => {
+                tracing::info!(link = %self.settings.link.transport.describe(), "connected to the Iver");
+                self.writer = Some(w);
+                // Open but not yet told its mode: Goby3's "unknown" until the first $OSI.
+                self.state = FrontSeatState::FrontseatNotConnected;
+            }
+            DriverIoEvent::Line(line) => self.handle_line(&line, now, sig),
+            DriverIoEvent::Frame(_) => self.bad("binary frame on a Remote Helm link"),
+            DriverIoEvent::BadInput(what) => self.bad(&what),
+            DriverIoEvent::Disconnected(reason) => {
+                tracing::warn!(%reason, "Iver link lost; reopening");
+                self.writer = None;
+                self.state = FrontSeatState::FrontseatNotConnected;
+                self.mode = IverMode::Unknown;
+                self.providing_data = false;
+                self.last_data = None;
+            }
+        }
+    }
+
+    fn send_command_to_frontseat(
+        &mut self,
+        req: &CommandRequest,
+        now: Duration,
+        sig: &mut dyn SignalSink,
+    ) {
+        let Some(c) = &req.desired_course else {
+            Self::fail(
+                req,
+                "the Iver3 driver sends only desired_course ($OMS)",
+                sig,
+            );
+            return;
+        };
+        let s = &self.settings;
+        let oms = codec::course_to_oms(
+            c,
+            s.remote_helm_version_major,
+            s.max_pitch_angle_degrees,
+            s.oms_timeout,
+        );
+        let line = Sentence::Oms(oms).to_line();
+        if !self.write(&line, sig) {
+            Self::fail(req, "not connected to the Iver: $OMS not sent", sig);
+            return;
+        }
+        if self.pending.len() >= MAX_PENDING
+            && let Some(old) = self.pending.pop_front()
+            && old.respond
+        {
+            sig.command_response(CommandResponse {
+                request_successful: Some(false),
+                request_id: old.request_id,
+                error_code: Some(2),
+                error_string: Some("too many commands awaiting $ACK".into()),
+            });
+        }
+        self.pending.push_back(Pending {
+            ack_type: ack_type::OMS,
+            request_id: req.request_id,
+            respond: req.response_requested(),
+            deadline: now + self.settings.ack_timeout,
+        });
+    }
+
+    fn send_data_to_frontseat(
+        &mut self,
+        _data: &InterfaceData,
+        _now: Duration,
+        _sig: &mut dyn SignalSink,
+    ) {
+        // Remote Helm has no data channel (Goby3: "no data yet to send").
+    }
+
+    fn send_raw_to_frontseat(&mut self, raw: &Raw, _now: Duration, sig: &mut dyn SignalSink) {
+        let bytes = raw.raw.as_deref().unwrap_or_default();
+        match std::str::from_utf8(bytes) {
+            Ok(s) if s.len() <= codec::MAX_SENTENCE => {
+                let line = s.trim_end_matches(['\r', '\n']).to_string();
+                self.write(&line, sig);
+            }
+            _ => self.bad("raw_send_request is not a text line of at most 512 bytes"),
+        }
+    }
+
+    fn do_loop(&mut self, now: Duration, sig: &mut dyn SignalSink) {
+        if self.writer.is_some() {
+            let osd = Sentence::Osd {
+                gps: true,
+                compass: true,
+                state: true,
+                power: true,
+            }
+            .to_line();
+            self.write(&osd, sig);
+        }
+        if self.providing_data
+            && let Some(t) = self.last_data
+            && now.saturating_sub(t) > self.settings.providing_data_timeout
+        {
+            tracing::warn!(
+                "no $OSI or $C from the Iver for {:?}: not providing data",
+                self.settings.providing_data_timeout
+            );
+            self.providing_data = false;
+        }
+        while let Some(p) = self.pending.front()
+            && p.deadline <= now
+        {
+            let Some(p) = self.pending.pop_front() else {
+                break;
+            };
+            self.counters.ack_timeouts += 1;
+            if p.respond {
+                sig.command_response(CommandResponse {
+                    request_successful: Some(false),
+                    request_id: p.request_id,
+                    error_code: Some(3),
+                    error_string: Some(format!(
+                        "no $ACK from the UVC within {:?}",
+                        self.settings.ack_timeout
+                    )),
+                });
+            }
+        }
+    }
+
+    fn frontseat_state(&self) -> FrontSeatState {
+        self.state
+    }
+
+    fn frontseat_providing_data(&self) -> bool {
+        self.providing_data
+    }
+
+    fn stop(&mut self) {
+        self.writer = None;
+        *self.ntp.lock().unwrap_or_else(|p| p.into_inner()) = None;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::proto::goby::middleware::frontseat::protobuf::DesiredCourse;
+
+    #[derive(Default)]
+    struct Sink {
+        responses: Vec<CommandResponse>,
+        data: Vec<InterfaceData>,
+        raw_in: usize,
+        raw_out: usize,
+    }
+    impl SignalSink for Sink {
+        fn command_response(&mut self, r: CommandResponse) {
+            self.responses.push(r)
+        }
+        fn data_from_frontseat(&mut self, d: InterfaceData) {
+            self.data.push(d)
+        }
+        fn raw_from_frontseat(&mut self, _: Raw) {
+            self.raw_in += 1
+        }
+        fn raw_to_frontseat(&mut self, _: Raw) {
+            self.raw_out += 1
+        }
+    }
+
+    fn driver() -> Iver3Driver {
+        let mut cfg = InterfaceConfig::default();
+        cfg.driver.iver3.serial_port = "/dev/null".into();
+        cfg.driver.iver3.remote_helm_version_major = Some(5);
+        Iver3Driver::new(Settings::from_config(&cfg))
+    }
+
+    const OSI_N: &str =
+        "$OSI,7F7F7F7F80,N,0,42.358400,-71.087600,2.9,0.0,N,32.8,P0,-14.5,demo.mis,0,90.0,10.5*47";
+
+    fn osi(mode: &str) -> String {
+        let o = OSI_N.replacen(",N,0,", &format!(",{mode},0,"), 1);
+        let body = &o[1..o.len() - 3];
+        codec::with_checksum(body)
+    }
+
+    #[test]
+    fn every_mode_maps_through_the_table() {
+        let mut d = driver();
+        let mut sink = Sink::default();
+        let (w, _rx) = LineWriter::for_test();
+        let t = Duration::ZERO;
+        d.handle_io(DriverIoEvent::Connected(w), t, &mut sink);
+        assert_eq!(d.frontseat_state(), FrontSeatState::FrontseatNotConnected);
+        for (mode, want) in [
+            ("N", FrontSeatState::FrontseatAcceptingCommands),
+            ("S", FrontSeatState::FrontseatIdle),
+            ("P", FrontSeatState::FrontseatInControl),
+            ("M", FrontSeatState::FrontseatAcceptingCommands),
+            ("Mp", FrontSeatState::FrontseatAcceptingCommands),
+            ("A", FrontSeatState::FrontseatAcceptingCommands),
+            ("W", FrontSeatState::FrontseatAcceptingCommands),
+            ("?", FrontSeatState::FrontseatIdle),
+        ] {
+            d.handle_io(DriverIoEvent::Line(osi(mode)), t, &mut sink);
+            assert_eq!(d.frontseat_state(), want, "{mode}");
+        }
+        d.handle_io(DriverIoEvent::Disconnected("gone".into()), t, &mut sink);
+        assert_eq!(d.frontseat_state(), FrontSeatState::FrontseatNotConnected);
+        assert!(!d.frontseat_providing_data());
+    }
+
+    #[test]
+    fn compass_before_osi_publishes_nothing_then_adds_pitch_and_roll() {
+        let mut d = driver();
+        let mut sink = Sink::default();
+        let (w, _rx) = LineWriter::for_test();
+        let t = Duration::from_secs(1);
+        d.handle_io(DriverIoEvent::Connected(w), t, &mut sink);
+        d.handle_io(
+            DriverIoEvent::Line("$C90.0P-1.20R0.50T20.3D10.5*68".into()),
+            t,
+            &mut sink,
+        );
+        assert!(sink.data.is_empty());
+        assert!(d.frontseat_providing_data());
+        d.handle_io(DriverIoEvent::Line(OSI_N.into()), t, &mut sink);
+        d.handle_io(
+            DriverIoEvent::Line("$C90.0P-1.20R0.50T20.3D10.5*68".into()),
+            t,
+            &mut sink,
+        );
+        assert_eq!(sink.data.len(), 2);
+        let ns = sink.data[1].node_status.as_ref().unwrap();
+        assert_eq!((ns.pose.pitch(), ns.pose.roll()), (-1.2, 0.5));
+        assert!((ns.global_fix.depth() - 10.5 * 0.3048).abs() < 1e-9);
+        // Data stops: not providing after the timeout.
+        d.do_loop(Duration::from_secs(11), &mut sink);
+        assert!(d.frontseat_providing_data());
+        d.do_loop(Duration::from_millis(11_100), &mut sink);
+        assert!(!d.frontseat_providing_data());
+    }
+
+    #[test]
+    fn acks_answer_commands_and_silence_times_out() {
+        let mut d = driver();
+        let mut sink = Sink::default();
+        let (w, mut rx) = LineWriter::for_test();
+        let t = Duration::ZERO;
+        d.handle_io(DriverIoEvent::Connected(w), t, &mut sink);
+        let req = |id| CommandRequest {
+            desired_course: Some(DesiredCourse {
+                time: 0.0,
+                heading: Some(180.0),
+                depth: Some(3.0),
+                speed: Some(1.5),
+                ..Default::default()
+            }),
+            response_requested: Some(true),
+            request_id: Some(id),
+            ..Default::default()
+        };
+        d.send_command_to_frontseat(&req(1), t, &mut sink);
+        assert_eq!(rx.try_recv().unwrap(), b"$OMS,180.0,3.0,45.0,2.9,5*78\r\n");
+        d.handle_io(DriverIoEvent::Line("$ACK,9,0,0*5C".into()), t, &mut sink);
+        assert_eq!(sink.responses.len(), 1);
+        assert_eq!(sink.responses[0].request_successful, Some(true));
+        assert_eq!(sink.responses[0].request_id, Some(1));
+
+        d.send_command_to_frontseat(&req(2), t, &mut sink);
+        d.handle_io(
+            DriverIoEvent::Line(codec::with_checksum("ACK,9,1,26")),
+            t,
+            &mut sink,
+        );
+        assert_eq!(sink.responses[1].request_successful, Some(false));
+        assert_eq!(sink.responses[1].error_code, Some(26));
+
+        d.send_command_to_frontseat(&req(3), t, &mut sink);
+        d.do_loop(Duration::from_secs(4), &mut sink);
+        assert_eq!(sink.responses.len(), 2);
+        d.do_loop(Duration::from_secs(5), &mut sink);
+        assert_eq!(sink.responses.len(), 3);
+        assert_eq!(sink.responses[2].request_id, Some(3));
+        assert_eq!(sink.responses[2].request_successful, Some(false));
+
+        // A command without a course, and one while the port is gone, fail at once.
+        let mut no_course = req(4);
+        no_course.desired_course = None;
+        d.send_command_to_frontseat(&no_course, t, &mut sink);
+        d.handle_io(DriverIoEvent::Disconnected("x".into()), t, &mut sink);
+        d.send_command_to_frontseat(&req(5), t, &mut sink);
+        assert_eq!(
+            sink.responses
+                .iter()
+                .skip(3)
+                .map(|r| (r.request_id, r.request_successful))
+                .collect::<Vec<_>>(),
+            vec![(Some(4), Some(false)), (Some(5), Some(false))]
+        );
+    }
+
+    /// The NTP copy port over a real pty: each RMC goes out verbatim at 4800 baud.
+    #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+    async fn rmc_is_copied_to_the_ntp_port() {
+        let pty = frontseat_sim::pty::PtyMaster::open().unwrap();
+        let mut cfg = InterfaceConfig::default();
+        cfg.driver.iver3.serial_port = "/nonexistent/iver".into();
+        cfg.driver.iver3.remote_helm_version_major = Some(5);
+        cfg.driver.iver3.ntp_serial_port = Some(pty.slave_path().to_string_lossy().into_owned());
+        let mut d = Iver3Driver::new(Settings::from_config(&cfg));
+        d.start(DriverContext {
+            io: crate::driver::IoSender::new(|_| true),
+            clock: crate::clock::SimClock::new(1.0),
+        });
+        let ntp = d.ntp.clone();
+        tokio::time::timeout(Duration::from_secs(10), async {
+            while ntp.lock().unwrap().is_none() {
+                tokio::time::sleep(Duration::from_millis(10)).await;
+            }
+        })
+        .await
+        .expect("NTP port opened");
+        let rmc = "$GPRMC,120000.00,A,4221.5040,N,07105.2560,W,0.0,90.0,101024,14.5,W*52";
+        let mut sink = Sink::default();
+        d.handle_io(DriverIoEvent::Line(OSI_N.into()), Duration::ZERO, &mut sink);
+        d.handle_io(DriverIoEvent::Line(rmc.into()), Duration::ZERO, &mut sink);
+        let mut got = Vec::new();
+        while !got.ends_with(b"\r\n") {
+            let mut b = [0u8; 128];
+            let n = tokio::time::timeout(Duration::from_secs(10), pty.read(&mut b))
+                .await
+                .unwrap()
+                .unwrap();
+            got.extend_from_slice(&b[..n]);
+        }
+        assert_eq!(
+            got,
+            format!("{rmc}\r\n").as_bytes(),
+            "only the RMC, verbatim"
+        );
+    }
+
+    #[test]
+    fn polls_every_loop_and_counts_bad_lines() {
+        let mut d = driver();
+        let mut sink = Sink::default();
+        let (w, mut rx) = LineWriter::for_test();
+        d.do_loop(Duration::ZERO, &mut sink);
+        d.handle_io(DriverIoEvent::Connected(w), Duration::ZERO, &mut sink);
+        d.do_loop(Duration::from_millis(100), &mut sink);
+        assert_eq!(rx.try_recv().unwrap(), b"$OSD,G,C,S,P,,,,*5F\r\n");
+        assert!(rx.try_recv().is_err());
+        for l in ["$OSI,1,2", "garbage", "$OSD,G,C,S,P,,,,*00"] {
+            d.handle_io(DriverIoEvent::Line(l.into()), Duration::ZERO, &mut sink);
+        }
+        d.handle_io(
+            DriverIoEvent::BadInput("noise".into()),
+            Duration::ZERO,
+            &mut sink,
+        );
+        assert_eq!(d.counters.bad_lines, 4);
+        // $OSD from the other side is recognised and ignored, not an error.
+        assert_eq!(d.counters.ignored, 0);
+    }
+}

@@ -1,0 +1,165 @@
+//! The vehicle drivers' link: a serial port or a TCP connection (serial-over-IP adapters),
+//! either one cut into lines or SV2 frames by [`Framing`]. Opens without blocking the driver,
+//! reopens with capped exponential backoff when the device or connection goes away (USB
+//! adapters vanish and come back), bounds what it buffers both ways, counts what it did, and
+//! hands every event to the driver actor the moment it happens.
+
+use std::sync::Arc;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::time::Duration;
+
+use tokio::io::{AsyncRead, AsyncReadExt, AsyncWrite, AsyncWriteExt};
+use tokio::net::TcpStream;
+use tokio::sync::mpsc;
+
+use super::framing::{Deframer, Framing};
+use super::serial::SerialSettings;
+use super::{LineWriter, WRITE_QUEUE};
+use crate::driver::{DriverIoEvent, IoSender};
+
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Transport {
+    Serial(SerialSettings),
+    Tcp { host: String, port: u16 },
+}
+
+impl Transport {
+    /// For logs: the device path or host:port.
+    pub fn describe(&self) -> String {
+        match self {
+            Transport::Serial(s) => format!("{} at {} baud", s.path, s.baud),
+            Transport::Tcp { host, port } => format!("tcp {host}:{port}"),
+        }
+    }
+}
+
+#[derive(Debug, Clone)]
+pub struct ByteLinkConfig {
+    pub transport: Transport,
+    pub framing: Framing,
+    pub backoff_initial: Duration,
+    pub backoff_max: Duration,
+}
+
+/// What a link did since it started (shared with its driver, read by tests and logs).
+#[derive(Debug, Default)]
+pub struct LinkStats {
+    pub opens: AtomicU64,
+    pub open_failures: AtomicU64,
+    pub disconnects: AtomicU64,
+    pub bytes_in: AtomicU64,
+    pub bytes_out: AtomicU64,
+    pub messages: AtomicU64,
+    pub bad_input: AtomicU64,
+}
+
+impl LinkStats {
+    pub fn get(c: &AtomicU64) -> u64 {
+        c.load(Ordering::Relaxed)
+    }
+}
+
+fn add(c: &AtomicU64, n: u64) {
+    c.fetch_add(n, Ordering::Relaxed);
+}
+
+/// Runs until the driver actor is gone (or the task is aborted by the driver's drop).
+pub fn spawn(
+    cfg: ByteLinkConfig,
+    io: IoSender,
+    stats: Arc<LinkStats>,
+) -> tokio::task::JoinHandle<()> {
+    tokio::spawn(async move {
+        let mut delay = cfg.backoff_initial;
+        let what = cfg.transport.describe();
+        loop {
+            let reason = match &cfg.transport {
+                Transport::Serial(s) => match s.open() {
+                    Ok(port) => {
+                        delay = cfg.backoff_initial;
+                        add(&stats.opens, 1);
+                        Some(run(port, &cfg, &io, &stats).await)
+                    }
+                    Err(e) => {
+                        add(&stats.open_failures, 1);
+                        tracing::debug!(%what, error = %e, "cannot open the serial port; retrying in {:?}", delay);
+                        None
+                    }
+                },
+                Transport::Tcp { host, port } => {
+                    match TcpStream::connect((host.as_str(), *port)).await {
+                        Ok(stream) => {
+                            delay = cfg.backoff_initial;
+                            add(&stats.opens, 1);
+                            let _ = stream.set_nodelay(true);
+                            Some(run(stream, &cfg, &io, &stats).await)
+                        }
+                        Err(e) => {
+                            add(&stats.open_failures, 1);
+                            tracing::debug!(%what, error = %e, "frontseat connect failed; retrying in {:?}", delay);
+                            None
+                        }
+                    }
+                }
+            };
+            if let Some(reason) = reason {
+                add(&stats.disconnects, 1);
+                if !io.send(DriverIoEvent::Disconnected(reason)) {
+                    return;
+                }
+            }
+            // Backoff is wall time: a warped simulation does not reopen faster.
+            tokio::time::sleep(delay).await;
+            delay = (delay * 2).min(cfg.backoff_max);
+        }
+    })
+}
+
+async fn run<S>(stream: S, cfg: &ByteLinkConfig, io: &IoSender, stats: &Arc<LinkStats>) -> String
+where
+    S: AsyncRead + AsyncWrite + Send + 'static,
+{
+    let (mut rd, mut wr) = tokio::io::split(stream);
+    let (tx, mut rx) = mpsc::channel::<Vec<u8>>(WRITE_QUEUE);
+    if !io.send(DriverIoEvent::Connected(LineWriter::from_sender(tx))) {
+        return "driver gone".into();
+    }
+    let wstats = stats.clone();
+    let mut writer = tokio::spawn(async move {
+        while let Some(b) = rx.recv().await {
+            if let Err(e) = wr.write_all(&b).await {
+                return format!("write failed: {e}");
+            }
+            add(&wstats.bytes_out, b.len() as u64);
+        }
+        let _ = wr.shutdown().await;
+        "closed by driver".to_string()
+    });
+    let mut deframer = Deframer::new(cfg.framing);
+    let mut buf = vec![0u8; 4096];
+    let reason = loop {
+        tokio::select! {
+            r = rd.read(&mut buf) => match r {
+                Ok(0) => break "end of stream (device or connection gone)".to_string(),
+                Ok(n) => {
+                    add(&stats.bytes_in, n as u64);
+                    let mut alive = true;
+                    deframer.feed(&buf[..n], &mut |ev| {
+                        match &ev {
+                            DriverIoEvent::BadInput(_) => add(&stats.bad_input, 1),
+                            _ => add(&stats.messages, 1),
+                        }
+                        alive &= io.send(ev);
+                    });
+                    if !alive {
+                        break "driver gone".to_string();
+                    }
+                }
+                Err(e) => break format!("read failed: {e}"),
+            },
+            w = &mut writer => break w.unwrap_or_else(|e| format!("writer ended: {e}")),
+        }
+    };
+    writer.abort();
+    reason
+}

@@ -1,0 +1,249 @@
+//! `frontseat sim --vehicle iver3|waveglider_sv2` (a vehicle emulator on a pseudo-terminal or a
+//! loopback TCP port) and `frontseat demo --vehicle …` (the homework path flown through the real
+//! driver over a real pty). The emulators themselves live in `frontseat_sim`.
+
+use std::io::{IsTerminal, Write};
+use std::net::SocketAddr;
+use std::process::ExitCode;
+
+use clap::ValueEnum;
+use frontseat_actors::bus::Bus;
+use frontseat_actors::clock::SimClock;
+use frontseat_actors::demo_helm::{self, DemoParams};
+use frontseat_actors::interface::InterfaceService;
+use frontseat_config::InterfaceConfig;
+use frontseat_sim::emulator::{Emulator, Endpoint};
+use frontseat_sim::iver3::{IverOptions, IverSession};
+use frontseat_sim::waveglider_sv2::{Sv2Options, Sv2Session};
+
+use crate::demo::DemoArgs;
+use crate::service::{SHUTDOWN_BOUND, shutdown_signal};
+
+/// Which vehicle `sim` and `demo` speak for.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, ValueEnum)]
+pub enum VehicleKind {
+    /// The basic simulator's line protocol over TCP (the default).
+    #[default]
+    Basic,
+    /// Iver3 UVC Remote Helm NMEA.
+    Iver3,
+    /// Wave Glider SV2 C&C binary frames.
+    #[value(name = "waveglider_sv2")]
+    WavegliderSv2,
+}
+
+/// Options of the vehicle emulators (ignored by the basic simulator).
+#[derive(clap::Args, Debug, Clone)]
+pub struct EmulatorArgs {
+    /// Vehicle protocol to emulate.
+    #[arg(long, value_enum, default_value_t = VehicleKind::Basic)]
+    pub vehicle: VehicleKind,
+    /// Serve the emulator on this loopback TCP port (serial-over-IP) instead of a new
+    /// pseudo-terminal. 0 picks a free port.
+    #[arg(long, value_name = "PORT")]
+    pub tcp: Option<u16>,
+    /// Iver3: Remote Helm major version (below 5 $OMS depth is feet).
+    #[arg(long, default_value_t = 5)]
+    pub remote_helm_version: i32,
+    /// Run simulated time this many times faster.
+    #[arg(long = "emulator-warp", default_value_t = 1.0)]
+    pub emulator_warp: f64,
+}
+
+enum Running {
+    Iver(Emulator<IverSession>),
+    Sv2(Emulator<Sv2Session>),
+}
+
+impl Running {
+    fn where_(&self) -> String {
+        let (p, a) = match self {
+            Running::Iver(e) => (e.pty_path().map(|p| p.display().to_string()), e.tcp_addr()),
+            Running::Sv2(e) => (e.pty_path().map(|p| p.display().to_string()), e.tcp_addr()),
+        };
+        p.or(a.map(|a| a.to_string())).unwrap_or_default()
+    }
+}
+
+async fn start(
+    kind: VehicleKind,
+    endpoint: Endpoint,
+    warp: f64,
+    rh: i32,
+    cruise_speed: f64,
+    origin: (f64, f64),
+) -> std::io::Result<Running> {
+    Ok(match kind {
+        VehicleKind::Iver3 | VehicleKind::Basic => Running::Iver(
+            Emulator::start(
+                IverSession::new(IverOptions {
+                    lat: origin.0,
+                    lon: origin.1,
+                    remote_helm_version_major: rh,
+                    ..Default::default()
+                }),
+                endpoint,
+                warp,
+            )
+            .await?,
+        ),
+        VehicleKind::WavegliderSv2 => Running::Sv2(
+            Emulator::start(
+                Sv2Session::new(Sv2Options {
+                    lat: origin.0,
+                    lon: origin.1,
+                    cruise_speed,
+                    ..Default::default()
+                }),
+                endpoint,
+                warp,
+            )
+            .await?,
+        ),
+    })
+}
+
+/// `frontseat sim --vehicle iver3|waveglider_sv2`: prints where the driver connects, runs until
+/// SIGINT/SIGTERM.
+pub async fn run_emulator(args: EmulatorArgs) -> ExitCode {
+    if !(args.emulator_warp.is_finite() && args.emulator_warp > 0.0 && args.emulator_warp <= 1000.0)
+    {
+        eprintln!("--emulator-warp must be in (0, 1000]");
+        return ExitCode::from(2);
+    }
+    let endpoint = match args.tcp {
+        Some(port) => Endpoint::Tcp(SocketAddr::from(([127, 0, 0, 1], port))),
+        None => Endpoint::Pty,
+    };
+    let origin = (
+        frontseat_config::DEFAULT_ORIGIN_LAT,
+        frontseat_config::DEFAULT_ORIGIN_LON,
+    );
+    let running = match start(
+        args.vehicle,
+        endpoint,
+        args.emulator_warp,
+        args.remote_helm_version,
+        1.5,
+        origin,
+    )
+    .await
+    {
+        Ok(r) => r,
+        Err(e) => {
+            eprintln!("cannot start the {:?} emulator: {e}", args.vehicle);
+            return ExitCode::from(1);
+        }
+    };
+    // The one line a user or script needs: where the driver connects.
+    println!("{}", running.where_());
+    let _ = std::io::stdout().flush();
+    tracing::info!(vehicle = ?args.vehicle, at = %running.where_(), "vehicle emulator running");
+    shutdown_signal().await;
+    ExitCode::SUCCESS
+}
+
+/// `frontseat demo --vehicle iver3|waveglider_sv2`.
+pub async fn run_demo(args: DemoArgs, kind: VehicleKind) -> ExitCode {
+    if !(args.warp.is_finite() && args.warp > 0.0 && args.warp <= 1000.0) {
+        eprintln!("--warp must be in (0, 1000]");
+        return ExitCode::from(2);
+    }
+    let params = DemoParams {
+        east_s: args.east,
+        south_s: args.south,
+        ..Default::default()
+    };
+    let mut cfg = InterfaceConfig {
+        name: format!(
+            "demo-{}",
+            kind.to_possible_value()
+                .map(|v| v.get_name().to_string())
+                .unwrap_or_default()
+        ),
+        sim_warp_factor: args.warp,
+        ..Default::default()
+    };
+    let origin = (cfg.origin.lat, cfg.origin.lon);
+    let running = match start(kind, Endpoint::Pty, args.warp, 5, params.speed, origin).await {
+        Ok(r) => r,
+        Err(e) => {
+            eprintln!("cannot start the emulator on a pseudo-terminal: {e}");
+            return ExitCode::from(1);
+        }
+    };
+    let path = running.where_();
+    match kind {
+        VehicleKind::Iver3 | VehicleKind::Basic => {
+            cfg.driver.name = frontseat_config::IVER3.into();
+            cfg.driver.iver3.serial_port = path.clone();
+            cfg.driver.iver3.remote_helm_version_major = Some(5);
+        }
+        VehicleKind::WavegliderSv2 => {
+            cfg.driver.name = frontseat_config::WAVEGLIDER_SV2.into();
+            cfg.driver.waveglider_sv2.pm_serial_port = path.clone();
+            // The glider's own position is the only navigation this demo has.
+            cfg.driver.waveglider_sv2.publish_navigation = true;
+        }
+    }
+    let bus = Bus::new();
+    let service = match InterfaceService::start(&cfg, &bus).await {
+        Ok(s) => s,
+        Err(e) => {
+            eprintln!("cannot start the interface: {e}");
+            return ExitCode::from(1);
+        }
+    };
+    eprintln!(
+        "frontseat demo: {:?} emulator on pty {path}, driver {}, warp {}, homework path east {} s, south {} s, then northwest",
+        kind, cfg.driver.name, args.warp, args.east, args.south
+    );
+    let live = std::io::stdout().is_terminal() && !args.lines;
+    let report = demo_helm::run(&bus, SimClock::new(args.warp), params, |s| {
+        let mut out = std::io::stdout().lock();
+        if live {
+            let _ = write!(out, "\r{}", s.line());
+        } else {
+            let _ = writeln!(out, "{}", s.line());
+        }
+        let _ = out.flush();
+    })
+    .await;
+    if live {
+        println!();
+    }
+    service.shutdown(SHUTDOWN_BOUND).await;
+    drop(running);
+
+    if let Err(e) = std::fs::create_dir_all(&args.out) {
+        eprintln!("cannot create {}: {e}", args.out.display());
+        return ExitCode::from(1);
+    }
+    let csv = args.out.join("track.csv");
+    let svg = args.out.join("track.svg");
+    for (p, text) in [
+        (&csv, demo_helm::track_csv(&report.track)),
+        (&svg, demo_helm::track_svg(&report.track)),
+    ] {
+        if let Err(e) = std::fs::write(p, text) {
+            eprintln!("cannot write {}: {e}", p.display());
+            return ExitCode::from(1);
+        }
+    }
+    println!(
+        "track: {} points; closest approach to the start on the way back: {:.1} m; wrote {} and {}",
+        report.track.len(),
+        report.closest_approach_m,
+        csv.display(),
+        svg.display()
+    );
+    if report.completed {
+        ExitCode::SUCCESS
+    } else {
+        eprintln!(
+            "demo did not complete the path (reached command: {})",
+            report.reached_command
+        );
+        ExitCode::from(1)
+    }
+}

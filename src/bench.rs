@@ -9,6 +9,7 @@
 //! the Zenoh helm (`xproc`).
 //! L0 is the bench's own floor (a loopback line → the reader wakes) and every latency row is
 //! also given as a ratio over it (`floor`).
+//! W1 runs the web scope in this process and reads its event stream over loopback (`web`).
 //! Figures are measured, never asserted: no test checks a timing.
 
 mod floor;
@@ -17,6 +18,7 @@ mod inproc;
 mod procs;
 mod report;
 mod sink;
+mod web;
 mod xproc;
 
 use std::io::Write;
@@ -43,6 +45,7 @@ pub struct BenchArgs {
 struct Plan {
     inproc: inproc::Plan,
     xproc: xproc::Plan,
+    web: web::Plan,
     capacity: (usize, f64, f64, Duration),
     start_runs: usize,
     settle: Duration,
@@ -74,6 +77,10 @@ impl Plan {
                 settle: Duration::from_secs(2),
                 cpu_window: Duration::from_secs(10),
             },
+            web: web::Plan {
+                count: 300,
+                rate_hz: 10.0,
+            },
             capacity: (100, 10.0, 100.0, Duration::from_secs(10)),
             start_runs: 20,
             settle: Duration::from_secs(2),
@@ -104,6 +111,10 @@ impl Plan {
                 z3_duration: Duration::from_millis(300),
                 settle: Duration::from_millis(200),
                 cpu_window: Duration::from_millis(500),
+            },
+            web: web::Plan {
+                count: 20,
+                rate_hz: 10.0,
             },
             capacity: (10, 10.0, 10.0, Duration::from_millis(500)),
             start_runs: 2,
@@ -190,6 +201,7 @@ pub async fn run(args: BenchArgs) -> ExitCode {
         .await
         .into_iter();
     let xproc_rows = xproc::run(plan.xproc).await;
+    let w1 = web::run(plan.web).await;
     let mut rows = vec![l0];
     rows.extend(inproc_rows.next()); // P1
     rows.extend(inproc_rows.next()); // P2
@@ -199,6 +211,7 @@ pub async fn run(args: BenchArgs) -> ExitCode {
     rows.extend(inproc_rows.next()); // P6
     rows.extend(inproc_rows); // M1, M2
     rows.extend(xproc_rows); // Z1, Z2, Z3, T1
+    rows.push(w1);
     floor::add_ratios(&mut rows);
     let elapsed = started.elapsed();
 

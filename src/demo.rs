@@ -38,6 +38,12 @@ pub struct DemoArgs {
     /// (loopback TCP), iver3 or waveglider_sv2 (pseudo-terminal).
     #[arg(long, value_enum, default_value_t = VehicleKind::Basic)]
     pub vehicle: VehicleKind,
+    /// Also serve the web scope and commander (on 127.0.0.1:50001 unless --web-listen).
+    #[arg(long)]
+    pub web: bool,
+    /// Address of the web scope with --web.
+    #[arg(long, value_name = "ADDR", default_value = "127.0.0.1:50001")]
+    pub web_listen: String,
 }
 
 /// The vehicle side of the demo, whichever protocol it speaks.
@@ -123,6 +129,27 @@ pub async fn run(args: DemoArgs) -> ExitCode {
             return ExitCode::from(1);
         }
     };
+    let web = if args.web {
+        let mut with_web = cfg.clone();
+        with_web.web = frontseat_config::WebConfig {
+            enabled: true,
+            listen: args.web_listen.clone(),
+            ..Default::default()
+        };
+        match frontseat_web::WebService::start(&with_web, &bus).await {
+            Ok(w) => {
+                eprintln!("frontseat demo: web scope on http://{}/", w.local_addr());
+                Some(w)
+            }
+            Err(e) => {
+                eprintln!("cannot start the web scope: {e}");
+                service.shutdown(SHUTDOWN_BOUND).await;
+                return ExitCode::from(1);
+            }
+        }
+    } else {
+        None
+    };
     eprintln!(
         "frontseat demo: {:?} vehicle on {}, warp {}, homework path east {} s, south {} s, then northwest",
         args.vehicle,
@@ -149,6 +176,15 @@ pub async fn run(args: DemoArgs) -> ExitCode {
     .await;
     if live {
         println!();
+    }
+    if let Some(w) = web {
+        // The page stays useful after the path (history, map, commander): keep serving.
+        eprintln!(
+            "frontseat demo: path done; web scope still on http://{}/ — Ctrl-C to stop",
+            w.local_addr()
+        );
+        crate::service::shutdown_signal().await;
+        w.shutdown(SHUTDOWN_BOUND).await;
     }
     service.shutdown(SHUTDOWN_BOUND).await;
     sim.shutdown().await;

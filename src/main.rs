@@ -138,7 +138,10 @@ fn config_commands<T: frontseat_config::ServiceConfig>(a: &ConfigArgs) -> Option
             return Some(ExitCode::from(2));
         };
         return Some(match frontseat_config::load::<T>(path) {
-            Ok(_) => {
+            Ok(cfg) => {
+                for w in cfg.warnings() {
+                    eprintln!("{}: warning: {w}", path.display());
+                }
                 println!("{}: ok ({} config)", path.display(), T::SERVICE);
                 ExitCode::SUCCESS
             }

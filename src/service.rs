@@ -83,6 +83,19 @@ pub async fn interface(config: InterfaceConfig) -> ExitCode {
             return ExitCode::from(2);
         }
     };
+    let web = if config.web.enabled {
+        match frontseat_web::WebService::start(&config, &bus).await {
+            Ok(w) => Some(w),
+            Err(e) => {
+                tracing::error!(error = %e, "cannot start the web scope");
+                root.shutdown(SHUTDOWN_BOUND).await;
+                service.shutdown(SHUTDOWN_BOUND).await;
+                return ExitCode::from(2);
+            }
+        }
+    } else {
+        None
+    };
     // READY only now: the driver actor has started and the bus is up.
     notifier.ready();
     let watchdog = notifier.watchdog_period().and_then(|period| {
@@ -111,6 +124,9 @@ pub async fn interface(config: InterfaceConfig) -> ExitCode {
     notifier.stopping();
     if let Some(w) = watchdog {
         w.abort();
+    }
+    if let Some(w) = web {
+        w.shutdown(SHUTDOWN_BOUND).await;
     }
     root.shutdown(SHUTDOWN_BOUND).await;
     if let Some(g) = gateway {

@@ -10,5 +10,5 @@ mod out {
 
 pub use out::{
     EncodedEnvelope, EncodedError, RESOLVED_INTERFACES_YAML, groups, interprocess_publish_encoded,
-    interprocess_subscribe_encoded, ports, proto,
+    interprocess_subscribe_encoded, ports, proto, subscribe_encoded,
 };

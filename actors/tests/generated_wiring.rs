@@ -205,3 +205,53 @@ fn an_exported_envelope_holds_its_in_flight_slot() {
         1
     );
 }
+
+#[test]
+fn an_actor_publishes_encoded_bytes_only_on_its_declared_groups() {
+    use frontseat_actors::ports::WebCommanderPorts;
+    let bus = Bus::new();
+    let (_s, mut rx) = bus.subscribe_channel(&groups::GOBY_MIDDLEWARE_FRONTSEAT_HELM_STATE, "t", 4);
+    let web = WebCommanderPorts::new(&bus);
+    let bytes = HelmStateReport {
+        state: HelmState::HelmDrive as i32,
+    }
+    .encode_to_vec();
+    let r = web
+        .publish_encoded(
+            "goby::middleware::frontseat::helm_state",
+            &bytes,
+            PublishMeta::default(),
+        )
+        .unwrap();
+    assert_eq!(r.delivered, 1);
+    assert_eq!(rx.try_recv().unwrap().msg.state(), HelmState::HelmDrive);
+    // node_status is interprocess, but not a publication of WebCommander.
+    assert_eq!(
+        web.publish_encoded(
+            "goby::middleware::frontseat::node_status",
+            &[],
+            PublishMeta::default()
+        ),
+        Err(EncodedError::UnknownGroup(
+            "goby::middleware::frontseat::node_status".into()
+        ))
+    );
+}
+
+#[test]
+fn an_observer_subscribes_encoded_to_groups_of_either_layer() {
+    use frontseat_actors::generated::subscribe_encoded;
+    let bus = Bus::new();
+    let got: Arc<Mutex<Vec<EncodedEnvelope>>> = Arc::default();
+    let sink = got.clone();
+    let sub = subscribe_encoded(&bus, "frontseat::driver::status", "scope", 4, move |e| {
+        sink.lock().unwrap().push(e);
+        Ok(())
+    });
+    assert!(sub.is_some());
+    assert!(subscribe_encoded(&bus, "no::such::group", "scope", 4, |_| Ok(())).is_none());
+    bus.publish(&groups::FRONTSEAT_DRIVER_STATUS, Default::default());
+    let got = got.lock().unwrap();
+    assert_eq!(got.len(), 1);
+    assert_eq!(got[0].type_name, "frontseat.protobuf.DriverStatus");
+}

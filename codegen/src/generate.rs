@@ -212,6 +212,33 @@ fn ports_module(model: &Model, bus: &TokenStream) -> TokenStream {
         } else {
             quote!()
         };
+        let encoded_arms = a.publishes.iter().map(|p| {
+            let g = &model.groups[p.group];
+            let name = &g.name;
+            let konst = format_ident!("{}", g.const_name);
+            quote!(#name => super::publish_decoded(&self.bus, &groups::#konst, bytes, meta))
+        });
+        // Only for an actor that publishes: with no arm, the match would be a lint.
+        let publish_encoded = if a.publishes.is_empty() {
+            quote!()
+        } else {
+            quote! {
+                /// Publishes protobuf `bytes` on `group`, one of this actor's declared
+                /// publications (for actors that compose messages at run time, e.g. the web
+                /// commander). Refuses any other group, and bytes that do not decode.
+                pub fn publish_encoded(
+                    &self,
+                    group: &str,
+                    bytes: &[u8],
+                    meta: PublishMeta,
+                ) -> Result<PublishReport, super::EncodedError> {
+                    match group {
+                        #(#encoded_arms,)*
+                        _ => Err(super::EncodedError::UnknownGroup(group.to_string())),
+                    }
+                }
+            }
+        };
         let ports_item = quote! {
             #[doc = #ports_doc]
             #allow_unused
@@ -229,6 +256,8 @@ fn ports_module(model: &Model, bus: &TokenStream) -> TokenStream {
                 }
 
                 #(#publish_methods)*
+
+                #publish_encoded
             }
         };
         let inbox_item = if a.subscribes.is_empty() {
@@ -359,6 +388,11 @@ fn gateway_items(model: &Model, bus: &TokenStream) -> TokenStream {
         let konst = format_ident!("{}", g.const_name);
         quote!(#name => publish_decoded(bus, &groups::#konst, bytes, meta))
     });
+    let any_subscribe_arms = model.groups.iter().map(|g| {
+        let name = &g.name;
+        let konst = format_ident!("{}", g.const_name);
+        quote!(#name => Some(subscribe_encoding(bus, &groups::#konst, subscriber, capacity, deliver)))
+    });
     let subscribe_arms = interprocess.iter().map(|g| {
         let name = &g.name;
         let konst = format_ident!("{}", g.const_name);
@@ -368,7 +402,8 @@ fn gateway_items(model: &Model, bus: &TokenStream) -> TokenStream {
         /// Why a type-erased publish was refused.
         #[derive(Clone, Debug, PartialEq, Eq)]
         pub enum EncodedError {
-            /// The group is not an `interprocess` group of `interface_yaml/`.
+            /// The group is not one the caller may publish: not an `interprocess` group (the
+            /// gateway), or not a declared publication of the actor (`publish_encoded`).
             UnknownGroup(String),
             /// The bytes do not decode as the group's message type.
             Decode {
@@ -381,7 +416,7 @@ fn gateway_items(model: &Model, bus: &TokenStream) -> TokenStream {
         impl std::fmt::Display for EncodedError {
             fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
                 match self {
-                    Self::UnknownGroup(g) => write!(f, "`{g}` is not an interprocess group"),
+                    Self::UnknownGroup(g) => write!(f, "`{g}` is not a group this publisher may use"),
                     Self::Decode { group, type_name, reason } => {
                         write!(f, "bytes on `{group}` do not decode as `{type_name}`: {reason}")
                     }
@@ -442,6 +477,22 @@ fn gateway_items(model: &Model, bus: &TokenStream) -> TokenStream {
         ) -> Option<#bus::Subscription> {
             match group {
                 #(#subscribe_arms,)*
+                _ => None,
+            }
+        }
+
+        /// For observers of the whole bus (the web scope): like
+        /// [`interprocess_subscribe_encoded`], for a group of any layer. `None` when `group` is
+        /// not declared in `interface_yaml/`.
+        pub fn subscribe_encoded(
+            bus: &#bus::Bus,
+            group: &str,
+            subscriber: &str,
+            capacity: usize,
+            deliver: impl Fn(EncodedEnvelope) -> Result<(), #bus::Undeliverable> + Send + Sync + 'static,
+        ) -> Option<#bus::Subscription> {
+            match group {
+                #(#any_subscribe_arms,)*
                 _ => None,
             }
         }

@@ -18,6 +18,7 @@ fn real_interface_yaml_compiles() {
         "basic_frontseat_simulator.yaml",
         "demo_helm.yaml",
         "chaos.yaml",
+        "web.yaml",
     ] {
         assert!(
             files.iter().any(|f| f.ends_with(app)),
@@ -54,7 +55,10 @@ fn real_interface_yaml_compiles() {
         .find(|g| g.name == "goby::middleware::frontseat::helm_state")
         .unwrap();
     assert_eq!(helm.layer, Layer::Interprocess);
-    assert_eq!(helm.publishers, ["DemoHelm", "FrontSeatTranslation"]);
+    assert_eq!(
+        helm.publishers,
+        ["DemoHelm", "FrontSeatTranslation", "WebCommander"]
+    );
     let ground_truth = m
         .groups
         .iter()
@@ -72,7 +76,8 @@ fn real_interface_yaml_compiles() {
             "FrontSeatInterface",
             "FrontSeatTranslation",
             "RootSupervisor",
-            "Simulator"
+            "Simulator",
+            "WebCommander"
         ]
     );
     assert!(

@@ -11,6 +11,7 @@ use crate::sections::{
     DEFAULT_ORIGIN_LAT, DEFAULT_ORIGIN_LON, InterprocessConfig, LatLonConfig, MoosConfig,
     TelemetryConfig,
 };
+use crate::web::WebConfig;
 use crate::{FieldError, MAX_WARP, ServiceConfig};
 
 /// Goby3's `VehicleType`, written by its proto names.
@@ -128,6 +129,8 @@ pub struct InterfaceConfig {
     pub chaos: ChaosConfig,
     /// The in-process publish/subscribe bus.
     pub bus: BusConfig,
+    /// The live web scope and commander served by this process.
+    pub web: WebConfig,
 }
 
 impl Default for InterfaceConfig {
@@ -151,6 +154,7 @@ impl Default for InterfaceConfig {
             telemetry: TelemetryConfig::default(),
             chaos: ChaosConfig::default(),
             bus: BusConfig::default(),
+            web: WebConfig::default(),
         }
     }
 }
@@ -178,7 +182,12 @@ impl ServiceConfig for InterfaceConfig {
         self.goby3.check("goby3", &mut c);
         self.telemetry.check("telemetry", &mut c);
         self.bus.check("bus", &mut c);
+        self.web.check("web", &mut c);
         c.errors
+    }
+
+    fn warnings(&self) -> Vec<String> {
+        self.web.warnings("web")
     }
 }
 

@@ -13,6 +13,7 @@ mod goby3;
 mod interface;
 mod sections;
 mod sim;
+mod web;
 
 use std::io::Read;
 use std::path::Path;
@@ -37,6 +38,7 @@ pub use sections::{
     MoosConfig, TelemetryConfig,
 };
 pub use sim::{CurrentConfig, FaultKind, MAX_LINE_BYTES_LIMIT, ScheduledFaultConfig, SimConfig};
+pub use web::{MIN_TOKEN_CHARS, WEB_TOKEN_ENV, WebConfig};
 
 /// Largest accepted time warp (sim_warp_factor, moos.time_warp).
 pub const MAX_WARP: f64 = 10_000.0;
@@ -52,6 +54,11 @@ pub trait ServiceConfig: Serialize + DeserializeOwned + JsonSchema + Default {
 
     /// Every broken rule; empty means valid.
     fn validate(&self) -> Vec<FieldError>;
+
+    /// Advice about a valid config (`--check` prints it); none by default.
+    fn warnings(&self) -> Vec<String> {
+        Vec::new()
+    }
 }
 
 /// Read, parse and validate a config file.

@@ -447,3 +447,46 @@ fn gateway_rules() {
         "outside",
     );
 }
+
+#[test]
+fn web_rules_and_the_non_loopback_warning() {
+    rejects::<InterfaceConfig>(
+        "[web]\nlisten = \"localhost\"\n",
+        "web.listen",
+        "address and port",
+    );
+    rejects::<InterfaceConfig>("[web]\ntoken = \"short\"\n", "web.token", "16 characters");
+    rejects::<InterfaceConfig>(
+        "[web]\nmax_connections = 0\n",
+        "web.max_connections",
+        "outside",
+    );
+    rejects::<InterfaceConfig>(
+        "[web]\nmax_body_bytes = 10\n",
+        "web.max_body_bytes",
+        "outside",
+    );
+    let quiet: InterfaceConfig = parse(
+        "[web]\nenabled = true\nlisten = \"127.0.0.1:50001\"\n",
+        "cfg.toml",
+    )
+    .unwrap();
+    assert!(quiet.warnings().is_empty());
+    let open: InterfaceConfig = parse(
+        "[web]\nenabled = true\nlisten = \"0.0.0.0:50001\"\n",
+        "cfg.toml",
+    )
+    .unwrap();
+    let w = open.warnings();
+    assert_eq!(w.len(), 1, "{w:?}");
+    assert!(
+        w[0].contains("web.listen") && w[0].contains("FRONTSEAT_WEB_TOKEN"),
+        "{w:?}"
+    );
+    let with_token: InterfaceConfig = parse(
+        "[web]\nenabled = true\nlisten = \"0.0.0.0:50001\"\ntoken = \"0123456789abcdef\"\n",
+        "cfg.toml",
+    )
+    .unwrap();
+    assert!(with_token.warnings().is_empty());
+}

@@ -73,6 +73,9 @@ fn interface_example_has_every_setting_and_commented_ones_work() {
         "#altitude = ",
         "#library = ",
         "queue_capacity = 1024",
+        "[web]",
+        "listen = \"127.0.0.1:50001\"",
+        "#token = ",
     ] {
         assert!(text.contains(key), "example lacks {key:?}:\n{text}");
     }
@@ -82,8 +85,10 @@ fn interface_example_has_every_setting_and_commented_ones_work() {
     assert_eq!(on.moos, Some(MoosConfig::default()));
     assert_eq!(on.origin.altitude, Some(0.0));
     assert!(on.driver.library.is_some());
+    assert!(on.web.token.is_some());
     // Everything else is unchanged by uncommenting.
     let mut rest = on.clone();
+    rest.web.token = None;
     rest.moos = None;
     rest.origin.altitude = None;
     rest.driver.library = None;

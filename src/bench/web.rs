@@ -1,0 +1,142 @@
+//! Row W1: NAV → the web page's model. node_status published on the bus at the vehicle's rate
+//! (10 Hz) while the web scope serves an event stream on loopback; the client here reads the
+//! stream and parses each event's JSON, as the page does, and stamps its arrival. The issue's
+//! target is p99 within 100 ms.
+
+use std::collections::HashMap;
+use std::time::{Duration, Instant};
+
+use frontseat_actors::bus::Bus;
+use frontseat_actors::groups;
+use frontseat_actors::proto::goby::middleware::frontseat::protobuf::{
+    CartesianCoordinate, EulerAngles, NodeStatus, Speed,
+};
+use frontseat_config::WebConfig;
+use frontseat_web::WebService;
+use serde_json::{Value, json};
+use tokio::io::{AsyncBufReadExt, AsyncWriteExt, BufReader};
+use tokio::net::TcpStream;
+
+use super::inproc::latency_row;
+use super::report::{Hist, Row};
+
+pub const W1: &str = "NAV (node_status, 10 Hz) → web page model over SSE (target p99 < 100 ms)";
+
+#[derive(Clone, Copy, Debug)]
+pub struct Plan {
+    pub count: usize,
+    pub rate_hz: f64,
+}
+
+pub async fn run(plan: Plan) -> Row {
+    match run_inner(plan).await {
+        Ok(r) => r,
+        Err(why) => Row::failed("W1", W1, why),
+    }
+}
+
+async fn run_inner(plan: Plan) -> Result<Row, String> {
+    let bus = Bus::new();
+    let cfg = WebConfig {
+        enabled: true,
+        listen: "127.0.0.1:0".into(),
+        ..Default::default()
+    };
+    let web = WebService::start_with(&cfg, &Default::default(), None, &bus, "bench")
+        .await
+        .map_err(|e| e.to_string())?;
+    let addr = web.local_addr();
+    let mut s = TcpStream::connect(addr).await.map_err(|e| e.to_string())?;
+    s.write_all(format!("GET /api/events HTTP/1.1\r\nHost: {addr}\r\n\r\n").as_bytes())
+        .await
+        .map_err(|e| e.to_string())?;
+    let mut reader = BufReader::new(s);
+    // The page's model: the snapshot first, then each NAV as it comes.
+    let (tx, mut rx) = tokio::sync::mpsc::unbounded_channel::<(u64, Instant)>();
+    let reading = tokio::spawn(async move {
+        let mut line = String::new();
+        loop {
+            line.clear();
+            match reader.read_line(&mut line).await {
+                Ok(0) | Err(_) => break,
+                Ok(_) => {}
+            }
+            let Some(data) = line.trim_end().strip_prefix("data: ") else {
+                continue;
+            };
+            let Ok(ev) = serde_json::from_str::<Value>(data) else {
+                continue;
+            };
+            let at = Instant::now();
+            if ev["kind"] == "snapshot" {
+                let _ = tx.send((u64::MAX, at));
+            } else if ev["group"] == groups::GOBY_MIDDLEWARE_FRONTSEAT_NODE_STATUS.name()
+                && let Some(seq) = ev["msg"]["time"].as_f64()
+            {
+                let _ = tx.send((seq as u64, at));
+            }
+        }
+    });
+    match tokio::time::timeout(Duration::from_secs(5), rx.recv()).await {
+        Ok(Some((u64::MAX, _))) => {}
+        _ => return Err("no snapshot from the event stream".into()),
+    }
+    let period = Duration::from_secs_f64(1.0 / plan.rate_hz);
+    let mut sent = HashMap::with_capacity(plan.count);
+    let mut tick = tokio::time::interval(period);
+    tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
+    for i in 0..plan.count as u64 {
+        tick.tick().await;
+        let ns = NodeStatus {
+            time: i as f64,
+            name: Some("bench".into()),
+            local_fix: Some(CartesianCoordinate {
+                x: i as f64,
+                y: 0.0,
+                z: None,
+            }),
+            pose: EulerAngles {
+                heading: Some(90.0),
+                ..Default::default()
+            },
+            speed: Speed::default(),
+            ..Default::default()
+        };
+        sent.insert(i, Instant::now());
+        bus.publish(&groups::GOBY_MIDDLEWARE_FRONTSEAT_NODE_STATUS, ns);
+    }
+    let mut h = Hist::new();
+    let mut got = 0usize;
+    let deadline = tokio::time::Instant::now() + Duration::from_secs(2);
+    while got < plan.count {
+        match tokio::time::timeout_at(deadline, rx.recv()).await {
+            Ok(Some((seq, at))) => {
+                if let Some(t0) = sent.get(&seq) {
+                    h.record(at.saturating_duration_since(*t0));
+                    got += 1;
+                }
+            }
+            _ => break,
+        }
+    }
+    reading.abort();
+    let dropped = web
+        .hub_counters
+        .events_dropped
+        .load(std::sync::atomic::Ordering::Relaxed);
+    web.shutdown(Duration::from_secs(2)).await;
+    let lost = plan.count - got;
+    let mut row = latency_row(
+        "W1",
+        W1,
+        &h,
+        format!(
+            "{} node_status at {} Hz on the bus → hub (JSON by reflection) → SSE on loopback → parsed; lost {lost}, dropped for the tab {dropped}",
+            plan.count, plan.rate_hz
+        ),
+        plan.count,
+        lost,
+    );
+    row.extra = json!({"written": plan.count, "lost": lost, "dropped": dropped});
+    Ok(row)
+}

@@ -189,12 +189,17 @@ pub async fn run(args: DemoArgs) -> ExitCode {
     service.shutdown(SHUTDOWN_BOUND).await;
     sim.shutdown().await;
 
-    if let Err(e) = std::fs::create_dir_all(&args.out) {
-        eprintln!("cannot create {}: {e}", args.out.display());
+    write_outputs(&args.out, &report)
+}
+
+/// Writes track.csv and track.svg into `out`, says where, and exits 0 only for a completed path.
+pub fn write_outputs(out: &std::path::Path, report: &demo_helm::DemoReport) -> ExitCode {
+    if let Err(e) = std::fs::create_dir_all(out) {
+        eprintln!("cannot create {}: {e}", out.display());
         return ExitCode::from(1);
     }
-    let csv = args.out.join("track.csv");
-    let svg = args.out.join("track.svg");
+    let csv = out.join("track.csv");
+    let svg = out.join("track.svg");
     for (path, text) in [
         (&csv, demo_helm::track_csv(&report.track)),
         (&svg, demo_helm::track_svg(&report.track)),

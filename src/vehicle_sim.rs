@@ -215,35 +215,5 @@ pub async fn run_demo(args: DemoArgs, kind: VehicleKind) -> ExitCode {
     service.shutdown(SHUTDOWN_BOUND).await;
     drop(running);
 
-    if let Err(e) = std::fs::create_dir_all(&args.out) {
-        eprintln!("cannot create {}: {e}", args.out.display());
-        return ExitCode::from(1);
-    }
-    let csv = args.out.join("track.csv");
-    let svg = args.out.join("track.svg");
-    for (p, text) in [
-        (&csv, demo_helm::track_csv(&report.track)),
-        (&svg, demo_helm::track_svg(&report.track)),
-    ] {
-        if let Err(e) = std::fs::write(p, text) {
-            eprintln!("cannot write {}: {e}", p.display());
-            return ExitCode::from(1);
-        }
-    }
-    println!(
-        "track: {} points; closest approach to the start on the way back: {:.1} m; wrote {} and {}",
-        report.track.len(),
-        report.closest_approach_m,
-        csv.display(),
-        svg.display()
-    );
-    if report.completed {
-        ExitCode::SUCCESS
-    } else {
-        eprintln!(
-            "demo did not complete the path (reached command: {})",
-            report.reached_command
-        );
-        ExitCode::from(1)
-    }
+    crate::demo::write_outputs(&args.out, &report)
 }

@@ -31,6 +31,37 @@ pub trait SignalSink {
 /// produce it.
 pub use crate::link::{DriverIoEvent, IoSender};
 
+/// A [`SignalSink`] that keeps every signal, for driver tests (one for every driver).
+#[derive(Debug, Default)]
+pub struct RecordingSink {
+    pub responses: Vec<CommandResponse>,
+    pub data: Vec<InterfaceData>,
+    pub bluefin: Vec<crate::proto::frontseat::protobuf::bluefin::InterfaceData>,
+    pub raw_in: Vec<Raw>,
+    pub raw_out: Vec<Raw>,
+}
+
+impl SignalSink for RecordingSink {
+    fn command_response(&mut self, r: CommandResponse) {
+        self.responses.push(r);
+    }
+    fn data_from_frontseat(&mut self, d: InterfaceData) {
+        self.data.push(d);
+    }
+    fn raw_from_frontseat(&mut self, r: Raw) {
+        self.raw_in.push(r);
+    }
+    fn raw_to_frontseat(&mut self, r: Raw) {
+        self.raw_out.push(r);
+    }
+    fn bluefin_data_from_frontseat(
+        &mut self,
+        d: crate::proto::frontseat::protobuf::bluefin::InterfaceData,
+    ) {
+        self.bluefin.push(d);
+    }
+}
+
 pub struct DriverContext {
     pub io: IoSender,
     pub clock: crate::clock::SimClock,

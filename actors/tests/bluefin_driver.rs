@@ -5,7 +5,7 @@
 
 use std::time::Duration;
 
-use frontseat_actors::driver::{Driver, DriverIoEvent, SignalSink};
+use frontseat_actors::driver::{Driver, DriverIoEvent};
 use frontseat_actors::drivers::bluefin::driver::error_code;
 use frontseat_actors::drivers::bluefin::{BluefinDriver, Settings, codec};
 use frontseat_actors::link::LineWriter;
@@ -13,9 +13,8 @@ use frontseat_actors::proto;
 use frontseat_actors::proto::frontseat::protobuf::bluefin as bf;
 use frontseat_actors::proto::goby::acomms::protobuf::ModemRaw;
 use frontseat_actors::proto::goby::middleware::frontseat::protobuf::{
-    BluefinExtraCommands, BluefinExtraData, CommandRequest, CommandResponse, DesiredCourse,
-    FrontSeatState, InterfaceData, Raw, bluefin_extra_commands::BluefinCommand,
-    bluefin_extra_data::PayloadStatus,
+    BluefinExtraCommands, BluefinExtraData, CommandRequest, DesiredCourse, FrontSeatState, Raw,
+    bluefin_extra_commands::BluefinCommand, bluefin_extra_data::PayloadStatus,
 };
 use frontseat_config::{AcceptingCommandsHook, InterfaceConfig, RpmTableEntry};
 use prost::Message;
@@ -23,29 +22,7 @@ use prost::Message;
 const DAY: f64 = 20_414.0 * 86_400.0;
 const NOON: f64 = 43_200.0;
 
-#[derive(Default)]
-struct Sink {
-    responses: Vec<CommandResponse>,
-    data: Vec<InterfaceData>,
-    bluefin: Vec<bf::InterfaceData>,
-    raw_in: usize,
-}
-
-impl SignalSink for Sink {
-    fn command_response(&mut self, r: CommandResponse) {
-        self.responses.push(r);
-    }
-    fn data_from_frontseat(&mut self, d: InterfaceData) {
-        self.data.push(d);
-    }
-    fn raw_from_frontseat(&mut self, _: Raw) {
-        self.raw_in += 1;
-    }
-    fn raw_to_frontseat(&mut self, _: Raw) {}
-    fn bluefin_data_from_frontseat(&mut self, d: bf::InterfaceData) {
-        self.bluefin.push(d);
-    }
-}
+type Sink = frontseat_actors::driver::RecordingSink;
 
 struct H {
     d: BluefinDriver,
@@ -584,7 +561,7 @@ fn disconnect_answers_outstanding_requests() {
 fn bad_input_is_counted_published_raw_and_never_fatal() {
     let mut h = H::new();
     h.ack_everything();
-    let before = h.sink.raw_in;
+    let before = h.sink.raw_in.len();
     for line in [
         "$BFNVG,120002.000,4221.5040,N,07105.2560,W,1,25.3,0.0,90.0,0.5,-1.2,120001.950*43",
         "garbage",
@@ -606,7 +583,7 @@ fn bad_input_is_counted_published_raw_and_never_fatal() {
     h.feed("$BFSVS,120000.000,1500");
     h.feed("$BFXYZ,120000.000");
     assert_eq!(h.d.stats.ignored_sentences, 2);
-    assert_eq!(h.sink.raw_in - before, 8, "every line on raw_in once");
+    assert_eq!(h.sink.raw_in.len() - before, 8, "every line on raw_in once");
 }
 
 #[test]

@@ -358,27 +358,7 @@ mod tests {
     use super::*;
     use crate::proto::goby::middleware::frontseat::protobuf::DesiredCourse;
 
-    #[derive(Default)]
-    struct Sink {
-        responses: Vec<CommandResponse>,
-        data: Vec<InterfaceData>,
-        raw_in: Vec<Raw>,
-        raw_out: Vec<Raw>,
-    }
-    impl SignalSink for Sink {
-        fn command_response(&mut self, r: CommandResponse) {
-            self.responses.push(r)
-        }
-        fn data_from_frontseat(&mut self, d: InterfaceData) {
-            self.data.push(d)
-        }
-        fn raw_from_frontseat(&mut self, r: Raw) {
-            self.raw_in.push(r)
-        }
-        fn raw_to_frontseat(&mut self, r: Raw) {
-            self.raw_out.push(r)
-        }
-    }
+    type Sink = crate::driver::RecordingSink;
 
     fn driver() -> BasicSimulatorDriver {
         BasicSimulatorDriver::new(Settings::from_config(&InterfaceConfig::default()))

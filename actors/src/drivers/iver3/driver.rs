@@ -486,27 +486,7 @@ mod tests {
     use super::*;
     use crate::proto::goby::middleware::frontseat::protobuf::DesiredCourse;
 
-    #[derive(Default)]
-    struct Sink {
-        responses: Vec<CommandResponse>,
-        data: Vec<InterfaceData>,
-        raw_in: usize,
-        raw_out: usize,
-    }
-    impl SignalSink for Sink {
-        fn command_response(&mut self, r: CommandResponse) {
-            self.responses.push(r)
-        }
-        fn data_from_frontseat(&mut self, d: InterfaceData) {
-            self.data.push(d)
-        }
-        fn raw_from_frontseat(&mut self, _: Raw) {
-            self.raw_in += 1
-        }
-        fn raw_to_frontseat(&mut self, _: Raw) {
-            self.raw_out += 1
-        }
-    }
+    type Sink = crate::driver::RecordingSink;
 
     fn driver() -> Iver3Driver {
         let mut cfg = InterfaceConfig::default();

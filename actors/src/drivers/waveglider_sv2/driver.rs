@@ -490,21 +490,7 @@ mod tests {
     use crate::proto::goby::middleware::frontseat::protobuf::DesiredCourse;
     use tokio::sync::mpsc::Receiver;
 
-    #[derive(Default)]
-    struct Sink {
-        responses: Vec<CommandResponse>,
-        data: Vec<InterfaceData>,
-    }
-    impl SignalSink for Sink {
-        fn command_response(&mut self, r: CommandResponse) {
-            self.responses.push(r)
-        }
-        fn data_from_frontseat(&mut self, d: InterfaceData) {
-            self.data.push(d)
-        }
-        fn raw_from_frontseat(&mut self, _: Raw) {}
-        fn raw_to_frontseat(&mut self, _: Raw) {}
-    }
+    type Sink = crate::driver::RecordingSink;
 
     fn driver() -> (WavegliderSv2Driver, Receiver<Vec<u8>>, Sink) {
         let mut cfg = InterfaceConfig::default();

@@ -10,7 +10,7 @@ use clap::Args;
 use frontseat_actors::bus::Bus;
 use frontseat_actors::clock::SimClock;
 use frontseat_actors::demo_helm::{self, DemoParams};
-use frontseat_actors::interface::InterfaceService;
+use frontseat_actors::supervisor::SupervisorHandle;
 use frontseat_config::InterfaceConfig;
 use frontseat_sim::{SimOptions, SimServer};
 
@@ -46,29 +46,10 @@ pub struct DemoArgs {
     pub web_listen: String,
 }
 
-/// The vehicle side of the demo, whichever protocol it speaks.
-enum DemoVehicle {
-    Basic(frontseat_sim::SimHandle),
-    Bluefin(frontseat_sim::bluefin::HuxleyHandle),
-}
-
-impl DemoVehicle {
-    fn local_addr(&self) -> std::net::SocketAddr {
-        match self {
-            Self::Basic(s) => s.local_addr(),
-            Self::Bluefin(h) => h.local_addr(),
-        }
-    }
-    async fn shutdown(&self) {
-        match self {
-            Self::Basic(s) => s.shutdown().await,
-            Self::Bluefin(h) => h.shutdown().await,
-        }
-    }
-}
-
 /// The basic simulator or the Bluefin emulator over loopback TCP (the serial vehicles' demo is
-/// `vehicle_sim::run_demo`; `main` picks).
+/// `vehicle_sim::run_demo`; `main` picks). One root supervisor runs the simulator server, the
+/// FrontSeatInterface and (with --web) the web scope, as `frontseat sim` and `frontseat
+/// interface` do; the Huxley emulator runs beside it.
 pub async fn run(args: DemoArgs) -> ExitCode {
     if !(args.warp.is_finite() && args.warp > 0.0 && args.warp <= 1000.0) {
         eprintln!("--warp must be in (0, 1000]");
@@ -80,8 +61,19 @@ pub async fn run(args: DemoArgs) -> ExitCode {
         sim_warp_factor: args.warp,
         ..Default::default()
     };
+    cfg.interprocess.enabled = false;
+    cfg.goby3.enabled = false;
+    if args.web {
+        cfg.web = frontseat_config::WebConfig {
+            enabled: true,
+            listen: args.web_listen.clone(),
+            ..Default::default()
+        };
+    }
     let loopback = ([127, 0, 0, 1], 0).into();
-    let (sim, _embedded) = match args.vehicle {
+    let mut children = Vec::new();
+    let mut huxley = None;
+    let vehicle_addr = match args.vehicle {
         VehicleKind::Basic | VehicleKind::Iver3 | VehicleKind::WavegliderSv2 => {
             let sim = match SimServer::bind(loopback, SimOptions::default()).await {
                 Ok(s) => s,
@@ -90,11 +82,19 @@ pub async fn run(args: DemoArgs) -> ExitCode {
                     return ExitCode::from(1);
                 }
             };
-            let embedded = frontseat_actors::sim_glue::embed(&sim, &bus);
-            cfg.driver.basic_simulator.tcp_port = sim.local_addr().port();
+            let addr = sim.local_addr();
+            cfg.driver.basic_simulator.tcp_port = addr.port();
             cfg.driver.basic_simulator.start.lat = cfg.origin.lat;
             cfg.driver.basic_simulator.start.lon = cfg.origin.lon;
-            (DemoVehicle::Basic(sim), Some(embedded))
+            children.push(crate::service::sim_child(
+                Some(sim),
+                addr,
+                SimOptions::default(),
+                (&frontseat_config::RestartConfig::default()).into(),
+                Default::default(),
+                Some(bus.clone()),
+            ));
+            addr
         }
         VehicleKind::Bluefin => {
             let opts = crate::bluefin_sim::server_options(
@@ -110,7 +110,7 @@ pub async fn run(args: DemoArgs) -> ExitCode {
                 },
                 ..opts
             };
-            let huxley = match frontseat_sim::bluefin::HuxleyServer::bind(loopback, opts).await {
+            let h = match frontseat_sim::bluefin::HuxleyServer::bind(loopback, opts).await {
                 Ok(s) => s,
                 Err(e) => {
                     eprintln!("cannot start the Huxley emulator: {e}");
@@ -118,45 +118,33 @@ pub async fn run(args: DemoArgs) -> ExitCode {
                 }
             };
             cfg.driver.name = frontseat_config::BLUEFIN.into();
-            cfg.driver.bluefin.huxley_tcp_port = huxley.local_addr().port();
-            (DemoVehicle::Bluefin(huxley), None)
+            cfg.driver.bluefin.huxley_tcp_port = h.local_addr().port();
+            let addr = h.local_addr();
+            huxley = Some(h);
+            addr
         }
     };
-    let service = match InterfaceService::start(&cfg, &bus).await {
-        Ok(s) => s,
+    children.extend(crate::service::interface_children(
+        &cfg,
+        &bus,
+        Default::default(),
+    ));
+    let root = match SupervisorHandle::start("root", children, Some(&bus)).await {
+        Ok(r) => r,
         Err(e) => {
-            eprintln!("cannot start the interface: {e}");
+            eprintln!("cannot start the demo: {e}");
+            if let Some(h) = huxley {
+                h.shutdown().await;
+            }
             return ExitCode::from(1);
         }
     };
-    let web = if args.web {
-        let mut with_web = cfg.clone();
-        with_web.web = frontseat_config::WebConfig {
-            enabled: true,
-            listen: args.web_listen.clone(),
-            ..Default::default()
-        };
-        match frontseat_web::WebService::start(&with_web, &bus).await {
-            Ok(w) => {
-                eprintln!("frontseat demo: web scope on http://{}/", w.local_addr());
-                Some(w)
-            }
-            Err(e) => {
-                eprintln!("cannot start the web scope: {e}");
-                service.shutdown(SHUTDOWN_BOUND).await;
-                return ExitCode::from(1);
-            }
-        }
-    } else {
-        None
-    };
+    if args.web {
+        eprintln!("frontseat demo: web scope on http://{}/", args.web_listen);
+    }
     eprintln!(
         "frontseat demo: {:?} vehicle on {}, warp {}, homework path east {} s, south {} s, then northwest",
-        args.vehicle,
-        sim.local_addr(),
-        args.warp,
-        args.east,
-        args.south
+        args.vehicle, vehicle_addr, args.warp, args.east, args.south
     );
     let live = std::io::stdout().is_terminal() && !args.lines;
     let params = DemoParams {
@@ -177,17 +165,18 @@ pub async fn run(args: DemoArgs) -> ExitCode {
     if live {
         println!();
     }
-    if let Some(w) = web {
+    if args.web {
         // The page stays useful after the path (history, map, commander): keep serving.
         eprintln!(
             "frontseat demo: path done; web scope still on http://{}/ — Ctrl-C to stop",
-            w.local_addr()
+            args.web_listen
         );
         crate::service::shutdown_signal().await;
-        w.shutdown(SHUTDOWN_BOUND).await;
     }
-    service.shutdown(SHUTDOWN_BOUND).await;
-    sim.shutdown().await;
+    root.shutdown(SHUTDOWN_BOUND * 3).await;
+    if let Some(h) = huxley {
+        h.shutdown().await;
+    }
 
     write_outputs(&args.out, &report)
 }

@@ -8,9 +8,10 @@ use std::time::Duration;
 
 use frontseat_actors::bus::Bus;
 use frontseat_actors::interface::{InterfaceService, ServiceExit};
-use frontseat_actors::supervisor::SupervisorHandle;
+use frontseat_actors::service_child::{BoxFuture, Service, service_child};
+use frontseat_actors::supervisor::{ChildFailure, ChildSpec, SupervisorHandle};
 use frontseat_config::{FaultKind, InterfaceConfig, SimConfig};
-use frontseat_sim::{CtrlState, Fault, ScheduledFault, SimOptions, SimServer};
+use frontseat_sim::{CtrlState, Fault, ScheduledFault, SimHandle, SimOptions, SimServer};
 
 use crate::systemd::{self, Notifier};
 
@@ -29,40 +30,70 @@ pub fn exit_code(exit: &ServiceExit) -> ExitCode {
     }
 }
 
-pub async fn interface(config: InterfaceConfig) -> ExitCode {
-    let notifier = Arc::new(Notifier::from_env());
-    let bus = Bus::new();
-    // The gateway first, so the interface's first statuses are already exported.
-    let gateway = match crate::gateway_cmd::start_for_interface(&config, &bus).await {
-        Ok(g) => g,
-        Err(e) => {
-            tracing::error!(error = %e, "cannot start the Zenoh gateway");
-            return ExitCode::from(2);
-        }
-    };
-    let goby3 = match crate::gateway_cmd::start_goby3(
-        &config.goby3,
-        &config.name,
-        &bus,
-        &crate::gateway_cmd::interface_actors(&config),
-    ) {
-        Ok(g) => g,
-        Err(e) => {
-            tracing::error!(error = %e, "cannot start the Goby3 transport");
-            return ExitCode::from(2);
-        }
-    };
-    let reporter = systemd::spawn_status_reporter(notifier.clone(), &bus);
-    let mut service = match InterfaceService::start(&config, &bus).await {
-        Ok(s) => s,
-        Err(e) => {
-            tracing::error!(error = %e, "cannot start the frontseat interface");
-            return ExitCode::from(2);
-        }
-    };
-    // The root supervisor: the FrontSeatTranslation (and what else runs beside the interface)
-    // restarted by its policy in [supervision]; past the limit the process exits non-zero.
+/// The root supervisor's children for `frontseat interface`, in start order (stopped in the
+/// reverse order): the gateways first, so that the interface's first statuses are already
+/// exported and its last ones still are; then the FrontSeatInterface (with its DriverActor), the
+/// FrontSeatTranslation and the web scope.
+pub fn interface_children(
+    config: &InterfaceConfig,
+    bus: &Bus,
+    current: systemd::InterfaceRef,
+) -> Vec<ChildSpec> {
+    let sup = &config.supervision;
     let mut children = Vec::new();
+    if config.interprocess.enabled {
+        let (cfg, bus) = (config.clone(), bus.clone());
+        children.push(service_child(
+            "ZenohGateway",
+            (&sup.zenoh).into(),
+            Arc::new(move || {
+                let (cfg, bus) = (cfg.clone(), bus.clone());
+                Box::pin(async move {
+                    match crate::gateway_cmd::start_for_interface(&cfg, &bus).await {
+                        Ok(Some(g)) => Ok(Box::new(g) as Box<dyn Service>),
+                        Ok(None) => Err("[interprocess] is not enabled".to_string()),
+                        Err(e) => Err(e.to_string()),
+                    }
+                })
+            }),
+        ));
+    }
+    if config.goby3.enabled {
+        let (cfg, bus) = (config.clone(), bus.clone());
+        children.push(service_child(
+            "Goby3Gateway",
+            (&sup.goby3).into(),
+            Arc::new(move || {
+                let (cfg, bus) = (cfg.clone(), bus.clone());
+                Box::pin(async move {
+                    let hosted = crate::gateway_cmd::interface_actors(&cfg);
+                    match crate::gateway_cmd::start_goby3(&cfg.goby3, &cfg.name, &bus, &hosted) {
+                        Ok(Some(g)) => Ok(Box::new(g) as Box<dyn Service>),
+                        Ok(None) => Err("[goby3] is not enabled".to_string()),
+                        Err(e) => Err(e.to_string()),
+                    }
+                })
+            }),
+        ));
+    }
+    {
+        let (cfg, bus) = (config.clone(), bus.clone());
+        children.push(service_child(
+            "FrontSeatInterface",
+            (&sup.interface).into(),
+            Arc::new(move || {
+                let (cfg, bus, current) = (cfg.clone(), bus.clone(), current.clone());
+                Box::pin(async move {
+                    let service = InterfaceService::start(&cfg, &bus)
+                        .await
+                        .map_err(|e| e.to_string())?;
+                    *current.lock().unwrap_or_else(|p| p.into_inner()) =
+                        Some(service.actor().clone());
+                    Ok(Box::new(service) as Box<dyn Service>)
+                })
+            }),
+        ));
+    }
     if let Some(moos) = &config.moos {
         children.push(frontseat_actors::translation::child_spec(
             frontseat_actors::translation::TranslationArgs {
@@ -72,34 +103,48 @@ pub async fn interface(config: InterfaceConfig) -> ExitCode {
                 chaos: None,
                 observer: Default::default(),
             },
-            (&config.supervision.translation).into(),
+            (&sup.translation).into(),
         ));
     }
+    if config.web.enabled {
+        let (cfg, bus) = (config.clone(), bus.clone());
+        children.push(service_child(
+            "WebScope",
+            (&sup.web).into(),
+            Arc::new(move || {
+                let (cfg, bus) = (cfg.clone(), bus.clone());
+                Box::pin(async move {
+                    frontseat_web::WebService::start(&cfg, &bus)
+                        .await
+                        .map(|w| Box::new(w) as Box<dyn Service>)
+                        .map_err(|e| e.to_string())
+                })
+            }),
+        ));
+    }
+    children
+}
+
+pub async fn interface(config: InterfaceConfig) -> ExitCode {
+    let notifier = Arc::new(Notifier::from_env());
+    let bus = Bus::new();
+    let reporter = systemd::spawn_status_reporter(notifier.clone(), &bus);
+    // One supervision tree: every part of the service is a child of the root supervisor,
+    // restarted by its policy in [supervision]; past a limit the process exits non-zero.
+    let current = systemd::InterfaceRef::default();
+    let children = interface_children(&config, &bus, current.clone());
     let mut root = match SupervisorHandle::start("root", children, Some(&bus)).await {
         Ok(r) => r,
         Err(e) => {
-            tracing::error!(error = %e, "cannot start the MOOS bridge (FrontSeatTranslation)");
-            service.shutdown(SHUTDOWN_BOUND).await;
+            tracing::error!(error = %e, "cannot start the frontseat interface");
+            reporter.abort();
             return ExitCode::from(2);
         }
     };
-    let web = if config.web.enabled {
-        match frontseat_web::WebService::start(&config, &bus).await {
-            Ok(w) => Some(w),
-            Err(e) => {
-                tracing::error!(error = %e, "cannot start the web scope");
-                root.shutdown(SHUTDOWN_BOUND).await;
-                service.shutdown(SHUTDOWN_BOUND).await;
-                return ExitCode::from(2);
-            }
-        }
-    } else {
-        None
-    };
-    // READY only now: the driver actor has started and the bus is up.
+    // READY only now: every child has started (the driver actor included) and the bus is up.
     notifier.ready();
     let watchdog = notifier.watchdog_period().and_then(|period| {
-        systemd::spawn_watchdog(notifier.clone(), systemd::interface_probe(&service, period))
+        systemd::spawn_watchdog(notifier.clone(), systemd::interface_probe(current, period))
     });
     tracing::info!(
         driver = %config.driver.name,
@@ -107,34 +152,19 @@ pub async fn interface(config: InterfaceConfig) -> ExitCode {
         moos = config.moos.is_some(),
         interprocess = config.interprocess.enabled,
         goby3 = config.goby3.enabled,
+        web = config.web.enabled,
         "frontseat interface running"
     );
     let exit = tokio::select! {
-        e = service.wait() => e,
-        e = root.wait() => {
-            notifier.stopping();
-            service.shutdown(SHUTDOWN_BOUND).await;
-            e
-        }
-        _ = shutdown_signal() => {
-            notifier.stopping();
-            service.shutdown(SHUTDOWN_BOUND).await
-        }
+        e = root.wait() => e,
+        _ = shutdown_signal() => ServiceExit::Clean,
     };
     notifier.stopping();
     if let Some(w) = watchdog {
         w.abort();
     }
-    if let Some(w) = web {
-        w.shutdown(SHUTDOWN_BOUND).await;
-    }
-    root.shutdown(SHUTDOWN_BOUND).await;
-    if let Some(g) = gateway {
-        let _ = tokio::time::timeout(SHUTDOWN_BOUND, g.close()).await;
-    }
-    if let Some(g) = goby3 {
-        let _ = tokio::time::timeout(SHUTDOWN_BOUND, g.close()).await;
-    }
+    // Children stop in reverse start order, each within its bound.
+    root.shutdown(SHUTDOWN_BOUND * 3).await;
     reporter.abort();
     exit_code(&exit)
 }
@@ -170,6 +200,63 @@ pub fn sim_options(config: &SimConfig) -> SimOptions {
     }
 }
 
+/// The root supervisor's child for `frontseat sim` (and the demo's embedded simulator): the
+/// server, which isolates each vehicle connection inside it. `first`, when given, is a server
+/// already bound (the demo needs its port before the interface starts); a restart binds the
+/// port the first one got. `current` receives each started server; `embed` puts the
+/// simulator's truth and fault groups on that bus.
+pub fn sim_child(
+    first: Option<SimHandle>,
+    addr: SocketAddr,
+    opts: SimOptions,
+    policy: frontseat_actors::supervisor::Policy,
+    current: Arc<std::sync::Mutex<Option<SimHandle>>>,
+    embed: Option<Bus>,
+) -> ChildSpec {
+    let first = Arc::new(std::sync::Mutex::new(first));
+    let addr = Arc::new(std::sync::Mutex::new(addr));
+    service_child(
+        "SimServer",
+        policy,
+        Arc::new(move || {
+            let (opts, current, embed) = (opts.clone(), current.clone(), embed.clone());
+            let (first, addr) = (first.clone(), addr.clone());
+            Box::pin(async move {
+                let ready = first.lock().unwrap_or_else(|p| p.into_inner()).take();
+                let sim = match ready {
+                    Some(s) => s,
+                    None => {
+                        let at = *addr.lock().unwrap_or_else(|p| p.into_inner());
+                        SimServer::bind(at, opts).await.map_err(|e| e.to_string())?
+                    }
+                };
+                // Port 0 asked for any port: a restart takes the same one back.
+                *addr.lock().unwrap_or_else(|p| p.into_inner()) = sim.local_addr();
+                *current.lock().unwrap_or_else(|p| p.into_inner()) = Some(sim.clone());
+                let glue = embed
+                    .as_ref()
+                    .map(|bus| frontseat_actors::sim_glue::embed(&sim, bus));
+                Ok(Box::new(SimService { sim, _glue: glue }) as Box<dyn Service>)
+            })
+        }),
+    )
+}
+
+/// A running simulator server with its bus glue (when embedded).
+struct SimService {
+    sim: SimHandle,
+    _glue: Option<frontseat_actors::sim_glue::EmbeddedSimulator>,
+}
+
+impl Service for SimService {
+    fn ended(&mut self) -> BoxFuture<'_, Result<(), ChildFailure>> {
+        Service::ended(&mut self.sim)
+    }
+    fn stop(self: Box<Self>, within: Duration) -> BoxFuture<'static, ()> {
+        Box::new(self.sim).stop(within)
+    }
+}
+
 pub async fn sim(config: SimConfig) -> ExitCode {
     let addr: SocketAddr = match format!("{}:{}", config.bind, config.port).parse() {
         Ok(a) => a,
@@ -181,32 +268,52 @@ pub async fn sim(config: SimConfig) -> ExitCode {
             }
         },
     };
-    let sim = match SimServer::bind(addr, sim_options(&config)).await {
-        Ok(s) => s,
+    let current = Arc::new(std::sync::Mutex::new(None));
+    let child = sim_child(
+        None,
+        addr,
+        sim_options(&config),
+        (&config.supervision).into(),
+        current.clone(),
+        None,
+    );
+    let mut root = match SupervisorHandle::start("root", vec![child], None).await {
+        Ok(r) => r,
         Err(e) => {
             tracing::error!(error = %e, %addr, "cannot start the simulator");
             return ExitCode::from(2);
         }
     };
-    tracing::info!(addr = %sim.local_addr(), "basic frontseat simulator listening");
+    let now = || current.lock().unwrap_or_else(|p| p.into_inner()).clone();
+    let listening = now().map(|s| s.local_addr()).unwrap_or(addr);
     let notifier = Arc::new(Notifier::from_env());
     notifier.ready();
-    notifier.status(&format!("listening on {}", sim.local_addr()));
-    let probe_sim = sim.clone();
+    notifier.status(&format!("listening on {listening}"));
+    let probe = current.clone();
     let watchdog = systemd::spawn_watchdog(notifier.clone(), move || {
         // The simulator's tasks share the runtime with this probe: answering proves it runs.
-        let s = probe_sim.clone();
-        async move {
-            let _ = s.stats();
-            true
-        }
+        let up = probe
+            .lock()
+            .unwrap_or_else(|p| p.into_inner())
+            .as_ref()
+            .map(|s| {
+                let _ = s.stats();
+            })
+            .is_some();
+        async move { up }
     });
-    shutdown_signal().await;
+    let exit = tokio::select! {
+        e = root.wait() => e,
+        _ = shutdown_signal() => ServiceExit::Clean,
+    };
     notifier.stopping();
     if let Some(w) = watchdog {
         w.abort();
     }
-    sim.shutdown().await;
-    tracing::info!(stats = ?sim.stats(), "simulator stopped");
-    ExitCode::SUCCESS
+    let last = now();
+    root.shutdown(SHUTDOWN_BOUND * 2).await;
+    if let Some(sim) = last {
+        tracing::info!(stats = ?sim.stats(), "simulator stopped");
+    }
+    exit_code(&exit)
 }

@@ -11,7 +11,7 @@ use std::time::Duration;
 
 use frontseat_actors::bus::Bus;
 use frontseat_actors::groups;
-use frontseat_actors::interface::{FsiMsg, InterfaceService};
+use frontseat_actors::interface::FsiMsg;
 use frontseat_actors::proto::frontseat::protobuf::TranslationStatus;
 use frontseat_actors::proto::goby::middleware::frontseat::protobuf::{
     FrontSeatError, HelmError, HelmState, InterfaceStatus,
@@ -266,16 +266,16 @@ where
 }
 
 /// The liveness probe of the interface for `spawn_watchdog`: true when the FrontSeatInterface
-/// actor answers a snapshot within `within`. It holds only the actor reference, so the service
-/// itself stays free for `wait` and `shutdown`.
+/// now running (the root supervisor may have restarted it) answers a snapshot within `within`.
+/// It holds only the actor reference, so the service itself stays with its supervisor.
 pub fn interface_probe(
-    service: &InterfaceService,
+    current: InterfaceRef,
     within: Duration,
 ) -> impl Fn() -> Pin<Box<dyn Future<Output = bool> + Send>> + Send + Sync + 'static {
-    let actor = service.actor().clone();
     move || {
-        let actor = actor.clone();
+        let actor = current.lock().unwrap_or_else(|p| p.into_inner()).clone();
         Box::pin(async move {
+            let Some(actor) = actor else { return false };
             match actor.call(FsiMsg::Snapshot, Some(within)).await {
                 // Alive: the interface answered, and its driver (if running) is not stuck.
                 Ok(ractor::rpc::CallResult::Success(s)) => {
@@ -290,3 +290,6 @@ pub fn interface_probe(
         })
     }
 }
+
+/// The FrontSeatInterface actor now running, set by each (re)start under the root supervisor.
+pub type InterfaceRef = std::sync::Arc<std::sync::Mutex<Option<ractor::ActorRef<FsiMsg>>>>;

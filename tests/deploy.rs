@@ -676,7 +676,9 @@ async fn hung_interface_actor_stops_the_watchdog() {
     cfg.status_period = 1.0;
     let service = InterfaceService::start(&cfg, &bus).await.unwrap();
     n.ready();
-    let wd = spawn_watchdog(n.clone(), systemd::interface_probe(&service, period)).unwrap();
+    let current = systemd::InterfaceRef::default();
+    *current.lock().unwrap() = Some(service.actor().clone());
+    let wd = spawn_watchdog(n.clone(), systemd::interface_probe(current, period)).unwrap();
 
     let mut seen = Vec::new();
     until(&mut rx, &mut seen, Duration::from_secs(20), |m| {

@@ -859,6 +859,10 @@ impl FrontSeatInterface {
             }
             FsiMsg::Chaos(fault) => {
                 use crate::proto::frontseat::protobuf::chaos_fault::Fault;
+                if let Some(Fault::InterfacePanic(_)) = fault.fault {
+                    tracing::warn!("chaos: making the FrontSeatInterface panic");
+                    panic!("chaos: FrontSeatInterface panic injected");
+                }
                 match (fault.fault, &st.driver) {
                     (Some(Fault::DriverPanic(_)), Some(d)) => {
                         tracing::warn!("chaos: making the driver panic");
@@ -870,6 +874,7 @@ impl FrontSeatInterface {
                     }
                     (_, None) => tracing::info!("chaos: no driver running; fault ignored"),
                     (None, _) => tracing::warn!("chaos: empty fault ignored"),
+                    (Some(Fault::InterfacePanic(_)), _) => {}
                 }
             }
             FsiMsg::Snapshot(reply) => {
@@ -1028,7 +1033,15 @@ impl InterfaceService {
     /// the frontseat connection.
     pub async fn shutdown(mut self, within: Duration) -> ServiceExit {
         let _ = self.actor.call(FsiMsg::Shutdown, Some(within)).await;
-        let _ = tokio::time::timeout(within, &mut self.join).await;
+        // `wait` may have consumed the join already (a JoinHandle must not be polled twice).
+        if !self.join.is_finished() {
+            let _ = tokio::time::timeout(within, &mut self.join).await;
+        }
+        // An interface actor that was killed ran no cleanup: its DriverActor (and so the
+        // frontseat connection) would outlive it, beside the one a restart starts.
+        self.actor
+            .stop_children_and_wait(Some("interface stopped".into()), Some(within))
+            .await;
         self.exit.borrow().clone().unwrap_or(ServiceExit::Clean)
     }
 }

@@ -16,6 +16,7 @@ pub mod generated;
 pub mod interface;
 pub mod link;
 pub mod ratelog;
+pub mod service_child;
 pub mod sim_glue;
 pub mod state_machine;
 pub mod supervisor;

@@ -63,6 +63,58 @@ pub enum Decision {
     GiveUp(String),
 }
 
+/// A child's failure as it reaches its supervisor (the error a supervised actor fails with).
+/// `exit` is the process exit the child asks for should its supervisor give up on it; an exit of
+/// [`ServiceExit::RestartLimit`] means the child already exhausted a restart limit of its own
+/// (the DriverActor's under the FrontSeatInterface), so its supervisor escalates at once instead
+/// of multiplying that limit by its own; likewise an error state under exit_on_error.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct ChildFailure {
+    pub why: String,
+    pub exit: Option<ServiceExit>,
+}
+
+impl ChildFailure {
+    pub fn new(why: impl Into<String>) -> Self {
+        Self {
+            why: why.into(),
+            exit: None,
+        }
+    }
+
+    /// The text of a panic caught by a JoinHandle.
+    pub fn from_join(what: &str, e: tokio::task::JoinError) -> Self {
+        if e.is_panic() {
+            let p = e.into_panic();
+            let text = p
+                .downcast_ref::<&str>()
+                .map(|s| s.to_string())
+                .or_else(|| p.downcast_ref::<String>().cloned())
+                .unwrap_or_else(|| "panic".into());
+            Self::new(format!("{what} panicked: {text}"))
+        } else {
+            Self::new(format!("{what}: {e}"))
+        }
+    }
+
+    /// The child decided the process should end (an error state under exit_on_error, or an
+    /// exhausted restart limit of its own): restarting it would overrule that decision.
+    fn escalates(&self) -> bool {
+        matches!(
+            self.exit,
+            Some(ServiceExit::RestartLimit(_) | ServiceExit::ErrorState(_))
+        )
+    }
+}
+
+impl std::fmt::Display for ChildFailure {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.why)
+    }
+}
+
+impl std::error::Error for ChildFailure {}
+
 /// The restart bookkeeping of one child: pure, clock passed in.
 #[derive(Clone, Debug)]
 pub struct Decider {
@@ -122,6 +174,9 @@ impl Decider {
         }
     }
 }
+
+/// How long a supervisor waits for each child to stop when it stops itself.
+pub const CHILD_STOP_BOUND: Duration = Duration::from_secs(3);
 
 /// Starts one child linked to the supervisor cell given; the child's cell comes back.
 pub type StartFn = Arc<
@@ -220,6 +275,18 @@ impl SupervisorState {
         });
     }
 
+    /// Last started, first stopped, each drained before the next: the interface publishes its
+    /// last status while the gateways that export it are still up.
+    async fn stop_children(&mut self) {
+        for c in self.children.iter_mut().rev() {
+            if let Some(cell) = c.cell.take() {
+                let _ = cell
+                    .stop_and_wait(Some("supervisor stopping".into()), Some(CHILD_STOP_BOUND))
+                    .await;
+            }
+        }
+    }
+
     fn index_of(&self, cell: &ActorCell) -> Option<usize> {
         let id = cell.get_id();
         self.children
@@ -227,19 +294,37 @@ impl SupervisorState {
             .position(|c| c.cell.as_ref().is_some_and(|x| x.get_id() == id))
     }
 
-    fn ended(&mut self, myself: &ActorRef<SupervisorMsg>, i: usize, ending: Ending, why: String) {
+    /// A child ended. `Some` when the supervisor gives up: its handler then fails with it, so a
+    /// parent supervisor (if any) sees this supervisor fail, and the exit watch has the reason.
+    fn ended(
+        &mut self,
+        myself: &ActorRef<SupervisorMsg>,
+        i: usize,
+        ending: Ending,
+        failure: Option<ChildFailure>,
+    ) -> Option<ChildFailure> {
         let sup = self.name.clone();
         let child = &mut self.children[i];
         child.cell = None;
+        let why = failure
+            .as_ref()
+            .map(|f| f.why.clone())
+            .unwrap_or_else(|| "stopped".into());
         if ending == Ending::Failed {
             child.last_failure = Some(why.clone());
         }
         if self.giving_up {
-            return;
+            return None;
         }
-        let decision = child
+        let mut decision = child
             .decider
             .decide(&child.spec.name, ending, Instant::now());
+        if failure.as_ref().is_some_and(ChildFailure::escalates) {
+            decision = Decision::GiveUp(format!(
+                "{} gave up past its own restart limit: {why}",
+                child.spec.name
+            ));
+        }
         if let Decision::GiveUp(_) = decision {
             self.giving_up = true;
         }
@@ -256,15 +341,25 @@ impl SupervisorState {
                     "supervised actor ended; restarting"
                 );
                 myself.send_after(after, move || SupervisorMsg::Restart(i));
+                None
             }
             Decision::LeaveDown => {
                 tracing::info!(supervisor = %sup, child = %child.spec.name, %why, "supervised actor stopped");
+                None
             }
             Decision::GiveUp(reason) => {
                 tracing::error!(supervisor = %sup, child = %child.spec.name, "{reason}");
-                self.exit
-                    .send_replace(Some(ServiceExit::RestartLimit(reason)));
-                myself.stop(Some("restart limit".into()));
+                // The child's own exit when it named one (an error state: 2, its restart
+                // limit: 3, the interface failing: 4), else the restart limit's.
+                let exit = failure
+                    .and_then(|f| f.exit)
+                    .filter(|e| *e != ServiceExit::Clean)
+                    .unwrap_or_else(|| ServiceExit::RestartLimit(reason.clone()));
+                self.exit.send_replace(Some(exit.clone()));
+                Some(ChildFailure {
+                    why: format!("supervisor {sup} gave up: {reason}"),
+                    exit: Some(ServiceExit::RestartLimit(reason)),
+                })
             }
         }
     }
@@ -323,7 +418,11 @@ impl Actor for Supervisor {
                     }
                     Err(e) => {
                         // A start that fails counts as one more failure of the child.
-                        st.ended(&myself, i, Ending::Failed, format!("restart failed: {e}"));
+                        let failure = ChildFailure::new(format!("restart failed: {e}"));
+                        if let Some(gave_up) = st.ended(&myself, i, Ending::Failed, Some(failure)) {
+                            st.stop_children().await;
+                            return Err(Box::new(gave_up));
+                        }
                     }
                 }
             }
@@ -341,21 +440,34 @@ impl Actor for Supervisor {
         st: &mut Self::State,
     ) -> Result<(), ActorProcessingErr> {
         // Overridden so that a child's end never stops the supervisor itself (ractor's default).
-        match evt {
-            SupervisionEvent::ActorFailed(cell, err) => {
-                if let Some(i) = st.index_of(&cell) {
-                    st.ended(&myself, i, Ending::Failed, err.to_string());
+        let gave_up = match evt {
+            SupervisionEvent::ActorFailed(cell, err) => match st.index_of(&cell) {
+                Some(i) => {
+                    let failure = err
+                        .downcast_ref::<ChildFailure>()
+                        .cloned()
+                        .unwrap_or_else(|| ChildFailure::new(err.to_string()));
+                    st.ended(&myself, i, Ending::Failed, Some(failure))
                 }
-            }
-            SupervisionEvent::ActorTerminated(cell, _, reason) => {
-                if let Some(i) = st.index_of(&cell) {
-                    let why = reason.unwrap_or_else(|| "stopped".into());
-                    st.ended(&myself, i, Ending::Stopped, why);
+                None => None,
+            },
+            SupervisionEvent::ActorTerminated(cell, _, reason) => match st.index_of(&cell) {
+                Some(i) => {
+                    let stop = reason.map(ChildFailure::new);
+                    st.ended(&myself, i, Ending::Stopped, stop)
                 }
+                None => None,
+            },
+            _ => None,
+        };
+        match gave_up {
+            Some(f) => {
+                // A failing actor gets no post_stop: its children are stopped here.
+                st.stop_children().await;
+                Err(Box::new(f))
             }
-            _ => {}
+            None => Ok(()),
         }
-        Ok(())
     }
 
     async fn post_stop(
@@ -363,11 +475,7 @@ impl Actor for Supervisor {
         _myself: ActorRef<Self::Msg>,
         st: &mut Self::State,
     ) -> Result<(), ActorProcessingErr> {
-        for c in &st.children {
-            if let Some(cell) = &c.cell {
-                cell.stop(Some("supervisor stopping".into()));
-            }
-        }
+        st.stop_children().await;
         Ok(())
     }
 }

@@ -544,6 +544,17 @@ pub struct SupervisionConfig {
     pub restart_window_s: f64,
     /// The FrontSeatTranslation (MOOS bridge), supervised by the root supervisor.
     pub translation: RestartConfig,
+    /// The FrontSeatInterface (with its DriverActor) under the root supervisor: restarted when
+    /// the interface actor itself fails. An error state with exit_on_error and the driver's
+    /// exhausted restart limit are not restarted: they end the process (exit 2, exit 3).
+    pub interface: RestartConfig,
+    /// The Zenoh gateway (`[interprocess] enabled`) under the root supervisor.
+    pub zenoh: RestartConfig,
+    /// The Goby3 transport (`[goby3] enabled`) under the root supervisor.
+    pub goby3: RestartConfig,
+    /// The web scope (`[web] enabled`) under the root supervisor; its hub has its own bounded
+    /// restarts inside it.
+    pub web: RestartConfig,
 }
 
 /// When a supervised actor ends.
@@ -610,6 +621,13 @@ impl Default for SupervisionConfig {
             max_restarts: 10,
             restart_window_s: 60.0,
             translation: RestartConfig::default(),
+            interface: RestartConfig {
+                max_restarts: 3,
+                ..RestartConfig::default()
+            },
+            zenoh: RestartConfig::default(),
+            goby3: RestartConfig::default(),
+            web: RestartConfig::default(),
         }
     }
 }
@@ -628,6 +646,10 @@ impl SupervisionConfig {
         );
         c.positive(&at(prefix, "restart_window_s"), self.restart_window_s);
         self.translation.check_at(&at(prefix, "translation"), c);
+        self.interface.check_at(&at(prefix, "interface"), c);
+        self.zenoh.check_at(&at(prefix, "zenoh"), c);
+        self.goby3.check_at(&at(prefix, "goby3"), c);
+        self.web.check_at(&at(prefix, "web"), c);
     }
 }
 

@@ -40,6 +40,10 @@ pub struct SimConfig {
     pub faults: Vec<ScheduledFaultConfig>,
     /// OpenTelemetry trace export.
     pub telemetry: TelemetryConfig,
+    /// The simulator server under the root supervisor: restarted (rebinding its port) if its
+    /// accept task fails. Each vehicle connection is isolated inside it: a panic closes only
+    /// that connection.
+    pub supervision: crate::RestartConfig,
 }
 
 /// Upper bound of [`SimConfig::max_line_bytes`].
@@ -56,6 +60,7 @@ impl Default for SimConfig {
             current: CurrentConfig::default(),
             faults: Vec::new(),
             telemetry: TelemetryConfig::default(),
+            supervision: crate::RestartConfig::default(),
         }
     }
 }
@@ -106,6 +111,7 @@ impl ServiceConfig for SimConfig {
         c.within("resume_grace_s", self.resume_grace_s, 0.0, 3600.0);
         c.finite("current.east", self.current.east);
         c.finite("current.north", self.current.north);
+        self.supervision.check_at("supervision", &mut c);
         for (i, f) in self.faults.iter().enumerate() {
             f.check(&format!("faults[{i}]"), &mut c);
         }

@@ -44,13 +44,26 @@ impl SimServer {
             detached: Default::default(),
         });
         let (stop_tx, stop_rx) = watch::channel(false);
-        let task = tokio::spawn(accept_loop(listener, shared.clone(), stop_rx));
+        let (done_tx, done_rx) = watch::channel(None);
+        let accept = tokio::spawn(accept_loop(listener, shared.clone(), stop_rx));
+        // Says how the accept task ended, so that a supervisor sees a failure of the server.
+        let task = tokio::spawn(async move {
+            let why = match accept.await {
+                Ok(()) => Ending::Stopped,
+                Err(e) => Ending::Failed(e.to_string()),
+            };
+            done_tx.send_replace(Some(why.clone()));
+            if let Ending::Failed(e) = why {
+                tracing::error!(error = %e, "simulator accept task failed");
+            }
+        });
         tracing::info!(addr = %local, "basic frontseat simulator listening");
         Ok(SimHandle {
             local,
             shared,
             stop: Arc::new(stop_tx),
             task: Arc::new(tokio::sync::Mutex::new(Some(task))),
+            done: done_rx,
         })
     }
 }
@@ -62,6 +75,13 @@ pub struct SimHandle {
     shared: Arc<Shared>,
     stop: Arc<watch::Sender<bool>>,
     task: Arc<tokio::sync::Mutex<Option<tokio::task::JoinHandle<()>>>>,
+    done: watch::Receiver<Option<Ending>>,
+}
+
+#[derive(Clone, Debug)]
+enum Ending {
+    Stopped,
+    Failed(String),
 }
 
 impl SimHandle {
@@ -128,14 +148,25 @@ impl SimHandle {
         }
     }
 
+    /// Resolves when the server has stopped: `None` after [`shutdown`](Self::shutdown), `Some`
+    /// with the reason when its accept task failed by itself.
+    pub async fn ended(&self) -> Option<String> {
+        let mut done = self.done.clone();
+        match done.wait_for(Option::is_some).await {
+            Ok(e) => match e.clone() {
+                Some(Ending::Failed(why)) => Some(why),
+                _ => None,
+            },
+            Err(_) => Some("simulator server task gone".into()),
+        }
+    }
+
     /// Stop accepting, close every vehicle's connection and wait until they are gone.
     pub async fn shutdown(&self) {
         let _ = self.stop.send(true);
         let task = self.task.lock().await.take();
-        if let Some(task) = task
-            && let Err(e) = task.await
-        {
-            tracing::error!(error = %e, "simulator accept task failed");
+        if let Some(task) = task {
+            let _ = task.await;
         }
     }
 }

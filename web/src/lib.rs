@@ -20,6 +20,8 @@ use std::time::{Duration, SystemTime, UNIX_EPOCH};
 
 use frontseat_actors::bus::Bus;
 use frontseat_actors::ports::WebCommanderPorts;
+use frontseat_actors::service_child::{BoxFuture, Service};
+use frontseat_actors::supervisor::{ChildFailure, SupervisorHandle};
 use frontseat_config::{InterfaceConfig, LimitsConfig, WEB_TOKEN_ENV, WebConfig};
 use ractor::ActorRef;
 use tokio::sync::Semaphore;
@@ -28,7 +30,6 @@ pub use hub::HubCounters;
 pub use server::ServerCounters;
 
 use hub::HubArgs;
-use supervisor::WebSupervisor;
 
 /// What can go wrong in the web component.
 #[derive(Debug, thiserror::Error)]
@@ -72,7 +73,7 @@ pub fn effective_token(cfg: &WebConfig) -> Result<Option<String>, WebError> {
 /// A running web scope/commander.
 pub struct WebService {
     addr: SocketAddr,
-    supervisor: ActorRef<()>,
+    supervisor: SupervisorHandle,
     hub: supervisor::HubHandle,
     server: tokio::task::JoinHandle<()>,
     pub hub_counters: Arc<HubCounters>,
@@ -111,7 +112,7 @@ impl WebService {
         })?;
         let hub_counters = Arc::new(HubCounters::default());
         let server_counters = Arc::new(ServerCounters::default());
-        let (supervisor, hub) = WebSupervisor::start(HubArgs {
+        let (supervisor, hub) = supervisor::start(HubArgs {
             bus: bus.clone(),
             queue_capacity: cfg.client_queue.max(64),
             history: cfg.history,
@@ -120,7 +121,7 @@ impl WebService {
             counters: hub_counters.clone(),
         })
         .await
-        .map_err(|e| WebError::Hub(e.to_string()))?;
+        .map_err(WebError::Hub)?;
         let access = auth::Access::new(addr, token);
         if !access.can_send() {
             tracing::warn!(%addr, "web: listening beyond loopback without a token; the commander refuses every send");
@@ -167,10 +168,37 @@ impl WebService {
         self.hub.get()
     }
 
+    /// Resolves when the scope failed by itself: its server task ended, or its hub failed
+    /// past the hub supervisor's limit.
+    pub async fn ended(&mut self) -> String {
+        tokio::select! {
+            r = &mut self.server => {
+                // A finished JoinHandle must not be polled again (`shutdown` only aborts it).
+                self.server = tokio::spawn(async {});
+                match r {
+                    Ok(()) => "the web server ended".into(),
+                    Err(e) => format!("the web server task failed: {e}"),
+                }
+            }
+            e = self.supervisor.wait() => format!("the web hub gave up: {e:?}"),
+        }
+    }
+
     /// Stops serving: the hub unsubscribes and ends every event stream.
     pub async fn shutdown(self, bound: Duration) {
         self.server.abort();
-        self.supervisor.stop(None);
-        let _ = tokio::time::timeout(bound, self.supervisor.wait(None)).await;
+        self.supervisor.shutdown(bound).await;
+    }
+}
+
+/// The web scope as a child of the root supervisor (`[supervision.web]`): its failure is the
+/// scope's own, never the process's exit code, so by default it is restarted and the
+/// interface goes on.
+impl Service for WebService {
+    fn ended(&mut self) -> BoxFuture<'_, Result<(), ChildFailure>> {
+        Box::pin(async move { Err(ChildFailure::new(WebService::ended(self).await)) })
+    }
+    fn stop(self: Box<Self>, within: Duration) -> BoxFuture<'static, ()> {
+        Box::pin(async move { (*self).shutdown(within).await })
     }
 }

@@ -20,7 +20,10 @@ use frontseat_actors::generated::{
     EncodedEnvelope, EncodedError, groups, interprocess_publish_encoded,
     interprocess_subscribe_encoded,
 };
+use frontseat_actors::service_child::{BoxFuture, Service};
+use frontseat_actors::supervisor::ChildFailure;
 use frontseat_config::InterprocessConfig;
+use std::time::Duration;
 use tokio::sync::mpsc;
 use zenoh::Wait;
 use zenoh::bytes::Encoding;
@@ -177,6 +180,17 @@ impl GatewayHandle {
     pub fn session(&self) -> &zenoh::Session {
         &self.session
     }
+    /// Resolves when the export task ended by itself (it only does when it failed): the reason.
+    pub async fn ended(&mut self) -> String {
+        let r = (&mut self.export_task).await;
+        // A finished JoinHandle must not be polled again (`close` and drop only abort it).
+        self.export_task = tokio::spawn(async {});
+        match r {
+            Ok(()) => "the Zenoh export task ended".into(),
+            Err(e) => format!("the Zenoh export task failed: {e}"),
+        }
+    }
+
     /// Unsubscribes from the bus, stops exporting and closes the Zenoh session.
     pub async fn close(mut self) {
         for s in std::mem::take(&mut self.bus_subs) {
@@ -192,6 +206,18 @@ impl GatewayHandle {
 impl Drop for GatewayHandle {
     fn drop(&mut self) {
         self.export_task.abort();
+    }
+}
+
+/// The Zenoh gateway as a child of the root supervisor.
+impl Service for GatewayHandle {
+    fn ended(&mut self) -> BoxFuture<'_, Result<(), ChildFailure>> {
+        Box::pin(async move { Err(ChildFailure::new(GatewayHandle::ended(self).await)) })
+    }
+    fn stop(self: Box<Self>, within: Duration) -> BoxFuture<'static, ()> {
+        Box::pin(async move {
+            let _ = tokio::time::timeout(within, (*self).close()).await;
+        })
     }
 }
 

@@ -65,6 +65,17 @@ impl Goby3Handle {
     pub fn origin(&self) -> Origin3 {
         self.me
     }
+    /// Resolves when the link task ended by itself (it only does when it failed): the reason.
+    pub async fn ended(&mut self) -> String {
+        let r = (&mut self.task).await;
+        // A finished JoinHandle must not be polled again (`close` awaits the one it finds).
+        self.task = tokio::spawn(async {});
+        match r {
+            Ok(()) => "the Goby3 link task ended".into(),
+            Err(e) => format!("the Goby3 link task failed: {e}"),
+        }
+    }
+
     /// Unsubscribes from the bus and ends the link (sockets closed, nothing more sent).
     pub async fn close(mut self) {
         for s in std::mem::take(&mut self.bus_subs) {
@@ -78,6 +89,29 @@ impl Goby3Handle {
         {
             tracing::warn!("Goby3 link did not stop within 2 s");
         }
+    }
+}
+
+/// The Goby3 transport as a child of the root supervisor.
+impl frontseat_actors::service_child::Service for Goby3Handle {
+    fn ended(
+        &mut self,
+    ) -> frontseat_actors::service_child::BoxFuture<
+        '_,
+        Result<(), frontseat_actors::supervisor::ChildFailure>,
+    > {
+        Box::pin(async move {
+            Err(frontseat_actors::supervisor::ChildFailure::new(
+                Goby3Handle::ended(self).await,
+            ))
+        })
+    }
+    fn stop(
+        self: Box<Self>,
+        _within: Duration,
+    ) -> frontseat_actors::service_child::BoxFuture<'static, ()> {
+        // `close` bounds itself (2 s for the link task).
+        Box::pin(async move { (*self).close().await })
     }
 }
 

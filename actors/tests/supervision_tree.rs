@@ -1,0 +1,169 @@
+//! The supervision tree with real parts: a root supervisor over the basic simulator's server (real
+//! loopback TCP) and the FrontSeatInterface with its DriverActor, as `frontseat interface`,
+//! `frontseat sim` and the demo compose them. Failure semantics asserted here:
+//! - the interface actor panics → the root restarts it (its old DriverActor stopped), NAV flows on the bus again and the
+//!   restart is visible on `frontseat::supervision::status`;
+//! - the driver's own restart limit exhausted → not restarted by the root: the process's exit is
+//!   the driver limit's (3), as before the root supervisor existed.
+//!
+//! Every wait has a deadline.
+
+use std::sync::{Arc, Mutex};
+use std::time::Duration;
+
+use frontseat_actors::bus::Bus;
+use frontseat_actors::groups;
+use frontseat_actors::interface::{FsiMsg, InterfaceService};
+use frontseat_actors::proto::frontseat::protobuf::{ChaosFault, chaos_fault};
+use frontseat_actors::service_child::{Service, StartService, service_child};
+use frontseat_actors::supervisor::{ChildSpec, Policy, SupervisorHandle};
+use frontseat_config::{InterfaceConfig, RestartConfig};
+use frontseat_sim::{SimOptions, SimServer};
+use ractor::ActorRef;
+
+const DEADLINE: Duration = Duration::from_secs(20);
+
+type Current = Arc<Mutex<Option<ActorRef<FsiMsg>>>>;
+
+fn interface_child(cfg: InterfaceConfig, bus: Bus, current: Current) -> ChildSpec {
+    let policy: Policy = (&cfg.supervision.interface).into();
+    let start: StartService = Arc::new(move || {
+        let (cfg, bus, current) = (cfg.clone(), bus.clone(), current.clone());
+        Box::pin(async move {
+            let s = InterfaceService::start(&cfg, &bus)
+                .await
+                .map_err(|e| e.to_string())?;
+            *current.lock().unwrap() = Some(s.actor().clone());
+            Ok(Box::new(s) as Box<dyn Service>)
+        })
+    });
+    service_child("FrontSeatInterface", policy, start)
+}
+
+async fn tree(max_driver_restarts: u32) -> (Bus, SupervisorHandle, Current) {
+    let bus = Bus::new();
+    let sim = SimServer::bind(([127, 0, 0, 1], 0).into(), SimOptions::default())
+        .await
+        .unwrap();
+    let mut cfg = InterfaceConfig {
+        name: "tree-auv".into(),
+        sim_warp_factor: 10.0,
+        ..Default::default()
+    };
+    cfg.driver.basic_simulator.tcp_port = sim.local_addr().port();
+    cfg.supervision.max_restarts = max_driver_restarts;
+    cfg.supervision.interface = RestartConfig {
+        backoff_initial_ms: 10,
+        ..cfg.supervision.interface.clone()
+    };
+    let sim_start: StartService = Arc::new(move || {
+        let sim = sim.clone();
+        Box::pin(async move { Ok(Box::new(sim) as Box<dyn Service>) })
+    });
+    let current = Current::default();
+    let children = vec![
+        service_child("SimServer", (&RestartConfig::default()).into(), sim_start),
+        interface_child(cfg, bus.clone(), current.clone()),
+    ];
+    let root = SupervisorHandle::start("root", children, Some(&bus))
+        .await
+        .unwrap();
+    (bus, root, current)
+}
+
+/// Waits for a NAV (node_status) published after this call.
+async fn nav_flows(bus: &Bus) {
+    let (_sub, mut rx) = bus.subscribe_channel(
+        &groups::GOBY_MIDDLEWARE_FRONTSEAT_NODE_STATUS,
+        "test-nav",
+        64,
+    );
+    tokio::time::timeout(DEADLINE, rx.recv())
+        .await
+        .expect("node_status within the deadline")
+        .expect("bus open");
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_panicked_interface_is_restarted_and_nav_flows_again() {
+    let (bus, root, current) = tree(10).await;
+    let (_sup_sub, mut statuses) =
+        bus.subscribe_channel(&groups::FRONTSEAT_SUPERVISION_STATUS, "test-sup", 64);
+    nav_flows(&bus).await;
+    let first = current
+        .lock()
+        .unwrap()
+        .clone()
+        .expect("the interface started");
+    let first_driver = first.get_children();
+    assert_eq!(
+        first_driver.len(),
+        1,
+        "the interface supervises its DriverActor"
+    );
+    // A panic, as a bug in the interface would cause one.
+    first
+        .cast(FsiMsg::Chaos(ChaosFault {
+            fault: Some(chaos_fault::Fault::InterfacePanic(true)),
+        }))
+        .unwrap();
+    // The root restarts it: a new actor, and the restart on the status group.
+    let restarted = async {
+        loop {
+            let s = statuses.recv().await.expect("bus open");
+            let fsi = s
+                .msg
+                .children
+                .iter()
+                .find(|c| c.name.as_deref() == Some("FrontSeatInterface"))
+                .cloned()
+                .expect("the interface is a child of the root");
+            if fsi.restarts == Some(1) && fsi.up == Some(true) {
+                return fsi;
+            }
+        }
+    };
+    let fsi = tokio::time::timeout(DEADLINE, restarted)
+        .await
+        .expect("restart reported within the deadline");
+    assert!(fsi.last_failure.is_some(), "{fsi:?}");
+    let second = current.lock().unwrap().clone().unwrap();
+    assert_ne!(first.get_id(), second.get_id());
+    nav_flows(&bus).await;
+    // The killed interface's driver went with it: one frontseat connection, not two.
+    tokio::time::timeout(DEADLINE, first_driver[0].wait(None))
+        .await
+        .expect("the old DriverActor stopped")
+        .unwrap();
+    let snap = root.snapshot(DEADLINE).await.unwrap();
+    let sim = snap
+        .children
+        .iter()
+        .find(|c| c.name == "SimServer")
+        .unwrap();
+    assert_eq!(sim.restarts, 0, "the simulator was not touched: {snap:?}");
+    root.shutdown(Duration::from_secs(10)).await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn the_drivers_exhausted_limit_ends_the_process_with_exit_3() {
+    // max_restarts = 0: the driver's first failure ends the interface with its restart limit.
+    let (bus, mut root, current) = tree(0).await;
+    nav_flows(&bus).await;
+    let fsi = current.lock().unwrap().clone().unwrap();
+    fsi.cast(FsiMsg::Chaos(ChaosFault {
+        fault: Some(chaos_fault::Fault::DriverPanic(true)),
+    }))
+    .unwrap();
+    let exit = tokio::time::timeout(DEADLINE, root.wait())
+        .await
+        .expect("the root gives up within the deadline");
+    assert_eq!(exit.code(), 3, "{exit:?}");
+    let again = current.lock().unwrap().clone().unwrap();
+    assert_eq!(
+        fsi.get_id(),
+        again.get_id(),
+        "the interface was not restarted"
+    );
+    root.shutdown(Duration::from_secs(10)).await;
+}

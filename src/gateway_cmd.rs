@@ -5,8 +5,12 @@
 //! reached over Zenoh and/or gobyd, as Goby3's goby_moos_gateway.
 
 use std::process::ExitCode;
+use std::sync::Arc;
 
 use frontseat_actors::bus::Bus;
+use frontseat_actors::interface::ServiceExit;
+use frontseat_actors::service_child::{Service, service_child};
+use frontseat_actors::supervisor::{ChildSpec, SupervisorHandle};
 use frontseat_config::Goby3Config;
 use frontseat_config::{GatewayConfig, InterfaceConfig};
 use frontseat_gateway::goby3::{Goby3Handle, Goby3Settings};
@@ -68,7 +72,71 @@ fn open_hint(e: &GatewayError) -> &'static str {
     }
 }
 
-/// `frontseat moos-gateway -c FILE`: runs until SIGTERM/SIGINT.
+/// The root supervisor's children for `frontseat moos-gateway`, in start order: the transports
+/// first, so that what the MOOS side publishes from its first moment is exported.
+fn gateway_children(cfg: &GatewayConfig, platform: &str, bus: &Bus) -> Vec<ChildSpec> {
+    const HOSTED: [&str; 1] = ["FrontSeatTranslation"];
+    let sup = &cfg.supervision;
+    let mut children = Vec::new();
+    if cfg.interprocess.enabled {
+        let (icfg, platform, bus) = (cfg.interprocess.clone(), platform.to_string(), bus.clone());
+        children.push(service_child(
+            "ZenohGateway",
+            (&sup.zenoh).into(),
+            Arc::new(move || {
+                let (icfg, platform, bus) = (icfg.clone(), platform.clone(), bus.clone());
+                Box::pin(async move {
+                    frontseat_gateway::start(
+                        &bus,
+                        &icfg,
+                        &platform,
+                        &HOSTED,
+                        GatewayOptions::default(),
+                    )
+                    .await
+                    .map(|g| Box::new(g) as Box<dyn Service>)
+                    .map_err(|e| format!("{e} {}", open_hint(&e)))
+                })
+            }),
+        ));
+    }
+    if cfg.goby3.enabled {
+        let (gcfg, name, bus) = (cfg.goby3.clone(), cfg.name.clone(), bus.clone());
+        children.push(service_child(
+            "Goby3Gateway",
+            (&sup.goby3).into(),
+            Arc::new(move || {
+                let (gcfg, name, bus) = (gcfg.clone(), name.clone(), bus.clone());
+                Box::pin(async move {
+                    match start_goby3(&gcfg, &name, &bus, &HOSTED) {
+                        Ok(Some(g)) => Ok(Box::new(g) as Box<dyn Service>),
+                        Ok(None) => Err("[goby3] is not enabled".to_string()),
+                        Err(e) => Err(e.to_string()),
+                    }
+                })
+            }),
+        ));
+    }
+    let vehicle = if cfg.name.is_empty() {
+        platform.to_string()
+    } else {
+        cfg.name.clone()
+    };
+    children.push(frontseat_actors::translation::child_spec(
+        frontseat_actors::translation::TranslationArgs {
+            cfg: cfg.moos.clone(),
+            vehicle,
+            bus: bus.clone(),
+            chaos: None,
+            observer: Default::default(),
+        },
+        (&sup.translation).into(),
+    ));
+    children
+}
+
+/// `frontseat moos-gateway -c FILE`: runs until SIGTERM/SIGINT, or until its root supervisor
+/// gives up on a child (non-zero exit).
 pub async fn moos_gateway(cfg: GatewayConfig) -> ExitCode {
     let bus = Bus::new();
     let notifier = std::sync::Arc::new(crate::systemd::Notifier::from_env());
@@ -80,46 +148,12 @@ pub async fn moos_gateway(cfg: GatewayConfig) -> ExitCode {
             return ExitCode::from(2);
         }
     };
-    // The gateways first, so that what the MOOS side publishes from its first moment is exported.
-    let hosted = ["FrontSeatTranslation"];
-    let gateway = if cfg.interprocess.enabled {
-        match frontseat_gateway::start(
-            &bus,
-            &cfg.interprocess,
-            &platform,
-            &hosted,
-            GatewayOptions::default(),
-        )
-        .await
-        {
-            Ok(g) => Some(g),
-            Err(e) => {
-                tracing::error!(error = %e, hint = open_hint(&e), "cannot start the Zenoh gateway");
-                return ExitCode::from(2);
-            }
-        }
-    } else {
-        None
-    };
-    let goby3 = match start_goby3(&cfg.goby3, &cfg.name, &bus, &hosted) {
-        Ok(g) => g,
+    let children = gateway_children(&cfg, &platform, &bus);
+    let mut root = match SupervisorHandle::start("root", children, Some(&bus)).await {
+        Ok(r) => r,
         Err(e) => {
-            tracing::error!(error = %e, "cannot start the Goby3 transport");
-            return ExitCode::from(2);
-        }
-    };
-    let vehicle = if cfg.name.is_empty() {
-        &platform
-    } else {
-        &cfg.name
-    };
-    let translation = match frontseat_actors::translation::spawn(&cfg.moos, vehicle, &bus).await {
-        Ok(t) => t,
-        Err(e) => {
-            tracing::error!(error = %e, "cannot start the FrontSeatTranslation");
-            if let Some(g) = gateway {
-                g.close().await;
-            }
+            tracing::error!(error = %e, "cannot start the MOOS gateway");
+            reporter.abort();
             return ExitCode::from(2);
         }
     };
@@ -132,23 +166,16 @@ pub async fn moos_gateway(cfg: GatewayConfig) -> ExitCode {
     );
     notifier.ready();
     let watchdog = crate::systemd::spawn_watchdog(notifier.clone(), || async { true });
-    crate::shutdown::shutdown_signal().await;
+    let exit = tokio::select! {
+        e = root.wait() => e,
+        _ = crate::shutdown::shutdown_signal() => ServiceExit::Clean,
+    };
     notifier.stopping();
     if let Some(w) = watchdog {
         w.abort();
     }
-    translation.shutdown().await;
+    root.shutdown(crate::service::SHUTDOWN_BOUND * 3).await;
     reporter.abort();
-    if let Some(g) = goby3 {
-        let stats = g.stats();
-        g.close().await;
-        tracing::info!(?stats, "Goby3 transport stopped");
-    }
-    if let Some(g) = gateway {
-        let stats = g.stats();
-        g.close().await;
-        tracing::info!(?stats, "Zenoh gateway stopped");
-    }
     tracing::info!("MOOS gateway stopped");
-    ExitCode::SUCCESS
+    crate::service::exit_code(&exit)
 }

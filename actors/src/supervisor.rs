@@ -542,18 +542,30 @@ impl SupervisorHandle {
 
 /// Who supervises whom, as `frontseat interfaces` prints it.
 pub const TREE: &str = "\
-# supervision tree
+# supervision tree (every restart is logged, counted, and published on frontseat::supervision::status)
 # frontseat interface
-#   root supervisor                 gives up past a child's restart limit: exit 3 (systemd restarts)
-#   ├── FrontSeatTranslation        with [moos]; [supervision.translation]: policy never|on-failure|always,
-#   │                               max_restarts within restart_window_s, backoff_initial_ms doubling to backoff_max_ms
-#   FrontSeatInterface              its own failure ends the service: exit 4
-#   └── DriverActor                 [supervision]: restart after restart_initial_delay_ms doubling to
-#                                   restart_max_delay_ms, at most max_restarts within restart_window_s, then exit 3
-#   Zenoh gateway                   with [interprocess] enabled; the Zenoh session reconnects by itself
-# frontseat sim
-#   SimServer
-#   └── one task per vehicle connection   a panic closes only that connection (SimStats.vehicle_panics)
+#   root supervisor                 gives up past a child's limit: exit 3 (or the child's own code)
+#   ├── ZenohGateway                with [interprocess] enabled   [supervision.zenoh]
+#   ├── Goby3Gateway                with [goby3] enabled          [supervision.goby3]
+#   ├── FrontSeatInterface          [supervision.interface] (on-failure, 3 in 60 s); an error state
+#   │   │                           (exit_on_error) or its driver's exhausted limit is not restarted:
+#   │   │                           the process ends with exit 2 / exit 3
+#   │   └── DriverActor             [supervision]: restart after restart_initial_delay_ms doubling to
+#   │                               restart_max_delay_ms, at most max_restarts within restart_window_s
+#   ├── FrontSeatTranslation        with [moos]                   [supervision.translation]
+#   └── WebScope                    with [web] enabled            [supervision.web]
+#       └── WebHub                  always restarted, at most 5 a minute; then the scope fails
+#   each [supervision.X]: policy never|on-failure|always, max_restarts within restart_window_s,
+#   backoff_initial_ms doubling to backoff_max_ms; children stop in reverse start order
+# frontseat sim (and the demo: SimServer + FrontSeatInterface + WebScope under one root)
+#   root supervisor
+#   └── SimServer                   [supervision] of the sim config
+#       └── one task per vehicle connection   a panic closes only that connection (vehicle_panics)
+# frontseat moos-gateway
+#   root supervisor
+#   ├── ZenohGateway                [supervision.zenoh]
+#   ├── Goby3Gateway                [supervision.goby3]
+#   └── FrontSeatTranslation        [supervision.translation]
 ";
 
 #[cfg(test)]

@@ -7,7 +7,7 @@ use serde::{Deserialize, Serialize};
 use crate::check::Checker;
 use crate::goby3::Goby3Config;
 use crate::sections::{InterprocessConfig, MoosConfig, TelemetryConfig};
-use crate::{FieldError, ServiceConfig};
+use crate::{FieldError, RestartConfig, ServiceConfig};
 
 /// Configuration of the standalone MOOS gateway (`frontseat moos-gateway -c FILE`). The [moos]
 /// section is required here.
@@ -29,6 +29,21 @@ pub struct GatewayConfig {
     /// OpenTelemetry trace export.
     #[serde(default)]
     pub telemetry: TelemetryConfig,
+    /// Restart policies of the root supervisor's children.
+    #[serde(default)]
+    pub supervision: GatewaySupervisionConfig,
+}
+
+/// The MOOS gateway's root supervisor: one restart policy per child.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields, default)]
+pub struct GatewaySupervisionConfig {
+    /// The Zenoh gateway (`[interprocess] enabled`).
+    pub zenoh: RestartConfig,
+    /// The Goby3 transport (`[goby3] enabled`).
+    pub goby3: RestartConfig,
+    /// The FrontSeatTranslation (the MOOS bridge itself).
+    pub translation: RestartConfig,
 }
 
 /// The gateway is a client of the interface's Zenoh endpoint by default: listening on the
@@ -50,6 +65,7 @@ impl Default for GatewayConfig {
             interprocess: gateway_interprocess(),
             goby3: Goby3Config::default(),
             telemetry: TelemetryConfig::default(),
+            supervision: GatewaySupervisionConfig::default(),
         }
     }
 }
@@ -70,6 +86,10 @@ impl ServiceConfig for GatewayConfig {
         self.interprocess.check("interprocess", &mut c);
         self.goby3.check("goby3", &mut c);
         self.telemetry.check("telemetry", &mut c);
+        let sup = &self.supervision;
+        sup.zenoh.check_at("supervision.zenoh", &mut c);
+        sup.goby3.check_at("supervision.goby3", &mut c);
+        sup.translation.check_at("supervision.translation", &mut c);
         c.errors
     }
 }

@@ -23,7 +23,7 @@ use serde::Serialize;
 use serde::de::DeserializeOwned;
 
 pub use error::{ConfigError, FieldError};
-pub use gateway::GatewayConfig;
+pub use gateway::{GatewayConfig, GatewaySupervisionConfig};
 pub use goby3::{Goby3Config, Goby3Transport};
 pub use interface::{
     AcceptingCommandsHook, BASIC_SIMULATOR, BLUEFIN, BUILT_IN_DRIVERS, BasicSimulatorConfig,

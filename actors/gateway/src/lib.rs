@@ -216,7 +216,9 @@ impl Service for GatewayHandle {
     }
     fn stop(self: Box<Self>, within: Duration) -> BoxFuture<'static, ()> {
         Box::pin(async move {
+            let stats = self.stats();
             let _ = tokio::time::timeout(within, (*self).close()).await;
+            tracing::info!(?stats, "Zenoh gateway stopped");
         })
     }
 }

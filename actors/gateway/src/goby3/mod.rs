@@ -111,7 +111,11 @@ impl frontseat_actors::service_child::Service for Goby3Handle {
         _within: Duration,
     ) -> frontseat_actors::service_child::BoxFuture<'static, ()> {
         // `close` bounds itself (2 s for the link task).
-        Box::pin(async move { (*self).close().await })
+        Box::pin(async move {
+            let stats = self.stats();
+            (*self).close().await;
+            tracing::info!(?stats, "Goby3 transport stopped");
+        })
     }
 }
 

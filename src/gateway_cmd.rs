@@ -9,7 +9,7 @@ use std::sync::Arc;
 
 use frontseat_actors::bus::Bus;
 use frontseat_actors::interface::ServiceExit;
-use frontseat_actors::service_child::{Service, service_child};
+use frontseat_actors::service_child::{Service, service_child_with};
 use frontseat_actors::supervisor::{ChildSpec, SupervisorHandle};
 use frontseat_config::Goby3Config;
 use frontseat_config::{GatewayConfig, InterfaceConfig};
@@ -61,6 +61,29 @@ pub fn start_goby3(
     frontseat_gateway::goby3::start(bus, settings, hosted, GatewayOptions::default()).map(Some)
 }
 
+/// The Goby3 transport as a child of a root supervisor, for `hosted` actors.
+pub fn goby3_child(
+    cfg: &Goby3Config,
+    name: &str,
+    bus: &Bus,
+    hosted: Vec<&'static str>,
+    policy: frontseat_actors::supervisor::Policy,
+) -> ChildSpec {
+    let ctx = (Arc::new(cfg.clone()), name.to_string(), bus.clone(), hosted);
+    service_child_with(
+        "Goby3Gateway",
+        policy,
+        ctx,
+        |(cfg, name, bus, hosted)| async move {
+            match start_goby3(&cfg, &name, &bus, &hosted) {
+                Ok(Some(g)) => Ok(Box::new(g) as Box<dyn Service>),
+                Ok(None) => Err("[goby3] is not enabled".to_string()),
+                Err(e) => Err(e.to_string()),
+            }
+        },
+    )
+}
+
 /// A hint for the commonest failure: the interface already listens on the default endpoint.
 fn open_hint(e: &GatewayError) -> &'static str {
     match e {
@@ -79,42 +102,30 @@ fn gateway_children(cfg: &GatewayConfig, platform: &str, bus: &Bus) -> Vec<Child
     let sup = &cfg.supervision;
     let mut children = Vec::new();
     if cfg.interprocess.enabled {
-        let (icfg, platform, bus) = (cfg.interprocess.clone(), platform.to_string(), bus.clone());
-        children.push(service_child(
+        let ctx = (
+            Arc::new(cfg.interprocess.clone()),
+            platform.to_string(),
+            bus.clone(),
+        );
+        children.push(service_child_with(
             "ZenohGateway",
             (&sup.zenoh).into(),
-            Arc::new(move || {
-                let (icfg, platform, bus) = (icfg.clone(), platform.clone(), bus.clone());
-                Box::pin(async move {
-                    frontseat_gateway::start(
-                        &bus,
-                        &icfg,
-                        &platform,
-                        &HOSTED,
-                        GatewayOptions::default(),
-                    )
+            ctx,
+            |(icfg, platform, bus)| async move {
+                frontseat_gateway::start(&bus, &icfg, &platform, &HOSTED, GatewayOptions::default())
                     .await
                     .map(|g| Box::new(g) as Box<dyn Service>)
                     .map_err(|e| format!("{e} {}", open_hint(&e)))
-                })
-            }),
+            },
         ));
     }
     if cfg.goby3.enabled {
-        let (gcfg, name, bus) = (cfg.goby3.clone(), cfg.name.clone(), bus.clone());
-        children.push(service_child(
-            "Goby3Gateway",
+        children.push(goby3_child(
+            &cfg.goby3,
+            &cfg.name,
+            bus,
+            HOSTED.to_vec(),
             (&sup.goby3).into(),
-            Arc::new(move || {
-                let (gcfg, name, bus) = (gcfg.clone(), name.clone(), bus.clone());
-                Box::pin(async move {
-                    match start_goby3(&gcfg, &name, &bus, &HOSTED) {
-                        Ok(Some(g)) => Ok(Box::new(g) as Box<dyn Service>),
-                        Ok(None) => Err("[goby3] is not enabled".to_string()),
-                        Err(e) => Err(e.to_string()),
-                    }
-                })
-            }),
         ));
     }
     let vehicle = if cfg.name.is_empty() {

@@ -8,7 +8,7 @@ use std::time::Duration;
 
 use frontseat_actors::bus::Bus;
 use frontseat_actors::interface::{InterfaceService, ServiceExit};
-use frontseat_actors::service_child::{BoxFuture, Service, service_child};
+use frontseat_actors::service_child::{BoxFuture, Service, service_child_with};
 use frontseat_actors::supervisor::{ChildFailure, ChildSpec, SupervisorHandle};
 use frontseat_config::{FaultKind, InterfaceConfig, SimConfig};
 use frontseat_sim::{CtrlState, Fault, ScheduledFault, SimHandle, SimOptions, SimServer};
@@ -40,60 +40,43 @@ pub fn interface_children(
     current: systemd::InterfaceRef,
 ) -> Vec<ChildSpec> {
     let sup = &config.supervision;
+    let ctx = (Arc::new(config.clone()), bus.clone());
     let mut children = Vec::new();
     if config.interprocess.enabled {
-        let (cfg, bus) = (config.clone(), bus.clone());
-        children.push(service_child(
+        children.push(service_child_with(
             "ZenohGateway",
             (&sup.zenoh).into(),
-            Arc::new(move || {
-                let (cfg, bus) = (cfg.clone(), bus.clone());
-                Box::pin(async move {
-                    match crate::gateway_cmd::start_for_interface(&cfg, &bus).await {
-                        Ok(Some(g)) => Ok(Box::new(g) as Box<dyn Service>),
-                        Ok(None) => Err("[interprocess] is not enabled".to_string()),
-                        Err(e) => Err(e.to_string()),
-                    }
-                })
-            }),
+            ctx.clone(),
+            |(cfg, bus)| async move {
+                match crate::gateway_cmd::start_for_interface(&cfg, &bus).await {
+                    Ok(Some(g)) => Ok(Box::new(g) as Box<dyn Service>),
+                    Ok(None) => Err("[interprocess] is not enabled".to_string()),
+                    Err(e) => Err(e.to_string()),
+                }
+            },
         ));
     }
     if config.goby3.enabled {
-        let (cfg, bus) = (config.clone(), bus.clone());
-        children.push(service_child(
-            "Goby3Gateway",
+        children.push(crate::gateway_cmd::goby3_child(
+            &config.goby3,
+            &config.name,
+            bus,
+            crate::gateway_cmd::interface_actors(config),
             (&sup.goby3).into(),
-            Arc::new(move || {
-                let (cfg, bus) = (cfg.clone(), bus.clone());
-                Box::pin(async move {
-                    let hosted = crate::gateway_cmd::interface_actors(&cfg);
-                    match crate::gateway_cmd::start_goby3(&cfg.goby3, &cfg.name, &bus, &hosted) {
-                        Ok(Some(g)) => Ok(Box::new(g) as Box<dyn Service>),
-                        Ok(None) => Err("[goby3] is not enabled".to_string()),
-                        Err(e) => Err(e.to_string()),
-                    }
-                })
-            }),
         ));
     }
-    {
-        let (cfg, bus) = (config.clone(), bus.clone());
-        children.push(service_child(
-            "FrontSeatInterface",
-            (&sup.interface).into(),
-            Arc::new(move || {
-                let (cfg, bus, current) = (cfg.clone(), bus.clone(), current.clone());
-                Box::pin(async move {
-                    let service = InterfaceService::start(&cfg, &bus)
-                        .await
-                        .map_err(|e| e.to_string())?;
-                    *current.lock().unwrap_or_else(|p| p.into_inner()) =
-                        Some(service.actor().clone());
-                    Ok(Box::new(service) as Box<dyn Service>)
-                })
-            }),
-        ));
-    }
+    children.push(service_child_with(
+        "FrontSeatInterface",
+        (&sup.interface).into(),
+        (ctx.clone(), current),
+        |((cfg, bus), current)| async move {
+            let service = InterfaceService::start(&cfg, &bus)
+                .await
+                .map_err(|e| e.to_string())?;
+            *current.lock().unwrap_or_else(|p| p.into_inner()) = Some(service.actor().clone());
+            Ok(Box::new(service) as Box<dyn Service>)
+        },
+    ));
     if let Some(moos) = &config.moos {
         children.push(frontseat_actors::translation::child_spec(
             frontseat_actors::translation::TranslationArgs {
@@ -107,19 +90,16 @@ pub fn interface_children(
         ));
     }
     if config.web.enabled {
-        let (cfg, bus) = (config.clone(), bus.clone());
-        children.push(service_child(
+        children.push(service_child_with(
             "WebScope",
             (&sup.web).into(),
-            Arc::new(move || {
-                let (cfg, bus) = (cfg.clone(), bus.clone());
-                Box::pin(async move {
-                    frontseat_web::WebService::start(&cfg, &bus)
-                        .await
-                        .map(|w| Box::new(w) as Box<dyn Service>)
-                        .map_err(|e| e.to_string())
-                })
-            }),
+            ctx,
+            |(cfg, bus)| async move {
+                frontseat_web::WebService::start(&cfg, &bus)
+                    .await
+                    .map(|w| Box::new(w) as Box<dyn Service>)
+                    .map_err(|e| e.to_string())
+            },
         ));
     }
     children
@@ -213,32 +193,34 @@ pub fn sim_child(
     current: Arc<std::sync::Mutex<Option<SimHandle>>>,
     embed: Option<Bus>,
 ) -> ChildSpec {
-    let first = Arc::new(std::sync::Mutex::new(first));
-    let addr = Arc::new(std::sync::Mutex::new(addr));
-    service_child(
+    let ctx = (
+        Arc::new(std::sync::Mutex::new(first)),
+        Arc::new(std::sync::Mutex::new(addr)),
+        opts,
+        current,
+        embed,
+    );
+    service_child_with(
         "SimServer",
         policy,
-        Arc::new(move || {
-            let (opts, current, embed) = (opts.clone(), current.clone(), embed.clone());
-            let (first, addr) = (first.clone(), addr.clone());
-            Box::pin(async move {
-                let ready = first.lock().unwrap_or_else(|p| p.into_inner()).take();
-                let sim = match ready {
-                    Some(s) => s,
-                    None => {
-                        let at = *addr.lock().unwrap_or_else(|p| p.into_inner());
-                        SimServer::bind(at, opts).await.map_err(|e| e.to_string())?
-                    }
-                };
-                // Port 0 asked for any port: a restart takes the same one back.
-                *addr.lock().unwrap_or_else(|p| p.into_inner()) = sim.local_addr();
-                *current.lock().unwrap_or_else(|p| p.into_inner()) = Some(sim.clone());
-                let glue = embed
-                    .as_ref()
-                    .map(|bus| frontseat_actors::sim_glue::embed(&sim, bus));
-                Ok(Box::new(SimService { sim, _glue: glue }) as Box<dyn Service>)
-            })
-        }),
+        ctx,
+        |(first, addr, opts, current, embed)| async move {
+            let ready = first.lock().unwrap_or_else(|p| p.into_inner()).take();
+            let sim = match ready {
+                Some(s) => s,
+                None => {
+                    let at = *addr.lock().unwrap_or_else(|p| p.into_inner());
+                    SimServer::bind(at, opts).await.map_err(|e| e.to_string())?
+                }
+            };
+            // Port 0 asked for any port: a restart takes the same one back.
+            *addr.lock().unwrap_or_else(|p| p.into_inner()) = sim.local_addr();
+            *current.lock().unwrap_or_else(|p| p.into_inner()) = Some(sim.clone());
+            let glue = embed
+                .as_ref()
+                .map(|bus| frontseat_actors::sim_glue::embed(&sim, bus));
+            Ok(Box::new(SimService { sim, _glue: glue }) as Box<dyn Service>)
+        },
     )
 }
 

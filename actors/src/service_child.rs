@@ -52,6 +52,25 @@ pub fn service_child(name: &str, policy: Policy, start: StartService) -> ChildSp
     }
 }
 
+/// [`service_child`] from a context cloned for every start and an async start function, so
+/// that callers do not repeat the clone-into-the-closure dance.
+pub fn service_child_with<C, F, Fut>(name: &str, policy: Policy, ctx: C, start: F) -> ChildSpec
+where
+    C: Clone + Send + Sync + 'static,
+    F: Fn(C) -> Fut + Send + Sync + 'static,
+    Fut: Future<Output = Result<Box<dyn Service>, String>> + Send + 'static,
+{
+    let start = Arc::new(start);
+    service_child(
+        name,
+        policy,
+        Arc::new(move || {
+            let fut = start(ctx.clone());
+            Box::pin(fut)
+        }),
+    )
+}
+
 pub struct ServiceActor;
 
 pub struct ServiceArgs {

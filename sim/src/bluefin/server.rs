@@ -150,8 +150,9 @@ async fn accept_loop(listener: TcpListener, shared: Arc<Shared>, mut stop: watch
         tokio::select! {
             () = async { let _ = stop.wait_for(|s| *s).await; } => break,
             Some(done) = tasks.join_next(), if !tasks.is_empty() => {
+                // Each session is isolated: a panic closes only its connection.
                 if let Err(e) = done {
-                    tracing::error!(error = %e, "Huxley connection task failed");
+                    tracing::error!(error = %e, "Huxley connection task failed: its connection is closed; the others go on");
                 }
             }
             accepted = listener.accept() => match accepted {
@@ -167,11 +168,13 @@ async fn accept_loop(listener: TcpListener, shared: Arc<Shared>, mut stop: watch
                     let mut stop2 = stop.clone();
                     tasks.spawn(async move {
                         add(&shared2.counters.active, 1);
+                        // Counted down however the task ends, a panic included: a crashed
+                        // session must not hold a vehicle slot for ever.
+                        let _active = Active(&shared2.counters.active);
                         tokio::select! {
                             () = connection(stream, peer, &shared2) => {}
                             () = async { let _ = stop2.wait_for(|s| *s).await; } => {}
                         }
-                        shared2.counters.active.fetch_sub(1, Ordering::Relaxed);
                     });
                 }
                 Err(e) => {
@@ -182,6 +185,14 @@ async fn accept_loop(listener: TcpListener, shared: Arc<Shared>, mut stop: watch
         }
     }
     tasks.shutdown().await;
+}
+
+struct Active<'a>(&'a std::sync::atomic::AtomicU64);
+
+impl Drop for Active<'_> {
+    fn drop(&mut self) {
+        self.0.fetch_sub(1, Ordering::Relaxed);
+    }
 }
 
 fn now_tod() -> f64 {

@@ -185,6 +185,125 @@ async fn iver3_over_a_pty_reaches_command_steers_in_feet_and_acks() {
     );
 }
 
+/// The response to request `id`, within the deadline.
+async fn response_to(
+    rx: &mut UnboundedReceiver<frontseat_actors::bus::Envelope<CommandResponse>>,
+    id: i32,
+) -> CommandResponse {
+    let deadline = tokio::time::Instant::now() + LONG;
+    loop {
+        let env = tokio::time::timeout_at(deadline, rx.recv())
+            .await
+            .expect("a command response in time")
+            .expect("bus alive");
+        if env.msg.request_id == Some(id) {
+            return (*env.msg).clone();
+        }
+    }
+}
+
+/// Waits for the Iver's iver_state extension to report `want`.
+async fn until_mode(
+    rx: &mut UnboundedReceiver<
+        frontseat_actors::bus::Envelope<
+            frontseat_actors::proto::frontseat::protobuf::iver::InterfaceData,
+        >,
+    >,
+    want: frontseat_actors::proto::goby::middleware::frontseat::protobuf::iver_state::IverMissionMode,
+) {
+    let deadline = tokio::time::Instant::now() + LONG;
+    loop {
+        let env = tokio::time::timeout_at(deadline, rx.recv())
+            .await
+            .unwrap_or_else(|_| panic!("iver_state {want:?} in time"))
+            .expect("bus alive");
+        if env.msg.iver_state.as_ref().map(|s| s.mode()) == Some(want) {
+            assert!(env.msg.node_status.is_some());
+            return;
+        }
+    }
+}
+
+/// Goby3's iver_command extension over the real pty: START_MISSION and STOP_MISSION go through
+/// the interface's gate to `$OMSTART`/`$OMSTOP`, the UVC's `$ACK` answers them, and the mode the
+/// UVC then reports comes back as the iver_state extension.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn iver3_mission_commands_and_mode_over_a_pty() {
+    use frontseat_actors::proto::frontseat::protobuf::iver;
+    use frontseat_actors::proto::goby::middleware::frontseat::protobuf::IverExtraCommands;
+    use frontseat_actors::proto::goby::middleware::frontseat::protobuf::iver_extra_commands::IverCommand;
+    use frontseat_actors::proto::goby::middleware::frontseat::protobuf::iver_state::IverMissionMode;
+
+    let emu = Emulator::start(
+        IverSession::new(IverOptions::default()),
+        Endpoint::Pty,
+        WARP,
+    )
+    .await
+    .unwrap();
+    let path = emu.pty_path().unwrap().to_string_lossy().into_owned();
+    let bus = Bus::new();
+    let mut status = StatusWatch::new(&bus);
+    let (_s1, mut responses) = bus.subscribe_channel(
+        &groups::GOBY_MIDDLEWARE_FRONTSEAT_COMMAND_RESPONSE,
+        "t",
+        1000,
+    );
+    let (_s2, mut modes) = bus.subscribe_channel(
+        &groups::FRONTSEAT_IVER_IVER_DATA_FROM_FRONTSEAT,
+        "t",
+        100_000,
+    );
+    let mission = |cmd: IverCommand, name: &str, id: i32| iver::CommandRequest {
+        response_requested: Some(true),
+        request_id: Some(id),
+        iver_command: Some(IverExtraCommands {
+            command: Some(cmd as i32),
+            mission: Some(name.to_string()),
+        }),
+        ..Default::default()
+    };
+    let service = InterfaceService::start(&iver_config(&path), &bus)
+        .await
+        .unwrap();
+    // Before COMMAND (no helm yet) the gate refuses it, as any command.
+    bus.publish(
+        &groups::FRONTSEAT_IVER_IVER_COMMAND_REQUEST,
+        mission(IverCommand::StartMission, "early.mis", 20),
+    );
+    let r = response_to(&mut responses, 20).await;
+    assert_eq!(r.request_successful, Some(false), "{r:?}");
+    assert_eq!(emu.session().stats.omstart, 0);
+
+    let helm = helm_heartbeat(&bus, HelmState::HelmDrive);
+    status
+        .until_state(InterfaceState::InterfaceCommand, LONG)
+        .await;
+    until_mode(&mut modes, IverMissionMode::IverModeNormal).await;
+
+    bus.publish(
+        &groups::FRONTSEAT_IVER_IVER_COMMAND_REQUEST,
+        mission(IverCommand::StartMission, "survey.mis", 21),
+    );
+    let r = response_to(&mut responses, 21).await;
+    assert_eq!(r.request_successful, Some(true), "{r:?}");
+    assert_eq!(emu.session().stats.omstart, 1);
+    assert_eq!(emu.session().mission, "survey.mis");
+    until_mode(&mut modes, IverMissionMode::IverModeMissionMode).await;
+
+    bus.publish(
+        &groups::FRONTSEAT_IVER_IVER_COMMAND_REQUEST,
+        mission(IverCommand::StopMission, "", 22),
+    );
+    let r = response_to(&mut responses, 22).await;
+    assert_eq!(r.request_successful, Some(true), "{r:?}");
+    assert_eq!(emu.session().stats.omstop, 1);
+    until_mode(&mut modes, IverMissionMode::IverModeNormal).await;
+
+    helm.abort();
+    assert_eq!(service.shutdown(LONG).await, ServiceExit::Clean);
+}
+
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn iver3_survives_line_noise_and_a_vanished_port() {
     let emu = Emulator::start(

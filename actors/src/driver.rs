@@ -25,6 +25,13 @@ pub trait SignalSink {
         _data: crate::proto::frontseat::protobuf::bluefin::InterfaceData,
     ) {
     }
+    /// InterfaceData carrying Goby3's Iver3 extension (`iver_state`, field 1001), published on
+    /// `frontseat::iver::iver_data_from_frontseat`. Only the Iver3 driver emits it.
+    fn iver_data_from_frontseat(
+        &mut self,
+        _data: crate::proto::frontseat::protobuf::iver::InterfaceData,
+    ) {
+    }
 }
 
 /// What a driver's I/O tasks observe and how they hand it over: defined with the links that
@@ -37,6 +44,7 @@ pub struct RecordingSink {
     pub responses: Vec<CommandResponse>,
     pub data: Vec<InterfaceData>,
     pub bluefin: Vec<crate::proto::frontseat::protobuf::bluefin::InterfaceData>,
+    pub iver: Vec<crate::proto::frontseat::protobuf::iver::InterfaceData>,
     pub raw_in: Vec<Raw>,
     pub raw_out: Vec<Raw>,
 }
@@ -59,6 +67,12 @@ impl SignalSink for RecordingSink {
         d: crate::proto::frontseat::protobuf::bluefin::InterfaceData,
     ) {
         self.bluefin.push(d);
+    }
+    fn iver_data_from_frontseat(
+        &mut self,
+        d: crate::proto::frontseat::protobuf::iver::InterfaceData,
+    ) {
+        self.iver.push(d);
     }
 }
 
@@ -100,6 +114,26 @@ pub trait Driver: Send + 'static {
                 error_code: Some(1),
                 error_string: Some(format!(
                     "driver `{}` does not take Bluefin commands",
+                    self.name()
+                )),
+            });
+        }
+    }
+    /// A CommandRequest with Goby3's Iver3 extension (`iver_command`, field 1001). Drivers other
+    /// than Iver3 refuse it (answering when a response was requested).
+    fn send_iver_command(
+        &mut self,
+        req: &crate::proto::frontseat::protobuf::iver::CommandRequest,
+        _now: Duration,
+        sig: &mut dyn SignalSink,
+    ) {
+        if req.response_requested() {
+            sig.command_response(CommandResponse {
+                request_successful: Some(false),
+                request_id: req.request_id,
+                error_code: Some(1),
+                error_string: Some(format!(
+                    "driver `{}` does not take Iver3 commands",
                     self.name()
                 )),
             });

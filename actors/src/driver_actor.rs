@@ -89,6 +89,12 @@ impl SignalSink for PortSink<'_> {
     ) {
         self.0.publish_bluefin_data_from_frontseat(data);
     }
+    fn iver_data_from_frontseat(
+        &mut self,
+        data: crate::proto::frontseat::protobuf::iver::InterfaceData,
+    ) {
+        self.0.publish_iver_data_from_frontseat(data);
+    }
 }
 
 impl DriverActorState {
@@ -184,6 +190,9 @@ impl Actor for DriverActor {
                 }
                 DriverActorInbox::BluefinCommand(env) => {
                     state.driver.send_bluefin_command(&env.msg, now, &mut sink)
+                }
+                DriverActorInbox::IverCommand(env) => {
+                    state.driver.send_iver_command(&env.msg, now, &mut sink)
                 }
                 DriverActorInbox::BluefinData(env) => {
                     state.driver.send_bluefin_data(&env.msg, now, &mut sink)

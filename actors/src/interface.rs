@@ -23,8 +23,9 @@ use crate::driver_actor::{DriverActor, DriverArgs, DriverMsg};
 use crate::ports::{FrontSeatInterfaceInbox, FrontSeatInterfacePorts};
 use crate::proto::frontseat::protobuf::InterfaceDetail;
 use crate::proto::goby::middleware::frontseat::protobuf::{
-    CartesianCoordinate, CommandRequest, CommandResponse, FrontSeatError, FrontSeatState,
-    HelmError, InterfaceData, InterfaceState, InterfaceStatus, NodeStatus, VehicleType,
+    CartesianCoordinate, CommandRequest, CommandResponse, DesiredCourse, FrontSeatError,
+    FrontSeatState, HelmError, InterfaceData, InterfaceState, InterfaceStatus, NodeStatus,
+    VehicleType,
 };
 use crate::proto::goby::middleware::protobuf::LatLonPoint;
 use crate::ratelog::{LogDecision, RateLimitedLog};
@@ -115,6 +116,37 @@ impl ServiceExit {
         }
     }
 }
+
+/// A mirror of Goby3's CommandRequest carrying a vehicle extension: its base request, and the
+/// same request with its course replaced by the one the safety envelope made safe.
+trait ExtendedCommand: Clone {
+    fn base(&self) -> CommandRequest;
+    fn with_course(self, course: Option<DesiredCourse>) -> Self;
+}
+
+macro_rules! extended_command {
+    ($t:ty) => {
+        impl ExtendedCommand for $t {
+            fn base(&self) -> CommandRequest {
+                CommandRequest {
+                    desired_course: self.desired_course,
+                    response_requested: self.response_requested,
+                    request_id: self.request_id,
+                    cancel_request_id: self.cancel_request_id,
+                }
+            }
+            fn with_course(self, desired_course: Option<DesiredCourse>) -> Self {
+                Self {
+                    desired_course,
+                    ..self
+                }
+            }
+        }
+    };
+}
+
+extended_command!(crate::proto::frontseat::protobuf::bluefin::CommandRequest);
+extended_command!(crate::proto::frontseat::protobuf::iver::CommandRequest);
 
 pub enum FsiMsg {
     Bus(FrontSeatInterfaceInbox),
@@ -378,37 +410,27 @@ impl FsiState {
         }
     }
 
-    /// A Bluefin-extended CommandRequest: the same gate, pending table and refusals as
-    /// [`Self::handle_command`], forwarded whole (extension included) to the driver.
-    fn handle_bluefin_command(
+    /// A vehicle-extended CommandRequest (Bluefin's field 1000, Iver3's 1001): the same gate,
+    /// pending table and refusals as [`Self::handle_command`]; the request to forward whole
+    /// (extension included, course made safe) to the driver, or None when it was refused.
+    fn gate_extended<M: ExtendedCommand>(
         &mut self,
-        env: Envelope<crate::proto::frontseat::protobuf::bluefin::CommandRequest>,
-    ) {
-        let m = &env.msg;
-        let base = CommandRequest {
-            desired_course: m.desired_course,
-            response_requested: m.response_requested,
-            request_id: m.request_id,
-            cancel_request_id: m.cancel_request_id,
-        };
+        env: Envelope<M>,
+    ) -> Option<(M, crate::bus::PublishMeta)> {
+        let base = env.msg.base();
         let state = self.sm.state();
         if !self.shutting_down && state == InterfaceState::InterfaceCommand {
-            let mirror = *env.msg;
+            let mirror = (*env.msg).clone();
             // Its desired_course crosses the same safety envelope as any other setpoint.
-            let Some(checked) = self.through_envelope(Envelope::rewrap(env, base)) else {
-                return;
-            };
+            let checked = self.through_envelope(Envelope::rewrap(env, base))?;
             if base.response_requested() {
                 self.pending
                     .insert(base.request_id, self.now() + self.s.command_timeout);
             }
-            let req = crate::proto::frontseat::protobuf::bluefin::CommandRequest {
-                desired_course: checked.msg.desired_course,
-                ..mirror
-            };
-            self.ports
-                .publish_bluefin_command_with(Arc::new(req), checked.meta());
-            return;
+            return Some((
+                mirror.with_course(checked.msg.desired_course),
+                checked.meta(),
+            ));
         }
         self.counters.commands_gated += 1;
         let (code, why) = if self.shutting_down {
@@ -423,6 +445,7 @@ impl FsiState {
             )
         };
         self.refuse(&base, code, why);
+        None
     }
 
     fn listen_or_command(&self) -> bool {
@@ -769,7 +792,16 @@ impl FrontSeatInterface {
                         tracing::debug!("data_to_frontseat dropped: not in listen or command");
                     }
                 }
-                I::BluefinCommandRequest(env) => st.handle_bluefin_command(env),
+                I::BluefinCommandRequest(env) => {
+                    if let Some((req, meta)) = st.gate_extended(env) {
+                        st.ports.publish_bluefin_command_with(Arc::new(req), meta);
+                    }
+                }
+                I::IverCommandRequest(env) => {
+                    if let Some((req, meta)) = st.gate_extended(env) {
+                        st.ports.publish_iver_command_with(Arc::new(req), meta);
+                    }
+                }
                 I::BluefinDataToFrontseat(env) => {
                     if st.listen_or_command() {
                         st.ports

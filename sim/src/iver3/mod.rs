@@ -58,7 +58,8 @@ pub struct IverSession {
     opts: IverOptions,
     vehicle: Vehicle,
     mode: String,
-    mission: String,
+    /// The mission the last `$OMSTART` named (reported in `$OSI`).
+    pub mission: String,
     /// Simulated seconds since start.
     t: f64,
     /// When the current `$OMS` expires (simulated seconds).

@@ -44,6 +44,37 @@ impl IverMode {
     }
 }
 
+impl IverMode {
+    /// Goby3's IverState.IverMissionMode for this mode.
+    pub fn proto(
+        self,
+    ) -> crate::proto::goby::middleware::frontseat::protobuf::iver_state::IverMissionMode {
+        use crate::proto::goby::middleware::frontseat::protobuf::iver_state::IverMissionMode as M;
+        match self {
+            IverMode::Unknown => M::IverModeUnknown,
+            IverMode::Normal => M::IverModeNormal,
+            IverMode::Stopped => M::IverModeStopped,
+            IverMode::Parking => M::IverModeParking,
+            IverMode::ManualOverride => M::IverModeManualOverride,
+            IverMode::ManualParking => M::IverModeManualParking,
+            IverMode::Servo => M::IverModeServoMode,
+            IverMode::Mission => M::IverModeMissionMode,
+        }
+    }
+}
+
+/// Longest mission name accepted in `$OMSTART` (a UVC file name).
+pub const MAX_MISSION_NAME: usize = 64;
+
+/// Whether `f` can be one NMEA field as is: printable ASCII without the separators (`,`), the
+/// checksum and start marks (`*`, `$`, `!`) or line ends, so that a mission name from the bus
+/// cannot add fields or sentences to what is written to the vehicle.
+pub fn is_field_safe(f: &str) -> bool {
+    f.len() <= MAX_MISSION_NAME
+        && f.bytes()
+            .all(|b| b.is_ascii_graphic() && !matches!(b, b',' | b'*' | b'$' | b'!') || b == b' ')
+}
+
 /// `$OSI` → NodeStatus: feet → metres, knots → m/s. Time is the backseat clock at reception
 /// (as in Goby3); local_fix is filled by the interface.
 pub fn osi_to_node_status(o: &Osi, now_unix: f64) -> NodeStatus {

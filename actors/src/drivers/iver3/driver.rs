@@ -17,6 +17,11 @@ use crate::link::LineWriter;
 use crate::link::byte::{self, ByteLinkConfig, LinkStats, Transport};
 use crate::link::framing::Framing;
 use crate::link::serial::SerialSettings;
+use crate::proto::frontseat::protobuf::iver::{
+    CommandRequest as IverCommandRequest, InterfaceData as IverInterfaceData,
+};
+use crate::proto::goby::middleware::frontseat::protobuf::IverState;
+use crate::proto::goby::middleware::frontseat::protobuf::iver_extra_commands::IverCommand;
 use crate::proto::goby::middleware::frontseat::protobuf::{
     CommandRequest, CommandResponse, FrontSeatState, InterfaceData, NodeStatus, Raw,
 };
@@ -226,6 +231,16 @@ impl Iver3Driver {
                 }
                 self.status = Some(ns.clone());
                 self.fresh_data(now);
+                // Goby3 publishes one InterfaceData with the iver_state extension; the same
+                // bytes go on frontseat::iver::iver_data_from_frontseat, and the plain one (the
+                // base fields Goby3's subscribers decode) on data_from_frontseat.
+                sig.iver_data_from_frontseat(IverInterfaceData {
+                    node_status: Some(ns.clone()),
+                    iver_state: Some(IverState {
+                        mode: Some(self.mode.proto() as i32),
+                    }),
+                    ..Default::default()
+                });
                 sig.data_from_frontseat(InterfaceData {
                     node_status: Some(ns),
                     ..Default::default()
@@ -285,6 +300,34 @@ impl Iver3Driver {
                 tracing::trace!(line, "ignoring sentence from the Iver");
             }
         }
+    }
+
+    /// A command written: its `$ACK` (of `ack` type) answers it, or the timeout does.
+    fn await_ack(
+        &mut self,
+        ack: u32,
+        request_id: Option<i32>,
+        respond: bool,
+        now: Duration,
+        sig: &mut dyn SignalSink,
+    ) {
+        if self.pending.len() >= MAX_PENDING
+            && let Some(old) = self.pending.pop_front()
+            && old.respond
+        {
+            sig.command_response(CommandResponse {
+                request_successful: Some(false),
+                request_id: old.request_id,
+                error_code: Some(2),
+                error_string: Some("too many commands awaiting $ACK".into()),
+            });
+        }
+        self.pending.push_back(Pending {
+            ack_type: ack,
+            request_id,
+            respond,
+            deadline: now + self.settings.ack_timeout,
+        });
     }
 
     fn fail(req: &CommandRequest, why: &str, sig: &mut dyn SignalSink) {
@@ -386,23 +429,79 @@ impl Driver for Iver3Driver {
             Self::fail(req, "not connected to the Iver: $OMS not sent", sig);
             return;
         }
-        if self.pending.len() >= MAX_PENDING
-            && let Some(old) = self.pending.pop_front()
-            && old.respond
-        {
-            sig.command_response(CommandResponse {
-                request_successful: Some(false),
-                request_id: old.request_id,
-                error_code: Some(2),
-                error_string: Some("too many commands awaiting $ACK".into()),
-            });
-        }
-        self.pending.push_back(Pending {
-            ack_type: ack_type::OMS,
+        self.await_ack(
+            ack_type::OMS,
+            req.request_id,
+            req.response_requested(),
+            now,
+            sig,
+        );
+    }
+
+    /// Goby3's iver_command: START_MISSION with a mission → `$OMSTART`, STOP_MISSION →
+    /// `$OMSTOP,0`, each awaiting its `$ACK` like `$OMS`; a desired_course in the same request is
+    /// sent after it (as Goby3). START_MISSION without a mission is refused (Goby3 only logs).
+    fn send_iver_command(
+        &mut self,
+        req: &IverCommandRequest,
+        now: Duration,
+        sig: &mut dyn SignalSink,
+    ) {
+        let base = CommandRequest {
+            desired_course: req.desired_course,
+            response_requested: req.response_requested,
             request_id: req.request_id,
-            respond: req.response_requested(),
-            deadline: now + self.settings.ack_timeout,
-        });
+            cancel_request_id: req.cancel_request_id,
+        };
+        let extra = req.iver_command.as_ref();
+        let sentence = match extra.map(|c| (c.command(), c.mission.as_deref().unwrap_or(""))) {
+            Some((IverCommand::StartMission, "")) => {
+                tracing::warn!("iver_command START_MISSION without a mission name: refused");
+                Self::fail(&base, "START_MISSION needs a mission name", sig);
+                return;
+            }
+            Some((IverCommand::StartMission, m)) if !codec::is_field_safe(m) => {
+                self.bad("iver_command mission name is not a plain NMEA field");
+                Self::fail(
+                    &base,
+                    "mission name must be printable ASCII without , * $",
+                    sig,
+                );
+                return;
+            }
+            Some((IverCommand::StartMission, m)) => Some((
+                Sentence::OmStart {
+                    mission: m.to_string(),
+                },
+                ack_type::OMSTART,
+            )),
+            Some((IverCommand::StopMission, _)) => Some((Sentence::OmStop, ack_type::OMSTOP)),
+            Some((IverCommand::UnknownCommand, _)) | None => None,
+        };
+        let Some((sentence, ack)) = sentence else {
+            // Nothing for the extension: the course alone, if any.
+            if base.desired_course.is_some() {
+                self.send_command_to_frontseat(&base, now, sig);
+            } else {
+                Self::fail(&base, "iver_command without a command", sig);
+            }
+            return;
+        };
+        let line = sentence.to_line();
+        if !self.write(&line, sig) {
+            Self::fail(
+                &base,
+                "not connected to the Iver: mission command not sent",
+                sig,
+            );
+            return;
+        }
+        // With a course as well, the response answers the course's $ACK (as one request).
+        let respond = base.response_requested() && base.desired_course.is_none();
+        self.await_ack(ack, base.request_id, respond, now, sig);
+        if base.desired_course.is_some() {
+            self.send_command_to_frontseat(&base, now, sig);
+        }
     }
 
     fn send_data_to_frontseat(
@@ -559,6 +658,171 @@ mod tests {
         assert!(d.frontseat_providing_data());
         d.do_loop(Duration::from_millis(11_100), &mut sink);
         assert!(!d.frontseat_providing_data());
+    }
+
+    #[test]
+    fn osi_carries_goby3s_iver_state_extension() {
+        use crate::proto::goby::middleware::frontseat::protobuf::iver_state::IverMissionMode;
+        let mut d = driver();
+        let mut sink = Sink::default();
+        let (w, _rx) = LineWriter::for_test();
+        d.handle_io(DriverIoEvent::Connected(w), Duration::ZERO, &mut sink);
+        d.handle_io(DriverIoEvent::Line(osi("W")), Duration::ZERO, &mut sink);
+        assert_eq!(sink.iver.len(), 1);
+        let st = sink.iver[0].iver_state.as_ref().unwrap();
+        assert_eq!(st.mode(), IverMissionMode::IverModeMissionMode);
+        assert_eq!(sink.iver[0].node_status, sink.data[0].node_status);
+        // Goby3's numbering: the mode is the letter's code.
+        assert_eq!(IverMissionMode::IverModeMissionMode as i32, i32::from(b'W'));
+        assert_eq!(
+            IverMissionMode::IverModeManualParking as i32,
+            i32::from(b'm')
+        );
+    }
+
+    fn mission(cmd: IverCommand, name: Option<&str>, course: bool) -> IverCommandRequest {
+        use crate::proto::goby::middleware::frontseat::protobuf::IverExtraCommands;
+        IverCommandRequest {
+            desired_course: course.then(|| DesiredCourse {
+                time: 0.0,
+                heading: Some(180.0),
+                depth: Some(3.0),
+                speed: Some(1.5),
+                ..Default::default()
+            }),
+            response_requested: Some(true),
+            request_id: Some(7),
+            iver_command: Some(IverExtraCommands {
+                command: Some(cmd as i32),
+                mission: name.map(str::to_string),
+            }),
+            ..Default::default()
+        }
+    }
+
+    #[test]
+    fn iver_command_table() {
+        // (name, request, lines written, response after the $ACK: Some(ok) / None: refused at once)
+        let rows: [(&str, IverCommandRequest, &[&str], Option<bool>); 6] = [
+            (
+                "START_MISSION with a mission writes $OMSTART",
+                mission(IverCommand::StartMission, Some("demo.mis"), false),
+                &["$OMSTART,0,0,0,0,demo.mis,*18\r\n"],
+                Some(true),
+            ),
+            (
+                "STOP_MISSION writes $OMSTOP,0",
+                mission(IverCommand::StopMission, None, false),
+                &["$OMSTOP,0*06\r\n"],
+                Some(true),
+            ),
+            (
+                "START_MISSION without a mission is refused, nothing written",
+                mission(IverCommand::StartMission, None, false),
+                &[],
+                None,
+            ),
+            (
+                "a mission name that would add fields or sentences is refused",
+                mission(
+                    IverCommand::StartMission,
+                    Some("x,1*00\r\n$OMSTOP,0"),
+                    false,
+                ),
+                &[],
+                None,
+            ),
+            (
+                "the extension first, then the course (as Goby3)",
+                mission(IverCommand::StopMission, None, true),
+                &["$OMSTOP,0*06\r\n", "$OMS,180.0,3.0,45.0,2.9,5*78\r\n"],
+                Some(true),
+            ),
+            (
+                "UNKNOWN_COMMAND with a course sends the course only",
+                mission(IverCommand::UnknownCommand, None, true),
+                &["$OMS,180.0,3.0,45.0,2.9,5*78\r\n"],
+                Some(true),
+            ),
+        ];
+        for (name, req, lines, answer) in rows {
+            let mut d = driver();
+            let mut sink = Sink::default();
+            let (w, mut rx) = LineWriter::for_test();
+            let t = Duration::ZERO;
+            d.handle_io(DriverIoEvent::Connected(w), t, &mut sink);
+            d.send_iver_command(&req, t, &mut sink);
+            let mut written = Vec::new();
+            while let Ok(l) = rx.try_recv() {
+                written.push(String::from_utf8(l.to_vec()).unwrap());
+            }
+            assert_eq!(written, lines, "{name}");
+            match answer {
+                None => {
+                    assert_eq!(sink.responses.len(), 1, "{name}");
+                    assert_eq!(sink.responses[0].request_successful, Some(false), "{name}");
+                }
+                Some(ok) => {
+                    assert!(
+                        sink.responses.is_empty(),
+                        "{name}: answered before the $ACK"
+                    );
+                    for l in lines {
+                        let ack = if l.starts_with("$OMSTART") {
+                            ack_type::OMSTART
+                        } else if l.starts_with("$OMSTOP") {
+                            ack_type::OMSTOP
+                        } else {
+                            ack_type::OMS
+                        };
+                        let line = codec::with_checksum(&format!("ACK,{ack},0,0"));
+                        d.handle_io(DriverIoEvent::Line(line), t, &mut sink);
+                    }
+                    assert_eq!(sink.responses.len(), 1, "{name}: one answer per request");
+                    assert_eq!(sink.responses[0].request_successful, Some(ok), "{name}");
+                    assert_eq!(sink.responses[0].request_id, Some(7), "{name}");
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn the_mirror_is_goby3s_extension_1001_on_the_wire() {
+        use prost::Message;
+        let req = IverCommandRequest {
+            request_id: Some(7),
+            iver_command: Some(
+                crate::proto::goby::middleware::frontseat::protobuf::IverExtraCommands {
+                    command: Some(IverCommand::StartMission as i32),
+                    mission: Some("a".into()),
+                },
+            ),
+            ..Default::default()
+        };
+        // request_id (11, varint) 7; then field 1001 length-delimited: tag (1001 << 3 | 2) =
+        // 8010 = varint CA 3E, 5 bytes: command (1, varint) 1, mission (2, bytes) "a".
+        let want = [0x58, 0x07, 0xCA, 0x3E, 0x05, 0x08, 0x01, 0x12, 0x01, b'a'];
+        assert_eq!(req.encode_to_vec(), want);
+        // Goby3's base CommandRequest reads the same bytes (the extension skipped as unknown).
+        let base = CommandRequest::decode(&want[..]).unwrap();
+        assert_eq!(base.request_id, Some(7));
+    }
+
+    #[test]
+    fn mission_names_are_plain_fields() {
+        for (name, ok) in [
+            ("demo.mis", true),
+            ("survey 2.mis", true),
+            ("", true),
+            ("a,b", false),
+            ("a*b", false),
+            ("a$b", false),
+            ("a\r\n", false),
+            ("é.mis", false),
+            (&"m".repeat(65), false),
+        ] {
+            assert_eq!(codec::is_field_safe(name), ok, "{name:?}");
+        }
     }
 
     #[test]

@@ -18,7 +18,7 @@ use frontseat_gateway::{GatewayError, GatewayHandle, GatewayOptions};
 
 /// The actors `frontseat interface` hosts, hence what its gateway exports and imports.
 pub fn interface_actors(cfg: &InterfaceConfig) -> Vec<&'static str> {
-    let mut hosted = vec!["FrontSeatInterface", "RootSupervisor"];
+    let mut hosted = vec!["FrontSeatInterface", "RootSupervisor", "HealthReporter"];
     if cfg.moos.is_some() {
         hosted.push("FrontSeatTranslation");
     }
@@ -84,6 +84,22 @@ pub fn goby3_child(
     )
 }
 
+/// The goby_coroner responder as a child of a root supervisor, answering as `name`; restarted
+/// by the default policy (it holds nothing but the last statuses).
+pub fn health_child(name: &str, bus: &Bus) -> ChildSpec {
+    service_child_with(
+        "HealthReporter",
+        (&frontseat_config::RestartConfig::default()).into(),
+        (name.to_string(), bus.clone()),
+        |(name, bus)| async move {
+            Ok(
+                Box::new(frontseat_actors::health::HealthReporter::spawn(&bus, &name))
+                    as Box<dyn Service>,
+            )
+        },
+    )
+}
+
 /// A hint for the commonest failure: the interface already listens on the default endpoint.
 fn open_hint(e: &GatewayError) -> &'static str {
     match e {
@@ -98,7 +114,7 @@ fn open_hint(e: &GatewayError) -> &'static str {
 /// The root supervisor's children for `frontseat moos-gateway`, in start order: the transports
 /// first, so that what the MOOS side publishes from its first moment is exported.
 fn gateway_children(cfg: &GatewayConfig, platform: &str, bus: &Bus) -> Vec<ChildSpec> {
-    const HOSTED: [&str; 1] = ["FrontSeatTranslation"];
+    const HOSTED: [&str; 3] = ["FrontSeatTranslation", "RootSupervisor", "HealthReporter"];
     let sup = &cfg.supervision;
     let mut children = Vec::new();
     if cfg.interprocess.enabled {
@@ -128,6 +144,10 @@ fn gateway_children(cfg: &GatewayConfig, platform: &str, bus: &Bus) -> Vec<Child
             (&sup.goby3).into(),
         ));
     }
+    children.push(health_child(
+        cfg.goby3.health_name("goby_moos_gateway"),
+        bus,
+    ));
     let vehicle = if cfg.name.is_empty() {
         platform.to_string()
     } else {

@@ -56,6 +56,11 @@ pub fn interface_children(
             },
         ));
     }
+    // First of the rest, so that its first answer already knows every child.
+    children.push(crate::gateway_cmd::health_child(
+        config.goby3.health_name("goby_frontseat_interface"),
+        bus,
+    ));
     if config.goby3.enabled {
         children.push(crate::gateway_cmd::goby3_child(
             &config.goby3,

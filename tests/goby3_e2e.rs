@@ -20,6 +20,7 @@ use frontseat_actors::proto::frontseat::protobuf::InterfaceDetail;
 use frontseat_actors::proto::goby::middleware::frontseat::protobuf::{
     DesiredCourse, HelmState, HelmStateReport, NodeStatus,
 };
+use frontseat_actors::proto::goby::middleware::protobuf::HealthState;
 use frontseat_config::Goby3Config;
 use frontseat_gateway::goby3::standin::{StandinGobyd, StandinTransport};
 use frontseat_gateway::goby3::{self, Goby3Handle, Goby3Settings};
@@ -77,10 +78,15 @@ fn interface(dir: &Path, sim_port: u16, extra: &str) -> Kill {
 
 /// A Goby3 helm: a Goby3 client of gobyd on its own bus, as a separate process would be.
 fn goby3_helm(bus: &Bus, base: &str) -> Goby3Handle {
+    goby3_client(bus, base, "goby3_course_helm", "FrontSeatTranslation")
+}
+
+/// A Goby3 client of gobyd named `client`, carrying the groups of the `hosted` actor.
+fn goby3_client(bus: &Bus, base: &str, client: &str, hosted: &str) -> Goby3Handle {
     let cfg = Goby3Config {
         enabled: true,
         socket_name: base.to_string(),
-        client_name: "goby3_course_helm".into(),
+        client_name: client.into(),
         settle_ms: 100,
         reconnect_initial_ms: 20,
         reconnect_max_ms: 200,
@@ -88,13 +94,7 @@ fn goby3_helm(bus: &Bus, base: &str) -> Goby3Handle {
         ..Default::default()
     };
     let settings = Goby3Settings::from_config(&cfg, "auv1").unwrap();
-    goby3::start(
-        bus,
-        settings,
-        &["FrontSeatTranslation"],
-        GatewayOptions::default(),
-    )
-    .unwrap()
+    goby3::start(bus, settings, &[hosted], GatewayOptions::default()).unwrap()
 }
 
 fn heading_near(h: f64, target: f64, tol: f64) -> bool {
@@ -210,6 +210,44 @@ async fn a_goby3_helm_commands_the_interface_through_gobyd_beside_a_zenoh_topsid
         .await
         .unwrap()
         .unwrap();
+
+    // goby_coroner's question, through gobyd: the interface answers as the Goby3 application it
+    // replaces, with the root supervisor's children.
+    let coroner_bus = Bus::new();
+    let coroner = goby3_client(&coroner_bus, &base, "goby_coroner", "Coroner");
+    let (_s3, mut health) = coroner_bus.subscribe_channel(&groups::GOBY_HEALTH_RESPONSE, "t", 100);
+    let deadline = Instant::now() + LONG;
+    let answer = loop {
+        // Repeated: the first requests may go out before gobyd forwarded the subscriptions.
+        coroner_bus.publish(&groups::GOBY_HEALTH_REQUEST, Default::default());
+        match tokio::time::timeout(Duration::from_millis(500), health.recv()).await {
+            Ok(Some(h)) => break h,
+            Ok(None) => panic!("coroner bus closed"),
+            Err(_) => assert!(
+                Instant::now() < deadline,
+                "no health answer\ninterface log:\n{}",
+                log(&dir, "interface")
+            ),
+        }
+    };
+    assert_eq!(answer.msg.name, "goby_frontseat_interface");
+    assert_eq!(
+        answer.msg.main.state(),
+        HealthState::HealthOk,
+        "{:?}",
+        answer.msg
+    );
+    let children: Vec<&str> = answer
+        .msg
+        .main
+        .child
+        .iter()
+        .map(|c| c.name.as_str())
+        .collect();
+    for want in ["ZenohGateway", "Goby3Gateway", "FrontSeatInterface"] {
+        assert!(children.contains(&want), "{children:?}");
+    }
+    coroner.close().await;
 
     // gobyd goes away: the interface keeps running and says so; Zenoh keeps flowing.
     gobyd.stop().await;

@@ -13,6 +13,7 @@ pub mod driver;
 pub mod driver_actor;
 pub mod drivers;
 pub mod generated;
+pub mod health;
 pub mod interface;
 pub mod link;
 pub mod ratelog;

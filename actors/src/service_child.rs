@@ -180,6 +180,20 @@ impl Service for InterfaceService {
     }
 }
 
+/// The goby_coroner responder: it ends by itself only when its task failed.
+impl Service for crate::health::HealthReporter {
+    fn ended(&mut self) -> BoxFuture<'_, Result<(), ChildFailure>> {
+        Box::pin(async move {
+            Err(ChildFailure::new(
+                crate::health::HealthReporter::ended(self).await,
+            ))
+        })
+    }
+    fn stop(self: Box<Self>, _within: Duration) -> BoxFuture<'static, ()> {
+        Box::pin(async move { drop(self) })
+    }
+}
+
 /// The basic simulator's server: it ends by itself only when its accept task failed.
 impl Service for frontseat_sim::SimHandle {
     fn ended(&mut self) -> BoxFuture<'_, Result<(), ChildFailure>> {

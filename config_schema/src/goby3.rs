@@ -55,6 +55,21 @@ pub struct Goby3Config {
     /// Cap of the reconnect delay. Unit: ms.
     #[schemars(range(min = 1))]
     pub reconnect_max_ms: u64,
+    /// The name this process answers goby_coroner's health requests with (its
+    /// `--expected_name`); empty = the Goby3 application it replaces: `goby_frontseat_interface`
+    /// for `frontseat interface`, `goby_moos_gateway` for `frontseat moos-gateway`.
+    pub app_name: String,
+}
+
+impl Goby3Config {
+    /// The name in health answers: `app_name`, else `default` (the Goby3 application replaced).
+    pub fn health_name<'a>(&'a self, default: &'a str) -> &'a str {
+        if self.app_name.is_empty() {
+            default
+        } else {
+            &self.app_name
+        }
+    }
 }
 
 impl Default for Goby3Config {
@@ -71,6 +86,7 @@ impl Default for Goby3Config {
             settle_ms: 1000,
             reconnect_initial_ms: 100,
             reconnect_max_ms: 2000,
+            app_name: String::new(),
         }
     }
 }

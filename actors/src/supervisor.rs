@@ -546,6 +546,7 @@ pub const TREE: &str = "\
 # frontseat interface
 #   root supervisor                 gives up past a child's limit: exit 3 (or the child's own code)
 #   ├── ZenohGateway                with [interprocess] enabled   [supervision.zenoh]
+#   ├── HealthReporter              answers goby_coroner (goby::health::request)
 #   ├── Goby3Gateway                with [goby3] enabled          [supervision.goby3]
 #   ├── FrontSeatInterface          [supervision.interface] (on-failure, 3 in 60 s); an error state
 #   │   │                           (exit_on_error) or its driver's exhausted limit is not restarted:
@@ -565,6 +566,7 @@ pub const TREE: &str = "\
 #   root supervisor
 #   ├── ZenohGateway                [supervision.zenoh]
 #   ├── Goby3Gateway                [supervision.goby3]
+#   ├── HealthReporter              answers goby_coroner (goby::health::request)
 #   └── FrontSeatTranslation        [supervision.translation]
 ";
 

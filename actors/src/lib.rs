@@ -17,6 +17,7 @@ pub mod health;
 pub mod interface;
 pub mod link;
 pub mod ratelog;
+pub mod seawater;
 pub mod service_child;
 pub mod sim_glue;
 pub mod state_machine;

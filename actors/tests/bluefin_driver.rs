@@ -624,6 +624,17 @@ fn huxley_extension_data_is_published_with_goby3_fields() {
     let c = h.sink.data[0].ctd_sample.as_ref().unwrap();
     assert_eq!(c.conductivity, Some(4.2));
     assert_eq!((c.temperature, c.pressure), (12.5, 201_325.0));
+    // Completed as Goby3's compute_missing: PSS-78 salinity, Mackenzie sound speed, EOS-80.
+    let sal = frontseat_actors::seawater::salinity_pss78(4.2 / 4.2914, 12.5, 20.1325);
+    assert_eq!(c.salinity, sal);
+    assert!((35.0..38.0).contains(&c.salinity), "{}", c.salinity);
+    assert!(
+        (1490.0..1510.0).contains(&c.sound_speed),
+        "{}",
+        c.sound_speed
+    );
+    assert!((1026.0..1030.0).contains(&c.density), "{}", c.density);
+    assert_eq!(c.density_algorithm, Some(1));
 }
 
 #[test]

@@ -484,23 +484,23 @@ impl BluefinDriver {
                     return;
                 };
                 let nan = f64::NAN;
+                let mut sample = CtdSample {
+                    time: (self.wall)(now),
+                    conductivity: c.conductivity_us_cm.map(|us| us / 1e4),
+                    temperature: t,
+                    pressure: p * 1000.0,
+                    global_fix: LatLonPoint {
+                        lat: fix.map_or(nan, |f| f.0),
+                        lon: fix.map_or(nan, |f| f.1),
+                        depth: fix.and_then(|f| f.2),
+                        altitude: None,
+                    },
+                    ..Default::default()
+                };
+                // Salinity, sound speed, density (and depth without a $BFNVG), as Goby3.
+                crate::seawater::fill_ctd(&mut sample);
                 sig.data_from_frontseat(InterfaceData {
-                    ctd_sample: Some(CtdSample {
-                        time: (self.wall)(now),
-                        conductivity: c.conductivity_us_cm.map(|us| us / 1e4),
-                        temperature: t,
-                        pressure: p * 1000.0,
-                        salinity: nan,
-                        sound_speed: nan,
-                        density: nan,
-                        global_fix: LatLonPoint {
-                            lat: fix.map_or(nan, |f| f.0),
-                            lon: fix.map_or(nan, |f| f.1),
-                            depth: fix.and_then(|f| f.2),
-                            altitude: None,
-                        },
-                        ..Default::default()
-                    }),
+                    ctd_sample: Some(sample),
                     ..Default::default()
                 });
             }

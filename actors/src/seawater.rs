@@ -46,7 +46,7 @@ pub fn depth_unesco(p_dbar: f64, lat_deg: f64) -> f64 {
 pub fn sound_speed_mackenzie(t: f64, s: f64, d: f64) -> Option<f64> {
     let in_range =
         (-2.0..=30.0).contains(&t) && (25.0..=40.0).contains(&s) && (0.0..=8000.0).contains(&d);
-    in_range.then(|| {
+    in_range.then_some({
         1448.96 + 4.591 * t - 5.304e-2 * t * t
             + 2.374e-4 * t * t * t
             + 1.340 * (s - 35.0)

@@ -76,6 +76,26 @@ impl SignalSink for RecordingSink {
     }
 }
 
+/// The answer of a driver to a vehicle-extended command it does not speak (`vehicle`'s).
+fn refuse_unsupported(
+    sig: &mut dyn SignalSink,
+    response_requested: bool,
+    request_id: Option<i32>,
+    driver: &str,
+    vehicle: &str,
+) {
+    if response_requested {
+        sig.command_response(CommandResponse {
+            request_successful: Some(false),
+            request_id,
+            error_code: Some(1),
+            error_string: Some(format!(
+                "driver `{driver}` does not take {vehicle} commands"
+            )),
+        });
+    }
+}
+
 pub struct DriverContext {
     pub io: IoSender,
     pub clock: crate::clock::SimClock,
@@ -107,17 +127,13 @@ pub trait Driver: Send + 'static {
         _now: Duration,
         sig: &mut dyn SignalSink,
     ) {
-        if req.response_requested() {
-            sig.command_response(CommandResponse {
-                request_successful: Some(false),
-                request_id: req.request_id,
-                error_code: Some(1),
-                error_string: Some(format!(
-                    "driver `{}` does not take Bluefin commands",
-                    self.name()
-                )),
-            });
-        }
+        refuse_unsupported(
+            sig,
+            req.response_requested(),
+            req.request_id,
+            self.name(),
+            "Bluefin",
+        );
     }
     /// A CommandRequest with Goby3's Iver3 extension (`iver_command`, field 1001). Drivers other
     /// than Iver3 refuse it (answering when a response was requested).
@@ -127,17 +143,13 @@ pub trait Driver: Send + 'static {
         _now: Duration,
         sig: &mut dyn SignalSink,
     ) {
-        if req.response_requested() {
-            sig.command_response(CommandResponse {
-                request_successful: Some(false),
-                request_id: req.request_id,
-                error_code: Some(1),
-                error_string: Some(format!(
-                    "driver `{}` does not take Iver3 commands",
-                    self.name()
-                )),
-            });
-        }
+        refuse_unsupported(
+            sig,
+            req.response_requested(),
+            req.request_id,
+            self.name(),
+            "Iver3",
+        );
     }
     /// InterfaceData with Goby3's Bluefin extension (payload status, modem lines). Drivers other
     /// than Bluefin ignore it.

@@ -2,6 +2,9 @@
 //! included by `src/generated.rs`. A bad declaration fails the build with the yaml file and line.
 
 fn main() {
-    let manifest_dir = std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR"));
+    // At run time, not env!(): a build script compiled for a clone elsewhere is reused from a
+    // shared target directory (cargo hashes path packages without their location).
+    let manifest_dir =
+        std::path::PathBuf::from(std::env::var_os("CARGO_MANIFEST_DIR").unwrap_or_default());
     frontseat_codegen::run_build_script(&manifest_dir.join("../interface_yaml"));
 }

@@ -5,7 +5,9 @@
 use std::path::PathBuf;
 
 fn main() {
-    let manifest = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
+    // At run time, not env!(): a build script compiled for a clone elsewhere is reused from a
+    // shared target directory (cargo hashes path packages without their location).
+    let manifest = PathBuf::from(std::env::var_os("CARGO_MANIFEST_DIR").unwrap_or_default());
     let proto_dir = manifest.join("../../interface_yaml/proto");
     let main_proto = "goby/middleware/frontseat/frontseat.proto";
     println!(

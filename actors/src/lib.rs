@@ -15,6 +15,7 @@ pub mod drivers;
 pub mod generated;
 pub mod interface;
 pub mod link;
+pub mod metrics;
 pub mod ratelog;
 pub mod sim_glue;
 pub mod state_machine;

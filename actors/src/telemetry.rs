@@ -7,15 +7,26 @@
 //! disabled-callsite check. Trace context crosses the bus in the envelope as a W3C traceparent (and
 //! within a process also through ractor's message span propagation), so a subscriber's span is a
 //! child of the publisher's, fan-out included.
+//!
+//! It also owns the export pipeline's bookkeeping: every span handed to the batch processor is
+//! either exported, dropped at a full queue or lost in a failed request, and those counts reach
+//! the interface's detail status, the metrics (`crate::metrics`, exported over OTLP/HTTP beside
+//! the traces) and a last log line at shutdown.
 
 use std::collections::HashMap;
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::time::Duration;
 
 use frontseat_config::TelemetryConfig;
 use opentelemetry::propagation::TextMapPropagator;
 use opentelemetry::trace::TracerProvider as _;
 use opentelemetry_sdk::propagation::TraceContextPropagator;
-use opentelemetry_sdk::trace::{Sampler, SdkTracerProvider, SpanExporter};
+use opentelemetry_sdk::error::OTelSdkResult;
+use opentelemetry_sdk::metrics::SdkMeterProvider;
+use opentelemetry_sdk::trace::{
+    BatchConfigBuilder, BatchSpanProcessor, Sampler, SdkTracerProvider, SpanData, SpanExporter,
+    SpanProcessor,
+};
 use tracing_opentelemetry::OpenTelemetrySpanExt;
 use tracing_subscriber::Layer;
 use tracing_subscriber::layer::SubscriberExt;
@@ -53,9 +64,78 @@ pub struct Resolved {
     pub nav_traces_per_s: Option<f64>,
     /// OTEL_TRACES_SAMPLER, when set: the standard sampler wins over ours.
     pub standard_sampler: Option<String>,
+    /// Where metrics go; None: leave it to the exporter (OTEL_EXPORTER_OTLP_(METRICS_)ENDPOINT).
+    pub metrics_endpoint: Option<String>,
+    pub metrics_interval: Duration,
+    pub batch: BatchSizes,
+}
+
+/// The batch span processor's sizes after config and OTEL_BSP_* are combined.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct BatchSizes {
+    pub max_queue_size: usize,
+    pub max_export_batch_size: usize,
+    pub scheduled_delay: Duration,
 }
 
 const DEFAULT_ENDPOINT: &str = "http://127.0.0.1:4318";
+
+/// `<base>/v1/metrics`, also from a traces URL (`…/v1/traces`), so metrics follow the traces.
+fn metrics_url(base: &str) -> String {
+    let b = base.trim_end_matches('/');
+    let b = b.strip_suffix("/v1/traces").unwrap_or(b);
+    if b.ends_with("/v1/metrics") {
+        b.to_string()
+    } else {
+        format!("{b}/v1/metrics")
+    }
+}
+
+/// The config's value unless it is the default, then the environment's, then the default.
+fn setting<T: PartialEq + Copy + std::str::FromStr>(
+    cfg: T,
+    default: T,
+    env: &impl Fn(&str) -> Option<String>,
+    var: &str,
+) -> T {
+    if cfg != default {
+        return cfg;
+    }
+    env(var)
+        .and_then(|s| s.trim().parse::<T>().ok())
+        .unwrap_or(default)
+}
+
+fn batch_sizes(cfg: &TelemetryConfig, env: &impl Fn(&str) -> Option<String>) -> BatchSizes {
+    use frontseat_config::{
+        DEFAULT_MAX_EXPORT_BATCH_SIZE, DEFAULT_MAX_QUEUE_SIZE, DEFAULT_SCHEDULED_DELAY_MS,
+    };
+    let queue = setting(
+        cfg.max_queue_size,
+        DEFAULT_MAX_QUEUE_SIZE,
+        env,
+        "OTEL_BSP_MAX_QUEUE_SIZE",
+    )
+    .clamp(1, 1 << 24);
+    let batch = setting(
+        cfg.max_export_batch_size,
+        DEFAULT_MAX_EXPORT_BATCH_SIZE,
+        env,
+        "OTEL_BSP_MAX_EXPORT_BATCH_SIZE",
+    )
+    .clamp(1, queue);
+    let delay = setting(
+        cfg.scheduled_delay_ms,
+        DEFAULT_SCHEDULED_DELAY_MS,
+        env,
+        "OTEL_BSP_SCHEDULE_DELAY",
+    );
+    BatchSizes {
+        max_queue_size: queue as usize,
+        max_export_batch_size: batch as usize,
+        scheduled_delay: Duration::from_millis(u64::from(delay.max(1))),
+    }
+}
 
 fn traces_url(base: &str) -> String {
     let b = base.trim_end_matches('/');
@@ -85,6 +165,25 @@ pub fn resolve(
     } else {
         None
     };
+    let env_metrics = env("OTEL_EXPORTER_OTLP_METRICS_ENDPOINT")
+        .or_else(|| env("OTEL_EXPORTER_OTLP_ENDPOINT"))
+        .filter(|s| !s.trim().is_empty());
+    let metrics_endpoint = match (&endpoint, &env_metrics, &env_endpoint) {
+        (Some(_), _, _) => Some(metrics_url(&cfg.endpoint)),
+        (None, Some(_), _) => None,
+        // Only OTEL_EXPORTER_OTLP_TRACES_ENDPOINT: the metrics go to the same collector.
+        (None, None, traces) => traces.as_deref().map(metrics_url),
+    };
+    let default_interval = frontseat_config::DEFAULT_METRICS_INTERVAL_S;
+    let metrics_interval = if cfg.metrics_interval_s != default_interval {
+        Duration::from_secs_f64(cfg.metrics_interval_s.clamp(0.1, 3600.0))
+    } else {
+        env("OTEL_METRIC_EXPORT_INTERVAL")
+            .and_then(|s| s.trim().parse::<u64>().ok())
+            .filter(|ms| *ms > 0)
+            .map(Duration::from_millis)
+            .unwrap_or(Duration::from_secs_f64(default_interval))
+    };
     // Read OTEL_SERVICE_NAME here rather than leaving it to the SDK, so that the project
     // attribute Phoenix groups by follows it too.
     let service_name = if !cfg.service_name.is_empty() {
@@ -111,13 +210,132 @@ pub fn resolve(
             .is_none()
             .then_some(cfg.nav_traces_per_s.clamp(0.0, 1000.0)),
         standard_sampler,
+        metrics_endpoint,
+        metrics_interval,
+        batch: batch_sizes(cfg, &env),
     })
 }
 
-/// Keeps the tracer provider alive; `shutdown` flushes the last spans (call it on SIGTERM).
+/// What became of the spans handed to the export pipeline, for the whole process.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct SpanCounts {
+    /// Accepted by the collector.
+    pub exported: u64,
+    /// Not queued: the batch queue was full (or the pipeline already shut down).
+    pub queue_full: u64,
+    /// In a request that failed (collector down, timeout, refused).
+    pub export_failed: u64,
+}
+
+impl SpanCounts {
+    pub fn dropped(&self) -> u64 {
+        self.queue_full + self.export_failed
+    }
+}
+
+static EXPORTED: AtomicU64 = AtomicU64::new(0);
+static QUEUE_FULL: AtomicU64 = AtomicU64::new(0);
+static EXPORT_FAILED: AtomicU64 = AtomicU64::new(0);
+/// Spans accepted by [`CountingProcessor`] and not yet handed to the exporter: in the batch
+/// processor's channel or its pending batch.
+static IN_QUEUE: AtomicU64 = AtomicU64::new(0);
+
+/// The process's span counts so far.
+pub fn span_counts() -> SpanCounts {
+    SpanCounts {
+        exported: EXPORTED.load(Ordering::Relaxed),
+        queue_full: QUEUE_FULL.load(Ordering::Relaxed),
+        export_failed: EXPORT_FAILED.load(Ordering::Relaxed),
+    }
+}
+
+/// The span counts for a status: None when this process does not export spans.
+pub fn span_counts_if_exporting() -> Option<SpanCounts> {
+    enabled().then(span_counts)
+}
+
+/// Wraps the SDK's BatchSpanProcessor, which counts the spans it drops but does not say how many
+/// (it only logs the total at shutdown): this processor admits a span only while fewer than
+/// `max_queue` are waiting, so the batch processor's channel (of that capacity) never refuses one,
+/// and the ones refused here are counted exactly.
+#[derive(Debug)]
+struct CountingProcessor {
+    inner: BatchSpanProcessor,
+    max_queue: u64,
+}
+
+impl SpanProcessor for CountingProcessor {
+    fn on_start(&self, span: &mut opentelemetry_sdk::trace::Span, cx: &opentelemetry::Context) {
+        self.inner.on_start(span, cx);
+    }
+
+    fn on_end(&self, span: SpanData) {
+        if IN_QUEUE.fetch_add(1, Ordering::AcqRel) >= self.max_queue {
+            IN_QUEUE.fetch_sub(1, Ordering::AcqRel);
+            QUEUE_FULL.fetch_add(1, Ordering::Relaxed);
+            return;
+        }
+        self.inner.on_end(span);
+    }
+
+    fn force_flush(&self) -> OTelSdkResult {
+        self.inner.force_flush()
+    }
+
+    fn shutdown_with_timeout(&self, timeout: Duration) -> OTelSdkResult {
+        let r = self.inner.shutdown_with_timeout(timeout);
+        // Whatever the batch still held when shutdown gave up is lost.
+        QUEUE_FULL.fetch_add(IN_QUEUE.swap(0, Ordering::AcqRel), Ordering::Relaxed);
+        r
+    }
+
+    fn set_resource(&mut self, resource: &opentelemetry_sdk::Resource) {
+        self.inner.set_resource(resource);
+    }
+}
+
+/// Wraps the OTLP exporter: spans leave the queue when handed over, and count as exported or
+/// failed by the request's outcome.
+#[derive(Debug)]
+struct CountingExporter<E>(E);
+
+impl<E: SpanExporter> SpanExporter for CountingExporter<E> {
+    fn export(
+        &self,
+        batch: Vec<SpanData>,
+    ) -> impl std::future::Future<Output = OTelSdkResult> + Send {
+        let n = batch.len() as u64;
+        IN_QUEUE.fetch_sub(n, Ordering::AcqRel);
+        let fut = self.0.export(batch);
+        async move {
+            let r = fut.await;
+            match &r {
+                Ok(()) => EXPORTED.fetch_add(n, Ordering::Relaxed),
+                Err(_) => EXPORT_FAILED.fetch_add(n, Ordering::Relaxed),
+            };
+            r
+        }
+    }
+
+    fn shutdown_with_timeout(&self, timeout: Duration) -> OTelSdkResult {
+        self.0.shutdown_with_timeout(timeout)
+    }
+
+    fn force_flush(&self) -> OTelSdkResult {
+        self.0.force_flush()
+    }
+
+    fn set_resource(&mut self, resource: &opentelemetry_sdk::Resource) {
+        self.0.set_resource(resource);
+    }
+}
+
+/// Keeps the tracer and meter providers alive; `shutdown` flushes the last spans and metrics
+/// (call it on SIGTERM).
 #[derive(Default)]
 pub struct Telemetry {
     provider: Option<SdkTracerProvider>,
+    meters: Option<SdkMeterProvider>,
 }
 
 impl Telemetry {
@@ -132,13 +350,28 @@ impl Telemetry {
         }
     }
     pub fn shutdown(&mut self) {
-        if let Some(p) = self.provider.take() {
-            if let Err(e) = p.force_flush() {
-                tracing::warn!(error = %e, "flushing spans failed");
-            }
-            let _ = p.shutdown();
+        let Some(p) = self.provider.take() else {
+            return;
+        };
+        if let Err(e) = p.force_flush() {
+            tracing::warn!(error = %e, "flushing spans failed");
+        }
+        let _ = p.shutdown();
+        // After the spans, so the last metrics carry the final span counts.
+        if let Some(m) = self.meters.take()
+            && let Err(e) = m.shutdown()
+        {
+            tracing::warn!(error = %e, "exporting the last metrics failed");
         }
         ENABLED.store(false, Ordering::Relaxed);
+        let c = span_counts();
+        tracing::info!(
+            spans_exported = c.exported,
+            spans_dropped = c.dropped(),
+            queue_full = c.queue_full,
+            export_failed = c.export_failed,
+            "telemetry shut down"
+        );
     }
 }
 
@@ -259,12 +492,7 @@ pub fn sampler_for(r: &Resolved) -> Sampler {
     }
 }
 
-fn provider_with<E: SpanExporter + 'static>(
-    exporter: E,
-    service_name: Option<String>,
-    sampler: Sampler,
-    batch: bool,
-) -> SdkTracerProvider {
+fn resource_for(service_name: Option<String>) -> opentelemetry_sdk::Resource {
     let mut resource = opentelemetry_sdk::Resource::builder();
     if let Some(name) = service_name {
         resource = resource.with_service_name(name.clone()).with_attribute(
@@ -272,14 +500,56 @@ fn provider_with<E: SpanExporter + 'static>(
             opentelemetry::KeyValue::new("openinference.project.name", name),
         );
     }
+    resource.build()
+}
+
+fn provider_with<E: SpanExporter + 'static>(
+    exporter: E,
+    service_name: Option<String>,
+    sampler: Sampler,
+    batch: Option<BatchSizes>,
+) -> SdkTracerProvider {
     let b = SdkTracerProvider::builder()
-        .with_resource(resource.build())
+        .with_resource(resource_for(service_name))
         .with_sampler(sampler);
-    if batch {
-        b.with_batch_exporter(exporter).build()
-    } else {
-        b.with_simple_exporter(exporter).build()
+    match batch {
+        Some(sizes) => {
+            let config = BatchConfigBuilder::default()
+                .with_max_queue_size(sizes.max_queue_size)
+                .with_max_export_batch_size(sizes.max_export_batch_size)
+                .with_scheduled_delay(sizes.scheduled_delay)
+                .build();
+            let inner = BatchSpanProcessor::builder(CountingExporter(exporter))
+                .with_batch_config(config)
+                .build();
+            b.with_span_processor(CountingProcessor {
+                inner,
+                max_queue: sizes.max_queue_size as u64,
+            })
+            .build()
+        }
+        None => b.with_simple_exporter(exporter).build(),
     }
+}
+
+/// The metrics pipeline: an OTLP/HTTP metric exporter read every `metrics_interval`.
+fn meter_provider(r: &Resolved) -> Result<SdkMeterProvider, String> {
+    let mut builder = opentelemetry_otlp::MetricExporter::builder().with_http();
+    if let Some(ep) = &r.metrics_endpoint {
+        use opentelemetry_otlp::WithExportConfig;
+        builder = builder.with_endpoint(ep.clone());
+    }
+    let exporter = builder.build().map_err(|e| e.to_string())?;
+    let reader = opentelemetry_sdk::metrics::PeriodicReader::builder(exporter)
+        .with_interval(r.metrics_interval)
+        .build();
+    let provider = SdkMeterProvider::builder()
+        .with_resource(resource_for(r.service_name.clone()))
+        .with_reader(reader)
+        .build();
+    use opentelemetry::metrics::MeterProvider as _;
+    crate::metrics::install(&provider.meter("frontseat"));
+    Ok(provider)
 }
 
 /// Installs the global subscriber: console logs always, OTLP export when resolved. `role` is
@@ -314,8 +584,20 @@ pub fn init(cfg: &TelemetryConfig, role: &str, platform: &str) -> Telemetry {
             return Telemetry::default();
         }
     };
-    let provider = provider_with(exporter, r.service_name.clone(), sampler_for(&r), true);
+    let provider = provider_with(
+        exporter,
+        r.service_name.clone(),
+        sampler_for(&r),
+        Some(r.batch),
+    );
     install(fmt, &provider);
+    let meters = match meter_provider(&r) {
+        Ok(m) => Some(m),
+        Err(e) => {
+            tracing::error!(error = %e, "cannot build the OTLP metric exporter; metrics are off");
+            None
+        }
+    };
     tracing::info!(
         endpoint = r
             .endpoint
@@ -326,10 +608,15 @@ pub fn init(cfg: &TelemetryConfig, role: &str, platform: &str) -> Telemetry {
             .as_deref()
             .unwrap_or("(from OTEL_SERVICE_NAME)"),
         sampling_ratio = r.sampling_ratio,
-        "exporting traces over OTLP/HTTP"
+        max_queue_size = r.batch.max_queue_size,
+        max_export_batch_size = r.batch.max_export_batch_size,
+        scheduled_delay = ?r.batch.scheduled_delay,
+        metrics_interval = ?r.metrics_interval,
+        "exporting traces and metrics over OTLP/HTTP"
     );
     Telemetry {
         provider: Some(provider),
+        meters,
     }
 }
 
@@ -343,11 +630,12 @@ pub fn init_with_exporter<E: SpanExporter + 'static>(exporter: E, service: &str)
         exporter,
         Some(service.to_string()),
         Sampler::ParentBased(Box::new(Sampler::AlwaysOn)),
-        false,
+        None,
     );
     install(fmt, &provider);
     Telemetry {
         provider: Some(provider),
+        meters: None,
     }
 }
 

@@ -4,7 +4,6 @@
 //! by a global tracing subscriber writing into memory (one test in this binary, so nothing else
 //! writes there).
 
-
 use std::io::Write;
 use std::sync::{Arc, Mutex};
 use std::time::Duration;

@@ -162,7 +162,11 @@ async fn the_demo_at_warp_20_exports_every_span_and_its_metrics() {
     assert_eq!(orphans, 0, "spans whose parent was not exported");
 
     // The metrics, under their documented names.
-    assert!(st.metric_requests >= 2, "{} metric exports", st.metric_requests);
+    assert!(
+        st.metric_requests >= 2,
+        "{} metric exports",
+        st.metric_requests
+    );
     let vehicle = [("vehicle", "demo-auv")];
     for name in [
         names::NAV_RECEIVED,

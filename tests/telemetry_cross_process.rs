@@ -281,13 +281,19 @@ async fn one_trace_spans_the_helm_process_and_the_interface_process_both_ways() 
 
     // The interface's CMD line to the frontseat is in the helm's trace, and its parent chain
     // climbs back to the helm's span through the import, the bus, and both actors.
-    let chain = spans_until(&store, "the CMD write in the helm's trace", LONG, log, |spans| {
-        spans
-            .iter()
-            .filter(|s| s.trace_id == helm_trace && s.name == "frontseat.socket_write")
-            .map(|w| ancestry(spans, w))
-            .find(|c| c[0].parent == helm_span)
-    })
+    let chain = spans_until(
+        &store,
+        "the CMD write in the helm's trace",
+        LONG,
+        log,
+        |spans| {
+            spans
+                .iter()
+                .filter(|s| s.trace_id == helm_trace && s.name == "frontseat.socket_write")
+                .map(|w| ancestry(spans, w))
+                .find(|c| c[0].parent == helm_span)
+        },
+    )
     .await;
     println!("helm → interface: {:?}", names(&chain));
     let write = chain.last().unwrap();

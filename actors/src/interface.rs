@@ -634,10 +634,7 @@ pub fn compute_missing(
 /// The summary tail of a rate-limited log line.
 /// The detail's counters copied for the OTel metrics, and the process's span counts added to it:
 /// the metrics and the status say the same thing.
-fn with_telemetry(
-    mut d: InterfaceDetail,
-    m: &crate::metrics::VehicleMetrics,
-) -> InterfaceDetail {
+fn with_telemetry(mut d: InterfaceDetail, m: &crate::metrics::VehicleMetrics) -> InterfaceDetail {
     use crate::metrics::VehicleMetrics as M;
     M::set(&m.setpoints_refused, d.setpoints_refused());
     M::set(&m.nav_refused, d.nav_refused());
@@ -652,7 +649,6 @@ fn with_telemetry(
     }
     d
 }
-
 
 fn log_transition(t: &Transition) {
     tracing::info!(

@@ -156,7 +156,9 @@ pub(crate) fn install(meter: &Meter) {
     }
     meter
         .i64_observable_gauge(names::STATE)
-        .with_description("the interface's Goby3 state: the InterfaceState number, named in `state`")
+        .with_description(
+            "the interface's Goby3 state: the InterfaceState number, named in `state`",
+        )
         .with_callback(|obs| {
             each_vehicle(|attrs, m| {
                 let n = m.state.load(Ordering::Relaxed);

@@ -20,9 +20,9 @@ use std::time::Duration;
 use frontseat_config::TelemetryConfig;
 use opentelemetry::propagation::TextMapPropagator;
 use opentelemetry::trace::TracerProvider as _;
-use opentelemetry_sdk::propagation::TraceContextPropagator;
 use opentelemetry_sdk::error::OTelSdkResult;
 use opentelemetry_sdk::metrics::SdkMeterProvider;
+use opentelemetry_sdk::propagation::TraceContextPropagator;
 use opentelemetry_sdk::trace::{
     BatchConfigBuilder, BatchSpanProcessor, Sampler, SdkTracerProvider, SpanData, SpanExporter,
     SpanProcessor,
@@ -838,6 +838,154 @@ mod tests {
             );
         }
         assert!(is_nav_line("$BFNVG,1") && is_nav_line("NAV,") && !is_nav_line("CTRL,"));
+    }
+
+    #[test]
+    fn metrics_follow_the_traces_endpoint() {
+        let mut c = cfg();
+        c.enabled = true;
+        c.endpoint = "http://127.0.0.1:6006/".into();
+        let r = resolve(&c, "svc", env(&[])).unwrap();
+        assert_eq!(
+            r.metrics_endpoint.as_deref(),
+            Some("http://127.0.0.1:6006/v1/metrics")
+        );
+        let r = resolve(
+            &cfg(),
+            "svc",
+            env(&[("OTEL_EXPORTER_OTLP_ENDPOINT", "http://h:4318")]),
+        )
+        .unwrap();
+        assert_eq!(r.metrics_endpoint, None, "left to the exporter");
+        let r = resolve(
+            &cfg(),
+            "svc",
+            env(&[(
+                "OTEL_EXPORTER_OTLP_TRACES_ENDPOINT",
+                "http://h:4318/v1/traces",
+            )]),
+        )
+        .unwrap();
+        assert_eq!(
+            r.metrics_endpoint.as_deref(),
+            Some("http://h:4318/v1/metrics"),
+            "only a traces URL: the metrics go to the same collector"
+        );
+    }
+
+    #[test]
+    fn batch_sizes_and_interval_from_config_else_environment() {
+        let mut c = cfg();
+        c.enabled = true;
+        let r = resolve(&c, "svc", env(&[])).unwrap();
+        assert_eq!(
+            r.batch,
+            BatchSizes {
+                max_queue_size: 16_384,
+                max_export_batch_size: 1_024,
+                scheduled_delay: Duration::from_millis(500),
+            }
+        );
+        assert_eq!(r.metrics_interval, Duration::from_secs(10));
+        let vars = [
+            ("OTEL_BSP_MAX_QUEUE_SIZE", "100"),
+            ("OTEL_BSP_MAX_EXPORT_BATCH_SIZE", "500"),
+            ("OTEL_BSP_SCHEDULE_DELAY", "50"),
+            ("OTEL_METRIC_EXPORT_INTERVAL", "250"),
+        ];
+        let r = resolve(&c, "svc", env(&vars)).unwrap();
+        assert_eq!(r.batch.max_queue_size, 100);
+        assert_eq!(r.batch.max_export_batch_size, 100, "never above the queue");
+        assert_eq!(r.batch.scheduled_delay, Duration::from_millis(50));
+        assert_eq!(r.metrics_interval, Duration::from_millis(250));
+        c.max_queue_size = 4096;
+        c.scheduled_delay_ms = 2000;
+        c.metrics_interval_s = 1.0;
+        let r = resolve(&c, "svc", env(&vars)).unwrap();
+        assert_eq!(r.batch.max_queue_size, 4096, "the config wins");
+        assert_eq!(r.batch.max_export_batch_size, 500);
+        assert_eq!(r.batch.scheduled_delay, Duration::from_secs(2));
+        assert_eq!(r.metrics_interval, Duration::from_secs(1));
+    }
+
+    /// An exporter that fails every request.
+    #[derive(Debug)]
+    struct Refusing;
+
+    impl SpanExporter for Refusing {
+        async fn export(&self, _batch: Vec<SpanData>) -> OTelSdkResult {
+            Err(opentelemetry_sdk::error::OTelSdkError::InternalFailure(
+                "collector down".into(),
+            ))
+        }
+    }
+
+    /// A collector that holds every request until the test opens the gate.
+    #[derive(Debug, Clone, Default)]
+    struct Gated {
+        open: std::sync::Arc<(std::sync::Mutex<bool>, std::sync::Condvar)>,
+        got: std::sync::Arc<AtomicU64>,
+    }
+
+    impl Gated {
+        fn open(&self) {
+            let (m, cv) = &*self.open;
+            *m.lock().unwrap() = true;
+            cv.notify_all();
+        }
+    }
+
+    impl SpanExporter for Gated {
+        async fn export(&self, batch: Vec<SpanData>) -> OTelSdkResult {
+            let (m, cv) = &*self.open;
+            let mut open = m.lock().unwrap();
+            while !*open {
+                open = cv.wait(open).unwrap();
+            }
+            self.got.fetch_add(batch.len() as u64, Ordering::Relaxed);
+            Ok(())
+        }
+    }
+
+    /// The only test touching the process-wide counters: every span ends up exported, dropped at
+    /// the queue, or failed, and the totals say which.
+    #[test]
+    fn every_span_is_counted_as_exported_or_dropped() {
+        use opentelemetry::trace::{Tracer as _, TracerProvider as _};
+        let sizes = BatchSizes {
+            max_queue_size: 4,
+            max_export_batch_size: 4,
+            scheduled_delay: Duration::from_secs(3600),
+        };
+        let before = span_counts();
+        let gated = Gated::default();
+        let p = provider_with(gated.clone(), None, Sampler::AlwaysOn, Some(sizes));
+        let tracer = p.tracer("t");
+        // The first full batch blocks in the exporter; 4 more fit the queue; the rest is refused.
+        for i in 0..20 {
+            drop(tracer.start(format!("s{i}")));
+        }
+        gated.open();
+        p.force_flush().unwrap();
+        let mid = span_counts();
+        let exported = mid.exported - before.exported;
+        let refused = mid.queue_full - before.queue_full;
+        assert_eq!(exported + refused, 20, "{mid:?}");
+        assert!(refused >= 12, "at most 8 of 20 spans fit: {mid:?}");
+        assert_eq!(gated.got.load(Ordering::Relaxed), exported);
+        let _ = p.shutdown();
+
+        let p = provider_with(Refusing, None, Sampler::AlwaysOn, Some(sizes));
+        let tracer = p.tracer("t");
+        for i in 0..3 {
+            drop(tracer.start(format!("f{i}")));
+        }
+        let _ = p.force_flush();
+        let end = span_counts();
+        assert_eq!(end.export_failed - mid.export_failed, 3);
+        assert_eq!(end.exported, mid.exported);
+        assert_eq!(end.dropped() - mid.dropped(), 3);
+        let _ = p.shutdown();
     }
 
     #[test]

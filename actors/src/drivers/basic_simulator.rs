@@ -153,12 +153,7 @@ impl BasicSimulatorDriver {
                     });
                 }
                 Err(e) => {
-                    self.bad_input(
-                        now,
-                        "bad NAV line from the frontseat",
-                        line,
-                        &e.to_string(),
-                    );
+                    self.bad_input(now, "bad NAV line from the frontseat", line, &e.to_string());
                 }
             },
             "CTRL" => {

@@ -64,6 +64,8 @@ pub struct Resolved {
     pub nav_traces_per_s: Option<f64>,
     /// OTEL_TRACES_SAMPLER, when set: the standard sampler wins over ours.
     pub standard_sampler: Option<String>,
+    /// Export metrics at all: `[telemetry] metrics` and not OTEL_METRICS_EXPORTER=none.
+    pub metrics: bool,
     /// Where metrics go; None: leave it to the exporter (OTEL_EXPORTER_OTLP_(METRICS_)ENDPOINT).
     pub metrics_endpoint: Option<String>,
     pub metrics_interval: Duration,
@@ -210,6 +212,8 @@ pub fn resolve(
             .is_none()
             .then_some(cfg.nav_traces_per_s.clamp(0.0, 1000.0)),
         standard_sampler,
+        metrics: cfg.metrics
+            && !env("OTEL_METRICS_EXPORTER").is_some_and(|v| v.trim().eq_ignore_ascii_case("none")),
         metrics_endpoint,
         metrics_interval,
         batch: batch_sizes(cfg, &env),
@@ -591,9 +595,10 @@ pub fn init(cfg: &TelemetryConfig, role: &str, platform: &str) -> Telemetry {
         Some(r.batch),
     );
     install(fmt, &provider);
-    let meters = match meter_provider(&r) {
-        Ok(m) => Some(m),
-        Err(e) => {
+    let meters = match r.metrics.then(|| meter_provider(&r)) {
+        None => None,
+        Some(Ok(m)) => Some(m),
+        Some(Err(e)) => {
             tracing::error!(error = %e, "cannot build the OTLP metric exporter; metrics are off");
             None
         }
@@ -612,7 +617,8 @@ pub fn init(cfg: &TelemetryConfig, role: &str, platform: &str) -> Telemetry {
         max_export_batch_size = r.batch.max_export_batch_size,
         scheduled_delay = ?r.batch.scheduled_delay,
         metrics_interval = ?r.metrics_interval,
-        "exporting traces and metrics over OTLP/HTTP"
+        metrics = r.metrics,
+        "exporting traces (and metrics, when metrics=true) over OTLP/HTTP"
     );
     Telemetry {
         provider: Some(provider),
@@ -887,6 +893,9 @@ mod tests {
             }
         );
         assert_eq!(r.metrics_interval, Duration::from_secs(10));
+        assert!(r.metrics);
+        let off = resolve(&c, "svc", env(&[("OTEL_METRICS_EXPORTER", "none")])).unwrap();
+        assert!(!off.metrics, "OTEL_METRICS_EXPORTER=none");
         let vars = [
             ("OTEL_BSP_MAX_QUEUE_SIZE", "100"),
             ("OTEL_BSP_MAX_EXPORT_BATCH_SIZE", "500"),

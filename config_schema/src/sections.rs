@@ -211,6 +211,10 @@ pub struct TelemetryConfig {
     /// when this is left at its default. Unit: ms, 10 to 60000.
     #[schemars(range(min = 10, max = 60_000))]
     pub scheduled_delay_ms: u32,
+    /// Also export the detail status's counters as OpenTelemetry metrics (to
+    /// `<endpoint>/v1/metrics`). OTEL_METRICS_EXPORTER=none turns them off too; Arize Phoenix
+    /// takes traces only and answers metrics with 405.
+    pub metrics: bool,
     /// Metrics (the detail status's counters) are exported this often, to the same collector
     /// (`<endpoint>/v1/metrics`). OTEL_METRIC_EXPORT_INTERVAL applies when this is left at its
     /// default. Unit: s, 0.1 to 3600.
@@ -233,6 +237,7 @@ impl Default for TelemetryConfig {
             service_name: String::new(),
             sampling_ratio: 1.0,
             nav_traces_per_s: 10.0,
+            metrics: true,
             max_queue_size: DEFAULT_MAX_QUEUE_SIZE,
             max_export_batch_size: DEFAULT_MAX_EXPORT_BATCH_SIZE,
             scheduled_delay_ms: DEFAULT_SCHEDULED_DELAY_MS,

@@ -181,7 +181,8 @@ impl InterprocessConfig {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields, default)]
 pub struct TelemetryConfig {
-    /// Export traces. The standard OTEL_EXPORTER_OTLP_ENDPOINT variable also turns export on.
+    /// Export traces (and metrics: see `metrics`). The standard OTEL_EXPORTER_OTLP_ENDPOINT
+    /// variable also turns export on.
     pub enabled: bool,
     /// OTLP/HTTP collector base URL; traces go to `<endpoint>/v1/traces`.
     pub endpoint: String,
@@ -222,8 +223,9 @@ pub struct TelemetryConfig {
     pub metrics_interval_s: f64,
 }
 
-/// Defaults of the batch span exporter (see `TelemetryConfig`): a queue for ≈8 s of the demo's
-/// busiest load (warp 20, ≈2000 spans/s), batches that one loopback request sends in a few ms.
+/// Defaults of the batch span exporter (see `TelemetryConfig`): the demo's busiest load (warp 20,
+/// ≈900 spans/s with NAV sampled at 10/s) fills the queue in no less than ≈18 s, far longer than a
+/// collector pause worth riding out; a batch is one loopback request of a few ms.
 pub const DEFAULT_MAX_QUEUE_SIZE: u32 = 16_384;
 pub const DEFAULT_MAX_EXPORT_BATCH_SIZE: u32 = 1_024;
 pub const DEFAULT_SCHEDULED_DELAY_MS: u32 = 500;

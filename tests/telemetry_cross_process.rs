@@ -16,6 +16,7 @@ use std::process::{Command, Stdio};
 use std::time::Duration;
 
 use frontseat_actors::groups;
+use frontseat_actors::proto::frontseat::protobuf::InterfaceDetail;
 use frontseat_actors::proto::goby::middleware::frontseat::protobuf::{
     DesiredCourse, HelmState, HelmStateReport, InterfaceState, InterfaceStatus, NodeStatus,
 };
@@ -191,7 +192,7 @@ impl Helm {
         }
     }
 
-    /// The next node_status whose attachment is a traceparent: (trace id, span id).
+    /// The next node_status whose attachment is a sampled traceparent: (trace id, span id).
     async fn traced_node_status(&mut self, stack: &Stack) -> (NodeStatus, String, String) {
         let deadline = tokio::time::Instant::now() + LONG;
         loop {
@@ -207,8 +208,12 @@ impl Helm {
             let parts: Vec<&str> = tp.split('-').collect();
             assert_eq!(parts.len(), 4, "attachment {tp:?} is not a traceparent");
             assert_eq!(parts[0], "00");
-            assert_eq!(parts[3], "01", "sampled");
-            return (ns, parts[1].to_string(), parts[2].to_string());
+            // NAV is sampled (`nav_traces_per_s`): an unsampled trace still propagates its
+            // context, flagged 00, and exports nothing to look for.
+            assert!(parts[3] == "01" || parts[3] == "00", "flags of {tp:?}");
+            if parts[3] == "01" {
+                return (ns, parts[1].to_string(), parts[2].to_string());
+            }
         }
     }
 
@@ -384,6 +389,31 @@ async fn one_trace_spans_the_helm_process_and_the_interface_process_both_ways() 
         .find(|s| s.name == "helm.desired_course")
         .unwrap();
     assert_eq!(sent.span_context.trace_id().to_string(), helm_trace);
+
+    // The detail status says how many spans went out and that none was lost.
+    let (dtx, mut details) = tokio::sync::mpsc::unbounded_channel();
+    let _detail_sub = helm
+        .session
+        .declare_subscriber(key_for("otauv", groups::FRONTSEAT_INTERFACE_DETAIL.name()))
+        .callback(move |s| {
+            if let Ok(d) = InterfaceDetail::decode(&*s.payload().to_bytes()) {
+                let _ = dtx.send(d);
+            }
+        })
+        .await
+        .unwrap();
+    let deadline = tokio::time::Instant::now() + LONG;
+    let detail = loop {
+        match tokio::time::timeout_at(deadline, details.recv()).await {
+            Ok(Some(d)) if d.spans_exported() > 0 => break d,
+            Ok(Some(_)) => {}
+            _ => panic!(
+                "no detail status with spans_exported > 0\ninterface log:\n{}",
+                stack.log()
+            ),
+        }
+    };
+    assert_eq!(detail.spans_dropped, Some(0), "{detail:?}");
 
     // Exported as a viewer expects: protobuf, the configured service, the project header.
     {

@@ -631,7 +631,6 @@ pub fn compute_missing(
     }
 }
 
-/// The summary tail of a rate-limited log line.
 /// The detail's counters copied for the OTel metrics, and the process's span counts added to it:
 /// the metrics and the status say the same thing.
 fn with_telemetry(mut d: InterfaceDetail, m: &crate::metrics::VehicleMetrics) -> InterfaceDetail {

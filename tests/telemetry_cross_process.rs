@@ -1,21 +1,22 @@
 //! Traces across processes: the real `frontseat interface` (a child, Zenoh gateway on, OTLP/HTTP
 //! export on) and this test process (a Zenoh helm with its own tracer) must put their spans in
-//! one trace. A tiny OTLP/HTTP receiver runs in the test on loopback and decodes what the child
-//! exports, so the assertions are about the bytes a real viewer would get.
+//! one trace. A tiny OTLP/HTTP receiver (tests/common/otlp.rs) runs in the test on loopback and
+//! decodes what the child exports, so the assertions are about the bytes a real viewer would get.
 //!
 //! Every wait has a deadline; children are killed when the test ends, pass or fail.
 
 mod common;
 
+use common::otlp::{RxSpan, ancestry, spans_until, start_receiver};
 use common::procs::{Kill, free_port, scratch, wait_for_tcp};
 
 use std::collections::HashMap;
 use std::path::PathBuf;
 use std::process::{Command, Stdio};
-use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
 use frontseat_actors::groups;
+use frontseat_actors::proto::frontseat::protobuf::InterfaceDetail;
 use frontseat_actors::proto::goby::middleware::frontseat::protobuf::{
     DesiredCourse, HelmState, HelmStateReport, InterfaceState, InterfaceStatus, NodeStatus,
 };
@@ -23,234 +24,14 @@ use frontseat_gateway::zenoh;
 use frontseat_gateway::{client_config, key_for, put_message};
 use opentelemetry::propagation::TextMapPropagator;
 use opentelemetry::trace::{Span as _, TraceContextExt, Tracer, TracerProvider as _};
-use opentelemetry_proto::tonic::collector::trace::v1::{
-    ExportTraceServiceRequest, ExportTraceServiceResponse,
-};
-use opentelemetry_proto::tonic::common::v1::{AnyValue, KeyValue, any_value};
 use opentelemetry_sdk::propagation::TraceContextPropagator;
 use opentelemetry_sdk::trace::{InMemorySpanExporter, SdkTracerProvider};
 use prost::Message;
-use tokio::io::{AsyncReadExt, AsyncWriteExt};
 
 const BIN: &str = env!("CARGO_BIN_EXE_frontseat");
 const LONG: Duration = Duration::from_secs(60);
 const PROJECT: &str = "frontseat-xp";
 const SERVICE: &str = "xp-interface";
-
-// ---------------------------------------------------------------------------------------------
-// The OTLP/HTTP receiver
-
-/// One span as the receiver decoded it; ids in lower-case hex as in a traceparent.
-#[derive(Clone, Debug)]
-struct RxSpan {
-    trace_id: String,
-    span_id: String,
-    parent: String,
-    name: String,
-    attrs: HashMap<String, String>,
-    service: String,
-}
-
-impl RxSpan {
-    fn attr(&self, k: &str) -> &str {
-        self.attrs.get(k).map(String::as_str).unwrap_or("")
-    }
-}
-
-/// What arrived: every span, and the headers of every export request.
-#[derive(Default)]
-struct Received {
-    spans: Vec<RxSpan>,
-    requests: Vec<HashMap<String, String>>,
-    bad_requests: Vec<String>,
-}
-
-type Store = Arc<Mutex<Received>>;
-
-fn hex(b: &[u8]) -> String {
-    b.iter().map(|x| format!("{x:02x}")).collect()
-}
-
-fn value_string(v: &Option<AnyValue>) -> String {
-    match v.as_ref().and_then(|v| v.value.as_ref()) {
-        Some(any_value::Value::StringValue(s)) => s.clone(),
-        Some(any_value::Value::IntValue(i)) => i.to_string(),
-        Some(any_value::Value::DoubleValue(d)) => d.to_string(),
-        Some(any_value::Value::BoolValue(b)) => b.to_string(),
-        Some(other) => format!("{other:?}"),
-        None => String::new(),
-    }
-}
-
-fn attr_map(kvs: &[KeyValue]) -> HashMap<String, String> {
-    kvs.iter()
-        .map(|kv| (kv.key.clone(), value_string(&kv.value)))
-        .collect()
-}
-
-fn flatten(req: ExportTraceServiceRequest) -> Vec<RxSpan> {
-    let mut out = Vec::new();
-    for rs in req.resource_spans {
-        let res = rs
-            .resource
-            .map(|r| attr_map(&r.attributes))
-            .unwrap_or_default();
-        let service = res.get("service.name").cloned().unwrap_or_default();
-        for ss in rs.scope_spans {
-            for s in ss.spans {
-                out.push(RxSpan {
-                    trace_id: hex(&s.trace_id),
-                    span_id: hex(&s.span_id),
-                    parent: hex(&s.parent_span_id),
-                    name: s.name,
-                    attrs: attr_map(&s.attributes),
-                    service: service.clone(),
-                });
-            }
-        }
-    }
-    out
-}
-
-/// Largest export request accepted; the SDK's batches are far smaller.
-const MAX_BODY: usize = 32 * 1024 * 1024;
-
-/// Serves one keep-alive connection: `POST /v1/traces` with a protobuf body, answered with an
-/// empty ExportTraceServiceResponse. Anything else is recorded as a bad request and answered 400.
-async fn serve(mut sock: tokio::net::TcpStream, store: Store) {
-    let mut buf: Vec<u8> = Vec::new();
-    loop {
-        let head_end = loop {
-            if let Some(i) = buf.windows(4).position(|w| w == b"\r\n\r\n") {
-                break i + 4;
-            }
-            if buf.len() > 64 * 1024 {
-                return;
-            }
-            let mut chunk = [0u8; 8192];
-            match sock.read(&mut chunk).await {
-                Ok(0) | Err(_) => return,
-                Ok(n) => buf.extend_from_slice(&chunk[..n]),
-            }
-        };
-        let head = String::from_utf8_lossy(&buf[..head_end]).to_string();
-        let mut lines = head.split("\r\n");
-        let request_line = lines.next().unwrap_or("").to_string();
-        let headers: HashMap<String, String> = lines
-            .filter_map(|l| l.split_once(':'))
-            .map(|(k, v)| (k.trim().to_ascii_lowercase(), v.trim().to_string()))
-            .collect();
-        let len: usize = headers
-            .get("content-length")
-            .and_then(|v| v.parse().ok())
-            .unwrap_or(usize::MAX);
-        if len > MAX_BODY {
-            store
-                .lock()
-                .unwrap()
-                .bad_requests
-                .push(format!("{request_line}: no usable content-length"));
-            let _ = sock
-                .write_all(b"HTTP/1.1 411 Length Required\r\nContent-Length: 0\r\n\r\n")
-                .await;
-            return;
-        }
-        while buf.len() < head_end + len {
-            let mut chunk = [0u8; 65536];
-            match sock.read(&mut chunk).await {
-                Ok(0) | Err(_) => return,
-                Ok(n) => buf.extend_from_slice(&chunk[..n]),
-            }
-        }
-        let body: Vec<u8> = buf.drain(..head_end + len).skip(head_end).collect();
-        let ok_route = request_line.starts_with("POST /v1/traces ");
-        let ok_type =
-            headers.get("content-type").map(String::as_str) == Some("application/x-protobuf");
-        let decoded = ExportTraceServiceRequest::decode(body.as_slice());
-        let status = {
-            let mut st = store.lock().unwrap();
-            match (ok_route && ok_type, decoded) {
-                (true, Ok(req)) => {
-                    st.spans.extend(flatten(req));
-                    st.requests.push(headers.clone());
-                    "200 OK"
-                }
-                (_, d) => {
-                    st.bad_requests
-                        .push(format!("{request_line} {headers:?} decoded: {}", d.is_ok()));
-                    "400 Bad Request"
-                }
-            }
-        };
-        let resp = ExportTraceServiceResponse::default().encode_to_vec();
-        let head = format!(
-            "HTTP/1.1 {status}\r\nContent-Type: application/x-protobuf\r\nContent-Length: {}\r\n\r\n",
-            resp.len()
-        );
-        if sock.write_all(head.as_bytes()).await.is_err() || sock.write_all(&resp).await.is_err() {
-            return;
-        }
-    }
-}
-
-/// Starts the receiver on a free loopback port; returns its base URL and what it collects.
-async fn start_receiver() -> (String, Store) {
-    let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.unwrap();
-    let port = listener.local_addr().unwrap().port();
-    let store = Store::default();
-    let s = store.clone();
-    tokio::spawn(async move {
-        while let Ok((sock, _)) = listener.accept().await {
-            tokio::spawn(serve(sock, s.clone()));
-        }
-    });
-    (format!("http://127.0.0.1:{port}"), store)
-}
-
-/// Waits until the received spans satisfy `pred`, which returns what the test needs from them.
-async fn spans_until<T>(
-    store: &Store,
-    what: &str,
-    log: impl Fn() -> String,
-    pred: impl Fn(&[RxSpan]) -> Option<T>,
-) -> T {
-    let deadline = tokio::time::Instant::now() + LONG;
-    loop {
-        let (n, bad) = {
-            let st = store.lock().unwrap();
-            if let Some(t) = pred(&st.spans) {
-                return t;
-            }
-            (st.spans.len(), st.bad_requests.clone())
-        };
-        assert!(
-            tokio::time::Instant::now() < deadline,
-            "timed out waiting for {what}; {n} spans received, bad requests {bad:?}\ninterface log:\n{}",
-            log()
-        );
-        tokio::time::sleep(Duration::from_millis(50)).await;
-    }
-}
-
-/// The chain from `leaf` up to the furthest ancestor the receiver has, root first.
-fn ancestry(spans: &[RxSpan], leaf: &RxSpan) -> Vec<RxSpan> {
-    let by_id: HashMap<&str, &RxSpan> = spans
-        .iter()
-        .filter(|s| s.trace_id == leaf.trace_id)
-        .map(|s| (s.span_id.as_str(), s))
-        .collect();
-    let mut chain = vec![leaf.clone()];
-    let mut cur = leaf;
-    while let Some(p) = by_id.get(cur.parent.as_str()) {
-        chain.push((*p).clone());
-        cur = p;
-        if chain.len() > 64 {
-            break;
-        }
-    }
-    chain.reverse();
-    chain
-}
 
 // ---------------------------------------------------------------------------------------------
 // The processes
@@ -411,7 +192,7 @@ impl Helm {
         }
     }
 
-    /// The next node_status whose attachment is a traceparent: (trace id, span id).
+    /// The next node_status whose attachment is a sampled traceparent: (trace id, span id).
     async fn traced_node_status(&mut self, stack: &Stack) -> (NodeStatus, String, String) {
         let deadline = tokio::time::Instant::now() + LONG;
         loop {
@@ -427,8 +208,12 @@ impl Helm {
             let parts: Vec<&str> = tp.split('-').collect();
             assert_eq!(parts.len(), 4, "attachment {tp:?} is not a traceparent");
             assert_eq!(parts[0], "00");
-            assert_eq!(parts[3], "01", "sampled");
-            return (ns, parts[1].to_string(), parts[2].to_string());
+            // NAV is sampled (`nav_traces_per_s`): an unsampled trace still propagates its
+            // context, flagged 00, and exports nothing to look for.
+            assert!(parts[3] == "01" || parts[3] == "00", "flags of {tp:?}");
+            if parts[3] == "01" {
+                return (ns, parts[1].to_string(), parts[2].to_string());
+            }
         }
     }
 
@@ -501,13 +286,19 @@ async fn one_trace_spans_the_helm_process_and_the_interface_process_both_ways() 
 
     // The interface's CMD line to the frontseat is in the helm's trace, and its parent chain
     // climbs back to the helm's span through the import, the bus, and both actors.
-    let chain = spans_until(&store, "the CMD write in the helm's trace", log, |spans| {
-        spans
-            .iter()
-            .filter(|s| s.trace_id == helm_trace && s.name == "frontseat.socket_write")
-            .map(|w| ancestry(spans, w))
-            .find(|c| c[0].parent == helm_span)
-    })
+    let chain = spans_until(
+        &store,
+        "the CMD write in the helm's trace",
+        LONG,
+        log,
+        |spans| {
+            spans
+                .iter()
+                .filter(|s| s.trace_id == helm_trace && s.name == "frontseat.socket_write")
+                .map(|w| ancestry(spans, w))
+                .find(|c| c[0].parent == helm_span)
+        },
+    )
     .await;
     println!("helm → interface: {:?}", names(&chain));
     let write = chain.last().unwrap();
@@ -548,7 +339,7 @@ async fn one_trace_spans_the_helm_process_and_the_interface_process_both_ways() 
     // trace rooted at the NAV line read from the frontseat socket.
     let (ns, nav_trace, nav_span) = helm.traced_node_status(&stack).await;
     assert_eq!(ns.name.as_deref(), Some("otauv"));
-    let chain = spans_until(&store, "the node_status's span", log, |spans| {
+    let chain = spans_until(&store, "the node_status's span", LONG, log, |spans| {
         spans
             .iter()
             .find(|s| s.trace_id == nav_trace && s.span_id == nav_span)
@@ -598,6 +389,31 @@ async fn one_trace_spans_the_helm_process_and_the_interface_process_both_ways() 
         .find(|s| s.name == "helm.desired_course")
         .unwrap();
     assert_eq!(sent.span_context.trace_id().to_string(), helm_trace);
+
+    // The detail status says how many spans went out and that none was lost.
+    let (dtx, mut details) = tokio::sync::mpsc::unbounded_channel();
+    let _detail_sub = helm
+        .session
+        .declare_subscriber(key_for("otauv", groups::FRONTSEAT_INTERFACE_DETAIL.name()))
+        .callback(move |s| {
+            if let Ok(d) = InterfaceDetail::decode(&*s.payload().to_bytes()) {
+                let _ = dtx.send(d);
+            }
+        })
+        .await
+        .unwrap();
+    let deadline = tokio::time::Instant::now() + LONG;
+    let detail = loop {
+        match tokio::time::timeout_at(deadline, details.recv()).await {
+            Ok(Some(d)) if d.spans_exported() > 0 => break d,
+            Ok(Some(_)) => {}
+            _ => panic!(
+                "no detail status with spans_exported > 0\ninterface log:\n{}",
+                stack.log()
+            ),
+        }
+    };
+    assert_eq!(detail.spans_dropped, Some(0), "{detail:?}");
 
     // Exported as a viewer expects: protobuf, the configured service, the project header.
     {

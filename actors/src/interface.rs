@@ -28,7 +28,7 @@ use crate::proto::goby::middleware::frontseat::protobuf::{
     VehicleType,
 };
 use crate::proto::goby::middleware::protobuf::LatLonPoint;
-use crate::ratelog::{LogDecision, RateLimitedLog};
+use crate::ratelog::{LogDecision, RateLimitedLog, more};
 use crate::state_machine::{Inputs, StateMachine, StateMachineConfig, Transition, state_words};
 use frontseat_sim::geodesy::LocalGrid;
 
@@ -225,6 +225,9 @@ pub struct FsiState {
     gate: GateContext,
     refused_log: RateLimitedLog,
     nav_log: RateLimitedLog,
+    /// The detail's counters for the OTel metrics (crate::metrics): written here, read by the
+    /// exporter.
+    metrics: Arc<crate::metrics::VehicleMetrics>,
     shutting_down: bool,
     exit: watch::Sender<Option<ServiceExit>>,
     subs: Vec<Subscription>,
@@ -283,7 +286,10 @@ impl FsiState {
             setpoints_refused: Some(self.counters.setpoints_refused),
             nav_refused: Some(self.counters.nav_refused),
             goby3_link_up: self.bus.link_up(crate::bus::GOBY3_LINK),
+            spans_dropped: None,
+            spans_exported: None,
         };
+        let detail = with_telemetry(detail, &self.metrics);
         self.ports.publish_detail(detail);
     }
 
@@ -376,6 +382,7 @@ impl FsiState {
         };
         match check_course(course, &self.s.limits, &self.gate) {
             Ok(safe) => {
+                crate::metrics::VehicleMetrics::add(&self.metrics.setpoints_sent);
                 self.gate.last_commanded_heading = safe.heading;
                 if safe == *course {
                     return Some(env);
@@ -462,6 +469,9 @@ impl FsiState {
 
     fn handle_data_from_frontseat(&mut self, env: Envelope<InterfaceData>) {
         let mut data = (*env.msg).clone();
+        if data.node_status.is_some() {
+            crate::metrics::VehicleMetrics::add(&self.metrics.nav_received);
+        }
         if let Some(ns) = data.node_status.as_ref()
             && let Err(r) = check_node_status(ns)
         {
@@ -644,16 +654,22 @@ pub fn compute_missing(
     }
 }
 
-/// The summary tail of a rate-limited log line.
-fn more(suppressed: u64, what: &str, window: Duration) -> String {
-    if suppressed == 0 {
-        String::new()
-    } else {
-        format!(
-            " (…and {suppressed} more {what} in the last {}s)",
-            window.as_secs()
-        )
+/// The detail's counters copied for the OTel metrics, and the process's span counts added to it:
+/// the metrics and the status say the same thing.
+fn with_telemetry(mut d: InterfaceDetail, m: &crate::metrics::VehicleMetrics) -> InterfaceDetail {
+    use crate::metrics::VehicleMetrics as M;
+    M::set(&m.setpoints_refused, d.setpoints_refused());
+    M::set(&m.nav_refused, d.nav_refused());
+    M::set(&m.commands_gated, d.commands_gated());
+    M::set(&m.bus_dropped, d.bus_dropped());
+    M::set(&m.driver_restarts, u64::from(d.driver_restarts()));
+    let state = d.status.map(|s| s.state() as i32).unwrap_or_default();
+    m.state.store(state, std::sync::atomic::Ordering::Relaxed);
+    if let Some(c) = crate::telemetry::span_counts_if_exporting() {
+        d.spans_dropped = Some(c.dropped());
+        d.spans_exported = Some(c.exported);
     }
+    d
 }
 
 fn log_transition(t: &Transition) {
@@ -718,6 +734,7 @@ impl Actor for FrontSeatInterface {
             gate: GateContext::default(),
             refused_log: RateLimitedLog::for_bad_input(),
             nav_log: RateLimitedLog::for_bad_input(),
+            metrics: crate::metrics::register(&args.settings.name),
             shutting_down: false,
             exit: args.exit,
             subs,

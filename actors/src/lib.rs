@@ -16,6 +16,7 @@ pub mod generated;
 pub mod health;
 pub mod interface;
 pub mod link;
+pub mod metrics;
 pub mod ratelog;
 pub mod seawater;
 pub mod service_child;

@@ -1,6 +1,11 @@
 //! Rate-limited logging for input we do not control: the first few occurrences in a window are
 //! logged in full, the rest are counted and summarised once the window ends ("…and 97 more in
 //! the last 10 s"), so a hostile or broken peer cannot flood the journal.
+//!
+//! Time is whatever clock the caller lives by: tokio's `Instant` ([`RateLimitedLog::decide`]) or
+//! a driver's simulated time ([`RateLimitedLog::decide_at`]), so that under a warp the window
+//! shrinks with every other timer. [`RateLimitedLog::summary_due`] lets a periodic task report
+//! what a burst suppressed even when no further bad input arrives to carry the summary.
 
 use std::time::Duration;
 
@@ -11,7 +16,9 @@ use tokio::time::Instant;
 pub struct RateLimitedLog {
     window: Duration,
     burst: u32,
-    window_start: Option<Instant>,
+    /// The first `Instant` seen: `decide` measures from it.
+    epoch: Option<Instant>,
+    window_start: Option<Duration>,
     in_window: u32,
     suppressed: u64,
 }
@@ -31,6 +38,7 @@ impl RateLimitedLog {
         Self {
             window,
             burst,
+            epoch: None,
             window_start: None,
             in_window: 0,
             suppressed: 0,
@@ -47,9 +55,15 @@ impl RateLimitedLog {
     }
 
     pub fn decide(&mut self, now: Instant) -> LogDecision {
+        let epoch = *self.epoch.get_or_insert(now);
+        self.decide_at(now.duration_since(epoch))
+    }
+
+    /// [`Self::decide`] on a clock of the caller's (e.g. simulated time since start).
+    pub fn decide_at(&mut self, now: Duration) -> LogDecision {
         let expired = self
             .window_start
-            .is_none_or(|s| now.duration_since(s) >= self.window);
+            .is_none_or(|s| now.saturating_sub(s) >= self.window);
         if expired {
             let suppressed_before = std::mem::take(&mut self.suppressed);
             self.window_start = Some(now);
@@ -65,6 +79,30 @@ impl RateLimitedLog {
             self.suppressed += 1;
             LogDecision::Suppress
         }
+    }
+
+    /// Occurrences suppressed in a window that has ended, once: the caller logs the summary.
+    /// None while the window runs or when nothing was suppressed.
+    pub fn summary_due(&mut self, now: Duration) -> Option<u64> {
+        let start = self.window_start?;
+        if self.suppressed == 0 || now.saturating_sub(start) < self.window {
+            return None;
+        }
+        self.window_start = None;
+        self.in_window = 0;
+        Some(std::mem::take(&mut self.suppressed))
+    }
+}
+
+/// " (…and 97 more bad lines in the last 10 s)", or "" when nothing was suppressed.
+pub fn more(suppressed: u64, what: &str, window: Duration) -> String {
+    if suppressed == 0 {
+        String::new()
+    } else {
+        format!(
+            " (…and {suppressed} more {what} in the last {} s)",
+            window.as_secs()
+        )
     }
 }
 
@@ -96,6 +134,29 @@ mod tests {
             LogDecision::Log {
                 suppressed_before: 0
             }
+        );
+    }
+
+    #[test]
+    fn a_summary_is_due_when_the_window_ends_without_more_input() {
+        let mut l = RateLimitedLog::new(5, Duration::from_secs(10));
+        let t0 = Duration::from_secs(100);
+        for _ in 0..100 {
+            l.decide_at(t0);
+        }
+        assert_eq!(l.summary_due(t0 + Duration::from_secs(9)), None);
+        assert_eq!(l.summary_due(t0 + Duration::from_secs(10)), Some(95));
+        assert_eq!(l.summary_due(t0 + Duration::from_secs(30)), None, "once");
+        assert_eq!(
+            l.decide_at(t0 + Duration::from_secs(31)),
+            LogDecision::Log {
+                suppressed_before: 0
+            },
+            "a new window starts"
+        );
+        assert_eq!(
+            more(95, "bad lines", l.window()),
+            " (…and 95 more bad lines in the last 10 s)"
         );
     }
 }

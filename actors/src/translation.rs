@@ -464,6 +464,7 @@ pub async fn spawn_with_chaos(
         health,
         buffer: DesiredBuffer::default(),
         counters: TranslationCounters::default(),
+        bad_mail_log: crate::ratelog::RateLimitedLog::for_bad_input(),
         connects: 0,
         community: cfg.community.clone(),
         status_tx,
@@ -492,6 +493,8 @@ struct Task {
     health: Health,
     buffer: DesiredBuffer,
     counters: TranslationCounters,
+    /// A helm posting DESIRED_* as strings would log one WARN per mail without it.
+    bad_mail_log: crate::ratelog::RateLimitedLog,
     connects: u64,
     community: String,
     status_tx: watch::Sender<TranslationStatus>,
@@ -647,7 +650,20 @@ impl Task {
         let Some(value) = m.as_double() else {
             self.counters.bad_mail += 1;
             self.counters_tx.send_replace(self.counters);
-            tracing::warn!(%key, data_type = ?m.data_type, "DESIRED_* is not a double; ignored");
+            if let crate::ratelog::LogDecision::Log { suppressed_before } =
+                self.bad_mail_log.decide(tokio::time::Instant::now())
+            {
+                tracing::warn!(
+                    %key,
+                    data_type = ?m.data_type,
+                    "DESIRED_* is not a double; ignored{}",
+                    crate::ratelog::more(
+                        suppressed_before,
+                        "bad DESIRED_* mails",
+                        self.bad_mail_log.window()
+                    )
+                );
+            }
             return;
         };
         self.health.last_desired = Some(now);

@@ -34,8 +34,9 @@ pub use interface::{
     WavegliderSv2Config,
 };
 pub use sections::{
-    DEFAULT_ORIGIN_LAT, DEFAULT_ORIGIN_LON, InterprocessConfig, InterprocessMode, LatLonConfig,
-    MoosConfig, TelemetryConfig,
+    DEFAULT_MAX_EXPORT_BATCH_SIZE, DEFAULT_MAX_QUEUE_SIZE, DEFAULT_METRICS_INTERVAL_S,
+    DEFAULT_ORIGIN_LAT, DEFAULT_ORIGIN_LON, DEFAULT_SCHEDULED_DELAY_MS, InterprocessConfig,
+    InterprocessMode, LatLonConfig, MoosConfig, TelemetryConfig,
 };
 pub use sim::{CurrentConfig, FaultKind, MAX_LINE_BYTES_LIMIT, ScheduledFaultConfig, SimConfig};
 pub use web::{MIN_TOKEN_CHARS, WEB_TOKEN_ENV, WebConfig};

@@ -181,7 +181,8 @@ impl InterprocessConfig {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields, default)]
 pub struct TelemetryConfig {
-    /// Export traces. The standard OTEL_EXPORTER_OTLP_ENDPOINT variable also turns export on.
+    /// Export traces (and metrics: see `metrics`). The standard OTEL_EXPORTER_OTLP_ENDPOINT
+    /// variable also turns export on.
     pub enabled: bool,
     /// OTLP/HTTP collector base URL; traces go to `<endpoint>/v1/traces`.
     pub endpoint: String,
@@ -196,7 +197,39 @@ pub struct TelemetryConfig {
     /// (0 = no navigation traces).
     #[schemars(range(min = 0.0, max = 1000.0))]
     pub nav_traces_per_s: f64,
+    /// Spans waiting for export, at most; more are dropped and counted (`spans_dropped` in the
+    /// interface's detail status). Sized so that `frontseat demo --warp 20` drops none.
+    /// OTEL_BSP_MAX_QUEUE_SIZE applies when this is left at its default. Unit: spans, 64 to
+    /// 1048576.
+    #[schemars(range(min = 64, max = 1_048_576))]
+    pub max_queue_size: u32,
+    /// Spans per export request, at most; a full batch is sent at once, before the delay.
+    /// OTEL_BSP_MAX_EXPORT_BATCH_SIZE applies when this is left at its default. Unit: spans, 1 to
+    /// max_queue_size.
+    #[schemars(range(min = 1, max = 1_048_576))]
+    pub max_export_batch_size: u32,
+    /// How long spans may wait before a partial batch is sent. OTEL_BSP_SCHEDULE_DELAY applies
+    /// when this is left at its default. Unit: ms, 10 to 60000.
+    #[schemars(range(min = 10, max = 60_000))]
+    pub scheduled_delay_ms: u32,
+    /// Also export the detail status's counters as OpenTelemetry metrics (to
+    /// `<endpoint>/v1/metrics`). OTEL_METRICS_EXPORTER=none turns them off too; Arize Phoenix
+    /// takes traces only and answers metrics with 405.
+    pub metrics: bool,
+    /// Metrics (the detail status's counters) are exported this often, to the same collector
+    /// (`<endpoint>/v1/metrics`). OTEL_METRIC_EXPORT_INTERVAL applies when this is left at its
+    /// default. Unit: s, 0.1 to 3600.
+    #[schemars(range(min = 0.1, max = 3600.0))]
+    pub metrics_interval_s: f64,
 }
+
+/// Defaults of the batch span exporter (see `TelemetryConfig`): the demo's busiest load (warp 20,
+/// ≈900 spans/s with NAV sampled at 10/s) fills the queue in no less than ≈18 s, far longer than a
+/// collector pause worth riding out; a batch is one loopback request of a few ms.
+pub const DEFAULT_MAX_QUEUE_SIZE: u32 = 16_384;
+pub const DEFAULT_MAX_EXPORT_BATCH_SIZE: u32 = 1_024;
+pub const DEFAULT_SCHEDULED_DELAY_MS: u32 = 500;
+pub const DEFAULT_METRICS_INTERVAL_S: f64 = 10.0;
 
 impl Default for TelemetryConfig {
     fn default() -> Self {
@@ -206,6 +239,11 @@ impl Default for TelemetryConfig {
             service_name: String::new(),
             sampling_ratio: 1.0,
             nav_traces_per_s: 10.0,
+            metrics: true,
+            max_queue_size: DEFAULT_MAX_QUEUE_SIZE,
+            max_export_batch_size: DEFAULT_MAX_EXPORT_BATCH_SIZE,
+            scheduled_delay_ms: DEFAULT_SCHEDULED_DELAY_MS,
+            metrics_interval_s: DEFAULT_METRICS_INTERVAL_S,
         }
     }
 }
@@ -225,6 +263,30 @@ impl TelemetryConfig {
             self.nav_traces_per_s,
             0.0,
             1000.0,
+        );
+        c.within(
+            &at(prefix, "max_queue_size"),
+            f64::from(self.max_queue_size),
+            64.0,
+            1_048_576.0,
+        );
+        c.within(
+            &at(prefix, "max_export_batch_size"),
+            f64::from(self.max_export_batch_size),
+            1.0,
+            f64::from(self.max_queue_size.max(1)),
+        );
+        c.within(
+            &at(prefix, "scheduled_delay_ms"),
+            f64::from(self.scheduled_delay_ms),
+            10.0,
+            60_000.0,
+        );
+        c.within(
+            &at(prefix, "metrics_interval_s"),
+            self.metrics_interval_s,
+            0.1,
+            3600.0,
         );
     }
 }

@@ -2,6 +2,10 @@
 //! `BasicSimulatorFrontSeatInterface` but: connecting never blocks, reconnects back off to a
 //! cap of about a second, START goes out on every (re)connect at full precision, and every line
 //! becomes a signal the moment it is read.
+//!
+//! Bad input is counted always and logged through `ratelog`: five WARNs per 10 s (simulated),
+//! then one summary ("…and 95 more bad lines in the last 10 s"), so a broken or hostile
+//! frontseat cannot flood the journal.
 
 use std::time::Duration;
 
@@ -15,6 +19,7 @@ use crate::proto::goby::middleware::frontseat::protobuf::{
     Speed,
 };
 use crate::proto::goby::middleware::protobuf::LatLonPoint;
+use crate::ratelog::{LogDecision, RateLimitedLog, more};
 
 #[derive(Clone, Debug)]
 pub struct Settings {
@@ -64,6 +69,8 @@ pub struct BasicSimulatorDriver {
     pub bad_lines: u64,
     pub unknown_lines: u64,
     pub write_failures: u64,
+    bad_log: RateLimitedLog,
+    unknown_log: RateLimitedLog,
 }
 
 impl BasicSimulatorDriver {
@@ -79,6 +86,24 @@ impl BasicSimulatorDriver {
             bad_lines: 0,
             unknown_lines: 0,
             write_failures: 0,
+            bad_log: RateLimitedLog::for_bad_input(),
+            unknown_log: RateLimitedLog::for_bad_input(),
+        }
+    }
+
+    /// Input the driver cannot use: counted, and logged as the rate limiter allows.
+    fn bad_input(&mut self, now: Duration, what: &str, line: &str, error: &str) {
+        self.bad_lines += 1;
+        crate::metrics::bad_line();
+        if let LogDecision::Log { suppressed_before } = self.bad_log.decide_at(now) {
+            let line = crate::telemetry::truncate(line);
+            let window = self.bad_log.window();
+            tracing::warn!(
+                line,
+                error,
+                "{what}{}",
+                more(suppressed_before, "bad lines", window)
+            );
         }
     }
 
@@ -128,8 +153,7 @@ impl BasicSimulatorDriver {
                     });
                 }
                 Err(e) => {
-                    self.bad_lines += 1;
-                    tracing::warn!(line, error = %e, "bad NAV line from the frontseat");
+                    self.bad_input(now, "bad NAV line from the frontseat", line, &e.to_string());
                 }
             },
             "CTRL" => {
@@ -156,7 +180,14 @@ impl BasicSimulatorDriver {
             }
             _ => {
                 self.unknown_lines += 1;
-                tracing::info!(line, "unknown line from the frontseat");
+                if let LogDecision::Log { suppressed_before } = self.unknown_log.decide_at(now) {
+                    let window = self.unknown_log.window();
+                    tracing::info!(
+                        line = crate::telemetry::truncate(line),
+                        "unknown line from the frontseat{}",
+                        more(suppressed_before, "unknown lines", window)
+                    );
+                }
             }
         }
     }
@@ -257,13 +288,14 @@ impl Driver for BasicSimulatorDriver {
                 self.write(&start, sig);
             }
             DriverIoEvent::Line(line) => self.handle_line(&line, now, sig),
-            DriverIoEvent::Frame(_) => {
-                self.bad_lines += 1;
-                tracing::warn!("binary frame on the basic simulator's line link; ignored");
-            }
+            DriverIoEvent::Frame(_) => self.bad_input(
+                now,
+                "binary frame on the basic simulator's line link; ignored",
+                "",
+                "",
+            ),
             DriverIoEvent::BadInput(what) => {
-                self.bad_lines += 1;
-                tracing::warn!(%what, "bad input from the frontseat");
+                self.bad_input(now, "bad input from the frontseat", "", &what)
             }
             DriverIoEvent::Disconnected(reason) => {
                 tracing::warn!(%reason, "frontseat connection lost; reconnecting");
@@ -310,23 +342,38 @@ impl Driver for BasicSimulatorDriver {
         // The basic simulator protocol has no data channel to the frontseat (as in Goby3).
     }
 
-    fn send_raw_to_frontseat(&mut self, raw: &Raw, _now: Duration, sig: &mut dyn SignalSink) {
+    fn send_raw_to_frontseat(&mut self, raw: &Raw, now: Duration, sig: &mut dyn SignalSink) {
         let bytes = raw.raw.as_deref().unwrap_or_default();
         match std::str::from_utf8(bytes) {
             Ok(s) => {
                 let line = s.trim_end_matches(['\r', '\n']).to_string();
                 self.write(&line, sig);
             }
-            Err(_) => {
-                self.bad_lines += 1;
-                tracing::warn!(
-                    "raw_send_request is not text; the basic simulator protocol is ASCII"
-                );
-            }
+            Err(_) => self.bad_input(
+                now,
+                "raw_send_request is not text; the basic simulator protocol is ASCII",
+                "",
+                "",
+            ),
         }
     }
 
     fn do_loop(&mut self, now: Duration, _sig: &mut dyn SignalSink) {
+        // A burst's summary, even when no further bad line comes to carry it.
+        if let Some(n) = self.bad_log.summary_due(now) {
+            let window = self.bad_log.window().as_secs();
+            tracing::warn!(
+                suppressed = n,
+                "…and {n} more bad lines in the last {window} s"
+            );
+        }
+        if let Some(n) = self.unknown_log.summary_due(now) {
+            let window = self.unknown_log.window().as_secs();
+            tracing::info!(
+                suppressed = n,
+                "…and {n} more unknown lines in the last {window} s"
+            );
+        }
         if let Some(t) = self.last_nav
             && now.saturating_sub(t) > self.settings.nav_timeout
             && self.providing_data

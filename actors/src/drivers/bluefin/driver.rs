@@ -389,6 +389,7 @@ impl BluefinDriver {
             Err(codec::CodecError::Empty) => return,
             Err(e) => {
                 self.stats.bad_lines += 1;
+                crate::metrics::bad_line();
                 self.problem(&format!("bad line from the Huxley: {e}"), line);
                 return;
             }
@@ -399,6 +400,7 @@ impl BluefinDriver {
             Ok(m) => m,
             Err(e) => {
                 self.stats.bad_lines += 1;
+                crate::metrics::bad_line();
                 self.problem(&format!("bad sentence from the Huxley: {e}"), line);
                 return;
             }
@@ -480,6 +482,7 @@ impl BluefinDriver {
                 let fix = self.nvg.as_ref().map(|n| (n.lat, n.lon, n.depth));
                 let (Some(t), Some(p)) = (c.temperature, c.pressure_kpa) else {
                     self.stats.bad_lines += 1;
+                    crate::metrics::bad_line();
                     self.problem("BFCTD without temperature or pressure", line);
                     return;
                 };
@@ -966,10 +969,12 @@ impl Driver for BluefinDriver {
             DriverIoEvent::Line(line) => self.handle_line(&line, now, sig),
             DriverIoEvent::BadInput(what) => {
                 self.stats.bad_lines += 1;
+                crate::metrics::bad_line();
                 self.problem("bad input from the Huxley", &what);
             }
             DriverIoEvent::Frame(_) => {
                 self.stats.bad_lines += 1;
+                crate::metrics::bad_line();
                 self.problem("binary frame on a Huxley link", "");
             }
             DriverIoEvent::Disconnected(reason) => {
@@ -1058,6 +1063,7 @@ impl Driver for BluefinDriver {
         let bytes = raw.raw.as_deref().unwrap_or_default();
         let Ok(text) = std::str::from_utf8(bytes) else {
             self.stats.bad_lines += 1;
+            crate::metrics::bad_line();
             self.problem(
                 "raw_send_request is not text; Huxley sentences are ASCII",
                 "",
@@ -1074,6 +1080,7 @@ impl Driver for BluefinDriver {
             Ok(s) => self.enqueue(FromPayload::Other(s), None, now, sig),
             Err(e) => {
                 self.stats.bad_lines += 1;
+                crate::metrics::bad_line();
                 self.problem(&format!("raw_send_request is not a sentence: {e}"), text);
             }
         }

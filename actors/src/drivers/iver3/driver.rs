@@ -197,6 +197,7 @@ impl Iver3Driver {
 
     fn bad(&mut self, what: &str) {
         self.counters.bad_lines += 1;
+        crate::metrics::bad_line();
         if let LogDecision::Log {
             suppressed_before: suppressed,
         } = self.bad_log.decide(tokio::time::Instant::now())

@@ -1,0 +1,192 @@
+//! The OpenTelemetry metrics of a frontseat process: the counters of every interface's detail
+//! status (NAV received and refused, setpoints sent and refused, commands gated, bus drops, driver
+//! restarts, the Goby3 state), the drivers' bad lines and the span exporter's own counts.
+//!
+//! The data path pays one relaxed atomic add per event and nothing else: the values live in
+//! atomics here and the SDK reads them through observable instruments, on its periodic reader's
+//! thread, only when it exports (every `[telemetry] metrics_interval_s`). With export off nobody
+//! reads them. Rates (NAV/s, setpoints/s) are left to the backend, which derives them from the
+//! monotonic counters as it does for any OTel counter.
+
+use std::sync::atomic::{AtomicI32, AtomicU64, Ordering};
+use std::sync::{Arc, Mutex, Weak};
+
+use opentelemetry::KeyValue;
+use opentelemetry::metrics::Meter;
+
+use crate::proto::goby::middleware::frontseat::protobuf::InterfaceState;
+
+/// One interface's counters, shared between the interface actor (writer) and the exporter's
+/// callbacks (reader).
+#[derive(Debug, Default)]
+pub struct VehicleMetrics {
+    /// NodeStatus received from the driver (before the envelope check).
+    pub nav_received: AtomicU64,
+    /// Setpoints that passed the safety envelope on their way to the driver.
+    pub setpoints_sent: AtomicU64,
+    pub setpoints_refused: AtomicU64,
+    pub nav_refused: AtomicU64,
+    pub commands_gated: AtomicU64,
+    pub bus_dropped: AtomicU64,
+    pub driver_restarts: AtomicU64,
+    /// The InterfaceState number (Goby3's enum).
+    pub state: AtomicI32,
+}
+
+impl VehicleMetrics {
+    pub fn add(counter: &AtomicU64) {
+        counter.fetch_add(1, Ordering::Relaxed);
+    }
+    pub fn set(counter: &AtomicU64, v: u64) {
+        counter.store(v, Ordering::Relaxed);
+    }
+}
+
+/// Every live interface of the process with its vehicle name: a process may run several (the
+/// demo's fleet, the bench). Weak, so a stopped interface disappears from the export.
+static VEHICLES: Mutex<Vec<(String, Weak<VehicleMetrics>)>> = Mutex::new(Vec::new());
+
+/// Lines from a frontseat that no driver could use (bad NAV, binary frames, undecodable input),
+/// for the whole process: drivers do not know which vehicle they serve.
+static BAD_LINES: AtomicU64 = AtomicU64::new(0);
+
+/// The counters of a new interface, exported with the attribute `vehicle = <name>`.
+pub fn register(vehicle: &str) -> Arc<VehicleMetrics> {
+    let m = Arc::new(VehicleMetrics::default());
+    let mut v = VEHICLES.lock().unwrap_or_else(|p| p.into_inner());
+    v.retain(|(_, w)| w.strong_count() > 0);
+    v.push((vehicle.to_string(), Arc::downgrade(&m)));
+    m
+}
+
+/// A driver could not use a line from its frontseat.
+pub fn bad_line() {
+    BAD_LINES.fetch_add(1, Ordering::Relaxed);
+}
+
+pub fn bad_lines() -> u64 {
+    BAD_LINES.load(Ordering::Relaxed)
+}
+
+fn each_vehicle(mut f: impl FnMut(&[KeyValue], &VehicleMetrics)) {
+    let live: Vec<(String, Arc<VehicleMetrics>)> = {
+        let v = VEHICLES.lock().unwrap_or_else(|p| p.into_inner());
+        v.iter()
+            .filter_map(|(n, w)| w.upgrade().map(|m| (n.clone(), m)))
+            .collect()
+    };
+    for (name, m) in live {
+        f(&[KeyValue::new("vehicle", name)], &m);
+    }
+}
+
+/// Names of the exported instruments (documented in README "Traces" and deploy/TRACING.md).
+pub mod names {
+    pub const NAV_RECEIVED: &str = "frontseat.nav.received";
+    pub const NAV_REFUSED: &str = "frontseat.nav.refused";
+    pub const SETPOINTS_SENT: &str = "frontseat.setpoints.sent";
+    pub const SETPOINTS_REFUSED: &str = "frontseat.setpoints.refused";
+    pub const COMMANDS_GATED: &str = "frontseat.commands.gated";
+    pub const BUS_DROPPED: &str = "frontseat.bus.dropped";
+    pub const DRIVER_RESTARTS: &str = "frontseat.driver.restarts";
+    pub const STATE: &str = "frontseat.interface.state";
+    pub const BAD_LINES: &str = "frontseat.bad_lines";
+    pub const SPANS_EXPORTED: &str = "frontseat.spans.exported";
+    pub const SPANS_DROPPED: &str = "frontseat.spans.dropped";
+}
+
+type Field = fn(&VehicleMetrics) -> &AtomicU64;
+
+/// Registers the observable instruments on `meter`. The SDK keeps their callbacks for the
+/// meter provider's life.
+pub(crate) fn install(meter: &Meter) {
+    let per_vehicle: [(&'static str, &'static str, &'static str, Field); 7] = [
+        (
+            names::NAV_RECEIVED,
+            "{message}",
+            "NodeStatus received from the frontseat",
+            |m| &m.nav_received,
+        ),
+        (
+            names::NAV_REFUSED,
+            "{message}",
+            "NodeStatus refused as insane",
+            |m| &m.nav_refused,
+        ),
+        (
+            names::SETPOINTS_SENT,
+            "{message}",
+            "setpoints passed to the driver",
+            |m| &m.setpoints_sent,
+        ),
+        (
+            names::SETPOINTS_REFUSED,
+            "{message}",
+            "setpoints refused by the safety envelope",
+            |m| &m.setpoints_refused,
+        ),
+        (
+            names::COMMANDS_GATED,
+            "{message}",
+            "commands refused outside COMMAND",
+            |m| &m.commands_gated,
+        ),
+        (
+            names::BUS_DROPPED,
+            "{message}",
+            "bus messages dropped at a full subscriber queue",
+            |m| &m.bus_dropped,
+        ),
+        (
+            names::DRIVER_RESTARTS,
+            "{restart}",
+            "driver restarts by the supervisor",
+            |m| &m.driver_restarts,
+        ),
+    ];
+    for (name, unit, description, field) in per_vehicle {
+        meter
+            .u64_observable_counter(name)
+            .with_unit(unit)
+            .with_description(description)
+            .with_callback(move |obs| {
+                each_vehicle(|attrs, m| obs.observe(field(m).load(Ordering::Relaxed), attrs))
+            })
+            .build();
+    }
+    meter
+        .i64_observable_gauge(names::STATE)
+        .with_description(
+            "the interface's Goby3 state: the InterfaceState number, named in `state`",
+        )
+        .with_callback(|obs| {
+            each_vehicle(|attrs, m| {
+                let n = m.state.load(Ordering::Relaxed);
+                let name = InterfaceState::try_from(n)
+                    .map(|s| s.as_str_name())
+                    .unwrap_or("UNKNOWN");
+                let mut a = attrs.to_vec();
+                a.push(KeyValue::new("state", name));
+                obs.observe(i64::from(n), &a);
+            })
+        })
+        .build();
+    meter
+        .u64_observable_counter(names::BAD_LINES)
+        .with_unit("{line}")
+        .with_description("lines from the frontseat no driver could use")
+        .with_callback(|obs| obs.observe(bad_lines(), &[]))
+        .build();
+    meter
+        .u64_observable_counter(names::SPANS_EXPORTED)
+        .with_unit("{span}")
+        .with_description("spans the collector accepted")
+        .with_callback(|obs| obs.observe(crate::telemetry::span_counts().exported, &[]))
+        .build();
+    meter
+        .u64_observable_counter(names::SPANS_DROPPED)
+        .with_unit("{span}")
+        .with_description("spans lost before the collector had them (queue full, export failed)")
+        .with_callback(|obs| obs.observe(crate::telemetry::span_counts().dropped(), &[]))
+        .build();
+}

@@ -1,0 +1,136 @@
+//! Logs stay quiet under attack: a frontseat (a TCP listener in this test, on loopback) that
+//! sends 100 garbage NAV lines to the basic simulator driver gets a handful of WARNs and one
+//! summary for the rest, not 100 WARNs. The interface runs in this process; the log is captured
+//! by a global tracing subscriber writing into memory (one test in this binary, so nothing else
+//! writes there).
+
+use std::io::Write;
+use std::sync::{Arc, Mutex};
+use std::time::Duration;
+
+use frontseat_actors::bus::Bus;
+use frontseat_actors::interface::InterfaceService;
+use frontseat_config::InterfaceConfig;
+use tokio::io::{AsyncBufReadExt, AsyncWriteExt, BufReader};
+
+const GARBAGE: usize = 100;
+
+/// The captured log, shared with the subscriber's writer.
+#[derive(Clone, Default)]
+struct Captured(Arc<Mutex<Vec<u8>>>);
+
+impl Write for Captured {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        self.0
+            .lock()
+            .unwrap_or_else(|p| p.into_inner())
+            .extend_from_slice(buf);
+        Ok(buf.len())
+    }
+    fn flush(&mut self) -> std::io::Result<()> {
+        Ok(())
+    }
+}
+
+impl Captured {
+    fn text(&self) -> String {
+        String::from_utf8_lossy(&self.0.lock().unwrap_or_else(|p| p.into_inner())).to_string()
+    }
+}
+
+/// The N of every "…and N more bad lines in the last" in `text`.
+fn summarised(text: &str) -> u64 {
+    text.lines()
+        .filter_map(|l| l.split("…and ").nth(1))
+        .filter(|rest| rest.contains("more bad lines in the last"))
+        .filter_map(|rest| rest.split_whitespace().next()?.parse::<u64>().ok())
+        .sum()
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_hundred_garbage_lines_give_a_few_warnings_and_a_summary() {
+    let captured = Captured::default();
+    let writer = captured.clone();
+    tracing_subscriber::fmt()
+        .with_ansi(false)
+        .with_max_level(tracing::Level::INFO)
+        .with_writer(move || writer.clone())
+        .init();
+
+    // The frontseat: accepts the driver, then sends garbage.
+    let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.unwrap();
+    let port = listener.local_addr().unwrap().port();
+    let mut cfg = InterfaceConfig {
+        name: "noisy-auv".into(),
+        // Ten simulated seconds (the limiter's window) pass in one wall second.
+        sim_warp_factor: 10.0,
+        status_period: 0.0,
+        ..Default::default()
+    };
+    cfg.driver.basic_simulator.tcp_port = port;
+    let bus = Bus::new();
+    let service = InterfaceService::start(&cfg, &bus).await.unwrap();
+    let (sock, _) = tokio::time::timeout(Duration::from_secs(20), listener.accept())
+        .await
+        .expect("the driver connects within 20 s")
+        .unwrap();
+    let (rd, mut wr) = sock.into_split();
+    let mut rd = BufReader::new(rd);
+    let mut start = String::new();
+    tokio::time::timeout(Duration::from_secs(20), rd.read_line(&mut start))
+        .await
+        .expect("the driver sends START")
+        .unwrap();
+    assert!(start.starts_with("START,"), "{start:?}");
+    let mut burst = String::new();
+    for i in 0..GARBAGE {
+        burst.push_str(&format!("NAV,LAT:{i},LON:garbage\r\n"));
+    }
+    wr.write_all(burst.as_bytes()).await.unwrap();
+
+    // Every line is counted; the summary comes once the window ends, with no further input.
+    let deadline = tokio::time::Instant::now() + Duration::from_secs(30);
+    let text = loop {
+        let text = captured.text();
+        let warned = text
+            .lines()
+            .filter(|l| l.contains(" WARN ") && l.contains("bad NAV line from the frontseat"))
+            .count() as u64;
+        if warned + summarised(&text) >= GARBAGE as u64 {
+            break text;
+        }
+        assert!(
+            tokio::time::Instant::now() < deadline,
+            "no summary of the suppressed bad lines within 30 s:\n{text}"
+        );
+        tokio::time::sleep(Duration::from_millis(50)).await;
+    };
+    let _ = service.shutdown(Duration::from_secs(3)).await;
+
+    let warns: Vec<&str> = text.lines().filter(|l| l.contains(" WARN ")).collect();
+    let bad: Vec<&&str> = warns
+        .iter()
+        .filter(|l| l.contains("bad NAV line from the frontseat"))
+        .collect();
+    println!("{}", warns.join("\n"));
+    assert!(
+        (1..=10).contains(&bad.len()),
+        "{} WARNs for {GARBAGE} bad lines:\n{text}",
+        bad.len()
+    );
+    assert_eq!(
+        bad.len() as u64 + summarised(&text),
+        GARBAGE as u64,
+        "every bad line is either logged or summarised:\n{text}"
+    );
+    assert!(
+        warns.len() <= 20,
+        "{} WARN lines in all: the log is not quiet\n{text}",
+        warns.len()
+    );
+    assert_eq!(
+        frontseat_actors::metrics::bad_lines(),
+        GARBAGE as u64,
+        "every bad line counted for the metrics"
+    );
+}

@@ -7,7 +7,7 @@ use std::process::ExitCode;
 use std::time::Duration;
 
 use clap::Args;
-use frontseat_actors::chaos_harness::{self, ChaosHarnessError, ChaosOptions};
+use frontseat_chaos::{self as chaos_harness, ChaosHarnessError, ChaosOptions};
 use frontseat_config::InterfaceConfig;
 
 #[derive(Args, Debug, Clone)]

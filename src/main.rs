@@ -2,7 +2,6 @@
 //! crates, waits for a shutdown signal and drains. Everything with logic lives in the crates.
 #![forbid(unsafe_code)]
 
-mod bench;
 mod bluefin_sim;
 mod chaos_cmd;
 mod demo;
@@ -92,7 +91,7 @@ enum Command {
     Demo(demo::DemoArgs),
     /// Measure latency, throughput, capacity and footprint; prints one table (`--quick` runs in
     /// seconds).
-    Bench(bench::BenchArgs),
+    Bench(frontseat_bench::BenchArgs),
     /// Print the resolved interface (application → layer → publishes/subscribes → group, type,
     /// actor) of every application, as compiled from interface_yaml/.
     Interfaces,
@@ -279,7 +278,9 @@ fn main() -> ExitCode {
                 _ => run_traced(&Default::default(), "demo", "", demo::run(args)),
             }
         }
-        Command::Bench(args) => run_traced(&Default::default(), "bench", "", bench::run(args)),
+        Command::Bench(args) => {
+            run_traced(&Default::default(), "bench", "", frontseat_bench::run(args))
+        }
     }
 }
 

@@ -5,10 +5,8 @@
 
 pub mod bus;
 pub mod chaos;
-pub mod chaos_harness;
 pub mod clock;
 pub mod command_gate;
-pub mod demo_helm;
 pub mod driver;
 pub mod driver_actor;
 pub mod drivers;

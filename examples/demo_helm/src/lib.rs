@@ -6,13 +6,13 @@
 use std::fmt::Write as _;
 use std::time::Duration;
 
-use crate::bus::{Bus, Undeliverable};
-use crate::clock::SimClock;
-use crate::ports::{DemoHelmInbox, DemoHelmPorts};
-use crate::proto::goby::middleware::frontseat::protobuf::{
+use frontseat_actors::bus::{Bus, Undeliverable};
+use frontseat_actors::clock::SimClock;
+use frontseat_actors::ports::{DemoHelmInbox, DemoHelmPorts};
+use frontseat_actors::proto::goby::middleware::frontseat::protobuf::{
     DesiredCourse, HelmState, HelmStateReport, InterfaceState, InterfaceStatus,
 };
-use crate::state_machine::state_words;
+use frontseat_actors::state_machine::state_words;
 
 #[derive(Clone, Debug)]
 pub struct DemoParams {

@@ -4,7 +4,7 @@
 
 use std::time::Duration;
 
-use frontseat_actors::chaos_harness::{self, ChaosHarnessError, ChaosOptions, FaultKind};
+use frontseat_chaos::{self as chaos_harness, ChaosHarnessError, ChaosOptions, FaultKind};
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn seeded_chaos_run_keeps_every_invariant() {

@@ -71,8 +71,8 @@ fn open_hint(e: &GatewayError) -> &'static str {
 /// `frontseat moos-gateway -c FILE`: runs until SIGTERM/SIGINT.
 pub async fn moos_gateway(cfg: GatewayConfig) -> ExitCode {
     let bus = Bus::new();
-    let notifier = std::sync::Arc::new(crate::systemd::Notifier::from_env());
-    let reporter = crate::systemd::spawn_translation_reporter(notifier.clone(), &bus);
+    let notifier = std::sync::Arc::new(frontseat_actors::systemd::Notifier::from_env());
+    let reporter = frontseat_actors::systemd::spawn_translation_reporter(notifier.clone(), &bus);
     let platform = match frontseat_gateway::resolve_platform(&cfg.interprocess, &cfg.name) {
         Ok(p) => p,
         Err(e) => {
@@ -131,7 +131,7 @@ pub async fn moos_gateway(cfg: GatewayConfig) -> ExitCode {
         "MOOS gateway running"
     );
     notifier.ready();
-    let watchdog = crate::systemd::spawn_watchdog(notifier.clone(), || async { true });
+    let watchdog = frontseat_actors::systemd::spawn_watchdog(notifier.clone(), || async { true });
     crate::shutdown::shutdown_signal().await;
     notifier.stopping();
     if let Some(w) = watchdog {

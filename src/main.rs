@@ -9,7 +9,6 @@ mod driver_host;
 mod gateway_cmd;
 mod service;
 mod shutdown;
-mod systemd;
 mod vehicle_kind;
 mod vehicle_sim;
 

@@ -17,6 +17,7 @@ pub mod ratelog;
 pub mod sim_glue;
 pub mod state_machine;
 pub mod supervisor;
+pub mod systemd;
 pub mod telemetry;
 pub mod translation;
 

@@ -2,6 +2,7 @@
 //! crates, waits for a shutdown signal and drains. Everything with logic lives in the crates.
 #![forbid(unsafe_code)]
 
+mod bench_cmd;
 mod bluefin_sim;
 mod chaos_cmd;
 mod demo;
@@ -90,7 +91,7 @@ enum Command {
     Demo(demo::DemoArgs),
     /// Measure latency, throughput, capacity and footprint; prints one table (`--quick` runs in
     /// seconds).
-    Bench(frontseat_bench::BenchArgs),
+    Bench(bench_cmd::BenchArgs),
     /// Print the resolved interface (application → layer → publishes/subscribes → group, type,
     /// actor) of every application, as compiled from interface_yaml/.
     Interfaces,
@@ -277,9 +278,7 @@ fn main() -> ExitCode {
                 _ => run_traced(&Default::default(), "demo", "", demo::run(args)),
             }
         }
-        Command::Bench(args) => {
-            run_traced(&Default::default(), "bench", "", frontseat_bench::run(args))
-        }
+        Command::Bench(args) => run_traced(&Default::default(), "bench", "", bench_cmd::run(args)),
     }
 }
 

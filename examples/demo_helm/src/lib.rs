@@ -2,6 +2,11 @@
 //! groups any helm uses (helm_state, desired_course in; node_status, status out) — due east, due
 //! south, then northwest until the vehicle stops closing on its start point — and records the
 //! track for the CSV and SVG the demo writes.
+//!
+//! An example, not part of the runtime: it uses only frontseat-actors' public bus and its
+//! generated `DemoHelm` ports (declared in interface_yaml/demo_helm.yaml and generated into the
+//! actors crate with every other application's), so a helm of your own can start from it.
+#![forbid(unsafe_code)]
 
 use std::fmt::Write as _;
 use std::time::Duration;

@@ -1,4 +1,4 @@
-//! The chaos harness behind `frontseat chaos` and `tests/chaos.rs`: the real simulator on
+//! The chaos harness behind `frontseat chaos` and `tools/chaos/tests/chaos.rs`: the real simulator on
 //! loopback TCP, the interface with its basic simulator driver, a helm on the bus and the MOOS
 //! bridge against our broker; faults injected on a seeded schedule, invariants watched
 //! throughout and reported at the end as a table.
@@ -7,6 +7,12 @@
 //! reacts is timing and is what is measured. Driver faults go through the chaos group and the
 //! ChaosAgent, so a config without `[chaos] enabled = true` is refused before anything starts.
 //! Only one run per process at a time: counting panics needs the process-wide panic hook.
+//!
+//! A tool, not part of the runtime: it composes frontseat-actors, -sim and -moos from outside,
+//! through their public API, as a deployment would. The runtime keeps only the hooks it must own
+//! itself — the ChaosAgent (`frontseat_actors::chaos`, refusing unless `[chaos] enabled = true`),
+//! the interface's `FsiMsg::Chaos` and the translation's fault hook.
+#![forbid(unsafe_code)]
 
 use std::collections::{BTreeMap, HashMap};
 use std::fmt::Write as _;

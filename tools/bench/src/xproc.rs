@@ -145,7 +145,11 @@ async fn measure(exe: &Path, plan: &Plan, sink: Option<&Sink>) -> Result<Measure
          tcp_port = {}\n\n\
          [interprocess]\n\
          enabled = true\n\
-         listen = [\"tcp/127.0.0.1:{zport}\"]\n{telemetry}",
+         listen = [\"tcp/127.0.0.1:{zport}\"]\n\n\
+         # Z2 carries its sequence number in DEPTH (up to z2_count): the default 300 m limit\n\
+         # would refuse the rest. 12000 is the most a config file may say.\n\
+         [limits]\n\
+         max_depth = 12000.0\n{telemetry}",
         fs.port()
     );
     std::fs::write(&path, cfg).map_err(|e| format!("writing {}: {e}", path.display()))?;

@@ -1,4 +1,4 @@
-//! `frontseat chaos`: runs the chaos harness (frontseat_actors::chaos_harness) — the real
+//! `frontseat chaos`: runs the chaos harness (frontseat_chaos, tools/chaos) — the real
 //! simulator, interface, helm and MOOS bridge in this process, faults on a seeded schedule —
 //! prints the invariants table and exits non-zero on any violation.
 
@@ -7,7 +7,7 @@ use std::process::ExitCode;
 use std::time::Duration;
 
 use clap::Args;
-use frontseat_actors::chaos_harness::{self, ChaosHarnessError, ChaosOptions};
+use frontseat_chaos::{self, ChaosHarnessError, ChaosOptions};
 use frontseat_config::InterfaceConfig;
 
 #[derive(Args, Debug, Clone)]
@@ -42,7 +42,7 @@ pub struct ChaosArgs {
 
 pub async fn run(args: ChaosArgs) -> ExitCode {
     if args.print_config {
-        print!("{}", chaos_harness::DEFAULT_CONFIG);
+        print!("{}", frontseat_chaos::DEFAULT_CONFIG);
         return ExitCode::SUCCESS;
     }
     let config: InterfaceConfig = match &args.config {
@@ -53,7 +53,7 @@ pub async fn run(args: ChaosArgs) -> ExitCode {
                 return ExitCode::from(2);
             }
         },
-        None => match chaos_harness::default_config() {
+        None => match frontseat_chaos::default_config() {
             Ok(c) => c,
             Err(e) => {
                 eprintln!("embedded chaos config: {e}");
@@ -82,7 +82,7 @@ pub async fn run(args: ChaosArgs) -> ExitCode {
             .map(|p| format!(", config {}", p.display()))
             .unwrap_or_default()
     );
-    match chaos_harness::run(config, opts, |p| eprintln!("chaos: {p}")).await {
+    match frontseat_chaos::run(config, opts, |p| eprintln!("chaos: {p}")).await {
         Ok(report) => {
             print!("{}", report.render());
             if report.passed() {

@@ -9,9 +9,9 @@ use std::process::ExitCode;
 use clap::Args;
 use frontseat_actors::bus::Bus;
 use frontseat_actors::clock::SimClock;
-use frontseat_actors::demo_helm::{self, DemoParams};
 use frontseat_actors::supervisor::SupervisorHandle;
 use frontseat_config::InterfaceConfig;
+use frontseat_demo_helm::{self as demo_helm, DemoParams};
 use frontseat_sim::{SimOptions, SimServer};
 
 use crate::service::SHUTDOWN_BOUND;

@@ -170,8 +170,8 @@ fn gateway_children(cfg: &GatewayConfig, platform: &str, bus: &Bus) -> Vec<Child
 /// gives up on a child (non-zero exit).
 pub async fn moos_gateway(cfg: GatewayConfig) -> ExitCode {
     let bus = Bus::new();
-    let notifier = std::sync::Arc::new(crate::systemd::Notifier::from_env());
-    let reporter = crate::systemd::spawn_translation_reporter(notifier.clone(), &bus);
+    let notifier = std::sync::Arc::new(frontseat_actors::systemd::Notifier::from_env());
+    let reporter = frontseat_actors::systemd::spawn_translation_reporter(notifier.clone(), &bus);
     let platform = match frontseat_gateway::resolve_platform(&cfg.interprocess, &cfg.name) {
         Ok(p) => p,
         Err(e) => {
@@ -196,7 +196,7 @@ pub async fn moos_gateway(cfg: GatewayConfig) -> ExitCode {
         "MOOS gateway running"
     );
     notifier.ready();
-    let watchdog = crate::systemd::spawn_watchdog(notifier.clone(), || async { true });
+    let watchdog = frontseat_actors::systemd::spawn_watchdog(notifier.clone(), || async { true });
     let exit = tokio::select! {
         e = root.wait() => e,
         _ = crate::shutdown::shutdown_signal() => ServiceExit::Clean,

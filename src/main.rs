@@ -2,7 +2,7 @@
 //! crates, waits for a shutdown signal and drains. Everything with logic lives in the crates.
 #![forbid(unsafe_code)]
 
-mod bench;
+mod bench_cmd;
 mod bluefin_sim;
 mod chaos_cmd;
 mod demo;
@@ -10,7 +10,6 @@ mod driver_host;
 mod gateway_cmd;
 mod service;
 mod shutdown;
-mod systemd;
 mod vehicle_kind;
 mod vehicle_sim;
 
@@ -92,7 +91,7 @@ enum Command {
     Demo(demo::DemoArgs),
     /// Measure latency, throughput, capacity and footprint; prints one table (`--quick` runs in
     /// seconds).
-    Bench(bench::BenchArgs),
+    Bench(bench_cmd::BenchArgs),
     /// Print the resolved interface (application → layer → publishes/subscribes → group, type,
     /// actor) of every application, as compiled from interface_yaml/.
     Interfaces,
@@ -279,7 +278,7 @@ fn main() -> ExitCode {
                 _ => run_traced(&Default::default(), "demo", "", demo::run(args)),
             }
         }
-        Command::Bench(args) => run_traced(&Default::default(), "bench", "", bench::run(args)),
+        Command::Bench(args) => run_traced(&Default::default(), "bench", "", bench_cmd::run(args)),
     }
 }
 

@@ -13,7 +13,7 @@ use frontseat_actors::supervisor::{ChildFailure, ChildSpec, SupervisorHandle};
 use frontseat_config::{FaultKind, InterfaceConfig, SimConfig};
 use frontseat_sim::{CtrlState, Fault, ScheduledFault, SimHandle, SimOptions, SimServer};
 
-use crate::systemd::{self, Notifier};
+use frontseat_actors::systemd::{self, Notifier};
 
 /// How long an orderly shutdown may take before we give up waiting.
 pub const SHUTDOWN_BOUND: Duration = Duration::from_secs(3);

@@ -10,7 +10,6 @@ use std::time::Duration;
 use common::*;
 use frontseat_actors::bus::Bus;
 use frontseat_actors::clock::SimClock;
-use frontseat_actors::demo_helm::{self, DemoParams};
 use frontseat_actors::groups;
 use frontseat_actors::interface::InterfaceService;
 use frontseat_actors::proto::frontseat::protobuf::bluefin as bf;
@@ -19,6 +18,7 @@ use frontseat_actors::proto::goby::middleware::frontseat::protobuf::{
     bluefin_extra_commands::BluefinCommand,
 };
 use frontseat_config::InterfaceConfig;
+use frontseat_demo_helm::{self as demo_helm, DemoParams};
 use frontseat_sim::bluefin::{
     HuxleyHandle, HuxleyOptions, HuxleyServer, HuxleyServerOptions, Refusal,
 };

@@ -1,13 +1,9 @@
 //! Deployment under systemd: the unit files pass `systemd-analyze verify`, the example configs
 //! pass `--check`, install.sh/uninstall.sh work in a staging directory, the sd_notify module
-//! (included from src/systemd.rs) reports status and withholds the watchdog from a hung actor, and
+//! (frontseat_actors::systemd) reports status and withholds the watchdog from a hung actor, and
 //! the real binary speaks sd_notify to a socket this test owns.
 
 mod common;
-
-#[allow(dead_code)]
-#[path = "../src/systemd.rs"]
-mod systemd;
 
 use std::collections::BTreeSet;
 use std::io::{BufRead, BufReader};
@@ -25,7 +21,9 @@ use frontseat_actors::interface::InterfaceService;
 use frontseat_actors::proto::goby::middleware::frontseat::protobuf::{
     FrontSeatError, FrontSeatState, HelmError, HelmState, InterfaceState, InterfaceStatus,
 };
-use systemd::{Notifier, spawn_status_reporter, spawn_watchdog, status_text};
+use frontseat_actors::systemd::{
+    self, Notifier, spawn_status_reporter, spawn_watchdog, status_text,
+};
 
 const BIN: &str = env!("CARGO_BIN_EXE_frontseat");
 const UNITS: [&str; 3] = [

@@ -1,14 +1,15 @@
 //! The frontseat runtime: the in-process bus, the generated wiring (messages, groups, ports), the
-//! FrontSeatInterface and its supervised DriverActor, the drivers, and the glue that embeds the
-//! simulator. Pure logic lives in plain modules; actors are thin shells around it.
+//! FrontSeatInterface and its supervised DriverActor, the drivers, the glue that embeds the
+//! simulator and systemd notification. Pure logic lives in plain modules; actors are thin shells
+//! around it. What only exercises the runtime lives outside it and uses this crate's public API:
+//! the chaos harness (`tools/chaos`), the benchmark (`tools/bench`) and the demo helm
+//! (`examples/demo_helm`); their ports are still generated here with every application's.
 #![forbid(unsafe_code)]
 
 pub mod bus;
 pub mod chaos;
-pub mod chaos_harness;
 pub mod clock;
 pub mod command_gate;
-pub mod demo_helm;
 pub mod driver;
 pub mod driver_actor;
 pub mod drivers;
@@ -23,6 +24,7 @@ pub mod service_child;
 pub mod sim_glue;
 pub mod state_machine;
 pub mod supervisor;
+pub mod systemd;
 pub mod telemetry;
 pub mod translation;
 

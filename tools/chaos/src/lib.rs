@@ -1,4 +1,4 @@
-//! The chaos harness behind `frontseat chaos` and `tests/chaos.rs`: the real simulator on
+//! The chaos harness behind `frontseat chaos` and `tools/chaos/tests/chaos.rs`: the real simulator on
 //! loopback TCP, the interface with its basic simulator driver, a helm on the bus and the MOOS
 //! bridge against our broker; faults injected on a seeded schedule, invariants watched
 //! throughout and reported at the end as a table.
@@ -7,6 +7,12 @@
 //! reacts is timing and is what is measured. Driver faults go through the chaos group and the
 //! ChaosAgent, so a config without `[chaos] enabled = true` is refused before anything starts.
 //! Only one run per process at a time: counting panics needs the process-wide panic hook.
+//!
+//! A tool, not part of the runtime: it composes frontseat-actors, -sim and -moos from outside,
+//! through their public API, as a deployment would. The runtime keeps only the hooks it must own
+//! itself — the ChaosAgent (`frontseat_actors::chaos`, refusing unless `[chaos] enabled = true`),
+//! the interface's `FsiMsg::Chaos` and the translation's fault hook.
+#![forbid(unsafe_code)]
 
 use std::collections::{BTreeMap, HashMap};
 use std::fmt::Write as _;
@@ -21,18 +27,18 @@ use frontseat_sim::{SimHandle, SimOptions, SimServer};
 use tokio::sync::watch;
 use tokio::time::Instant;
 
-use crate::bus::{Bus, Subscription};
-use crate::chaos::{ChaosAgent, ChaosError};
-use crate::groups;
-use crate::interface::{InterfaceService, ServiceExit, Snapshot, error_code};
-use crate::ports::ChaosMonkeyPorts;
-use crate::proto::frontseat::protobuf::{ChaosFault, SimFault, chaos_fault, sim_fault};
-use crate::proto::goby::middleware::frontseat::protobuf::{
+use frontseat_actors::bus::{Bus, Subscription};
+use frontseat_actors::chaos::{ChaosAgent, ChaosError};
+use frontseat_actors::groups;
+use frontseat_actors::interface::{InterfaceService, ServiceExit, Snapshot, error_code};
+use frontseat_actors::ports::ChaosMonkeyPorts;
+use frontseat_actors::proto::frontseat::protobuf::{ChaosFault, SimFault, chaos_fault, sim_fault};
+use frontseat_actors::proto::goby::middleware::frontseat::protobuf::{
     CommandRequest, DesiredCourse, HelmState, HelmStateReport, InterfaceState,
 };
-use crate::sim_glue::{self, EmbeddedSimulator};
-use crate::supervisor::SupervisorHandle;
-use crate::translation;
+use frontseat_actors::sim_glue::{self, EmbeddedSimulator};
+use frontseat_actors::supervisor::SupervisorHandle;
+use frontseat_actors::translation;
 
 /// The config `frontseat chaos` uses without `-c`: chaos enabled, warped, short reconnect and
 /// restart delays, and a restart limit that a fault every few hundred milliseconds stays under.
@@ -102,7 +108,7 @@ pub enum ChaosHarnessError {
     #[error("simulator: {0}")]
     Sim(#[from] frontseat_sim::SimError),
     #[error("interface: {0}")]
-    Start(#[from] crate::interface::StartError),
+    Start(#[from] frontseat_actors::interface::StartError),
     #[error("MOOS broker: {0}")]
     Moos(#[from] frontseat_moos::MoosError),
     #[error("MOOS bridge: {0}")]
@@ -1302,7 +1308,7 @@ pub async fn run(
             progress(&format!(
                 "{i}/{} faults, state {}, driver restarts {}, violations {}",
                 opts.faults,
-                crate::state_machine::state_words(run.monitor.state()),
+                frontseat_actors::state_machine::state_words(run.monitor.state()),
                 run.injected_panics + run.injected_kills,
                 run.violations.len()
             ));

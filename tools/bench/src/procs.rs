@@ -4,7 +4,7 @@
 
 use std::io::{BufRead, BufReader};
 use std::net::{Ipv4Addr, TcpListener};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
@@ -27,8 +27,8 @@ pub(super) struct ChildGuard {
 }
 
 impl ChildGuard {
-    pub(super) fn spawn(args: &[String]) -> Result<Self, String> {
-        let exe = std::env::current_exe().map_err(|e| format!("own executable: {e}"))?;
+    /// Starts `exe` (the `frontseat` binary) with `args`.
+    pub(super) fn spawn(exe: &Path, args: &[String]) -> Result<Self, String> {
         let mut child = Command::new(exe)
             .args(args)
             // The transition log line is at info; a caller's RUST_LOG must not hide it.
@@ -148,8 +148,8 @@ fn status_kib(pid: u32, key: &str) -> Option<u64> {
 
 /// Runs P5 (`runs` cold starts) then P4 (over `window`) on the last started pair; returns the
 /// rows in the order P4, P5.
-pub async fn run(runs: usize, settle: Duration, window: Duration) -> Vec<Row> {
-    match run_inner(runs, settle, window).await {
+pub async fn run(exe: &Path, runs: usize, settle: Duration, window: Duration) -> Vec<Row> {
+    match run_inner(exe, runs, settle, window).await {
         Ok(rows) => rows,
         Err(why) => vec![
             Row::failed("P4", P4, why.clone()),
@@ -158,9 +158,14 @@ pub async fn run(runs: usize, settle: Duration, window: Duration) -> Vec<Row> {
     }
 }
 
-async fn run_inner(runs: usize, settle: Duration, window: Duration) -> Result<Vec<Row>, String> {
+async fn run_inner(
+    exe: &Path,
+    runs: usize,
+    settle: Duration,
+    window: Duration,
+) -> Result<Vec<Row>, String> {
     let port = free_port()?;
-    let mut sim = ChildGuard::spawn(&["sim".into(), "--port".into(), port.to_string()])?;
+    let mut sim = ChildGuard::spawn(exe, &["sim".into(), "--port".into(), port.to_string()])?;
     sim.wait_for(&["simulator listening"]).await?;
 
     let path = std::env::temp_dir().join(format!("frontseat-bench-{}.toml", std::process::id()));
@@ -186,7 +191,7 @@ async fn run_inner(runs: usize, settle: Duration, window: Duration) -> Result<Ve
         // Stop the previous interface first: one vehicle at a time.
         drop(last.take());
         let t0 = Instant::now();
-        let mut iface = ChildGuard::spawn(&args)?;
+        let mut iface = ChildGuard::spawn(exe, &args)?;
         let t = iface
             .wait_for(&["to=\"running:command\""])
             .await

@@ -9,14 +9,14 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Duration;
 
-use frontseat_actors::bus::Bus;
-use frontseat_actors::groups;
-use frontseat_actors::interface::FsiMsg;
-use frontseat_actors::proto::frontseat::protobuf::TranslationStatus;
-use frontseat_actors::proto::goby::middleware::frontseat::protobuf::{
+use crate::bus::Bus;
+use crate::groups;
+use crate::interface::FsiMsg;
+use crate::proto::frontseat::protobuf::TranslationStatus;
+use crate::proto::goby::middleware::frontseat::protobuf::{
     FrontSeatError, HelmError, HelmState, InterfaceStatus,
 };
-use frontseat_actors::state_machine::state_words;
+use crate::state_machine::state_words;
 use sd_notify::NotifyState;
 use tokio::sync::mpsc::UnboundedSender;
 use tokio::task::JoinHandle;

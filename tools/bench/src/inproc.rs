@@ -50,6 +50,9 @@ const M2: &str =
 /// Time for the last deliveries of a burst to arrive before counting them lost.
 pub(super) const GRACE: Duration = Duration::from_millis(300);
 
+/// The depth limit of the bench's interfaces: above any sequence number a row writes in DEPTH.
+const SEQUENCE_DEPTH_LIMIT: f64 = 1e9;
+
 /// Runs P1, P2, P6, then M1 and M2 on one interface; returns their rows in that order.
 pub async fn run(plan: Plan) -> Vec<Row> {
     match run_inner(plan).await {
@@ -82,6 +85,10 @@ async fn run_inner(plan: Plan) -> Result<Vec<Row>, String> {
         ..InterfaceConfig::default()
     };
     cfg.driver.basic_simulator.tcp_port = fs.port();
+    // P2 and M2 carry their sequence number in DEPTH (1 ..= p2_count + m2_count, 15 000 in a full
+    // run): the safety envelope's depth limit (300 m by default) would refuse all but the first
+    // 300 and the row would measure nothing. Every other limit stays at its default.
+    cfg.limits.max_depth = SEQUENCE_DEPTH_LIMIT;
     let capacity = cfg.bus.queue_capacity;
 
     let bus = Bus::new();

@@ -2,17 +2,22 @@
 //! groups any helm uses (helm_state, desired_course in; node_status, status out) — due east, due
 //! south, then northwest until the vehicle stops closing on its start point — and records the
 //! track for the CSV and SVG the demo writes.
+//!
+//! An example, not part of the runtime: it uses only frontseat-actors' public bus and its
+//! generated `DemoHelm` ports (declared in interface_yaml/demo_helm.yaml and generated into the
+//! actors crate with every other application's), so a helm of your own can start from it.
+#![forbid(unsafe_code)]
 
 use std::fmt::Write as _;
 use std::time::Duration;
 
-use crate::bus::{Bus, Undeliverable};
-use crate::clock::SimClock;
-use crate::ports::{DemoHelmInbox, DemoHelmPorts};
-use crate::proto::goby::middleware::frontseat::protobuf::{
+use frontseat_actors::bus::{Bus, Undeliverable};
+use frontseat_actors::clock::SimClock;
+use frontseat_actors::ports::{DemoHelmInbox, DemoHelmPorts};
+use frontseat_actors::proto::goby::middleware::frontseat::protobuf::{
     DesiredCourse, HelmState, HelmStateReport, InterfaceState, InterfaceStatus,
 };
-use crate::state_machine::state_words;
+use frontseat_actors::state_machine::state_words;
 
 #[derive(Clone, Debug)]
 pub struct DemoParams {

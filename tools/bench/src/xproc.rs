@@ -8,6 +8,7 @@
 //! subscriber; a child also measures the exporter exactly as deployed.
 
 use std::net::Ipv4Addr;
+use std::path::Path;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
@@ -83,11 +84,11 @@ impl Plan {
 
 /// Runs one child with export off (Z1, Z2, Z3, CPU) then one with export on (Z1, Z2, CPU);
 /// returns the rows Z1, Z2, Z3, T1.
-pub async fn run(plan: Plan) -> Vec<Row> {
-    let off = measure(&plan, None).await;
+pub async fn run(exe: &Path, plan: Plan) -> Vec<Row> {
+    let off = measure(exe, &plan, None).await;
     let sink = Sink::start().await;
     let on = match &sink {
-        Ok(s) => measure(&plan, Some(s)).await,
+        Ok(s) => measure(exe, &plan, Some(s)).await,
         Err(e) => Err(format!("OTLP sink: {e}")),
     };
     let sink_stats = sink.as_ref().map(Sink::stats).unwrap_or_default();
@@ -111,7 +112,7 @@ pub async fn run(plan: Plan) -> Vec<Row> {
 
 /// One `frontseat interface` child against a fresh scripted frontseat; export to `sink` if
 /// given (and then no Z3: the raw_in flood is not what T1 compares).
-async fn measure(plan: &Plan, sink: Option<&Sink>) -> Result<Measured, String> {
+async fn measure(exe: &Path, plan: &Plan, sink: Option<&Sink>) -> Result<Measured, String> {
     let base = Instant::now();
     let z3_count = if sink.is_none() { plan.z3_count() } else { 0 };
     let navs = plan.z1_count + z3_count;
@@ -144,16 +145,23 @@ async fn measure(plan: &Plan, sink: Option<&Sink>) -> Result<Measured, String> {
          tcp_port = {}\n\n\
          [interprocess]\n\
          enabled = true\n\
-         listen = [\"tcp/127.0.0.1:{zport}\"]\n{telemetry}",
+         listen = [\"tcp/127.0.0.1:{zport}\"]\n\n\
+         # Z2 carries its sequence number in DEPTH (up to z2_count): the default 300 m limit\n\
+         # would refuse the rest. 12000 is the most a config file may say.\n\
+         [limits]\n\
+         max_depth = 12000.0\n{telemetry}",
         fs.port()
     );
     std::fs::write(&path, cfg).map_err(|e| format!("writing {}: {e}", path.display()))?;
     let _cfg = TempConfig(path.clone());
-    let mut child = ChildGuard::spawn(&[
-        "interface".to_string(),
-        "-c".into(),
-        path.display().to_string(),
-    ])?;
+    let mut child = ChildGuard::spawn(
+        exe,
+        &[
+            "interface".to_string(),
+            "-c".into(),
+            path.display().to_string(),
+        ],
+    )?;
     let r = connect_and_measure(plan, &fs, child.pid(), zport, &st, z3_count)
         .await
         .map_err(|e| format!("{e}; the interface logged: {}", child.tail(4)));

@@ -4,11 +4,11 @@
 
 use std::time::Duration;
 
-use frontseat_actors::chaos_harness::{self, ChaosHarnessError, ChaosOptions, FaultKind};
+use frontseat_chaos::{self, ChaosHarnessError, ChaosOptions, FaultKind};
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn seeded_chaos_run_keeps_every_invariant() {
-    let cfg = chaos_harness::default_config().unwrap();
+    let cfg = frontseat_chaos::default_config().unwrap();
     let opts = ChaosOptions {
         seed: 9,
         faults: 200,
@@ -18,7 +18,7 @@ async fn seeded_chaos_run_keeps_every_invariant() {
     };
     let run = tokio::time::timeout(
         Duration::from_secs(120),
-        chaos_harness::run(cfg, opts, |p| eprintln!("chaos: {p}")),
+        frontseat_chaos::run(cfg, opts, |p| eprintln!("chaos: {p}")),
     )
     .await
     .expect("the chaos run ends by itself");
@@ -44,9 +44,9 @@ async fn seeded_chaos_run_keeps_every_invariant() {
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_config_without_chaos_is_refused_before_anything_starts() {
-    let mut cfg = chaos_harness::default_config().unwrap();
+    let mut cfg = frontseat_chaos::default_config().unwrap();
     cfg.chaos.enabled = false;
-    let r = chaos_harness::run(cfg, ChaosOptions::default(), |_| {}).await;
+    let r = frontseat_chaos::run(cfg, ChaosOptions::default(), |_| {}).await;
     let e = r.expect_err("refused");
     assert!(matches!(e, ChaosHarnessError::Refused(_)), "{e}");
     assert!(e.to_string().contains("enabled = true"), "{e}");

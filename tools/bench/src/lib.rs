@@ -3,14 +3,19 @@
 //!
 //! Rows P1, P2, P6, M1, M2 run the real interface (and for M1, M2 the MOOS translation and a
 //! MOOSDB) in this process against a scripted loopback frontseat (`frontseat`), P3 is the
-//! simulator's own capacity bench, P4 and P5 run this very binary as child processes (`procs`).
-//! Z1–Z3 and T1 run `frontseat interface` as a child with its Zenoh gateway on (and for T1 a
+//! simulator's own capacity bench, P4 and P5 run the `frontseat` binary as child processes
+//! (`procs`). Z1–Z3 and T1 run `frontseat interface` as a child with its Zenoh gateway on (and for T1 a
 //! second child exporting traces to a loopback OTLP sink), this process being the frontseat and
 //! the Zenoh helm (`xproc`).
 //! L0 is the bench's own floor (a loopback line → the reader wakes) and every latency row is
 //! also given as a ratio over it (`floor`).
 //! W1 runs the web scope in this process and reads its event stream over loopback (`web`).
 //! Figures are measured, never asserted: no test checks a timing.
+//!
+//! This crate is a library so that the binary stays thin: `frontseat bench` parses its flags and
+//! calls [`run`] with its own executable's path, which the cross-process rows start as children
+//! (a library cannot know which binary it is linked into).
+#![forbid(unsafe_code)]
 
 mod floor;
 mod frontseat;
@@ -22,22 +27,23 @@ mod web;
 mod xproc;
 
 use std::io::Write;
+use std::path::PathBuf;
 use std::process::ExitCode;
 use std::time::{Duration, Instant};
 
-use clap::Args;
 use serde_json::json;
 
 use report::{Figures, Machine, Row, fmt_count, fmt_duration};
 
-#[derive(Args, Debug, Clone)]
-pub struct BenchArgs {
+/// What to run and how to print it.
+#[derive(Debug, Clone)]
+pub struct BenchOptions {
     /// Run in seconds, to prove the benchmark runs (CI); figures are rough.
-    #[arg(long)]
     pub quick: bool,
     /// Print the results as JSON instead of the Markdown table.
-    #[arg(long)]
     pub json: bool,
+    /// The `frontseat` binary rows P4, P5, Z1–Z3 and T1 start as children.
+    pub exe: PathBuf,
 }
 
 /// How long and how hard each row runs.
@@ -173,7 +179,9 @@ async fn capacity(plan: &Plan) -> Row {
     }
 }
 
-pub async fn run(args: BenchArgs) -> ExitCode {
+/// Runs every row one after the other and prints the table (or JSON) to stdout; exits 1 when a
+/// row failed.
+pub async fn run(args: BenchOptions) -> ExitCode {
     let plan = if args.quick {
         Plan::quick()
     } else {
@@ -197,10 +205,15 @@ pub async fn run(args: BenchArgs) -> ExitCode {
     let l0 = floor::run(plan.inproc.p1_count, plan.inproc.p1_rate_hz).await;
     let mut inproc_rows = inproc::run(plan.inproc).await.into_iter();
     let p3 = capacity(&plan).await;
-    let mut proc_rows = procs::run(plan.start_runs, plan.settle, plan.footprint_window)
-        .await
-        .into_iter();
-    let xproc_rows = xproc::run(plan.xproc).await;
+    let mut proc_rows = procs::run(
+        &args.exe,
+        plan.start_runs,
+        plan.settle,
+        plan.footprint_window,
+    )
+    .await
+    .into_iter();
+    let xproc_rows = xproc::run(&args.exe, plan.xproc).await;
     let w1 = web::run(plan.web).await;
     let mut rows = vec![l0];
     rows.extend(inproc_rows.next()); // P1

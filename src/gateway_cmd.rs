@@ -205,8 +205,8 @@ pub async fn moos_gateway(cfg: GatewayConfig) -> ExitCode {
     if let Some(w) = watchdog {
         w.abort();
     }
-    root.shutdown(crate::service::SHUTDOWN_BOUND * 3).await;
+    root.shutdown(crate::shutdown::SHUTDOWN_BOUND * 3).await;
     reporter.abort();
     tracing::info!("MOOS gateway stopped");
-    crate::service::exit_code(&exit)
+    crate::shutdown::exit_code(&exit)
 }

@@ -15,20 +15,7 @@ use frontseat_sim::{CtrlState, Fault, ScheduledFault, SimHandle, SimOptions, Sim
 
 use frontseat_actors::systemd::{self, Notifier};
 
-/// How long an orderly shutdown may take before we give up waiting.
-pub const SHUTDOWN_BOUND: Duration = Duration::from_secs(3);
-
-pub use crate::shutdown::shutdown_signal;
-
-pub fn exit_code(exit: &ServiceExit) -> ExitCode {
-    match exit {
-        ServiceExit::Clean => ExitCode::SUCCESS,
-        other => {
-            tracing::error!(?other, "service ended with an error");
-            ExitCode::from(other.code() as u8)
-        }
-    }
-}
+pub use crate::shutdown::{SHUTDOWN_BOUND, exit_code, shutdown_signal};
 
 /// The root supervisor's children for `frontseat interface`, in start order (stopped in the
 /// reverse order): the gateways first, so that the interface's first statuses are already

@@ -1,5 +1,25 @@
-//! Waiting for the service manager's or the user's request to stop (SIGTERM, SIGINT): shared by
-//! every long-running subcommand.
+//! Waiting for the service manager's or the user's request to stop (SIGTERM, SIGINT), how long
+//! draining may take, and the exit code a service ends with: shared by every long-running
+//! subcommand.
+
+use std::process::ExitCode;
+use std::time::Duration;
+
+use frontseat_actors::interface::ServiceExit;
+
+/// How long an orderly shutdown may take before we give up waiting.
+pub const SHUTDOWN_BOUND: Duration = Duration::from_secs(3);
+
+/// The process exit code for how a service ended (logged when it is an error).
+pub fn exit_code(exit: &ServiceExit) -> ExitCode {
+    match exit {
+        ServiceExit::Clean => ExitCode::SUCCESS,
+        other => {
+            tracing::error!(?other, "service ended with an error");
+            ExitCode::from(other.code() as u8)
+        }
+    }
+}
 
 /// Resolves on SIGTERM or SIGINT.
 pub async fn shutdown_signal() {

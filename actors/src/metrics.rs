@@ -99,7 +99,8 @@ type Field = fn(&VehicleMetrics) -> &AtomicU64;
 
 /// Registers the observable instruments on `meter`. The SDK keeps their callbacks for the
 /// meter provider's life.
-pub(crate) fn install(meter: &Meter) {
+/// `spans` says (exported, dropped) so far: the telemetry that installs these owns the counts.
+pub(crate) fn install(meter: &Meter, spans: fn() -> (u64, u64)) {
     let per_vehicle: [(&'static str, &'static str, &'static str, Field); 7] = [
         (
             names::NAV_RECEIVED,
@@ -181,12 +182,12 @@ pub(crate) fn install(meter: &Meter) {
         .u64_observable_counter(names::SPANS_EXPORTED)
         .with_unit("{span}")
         .with_description("spans the collector accepted")
-        .with_callback(|obs| obs.observe(crate::telemetry::span_counts().exported, &[]))
+        .with_callback(move |obs| obs.observe(spans().0, &[]))
         .build();
     meter
         .u64_observable_counter(names::SPANS_DROPPED)
         .with_unit("{span}")
         .with_description("spans lost before the collector had them (queue full, export failed)")
-        .with_callback(|obs| obs.observe(crate::telemetry::span_counts().dropped(), &[]))
+        .with_callback(move |obs| obs.observe(spans().1, &[]))
         .build();
 }

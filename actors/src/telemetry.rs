@@ -552,7 +552,10 @@ fn meter_provider(r: &Resolved) -> Result<SdkMeterProvider, String> {
         .with_reader(reader)
         .build();
     use opentelemetry::metrics::MeterProvider as _;
-    crate::metrics::install(&provider.meter("frontseat"));
+    crate::metrics::install(&provider.meter("frontseat"), || {
+        let c = span_counts();
+        (c.exported, c.dropped())
+    });
     Ok(provider)
 }
 

@@ -71,10 +71,12 @@ fn real_interface_yaml_compiles() {
         [
             "ChaosAgent",
             "ChaosMonkey",
+            "Coroner",
             "DemoHelm",
             "DriverActor",
             "FrontSeatInterface",
             "FrontSeatTranslation",
+            "HealthReporter",
             "RootSupervisor",
             "Simulator",
             "WebCommander"

@@ -209,6 +209,39 @@ impl Drop for GatewayHandle {
     }
 }
 
+/// What a transport exports: a subscription to every group `plan` exports, delivering into one
+/// channel tagged with the route's index. What was imported is never exported again: `echoed`
+/// counts it instead. The bus bounds what is in flight per group (`capacity`), so the channel
+/// cannot grow past that while the transport is slow.
+pub(crate) type ExportFeed = (
+    Vec<Subscription>,
+    mpsc::UnboundedReceiver<(usize, EncodedEnvelope)>,
+);
+
+pub(crate) fn subscribe_exports(
+    bus: &Bus,
+    plan: &Plan,
+    subscriber: &'static str,
+    capacity: usize,
+    echoed: impl Fn() + Clone + Send + Sync + 'static,
+) -> Result<ExportFeed, GatewayError> {
+    let (tx, rx) = mpsc::unbounded_channel::<(usize, EncodedEnvelope)>();
+    let mut subs = Vec::with_capacity(plan.exports.len());
+    for (i, r) in plan.exports.iter().enumerate() {
+        let (tx, echoed) = (tx.clone(), echoed.clone());
+        let sub = interprocess_subscribe_encoded(bus, r.group, subscriber, capacity, move |env| {
+            if env.meta.origin == Origin::Imported {
+                echoed();
+                return Ok(());
+            }
+            tx.send((i, env)).map_err(|_| Undeliverable)
+        })
+        .ok_or_else(|| GatewayError::NotInterprocess(r.group.to_string()))?;
+        subs.push(sub);
+    }
+    Ok((subs, rx))
+}
+
 /// The Zenoh gateway as a child of the root supervisor.
 impl Service for GatewayHandle {
     fn ended(&mut self) -> BoxFuture<'_, Result<(), ChildFailure>> {
@@ -283,28 +316,16 @@ pub async fn start_on(
             })?;
         publishers.push(p);
     }
-    let (tx, mut rx) = mpsc::unbounded_channel::<(usize, EncodedEnvelope)>();
-    let mut bus_subs = Vec::with_capacity(plan.exports.len());
-    for (i, r) in plan.exports.iter().enumerate() {
-        let tx = tx.clone();
-        let c = counters.clone();
-        let sub = interprocess_subscribe_encoded(
-            bus,
-            r.group,
-            "zenoh-gateway",
-            opts.export_capacity,
-            move |env| {
-                if env.meta.origin == Origin::Imported {
-                    c.not_echoed.fetch_add(1, Ordering::Relaxed);
-                    return Ok(());
-                }
-                tx.send((i, env)).map_err(|_| Undeliverable)
-            },
-        )
-        .ok_or_else(|| GatewayError::NotInterprocess(r.group.to_string()))?;
-        bus_subs.push(sub);
-    }
-    drop(tx);
+    let echoed = counters.clone();
+    let (bus_subs, mut rx) = subscribe_exports(
+        bus,
+        &plan,
+        "zenoh-gateway",
+        opts.export_capacity,
+        move || {
+            echoed.not_echoed.fetch_add(1, Ordering::Relaxed);
+        },
+    )?;
     let c = counters.clone();
     let keys: Vec<String> = plan.exports.iter().map(|r| r.key.clone()).collect();
     let export_task = tokio::spawn(async move {

@@ -17,9 +17,9 @@ use std::sync::Arc;
 use std::sync::atomic::Ordering;
 use std::time::Duration;
 
-use frontseat_actors::bus::{Bus, GOBY3_LINK, Origin, Subscription, Undeliverable};
-use frontseat_actors::generated::{EncodedEnvelope, groups, interprocess_subscribe_encoded};
-use tokio::sync::{mpsc, watch};
+use frontseat_actors::bus::{Bus, GOBY3_LINK, Subscription};
+use frontseat_actors::generated::groups;
+use tokio::sync::watch;
 
 use crate::{GatewayError, GatewayOptions, Plan, plan};
 pub use manager::Transport;
@@ -138,30 +138,16 @@ pub fn start(
     let counters = Arc::new(Counters::default());
     let me = Origin3::this_process();
 
-    let (tx, rx) = mpsc::unbounded_channel::<(usize, EncodedEnvelope)>();
-    let mut bus_subs = Vec::with_capacity(plan.exports.len());
-    for (i, r) in plan.exports.iter().enumerate() {
-        let tx = tx.clone();
-        let c = counters.clone();
-        // The bus bounds what is in flight per group (export_capacity): the channel cannot grow
-        // past that even while gobyd is slow.
-        let sub = interprocess_subscribe_encoded(
-            bus,
-            r.group,
-            "goby3-gateway",
-            opts.export_capacity,
-            move |env| {
-                if env.meta.origin == Origin::Imported {
-                    c.not_echoed.fetch_add(1, Ordering::Relaxed);
-                    return Ok(());
-                }
-                tx.send((i, env)).map_err(|_| Undeliverable)
-            },
-        )
-        .ok_or_else(|| GatewayError::NotInterprocess(r.group.to_string()))?;
-        bus_subs.push(sub);
-    }
-    drop(tx);
+    let echoed = counters.clone();
+    let (bus_subs, rx) = crate::subscribe_exports(
+        bus,
+        &plan,
+        "goby3-gateway",
+        opts.export_capacity,
+        move || {
+            echoed.not_echoed.fetch_add(1, Ordering::Relaxed);
+        },
+    )?;
 
     let exporter = Exporter {
         routes: plan

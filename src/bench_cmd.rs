@@ -14,6 +14,20 @@ pub struct BenchArgs {
     /// Print the results as JSON instead of the Markdown table.
     #[arg(long)]
     pub json: bool,
+    /// Only these rows, comma-separated (e.g. `--rows P1,P2,M1,M2` for an A/B of two builds);
+    /// L0 always runs, every ratio is over it. Rows that share a setup run together (M1/M2,
+    /// P4/P5, Z1–Z3/T1); the table shows only the rows asked for.
+    #[arg(long, value_delimiter = ',', value_name = "ROWS")]
+    pub rows: Vec<String>,
+    /// A/B against another build: runs this build's bench and that `frontseat` executable's
+    /// alternately, `--pairs` times each, and prints mean and median p50/p99 of every latency
+    /// row with the change (e.g. `--against /tmp/frontseat-old --rows P1,P2,M1,M2`). A build
+    /// without `--rows` runs its whole table.
+    #[arg(long, value_name = "EXE")]
+    pub against: Option<std::path::PathBuf>,
+    /// How many runs of each build `--against` makes.
+    #[arg(long, default_value_t = 6, requires = "against")]
+    pub pairs: usize,
 }
 
 pub async fn run(args: BenchArgs) -> ExitCode {
@@ -28,6 +42,9 @@ pub async fn run(args: BenchArgs) -> ExitCode {
         quick: args.quick,
         json: args.json,
         exe,
+        rows: args.rows,
+        against: args.against,
+        pairs: args.pairs,
     })
     .await
 }

@@ -101,3 +101,65 @@ fn quick_bench_json_has_every_row() {
     assert!(p1["p99_us"].as_f64().unwrap() > 0.0, "{p1}");
     assert!(p1["samples"].as_u64().unwrap() > 0, "{p1}");
 }
+
+#[test]
+fn rows_picks_rows_and_refuses_unknown_ones() {
+    let (ok, stdout, stderr) = run_bench(&["--quick", "--json", "--rows", "p1,M2"]);
+    assert!(
+        ok,
+        "bench --rows failed\nstdout:\n{stdout}\nstderr:\n{stderr}"
+    );
+    let v: serde_json::Value = serde_json::from_str(&stdout).unwrap();
+    let rows = v["rows"].as_array().unwrap();
+    let ids: Vec<&str> = rows.iter().map(|r| r["id"].as_str().unwrap()).collect();
+    // L0 always, for the ratios; M1 shares M2's setup but was not asked for.
+    assert_eq!(ids, ["L0", "P1", "M2"]);
+    for r in &rows[1..] {
+        assert!(r["p50_over_l0"].as_f64().unwrap() > 0.0, "{r}");
+        assert!(r["samples"].as_u64().unwrap() > 0, "{r}");
+    }
+
+    let (ok, stdout, stderr) = run_bench(&["--quick", "--rows", "P1,X9"]);
+    assert!(!ok, "an unknown row must fail: {stdout}");
+    assert!(stderr.contains("unknown row `X9`"), "{stderr}");
+    assert!(stderr.contains("L0, P1"), "{stderr}");
+}
+
+#[test]
+fn against_compares_two_builds_over_alternating_runs() {
+    let me = env!("CARGO_BIN_EXE_frontseat");
+    let (ok, stdout, stderr) = run_bench(&[
+        "--quick",
+        "--json",
+        "--rows",
+        "P1",
+        "--against",
+        me,
+        "--pairs",
+        "2",
+    ]);
+    assert!(
+        ok,
+        "bench --against failed\nstdout:\n{stdout}\nstderr:\n{stderr}"
+    );
+    // Each build ran twice, alternating: this, other, other, this.
+    let order: Vec<&str> = stderr
+        .lines()
+        .filter_map(|l| l.split(", ").nth(1))
+        .filter_map(|l| l.split(' ').next())
+        .collect();
+    assert_eq!(order, ["this", "other", "other", "this"], "{stderr}");
+    let v: serde_json::Value = serde_json::from_str(&stdout).unwrap();
+    let rows = v["rows"].as_array().unwrap();
+    let ids: Vec<&str> = rows.iter().map(|r| r["id"].as_str().unwrap()).collect();
+    assert_eq!(ids, ["L0", "P1"]);
+    for r in rows {
+        for side in ["this", "other"] {
+            assert_eq!(r[side]["n"], 2, "{r}");
+            let p50 = &r[side]["p50_us"];
+            assert!(p50["mean"].as_f64().unwrap() > 0.0, "{r}");
+            assert!(p50["median"].as_f64().unwrap() > 0.0, "{r}");
+        }
+        assert!(r["p50_change_pct"]["mean"].as_f64().is_some(), "{r}");
+    }
+}

@@ -53,9 +53,10 @@ pub(super) const GRACE: Duration = Duration::from_millis(300);
 /// The depth limit of the bench's interfaces: above any sequence number a row writes in DEPTH.
 const SEQUENCE_DEPTH_LIMIT: f64 = 1e9;
 
-/// Runs P1, P2, P6, then M1 and M2 on one interface; returns their rows in that order.
-pub async fn run(plan: Plan) -> Vec<Row> {
-    match run_inner(plan).await {
+/// Runs P1, P2, P6, then M1 and M2 on one interface (those of them `sel` wants; M1 and M2
+/// together); returns their rows in that order.
+pub async fn run(plan: Plan, sel: &super::Selection) -> Vec<Row> {
+    match run_inner(plan, sel).await {
         Ok(rows) => rows,
         Err(why) => vec![
             Row::failed("P1", P1, why.clone()),
@@ -67,7 +68,7 @@ pub async fn run(plan: Plan) -> Vec<Row> {
     }
 }
 
-async fn run_inner(plan: Plan) -> Result<Vec<Row>, String> {
+async fn run_inner(plan: Plan, sel: &super::Selection) -> Result<Vec<Row>, String> {
     let base = Instant::now();
     let navs = plan.p1_count + plan.p6_count() + plan.m1_count;
     let nav_written = Stamps::new(base, navs);
@@ -147,11 +148,22 @@ async fn run_inner(plan: Plan) -> Result<Vec<Row>, String> {
     })
     .await;
     let rows = if matches!(reached, Ok(true)) {
-        let p1 = p1(&plan, &fs, &nav_written, &node_status_at).await;
-        let p2 = p2(&plan, &bus, &fs, &cmd_sent, &cmd_read).await;
-        let p6 = p6(&plan, &bus, &fs, &nav_written, &node_status_at, &raw_in_at).await;
-        let mut rows = vec![p1, p2, p6];
-        rows.extend(moos_rows(&plan, &bus, &fs, &nav_written, &cmd_sent, &cmd_read, base).await);
+        // Each row has its own range of sequence numbers, so leaving one out moves no other.
+        let mut rows = Vec::new();
+        if sel.wants("P1") {
+            rows.push(p1(&plan, &fs, &nav_written, &node_status_at).await);
+        }
+        if sel.wants("P2") {
+            rows.push(p2(&plan, &bus, &fs, &cmd_sent, &cmd_read).await);
+        }
+        if sel.wants("P6") {
+            rows.push(p6(&plan, &bus, &fs, &nav_written, &node_status_at, &raw_in_at).await);
+        }
+        if sel.wants("M1") || sel.wants("M2") {
+            rows.extend(
+                moos_rows(&plan, &bus, &fs, &nav_written, &cmd_sent, &cmd_read, base).await,
+            );
+        }
         Ok(rows)
     } else {
         Err("the interface did not reach running:command within 10 s".to_string())

@@ -11,12 +11,15 @@
 //! also given as a ratio over it (`floor`).
 //! W1 runs the web scope in this process and reads its event stream over loopback (`web`).
 //! Figures are measured, never asserted: no test checks a timing.
+//! `--rows` picks rows; `--against <exe>` compares this build with another over alternating runs
+//! of both (`compare`), the way to tell whether a change made a path slower on a noisy machine.
 //!
 //! This crate is a library so that the binary stays thin: `frontseat bench` parses its flags and
 //! calls [`run`] with its own executable's path, which the cross-process rows start as children
 //! (a library cannot know which binary it is linked into).
 #![forbid(unsafe_code)]
 
+mod compare;
 mod floor;
 mod frontseat;
 mod inproc;
@@ -44,6 +47,54 @@ pub struct BenchOptions {
     pub json: bool,
     /// The `frontseat` binary rows P4, P5, Z1–Z3 and T1 start as children.
     pub exe: PathBuf,
+    /// Only these rows (and L0, which every ratio needs); all rows when empty.
+    pub rows: Vec<String>,
+    /// Instead of one table: an A/B of this build against that `frontseat` executable,
+    /// `pairs` alternating runs of each (`compare`).
+    pub against: Option<PathBuf>,
+    pub pairs: usize,
+}
+
+/// Every row's id, in the order of the table.
+pub const ROW_IDS: [&str; 14] = [
+    "L0", "P1", "P2", "P3", "P4", "P5", "P6", "M1", "M2", "Z1", "Z2", "Z3", "T1", "W1",
+];
+
+/// Which rows a run measures. Rows measured together (P4/P5, M1/M2, Z1–Z3/T1) share their
+/// setup, so asking for one runs its group and the others are left out of the table.
+#[derive(Clone, Debug)]
+pub struct Selection(Vec<&'static str>);
+
+impl Selection {
+    /// All rows when `ids` is empty; an unknown id is an error naming the known ones.
+    pub fn parse(ids: &[String]) -> Result<Self, String> {
+        if ids.is_empty() {
+            return Ok(Self(ROW_IDS.to_vec()));
+        }
+        let mut picked = vec!["L0"];
+        for id in ids {
+            let id = id.trim().to_ascii_uppercase();
+            match ROW_IDS.iter().find(|r| **r == id) {
+                Some(r) if !picked.contains(r) => picked.push(r),
+                Some(_) => {}
+                None => {
+                    return Err(format!(
+                        "unknown row `{id}`; rows are {}",
+                        ROW_IDS.join(", ")
+                    ));
+                }
+            }
+        }
+        Ok(Self(picked))
+    }
+
+    pub fn wants(&self, id: &str) -> bool {
+        self.0.contains(&id)
+    }
+
+    fn any(&self, ids: &[&str]) -> bool {
+        ids.iter().any(|id| self.wants(id))
+    }
 }
 
 /// How long and how hard each row runs.
@@ -182,6 +233,27 @@ async fn capacity(plan: &Plan) -> Row {
 /// Runs every row one after the other and prints the table (or JSON) to stdout; exits 1 when a
 /// row failed.
 pub async fn run(args: BenchOptions) -> ExitCode {
+    let sel = match Selection::parse(&args.rows) {
+        Ok(s) => s,
+        Err(e) => {
+            eprintln!("frontseat bench: {e}");
+            return ExitCode::from(2);
+        }
+    };
+    if let Some(other) = &args.against {
+        let o = compare::CompareOptions {
+            this: args.exe.clone(),
+            other: other.clone(),
+            pairs: args.pairs.max(1),
+            rows: args.rows.clone(),
+            quick: args.quick,
+            json: args.json,
+        };
+        // The children are whole processes, waited for on a thread of their own.
+        return tokio::task::spawn_blocking(move || compare::run(&o))
+            .await
+            .unwrap_or(ExitCode::from(1));
+    }
     let plan = if args.quick {
         Plan::quick()
     } else {
@@ -197,34 +269,39 @@ pub async fn run(args: BenchOptions) -> ExitCode {
         machine.cores,
         if args.quick {
             "a few seconds"
-        } else {
+        } else if args.rows.is_empty() {
             "about three minutes"
+        } else {
+            "less for the rows picked"
         }
     );
     // One after the other: on a small machine the rows must not disturb each other.
     let l0 = floor::run(plan.inproc.p1_count, plan.inproc.p1_rate_hz).await;
-    let mut inproc_rows = inproc::run(plan.inproc).await.into_iter();
-    let p3 = capacity(&plan).await;
-    let mut proc_rows = procs::run(
-        &args.exe,
-        plan.start_runs,
-        plan.settle,
-        plan.footprint_window,
-    )
-    .await
-    .into_iter();
-    let xproc_rows = xproc::run(&args.exe, plan.xproc).await;
-    let w1 = web::run(plan.web).await;
     let mut rows = vec![l0];
-    rows.extend(inproc_rows.next()); // P1
-    rows.extend(inproc_rows.next()); // P2
-    rows.push(p3);
-    rows.extend(proc_rows.next()); // P4
-    rows.extend(proc_rows.next()); // P5
-    rows.extend(inproc_rows.next()); // P6
-    rows.extend(inproc_rows); // M1, M2
-    rows.extend(xproc_rows); // Z1, Z2, Z3, T1
-    rows.push(w1);
+    if sel.any(&["P1", "P2", "P6", "M1", "M2"]) {
+        rows.extend(inproc::run(plan.inproc, &sel).await);
+    }
+    if sel.wants("P3") {
+        rows.push(capacity(&plan).await);
+    }
+    if sel.any(&["P4", "P5"]) {
+        let r = procs::run(
+            &args.exe,
+            plan.start_runs,
+            plan.settle,
+            plan.footprint_window,
+        )
+        .await;
+        rows.extend(r);
+    }
+    if sel.any(&["Z1", "Z2", "Z3", "T1"]) {
+        rows.extend(xproc::run(&args.exe, plan.xproc).await);
+    }
+    if sel.wants("W1") {
+        rows.push(web::run(plan.web).await);
+    }
+    rows.retain(|r| sel.wants(r.id));
+    rows.sort_by_key(|r| ROW_IDS.iter().position(|id| *id == r.id));
     floor::add_ratios(&mut rows);
     let elapsed = started.elapsed();
 

@@ -519,10 +519,15 @@ async fn restart_limit_ends_the_service_with_an_error() {
 }
 
 /// The basic driver, except that its loop blocks its thread once, for `hang`, when told to.
+/// A driver whose next loop tick blocks its thread until the test releases it (or `limit`
+/// passes), saying while it is blocked: the test then waits for the watchdog's verdict instead of
+/// racing a fixed-length hang.
 struct HangingDriver {
     inner: BasicSimulatorDriver,
     hang_now: Arc<std::sync::atomic::AtomicBool>,
-    hang: Duration,
+    hanging: Arc<std::sync::atomic::AtomicBool>,
+    release: Arc<std::sync::atomic::AtomicBool>,
+    limit: Duration,
 }
 
 impl Driver for HangingDriver {
@@ -557,7 +562,12 @@ impl Driver for HangingDriver {
     fn do_loop(&mut self, now: Duration, sig: &mut dyn SignalSink) {
         if self.hang_now.swap(false, Ordering::SeqCst) {
             // A driver stuck in blocking code: exactly what the watchdog must notice.
-            std::thread::sleep(self.hang);
+            self.hanging.store(true, Ordering::SeqCst);
+            let until = std::time::Instant::now() + self.limit;
+            while !self.release.load(Ordering::SeqCst) && std::time::Instant::now() < until {
+                std::thread::sleep(Duration::from_millis(10));
+            }
+            self.hanging.store(false, Ordering::SeqCst);
         }
         self.inner.do_loop(now, sig)
     }
@@ -578,12 +588,16 @@ async fn a_driver_stuck_in_a_handler_is_reported_unresponsive() {
     let cfg = config_for(&sim, WARP);
     let settings = Settings::from_config(&cfg);
     let hang_now = Arc::new(std::sync::atomic::AtomicBool::new(false));
-    let h = hang_now.clone();
+    let hanging = Arc::new(std::sync::atomic::AtomicBool::new(false));
+    let release = Arc::new(std::sync::atomic::AtomicBool::new(false));
+    let (h, g, r) = (hang_now.clone(), hanging.clone(), release.clone());
     let factory: DriverFactory = Arc::new(move || {
         Box::new(HangingDriver {
             inner: BasicSimulatorDriver::new(settings.clone()),
             hang_now: h.clone(),
-            hang: DRIVER_HUNG_AFTER * 2,
+            hanging: g.clone(),
+            release: r.clone(),
+            limit: Duration::from_secs(60),
         }) as Box<dyn Driver>
     });
     let service = InterfaceService::start_with(InterfaceSettings::from_config(&cfg), &bus, factory)
@@ -602,22 +616,32 @@ async fn a_driver_stuck_in_a_handler_is_reported_unresponsive() {
         snap.is_some_and(|s| s.driver_responsive)
     };
     hang_now.store(true, Ordering::SeqCst);
-    let deadline = tokio::time::Instant::now() + DRIVER_HUNG_AFTER * 2;
-    let mut seen_hung = false;
-    while tokio::time::Instant::now() < deadline {
-        if !alive(service.snapshot(Duration::from_millis(500)).await) {
-            seen_hung = true;
-            break;
-        }
+    let deadline = tokio::time::Instant::now() + LONG;
+    while !hanging.load(Ordering::SeqCst) {
+        assert!(
+            tokio::time::Instant::now() < deadline,
+            "the driver never ran its loop tick"
+        );
+        tokio::time::sleep(Duration::from_millis(10)).await;
+    }
+    // It stays blocked until released: the verdict must come once DRIVER_HUNG_AFTER has passed,
+    // however slowly this machine runs.
+    let deadline = tokio::time::Instant::now() + DRIVER_HUNG_AFTER + LONG;
+    while alive(service.snapshot(Duration::from_millis(500)).await) {
+        assert!(
+            tokio::time::Instant::now() < deadline,
+            "a driver blocked for {:?} was never reported",
+            DRIVER_HUNG_AFTER + LONG
+        );
+        assert!(
+            hanging.load(Ordering::SeqCst),
+            "the driver stopped hanging on its own"
+        );
         tokio::time::sleep(Duration::from_millis(50)).await;
     }
-    assert!(
-        seen_hung,
-        "a driver blocked for {:?} was never reported",
-        DRIVER_HUNG_AFTER * 2
-    );
+    release.store(true, Ordering::SeqCst);
     // Once it returns, it ticks again and is reported alive.
-    let deadline = tokio::time::Instant::now() + DRIVER_HUNG_AFTER * 4;
+    let deadline = tokio::time::Instant::now() + DRIVER_HUNG_AFTER + LONG;
     while !alive(service.snapshot(Duration::from_millis(500)).await) {
         assert!(tokio::time::Instant::now() < deadline, "never recovered");
         tokio::time::sleep(Duration::from_millis(50)).await;

@@ -525,8 +525,11 @@ async fn restart_limit_ends_the_service_with_an_error() {
 struct HangingDriver {
     inner: BasicSimulatorDriver,
     hang_now: Arc<std::sync::atomic::AtomicBool>,
+    /// Notified when the hang starts.
+    started: Arc<tokio::sync::Notify>,
     hanging: Arc<std::sync::atomic::AtomicBool>,
-    release: Arc<std::sync::atomic::AtomicBool>,
+    /// A message (or the test's end) releases it.
+    release: Arc<std::sync::Mutex<std::sync::mpsc::Receiver<()>>>,
     limit: Duration,
 }
 
@@ -563,9 +566,9 @@ impl Driver for HangingDriver {
         if self.hang_now.swap(false, Ordering::SeqCst) {
             // A driver stuck in blocking code: exactly what the watchdog must notice.
             self.hanging.store(true, Ordering::SeqCst);
-            let until = std::time::Instant::now() + self.limit;
-            while !self.release.load(Ordering::SeqCst) && std::time::Instant::now() < until {
-                std::thread::sleep(Duration::from_millis(10));
+            self.started.notify_one();
+            if let Ok(rx) = self.release.lock() {
+                let _ = rx.recv_timeout(self.limit);
             }
             self.hanging.store(false, Ordering::SeqCst);
         }
@@ -588,15 +591,18 @@ async fn a_driver_stuck_in_a_handler_is_reported_unresponsive() {
     let cfg = config_for(&sim, WARP);
     let settings = Settings::from_config(&cfg);
     let hang_now = Arc::new(std::sync::atomic::AtomicBool::new(false));
+    let started = Arc::new(tokio::sync::Notify::new());
     let hanging = Arc::new(std::sync::atomic::AtomicBool::new(false));
-    let release = Arc::new(std::sync::atomic::AtomicBool::new(false));
-    let (h, g, r) = (hang_now.clone(), hanging.clone(), release.clone());
+    let (release, release_rx) = std::sync::mpsc::channel();
+    let release_rx = Arc::new(std::sync::Mutex::new(release_rx));
+    let (h, st, g) = (hang_now.clone(), started.clone(), hanging.clone());
     let factory: DriverFactory = Arc::new(move || {
         Box::new(HangingDriver {
             inner: BasicSimulatorDriver::new(settings.clone()),
             hang_now: h.clone(),
+            started: st.clone(),
             hanging: g.clone(),
-            release: r.clone(),
+            release: release_rx.clone(),
             limit: Duration::from_secs(60),
         }) as Box<dyn Driver>
     });
@@ -616,14 +622,9 @@ async fn a_driver_stuck_in_a_handler_is_reported_unresponsive() {
         snap.is_some_and(|s| s.driver_responsive)
     };
     hang_now.store(true, Ordering::SeqCst);
-    let deadline = tokio::time::Instant::now() + LONG;
-    while !hanging.load(Ordering::SeqCst) {
-        assert!(
-            tokio::time::Instant::now() < deadline,
-            "the driver never ran its loop tick"
-        );
-        tokio::time::sleep(Duration::from_millis(10)).await;
-    }
+    tokio::time::timeout(LONG, started.notified())
+        .await
+        .expect("the driver never ran its loop tick");
     // It stays blocked until released: the verdict must come once DRIVER_HUNG_AFTER has passed,
     // however slowly this machine runs.
     let deadline = tokio::time::Instant::now() + DRIVER_HUNG_AFTER + LONG;
@@ -639,7 +640,7 @@ async fn a_driver_stuck_in_a_handler_is_reported_unresponsive() {
         );
         tokio::time::sleep(Duration::from_millis(50)).await;
     }
-    release.store(true, Ordering::SeqCst);
+    release.send(()).unwrap();
     // Once it returns, it ticks again and is reported alive.
     let deadline = tokio::time::Instant::now() + DRIVER_HUNG_AFTER + LONG;
     while !alive(service.snapshot(Duration::from_millis(500)).await) {

@@ -23,15 +23,17 @@ pub struct CompareOptions {
     pub pairs: usize,
     /// Passed on to both children; empty = every row.
     pub rows: Vec<String>,
+    /// The same rows, parsed: which rows the summary shows.
+    pub sel: super::Selection,
     pub quick: bool,
     pub json: bool,
 }
 
-/// The latency rows a comparison summarises, in table order.
-const LATENCY_ROWS: [&str; 8] = ["L0", "P1", "P2", "M1", "M2", "Z1", "Z2", "W1"];
-
 /// A child bench may take this long (a full table takes about three minutes).
 const CHILD_LIMIT: Duration = Duration::from_secs(600);
+
+/// At most this much of a child's output is kept (a full `--json` table is about 20 kB).
+const OUTPUT_LIMIT: u64 = 4 << 20;
 
 /// p50 and p99 (µs) of every latency row of one child's run, by row id.
 type RunFigures = Vec<(String, f64, f64)>;
@@ -84,7 +86,7 @@ pub fn run(o: &CompareOptions) -> ExitCode {
             }
         }
     }
-    let summary = summarise(&this_runs, &other_runs, &o.rows);
+    let summary = summarise(&this_runs, &other_runs, &o.sel);
     if o.json {
         let v = json!({
             "this": o.this.display().to_string(),
@@ -103,7 +105,7 @@ pub fn run(o: &CompareOptions) -> ExitCode {
     ExitCode::SUCCESS
 }
 
-/// One child bench with `--json`; its latency rows' p50 and p99.
+/// One child bench with `--json`; p50 and p99 of every row that has them (the latency rows).
 fn child_run(exe: &Path, quick: bool, rows: &[String]) -> Result<RunFigures, String> {
     let mut cmd = Command::new(exe);
     cmd.arg("bench").arg("--json");
@@ -156,17 +158,18 @@ fn child_run(exe: &Path, quick: bool, rows: &[String]) -> Result<RunFigures, Str
             let id = r["id"].as_str()?;
             let p50 = r["p50_us"].as_f64()?;
             let p99 = r["p99_us"].as_f64()?;
-            LATENCY_ROWS
-                .contains(&id)
-                .then(|| (id.to_string(), p50, p99))
+            Some((id.to_string(), p50, p99))
         })
         .collect())
 }
 
 fn read_all(pipe: Option<impl std::io::Read>) -> String {
+    use std::io::Read as _;
     let mut s = String::new();
     if let Some(mut p) = pipe {
-        let _ = p.read_to_string(&mut s);
+        let _ = (&mut p).take(OUTPUT_LIMIT).read_to_string(&mut s);
+        // The rest is read and dropped: a child blocked on a full pipe would never exit.
+        let _ = std::io::copy(&mut p, &mut std::io::sink());
     }
     s
 }
@@ -246,19 +249,21 @@ impl RowSummary {
     }
 }
 
-/// Every latency row both builds measured (and, with `rows`, only those asked for, plus L0).
-pub fn summarise(this: &[RunFigures], other: &[RunFigures], rows: &[String]) -> Vec<RowSummary> {
-    let wanted =
-        |id: &str| id == "L0" || rows.is_empty() || rows.iter().any(|r| r.eq_ignore_ascii_case(id));
+/// Every latency row both builds measured that `sel` shows, in the table's order.
+pub fn summarise(
+    this: &[RunFigures],
+    other: &[RunFigures],
+    sel: &super::Selection,
+) -> Vec<RowSummary> {
     let column = |runs: &[RunFigures], id: &str, p: usize| -> Vec<f64> {
         runs.iter()
             .flat_map(|r| r.iter().filter(|(i, ..)| i == id))
             .map(|(_, p50, p99)| if p == 0 { *p50 } else { *p99 })
             .collect()
     };
-    LATENCY_ROWS
+    super::ROW_IDS
         .iter()
-        .filter(|id| wanted(id))
+        .filter(|id| sel.wants(id))
         .filter_map(|id| {
             let stats = |runs: &[RunFigures]| -> Option<[Stats; 2]> {
                 Some([
@@ -347,14 +352,15 @@ mod tests {
         let mut other_run = run(100.0);
         other_run.retain(|(id, ..)| id != "M1");
         let other = vec![other_run, run(100.0)];
-        let s = summarise(&this, &other, &["P1".to_string()]);
+        let p1 = crate::Selection::parse(&["p1".to_string()]).unwrap();
+        let s = summarise(&this, &other, &p1);
         let ids: Vec<&str> = s.iter().map(|r| r.id.as_str()).collect();
         assert_eq!(ids, ["L0", "P1"], "M1 was not asked for");
         let p1 = &s[1];
         assert_eq!(p1.this[0].mean, 100.0);
         assert_eq!(p1.other[0].n, 2);
         assert!(change(p1.this[0].mean, p1.other[0].mean).abs() < 1e-9);
-        let all = summarise(&this, &other, &[]);
+        let all = summarise(&this, &other, &crate::Selection::parse(&[]).unwrap());
         let m1 = all.iter().find(|r| r.id == "M1").unwrap();
         assert_eq!((m1.this[0].n, m1.other[0].n), (2, 1));
     }

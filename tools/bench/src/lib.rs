@@ -246,6 +246,7 @@ pub async fn run(args: BenchOptions) -> ExitCode {
             other: other.clone(),
             pairs: args.pairs.max(1),
             rows: args.rows.clone(),
+            sel: sel.clone(),
             quick: args.quick,
             json: args.json,
         };

@@ -42,6 +42,8 @@ const HUB_TIMEOUT: Duration = Duration::from_secs(2);
 /// Counters of the HTTP side.
 #[derive(Debug, Default)]
 pub struct ServerCounters {
+    /// Connections holding a slot now (a gauge: up at accept, down when the connection ends).
+    pub connections_open: AtomicU64,
     pub connections_refused: AtomicU64,
     pub requests_refused: AtomicU64,
     pub sends: AtomicU64,
@@ -398,9 +400,18 @@ pub struct BoundedListener {
 pub struct BoundedStream {
     stream: TcpStream,
     _permit: OwnedSemaphorePermit,
+    counters: Arc<ServerCounters>,
     idle: Duration,
     last: tokio::time::Instant,
     timer: Pin<Box<tokio::time::Sleep>>,
+}
+
+impl Drop for BoundedStream {
+    fn drop(&mut self) {
+        self.counters
+            .connections_open
+            .fetch_sub(1, Ordering::Relaxed);
+    }
 }
 
 impl BoundedStream {
@@ -428,10 +439,14 @@ impl axum::serve::Listener for BoundedListener {
                 Ok(permit) => {
                     let _ = stream.set_nodelay(true);
                     let now = tokio::time::Instant::now();
+                    self.counters
+                        .connections_open
+                        .fetch_add(1, Ordering::Relaxed);
                     return (
                         BoundedStream {
                             stream,
                             _permit: permit,
+                            counters: self.counters.clone(),
                             idle: self.idle,
                             last: now,
                             timer: Box::pin(tokio::time::sleep_until(now + self.idle)),

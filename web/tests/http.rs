@@ -361,6 +361,16 @@ async fn bodies_connections_and_event_streams_are_bounded() {
     let second = Sse::open(addr, "/api/events").await;
     assert_eq!(second.status, 503);
     drop(second);
+    // The server frees the refused tab's slot when it sees the close, not at once: wait for it,
+    // or one of the idle sockets below would be the one refused.
+    let deadline = tokio::time::Instant::now() + TIMEOUT;
+    while web.server_counters.connections_open.load(Ordering::Relaxed) > 1 {
+        assert!(
+            tokio::time::Instant::now() < deadline,
+            "the refused event stream's connection was never released"
+        );
+        tokio::time::sleep(Duration::from_millis(5)).await;
+    }
     // Connections: `first` holds one; two idle sockets fill the bound; the next is closed at
     // once without an answer.
     let _a = tokio::net::TcpStream::connect(addr).await.unwrap();

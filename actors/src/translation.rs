@@ -273,7 +273,7 @@ pub fn client_config(cfg: &MoosConfig) -> MoosClientConfig {
         server,
         time_warp: cfg.time_warp,
         queue_limit: MOOS_QUEUE_LIMIT,
-        packet_end_events: true,
+        mail_by_packet: true,
         ..MoosClientConfig::new(cfg.app_name.clone())
     }
 }
@@ -581,7 +581,12 @@ impl Task {
     fn on_event(&mut self, ev: MoosEvent) {
         match ev {
             MoosEvent::Mail(m) => self.on_mail(&m),
-            MoosEvent::PacketEnd => self.on_packet_end(),
+            MoosEvent::Packet(mail) => {
+                for m in &mail {
+                    self.on_mail(m);
+                }
+                self.on_packet_end();
+            }
             MoosEvent::Connected => {
                 self.connects += 1;
                 if self.connects > 1 {

@@ -1,7 +1,7 @@
 //! Same-iteration headings, proven on a real pHelmIvP capture: the DB→frontseat packets of
 //! `cap03b_frontseat_first10s` (moos/tests/fixtures/captures, recorded from a real MOOSDB feeding
 //! pHelmIvP's DESIRED_* to a frontseat client) replayed through the translation's DesiredBuffer
-//! packet by packet, exactly as the MOOS client reports them (mail, then PacketEnd). Every course
+//! packet by packet, exactly as the MOOS client reports them (one event per packet). Every course
 //! must carry the DESIRED_HEADING of its own packet (pHelmIvP posts DEPTH, SPEED, HEADING).
 
 use std::path::PathBuf;

@@ -59,10 +59,11 @@ pub struct MoosClientConfig {
     pub queue_limit: usize,
     /// Capacity of the event channel (default 1024). When full, reading from the DB pauses.
     pub event_capacity: usize,
-    /// Report [`MoosEvent::PacketEnd`] after the mail of each packet, for clients that must
-    /// treat the mail of one packet as one batch (Goby3 buffers a whole OnNewMail before its
-    /// triggers fire). Default false.
-    pub packet_end_events: bool,
+    /// Report the mail of each packet as one [`MoosEvent::Packet`] instead of one
+    /// [`MoosEvent::Mail`] per message, for clients that must treat the mail of one packet as one
+    /// batch (Goby3 buffers a whole OnNewMail before its triggers fire). One event per packet
+    /// also means one wake-up of the reader per packet. Default false.
+    pub mail_by_packet: bool,
 }
 
 impl MoosClientConfig {
@@ -80,7 +81,7 @@ impl MoosClientConfig {
             max_packet: crate::codec::DEFAULT_MAX_PACKET,
             queue_limit: 4096,
             event_capacity: 1024,
-            packet_end_events: false,
+            mail_by_packet: false,
         }
     }
 
@@ -132,9 +133,9 @@ pub enum MoosEvent {
     Disconnected(String),
     /// A NOTIFY for a registered variable. `time` is the poster's MOOS time.
     Mail(MoosMessage),
-    /// The mail of one packet from the DB has all been reported (only with
-    /// `packet_end_events`, and only after a packet that carried mail).
-    PacketEnd,
+    /// All the NOTIFYs of one packet from the DB, in order (only with `mail_by_packet`, and only
+    /// for a packet that carried mail).
+    Packet(Vec<MoosMessage>),
 }
 
 /// A snapshot of the client's counters.
@@ -641,14 +642,17 @@ async fn read_loop(
                 }
             };
             inc(&c.packets_received);
-            let mut had_mail = false;
+            let mut mail = Vec::new();
             for m in msgs {
                 match m.msg_type {
                     MsgType::Notify => {
-                        had_mail = true;
                         inc(&c.mail_received);
-                        // Backpressure: a full event channel pauses reading from the DB.
-                        let _ = events.send(MoosEvent::Mail(m)).await;
+                        if shared.cfg.mail_by_packet {
+                            mail.push(m);
+                        } else {
+                            // Backpressure: a full event channel pauses reading from the DB.
+                            let _ = events.send(MoosEvent::Mail(m)).await;
+                        }
                     }
                     MsgType::Timing => inc(&c.timing_echoes),
                     MsgType::Poison => {
@@ -660,8 +664,8 @@ async fn read_loop(
                     other => debug!(?other, "ignoring message from MOOSDB"),
                 }
             }
-            if had_mail && shared.cfg.packet_end_events {
-                let _ = events.send(MoosEvent::PacketEnd).await;
+            if !mail.is_empty() {
+                let _ = events.send(MoosEvent::Packet(mail)).await;
             }
         }
         let need = match dec.bytes_needed(&buf) {

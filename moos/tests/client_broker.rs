@@ -132,6 +132,59 @@ async fn double_string_and_binary_round_trip() {
     b.shutdown().await;
 }
 
+/// The translation's mode: each packet's mail arrives as one event, in the order posted, so a
+/// trigger (DESIRED_SPEED) is handled with the rest of its helm iteration in one wake-up.
+#[tokio::test]
+async fn mail_by_packet_reports_each_packet_as_one_event() {
+    let b = broker().await;
+    let (sub, mut srx) = MoosClient::start(MoosClientConfig {
+        mail_by_packet: true,
+        ..cfg("sub", &b)
+    })
+    .unwrap();
+    for k in ["P_HEADING", "P_DEPTH", "P_SPEED", "P_SYNC"] {
+        sub.register(k, 0.0).unwrap();
+    }
+    wait_connected(&mut srx).await;
+    sub.notify_double("P_SYNC", 1.0, None).unwrap();
+    let packet = loop {
+        match next_event(&mut srx).await {
+            MoosEvent::Packet(ms) if ms.iter().any(|m| m.key == "P_SYNC") => break ms,
+            MoosEvent::Mail(m) => panic!("a Mail event in mail_by_packet mode: {m:?}"),
+            _ => {}
+        }
+    };
+    assert_eq!(packet.len(), 1);
+
+    let (publ, mut prx) = MoosClient::start(cfg("pub", &b)).unwrap();
+    wait_connected(&mut prx).await;
+    publ.notify_doubles(
+        &[("P_HEADING", 90.0), ("P_DEPTH", 7.0), ("P_SPEED", 1.5)],
+        None,
+    )
+    .unwrap();
+    let packet = match next_event(&mut srx).await {
+        MoosEvent::Packet(ms) => ms,
+        other => panic!("expected one Packet event, got {other:?}"),
+    };
+    let got: Vec<(String, Option<f64>)> = packet
+        .iter()
+        .map(|m| (m.key.to_string_lossy().into_owned(), m.as_double()))
+        .collect();
+    assert_eq!(
+        got,
+        [
+            ("P_HEADING".to_string(), Some(90.0)),
+            ("P_DEPTH".to_string(), Some(7.0)),
+            ("P_SPEED".to_string(), Some(1.5)),
+        ]
+    );
+    assert_eq!(sub.counters().mail_received, 4);
+    sub.shutdown().await;
+    publ.shutdown().await;
+    b.shutdown().await;
+}
+
 #[tokio::test]
 async fn shutdown_flushes_queued_notifications() {
     let b = broker().await;

@@ -28,7 +28,7 @@ use crate::proto::goby::middleware::frontseat::protobuf::{
     VehicleType,
 };
 use crate::proto::goby::middleware::protobuf::LatLonPoint;
-use crate::ratelog::{LogDecision, RateLimitedLog, more};
+use crate::ratelog::{LogDecision, RateLimitedLog, more, summary};
 use crate::state_machine::{Inputs, StateMachine, StateMachineConfig, Transition, state_words};
 use frontseat_sim::geodesy::LocalGrid;
 
@@ -393,7 +393,7 @@ impl FsiState {
             }
             Err(r) => {
                 self.counters.setpoints_refused += 1;
-                match self.refused_log.decide(tokio::time::Instant::now()) {
+                match self.refused_log.decide_at(self.now()) {
                     LogDecision::Log { suppressed_before } => tracing::warn!(
                         field = r.field,
                         value = r.value,
@@ -477,9 +477,7 @@ impl FsiState {
         {
             // Insane navigation is a frontseat fault: the helm must not steer by it.
             self.counters.nav_refused += 1;
-            if let LogDecision::Log { suppressed_before } =
-                self.nav_log.decide(tokio::time::Instant::now())
-            {
+            if let LogDecision::Log { suppressed_before } = self.nav_log.decide_at(self.now()) {
                 tracing::warn!(
                     field = r.field,
                     value = r.value,
@@ -518,6 +516,28 @@ impl FsiState {
             // Already answered (timed out, or the driver restarted): exactly one answer per request.
             self.counters.late_responses += 1;
             tracing::debug!(request_id = ?key, "late or unknown command response dropped");
+        }
+    }
+
+    /// A burst's summary once its window has ended, even when no further bad input comes to
+    /// carry it (the limiters run on simulated time, so a warp shrinks their window).
+    fn log_due_summaries(&mut self) {
+        let now = self.now();
+        if let Some(n) = self.refused_log.summary_due_at(now) {
+            let line = summary(n, "refused setpoints", self.refused_log.window());
+            tracing::warn!(
+                suppressed = n,
+                refused_total = self.counters.setpoints_refused,
+                "{line}"
+            );
+        }
+        if let Some(n) = self.nav_log.summary_due_at(now) {
+            let line = summary(n, "refused navigation messages", self.nav_log.window());
+            tracing::warn!(
+                suppressed = n,
+                nav_refused_total = self.counters.nav_refused,
+                "{line}"
+            );
         }
     }
 
@@ -880,6 +900,7 @@ impl FrontSeatInterface {
                     "no answer from the frontseat in time",
                     true,
                 );
+                st.log_due_summaries();
                 st.evaluate(&myself);
             }
             FsiMsg::StatusTick => st.publish_status(),

@@ -4,8 +4,9 @@
 //!
 //! Time is whatever clock the caller lives by: tokio's `Instant` ([`RateLimitedLog::decide`]) or
 //! a driver's simulated time ([`RateLimitedLog::decide_at`]), so that under a warp the window
-//! shrinks with every other timer. [`RateLimitedLog::summary_due`] lets a periodic task report
-//! what a burst suppressed even when no further bad input arrives to carry the summary.
+//! shrinks with every other timer. [`RateLimitedLog::summary_due`] (and `_at`) lets a periodic
+//! task report what a burst suppressed even when no further bad input arrives to carry the
+//! summary: the owner's tick asks, and logs [`summary`] when one is due.
 
 use std::time::Duration;
 
@@ -81,9 +82,15 @@ impl RateLimitedLog {
         }
     }
 
+    /// [`Self::summary_due_at`] on tokio's clock, for a limiter fed by [`Self::decide`].
+    pub fn summary_due(&mut self, now: Instant) -> Option<u64> {
+        let epoch = self.epoch?;
+        self.summary_due_at(now.saturating_duration_since(epoch))
+    }
+
     /// Occurrences suppressed in a window that has ended, once: the caller logs the summary.
     /// None while the window runs or when nothing was suppressed.
-    pub fn summary_due(&mut self, now: Duration) -> Option<u64> {
+    pub fn summary_due_at(&mut self, now: Duration) -> Option<u64> {
         let start = self.window_start?;
         if self.suppressed == 0 || now.saturating_sub(start) < self.window {
             return None;
@@ -99,11 +106,16 @@ pub fn more(suppressed: u64, what: &str, window: Duration) -> String {
     if suppressed == 0 {
         String::new()
     } else {
-        format!(
-            " (…and {suppressed} more {what} in the last {} s)",
-            window.as_secs()
-        )
+        format!(" ({})", summary(suppressed, what, window))
     }
+}
+
+/// "…and 97 more bad lines in the last 10 s": the line logged for a summary that is due.
+pub fn summary(suppressed: u64, what: &str, window: Duration) -> String {
+    format!(
+        "…and {suppressed} more {what} in the last {} s",
+        window.as_secs()
+    )
 }
 
 #[cfg(test)]
@@ -144,9 +156,9 @@ mod tests {
         for _ in 0..100 {
             l.decide_at(t0);
         }
-        assert_eq!(l.summary_due(t0 + Duration::from_secs(9)), None);
-        assert_eq!(l.summary_due(t0 + Duration::from_secs(10)), Some(95));
-        assert_eq!(l.summary_due(t0 + Duration::from_secs(30)), None, "once");
+        assert_eq!(l.summary_due_at(t0 + Duration::from_secs(9)), None);
+        assert_eq!(l.summary_due_at(t0 + Duration::from_secs(10)), Some(95));
+        assert_eq!(l.summary_due_at(t0 + Duration::from_secs(30)), None, "once");
         assert_eq!(
             l.decide_at(t0 + Duration::from_secs(31)),
             LogDecision::Log {
@@ -157,6 +169,24 @@ mod tests {
         assert_eq!(
             more(95, "bad lines", l.window()),
             " (…and 95 more bad lines in the last 10 s)"
+        );
+    }
+
+    #[tokio::test(start_paused = true)]
+    async fn a_summary_on_tokio_time_counts_from_the_first_occurrence() {
+        let mut l = RateLimitedLog::new(2, Duration::from_secs(10));
+        assert_eq!(l.summary_due(Instant::now()), None, "nothing seen yet");
+        tokio::time::advance(Duration::from_secs(50)).await;
+        for _ in 0..7 {
+            l.decide(Instant::now());
+        }
+        tokio::time::advance(Duration::from_secs(9)).await;
+        assert_eq!(l.summary_due(Instant::now()), None, "the window still runs");
+        tokio::time::advance(Duration::from_secs(1)).await;
+        assert_eq!(l.summary_due(Instant::now()), Some(5));
+        assert_eq!(
+            summary(5, "refused setpoints", l.window()),
+            "…and 5 more refused setpoints in the last 10 s"
         );
     }
 }

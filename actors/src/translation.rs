@@ -548,7 +548,10 @@ impl Task {
                         break;
                     }
                 },
-                _ = tick.tick() => self.publish_status(true),
+                _ = tick.tick() => {
+                    self.log_due_summary();
+                    self.publish_status(true);
+                }
             }
         }
         for s in subs {
@@ -692,6 +695,20 @@ impl Task {
             self.counters_tx.send_replace(self.counters);
         }
         self.publish_status(false);
+    }
+
+    /// The bad-mail burst's summary once its window has ended, with no further bad mail to
+    /// carry it.
+    fn log_due_summary(&mut self) {
+        if let Some(n) = self.bad_mail_log.summary_due(Instant::now()) {
+            let line =
+                crate::ratelog::summary(n, "bad DESIRED_* mails", self.bad_mail_log.window());
+            tracing::warn!(
+                suppressed = n,
+                bad_mail_total = self.counters.bad_mail,
+                "{line}"
+            );
+        }
     }
 
     /// Publishes the status when `always`, or when it changed in substance.

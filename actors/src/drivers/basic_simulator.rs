@@ -19,7 +19,7 @@ use crate::proto::goby::middleware::frontseat::protobuf::{
     Speed,
 };
 use crate::proto::goby::middleware::protobuf::LatLonPoint;
-use crate::ratelog::{LogDecision, RateLimitedLog, more};
+use crate::ratelog::{LogDecision, RateLimitedLog, more, summary};
 
 #[derive(Clone, Debug)]
 pub struct Settings {
@@ -360,19 +360,13 @@ impl Driver for BasicSimulatorDriver {
 
     fn do_loop(&mut self, now: Duration, _sig: &mut dyn SignalSink) {
         // A burst's summary, even when no further bad line comes to carry it.
-        if let Some(n) = self.bad_log.summary_due(now) {
-            let window = self.bad_log.window().as_secs();
-            tracing::warn!(
-                suppressed = n,
-                "…and {n} more bad lines in the last {window} s"
-            );
+        if let Some(n) = self.bad_log.summary_due_at(now) {
+            let line = summary(n, "bad lines", self.bad_log.window());
+            tracing::warn!(suppressed = n, "{line}");
         }
-        if let Some(n) = self.unknown_log.summary_due(now) {
-            let window = self.unknown_log.window().as_secs();
-            tracing::info!(
-                suppressed = n,
-                "…and {n} more unknown lines in the last {window} s"
-            );
+        if let Some(n) = self.unknown_log.summary_due_at(now) {
+            let line = summary(n, "unknown lines", self.unknown_log.window());
+            tracing::info!(suppressed = n, "{line}");
         }
         if let Some(t) = self.last_nav
             && now.saturating_sub(t) > self.settings.nav_timeout

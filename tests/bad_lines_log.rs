@@ -4,10 +4,11 @@
 //! by a global tracing subscriber writing into memory (one test in this binary, so nothing else
 //! writes there).
 
-use std::io::Write;
-use std::sync::{Arc, Mutex};
+mod common;
+
 use std::time::Duration;
 
+use common::logcap::{Captured, summarised as summarised_as};
 use frontseat_actors::bus::Bus;
 use frontseat_actors::interface::InterfaceService;
 use frontseat_config::InterfaceConfig;
@@ -15,47 +16,14 @@ use tokio::io::{AsyncBufReadExt, AsyncWriteExt, BufReader};
 
 const GARBAGE: usize = 100;
 
-/// The captured log, shared with the subscriber's writer.
-#[derive(Clone, Default)]
-struct Captured(Arc<Mutex<Vec<u8>>>);
-
-impl Write for Captured {
-    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
-        self.0
-            .lock()
-            .unwrap_or_else(|p| p.into_inner())
-            .extend_from_slice(buf);
-        Ok(buf.len())
-    }
-    fn flush(&mut self) -> std::io::Result<()> {
-        Ok(())
-    }
-}
-
-impl Captured {
-    fn text(&self) -> String {
-        String::from_utf8_lossy(&self.0.lock().unwrap_or_else(|p| p.into_inner())).to_string()
-    }
-}
-
 /// The N of every "…and N more bad lines in the last" in `text`.
 fn summarised(text: &str) -> u64 {
-    text.lines()
-        .filter_map(|l| l.split("…and ").nth(1))
-        .filter(|rest| rest.contains("more bad lines in the last"))
-        .filter_map(|rest| rest.split_whitespace().next()?.parse::<u64>().ok())
-        .sum()
+    summarised_as(text, "bad lines")
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_hundred_garbage_lines_give_a_few_warnings_and_a_summary() {
-    let captured = Captured::default();
-    let writer = captured.clone();
-    tracing_subscriber::fmt()
-        .with_ansi(false)
-        .with_max_level(tracing::Level::INFO)
-        .with_writer(move || writer.clone())
-        .init();
+    let captured = Captured::install();
 
     // The frontseat: accepts the driver, then sends garbage.
     let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.unwrap();

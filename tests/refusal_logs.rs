@@ -6,10 +6,12 @@
 //! warp 10 (the 10 s window passes in one wall second); the log is captured by a global tracing
 //! subscriber writing into memory (one test in this binary, so nothing else writes there).
 
-use std::io::Write;
+mod common;
+
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
+use common::logcap::{Captured, summarised, warned};
 use frontseat_actors::bus::Bus;
 use frontseat_actors::groups;
 use frontseat_actors::interface::InterfaceService;
@@ -22,42 +24,9 @@ use tokio::io::{AsyncBufReadExt, AsyncWriteExt, BufReader};
 const BAD_SETPOINTS: u64 = 50;
 const BAD_NAVS: u64 = 30;
 
-#[derive(Clone, Default)]
-struct Captured(Arc<Mutex<Vec<u8>>>);
-
-impl Write for Captured {
-    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
-        self.0
-            .lock()
-            .unwrap_or_else(|p| p.into_inner())
-            .extend_from_slice(buf);
-        Ok(buf.len())
-    }
-    fn flush(&mut self) -> std::io::Result<()> {
-        Ok(())
-    }
-}
-
-impl Captured {
-    fn text(&self) -> String {
-        String::from_utf8_lossy(&self.0.lock().unwrap_or_else(|p| p.into_inner())).to_string()
-    }
-}
-
 /// WARN lines naming `what`, and the sum of N over every "…and N more `summary`" line.
 fn tally(text: &str, what: &str, summary: &str) -> (u64, u64) {
-    let warned = text
-        .lines()
-        .filter(|l| l.contains(" WARN ") && l.contains(what))
-        .count() as u64;
-    let needle = format!("more {summary} in the last");
-    let summarised = text
-        .lines()
-        .filter_map(|l| l.split("…and ").nth(1))
-        .filter(|rest| rest.contains(&needle))
-        .filter_map(|rest| rest.split_whitespace().next()?.parse::<u64>().ok())
-        .sum();
-    (warned, summarised)
+    (warned(text, what), summarised(text, summary))
 }
 
 const SETPOINT: (&str, &str) = (
@@ -71,13 +40,7 @@ const NAV: (&str, &str) = (
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn refused_setpoints_and_navigation_give_a_few_warnings_and_a_summary() {
-    let captured = Captured::default();
-    let writer = captured.clone();
-    tracing_subscriber::fmt()
-        .with_ansi(false)
-        .with_max_level(tracing::Level::INFO)
-        .with_writer(move || writer.clone())
-        .init();
+    let captured = Captured::install();
 
     let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.unwrap();
     let port = listener.local_addr().unwrap().port();

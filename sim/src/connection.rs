@@ -265,6 +265,12 @@ impl Session {
                     let ctrl = d.run.ctrl;
                     self.run = Some(d.run);
                     self.push_line(&codec::format_ctrl(ctrl));
+                    // Where the vehicle is now, at once, as a fresh START's tick 0 gives it: the
+                    // client need not wait up to a NAV period (a whole second at FREQ 1) to
+                    // know its navigation is back.
+                    if self.push_nav() {
+                        Counters::add(&self.shared.counters.nav_lines, 1);
+                    }
                 } else {
                     tracing::info!(vehicle = self.id, peer = %self.peer, line = text, "START");
                     self.run = Some(Run::new(p, &self.shared.opts, now));
@@ -384,9 +390,9 @@ impl Session {
         if lateness > LATE_AFTER {
             Counters::add(&c.late_ticks, 1);
         }
-        let (lat, lon) = run.vehicle.lat_lon();
-        let v = &run.vehicle;
         if self.shared.truth.receiver_count() > 0 {
+            let (lat, lon) = run.vehicle.lat_lon();
+            let v = &run.vehicle;
             let _ = self.shared.truth.send(Truth {
                 vehicle: self.id,
                 sim_time: run.sim_time,
@@ -399,9 +405,20 @@ impl Session {
                 y: v.y,
             });
         }
+        self.push_nav()
+    }
+
+    /// The vehicle's NAV line as of its last tick, unless its NAV is stopped (a fault). True when
+    /// a line was queued.
+    fn push_nav(&mut self) -> bool {
+        let Some(run) = self.run.as_mut() else {
+            return false;
+        };
         if run.sim_time + 1e-9 < run.nav_resume_at {
             return false;
         }
+        let (lat, lon) = run.vehicle.lat_lon();
+        let v = &run.vehicle;
         let nav = Nav {
             lat,
             lon,

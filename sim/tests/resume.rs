@@ -64,6 +64,33 @@ async fn a_reconnect_with_the_same_start_continues_the_same_vehicle() {
     h.shutdown().await;
 }
 
+/// A resumed vehicle reports where it is at once, as a fresh START's first tick does: at FREQ 0.01
+/// (a tick every 100 s) the NAV after the reconnect can only come from the resume itself.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_resumed_vehicle_sends_its_nav_at_once() {
+    const SLOW: &str = "START,LAT:42.358456,LON:-71.087589,FREQ:0.01,WARP:1";
+    let h = sim(SimOptions::default()).await;
+    let mut c = Client::connect(&h).await;
+    c.send(SLOW).await;
+    assert_eq!(c.must_line().await, "CTRL,STATE:PAYLOAD");
+    let first = c.nav().await;
+    let id = new_vehicle(&h, &[]).await;
+    drop(c);
+    gone(&h, id).await;
+
+    let mut c = Client::connect(&h).await;
+    c.send(SLOW).await;
+    assert_eq!(c.must_line().await, "CTRL,STATE:PAYLOAD");
+    let again = c.nav().await;
+    assert_eq!(
+        (again.lat, again.lon),
+        (first.lat, first.lon),
+        "same vehicle, same place"
+    );
+    assert_eq!(h.vehicles(), vec![id]);
+    h.shutdown().await;
+}
+
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn another_start_or_no_grace_makes_a_new_vehicle_at_rest() {
     for (opts, second) in [

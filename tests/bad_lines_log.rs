@@ -8,11 +8,10 @@ mod common;
 
 use std::time::Duration;
 
-use common::logcap::{Captured, summarised as summarised_as};
+use common::logcap::{Captured, accept_start, played_frontseat, summarised as summarised_as};
 use frontseat_actors::bus::Bus;
 use frontseat_actors::interface::InterfaceService;
-use frontseat_config::InterfaceConfig;
-use tokio::io::{AsyncBufReadExt, AsyncWriteExt, BufReader};
+use tokio::io::AsyncWriteExt;
 
 const GARBAGE: usize = 100;
 
@@ -26,30 +25,10 @@ async fn a_hundred_garbage_lines_give_a_few_warnings_and_a_summary() {
     let captured = Captured::install();
 
     // The frontseat: accepts the driver, then sends garbage.
-    let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.unwrap();
-    let port = listener.local_addr().unwrap().port();
-    let mut cfg = InterfaceConfig {
-        name: "noisy-auv".into(),
-        // Ten simulated seconds (the limiter's window) pass in one wall second.
-        sim_warp_factor: 10.0,
-        status_period: 0.0,
-        ..Default::default()
-    };
-    cfg.driver.basic_simulator.tcp_port = port;
+    let (listener, cfg) = played_frontseat("noisy-auv").await;
     let bus = Bus::new();
     let service = InterfaceService::start(&cfg, &bus).await.unwrap();
-    let (sock, _) = tokio::time::timeout(Duration::from_secs(20), listener.accept())
-        .await
-        .expect("the driver connects within 20 s")
-        .unwrap();
-    let (rd, mut wr) = sock.into_split();
-    let mut rd = BufReader::new(rd);
-    let mut start = String::new();
-    tokio::time::timeout(Duration::from_secs(20), rd.read_line(&mut start))
-        .await
-        .expect("the driver sends START")
-        .unwrap();
-    assert!(start.starts_with("START,"), "{start:?}");
+    let (_rd, mut wr) = accept_start(&listener).await;
     let mut burst = String::new();
     for i in 0..GARBAGE {
         burst.push_str(&format!("NAV,LAT:{i},LON:garbage\r\n"));

@@ -11,15 +11,14 @@ mod common;
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
-use common::logcap::{Captured, summarised, warned};
+use common::logcap::{Captured, accept_start, played_frontseat, summarised, warned};
 use frontseat_actors::bus::Bus;
 use frontseat_actors::groups;
 use frontseat_actors::interface::InterfaceService;
 use frontseat_actors::proto::goby::middleware::frontseat::protobuf::{
     DesiredCourse, HelmState, HelmStateReport, InterfaceState,
 };
-use frontseat_config::InterfaceConfig;
-use tokio::io::{AsyncBufReadExt, AsyncWriteExt, BufReader};
+use tokio::io::{AsyncBufReadExt, AsyncWriteExt};
 
 const BAD_SETPOINTS: u64 = 50;
 const BAD_NAVS: u64 = 30;
@@ -42,33 +41,14 @@ const NAV: (&str, &str) = (
 async fn refused_setpoints_and_navigation_give_a_few_warnings_and_a_summary() {
     let captured = Captured::install();
 
-    let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.unwrap();
-    let port = listener.local_addr().unwrap().port();
-    let mut cfg = InterfaceConfig {
-        name: "refusing-auv".into(),
-        sim_warp_factor: 10.0,
-        status_period: 0.0,
-        ..Default::default()
-    };
-    cfg.driver.basic_simulator.tcp_port = port;
+    let (listener, cfg) = played_frontseat("refusing-auv").await;
     let max_depth = cfg.limits.max_depth;
     let bus = Bus::new();
     let (_st, mut status) =
         bus.subscribe_channel(&groups::GOBY_MIDDLEWARE_FRONTSEAT_STATUS, "test", 64);
     let service = InterfaceService::start(&cfg, &bus).await.unwrap();
 
-    let (sock, _) = tokio::time::timeout(Duration::from_secs(20), listener.accept())
-        .await
-        .expect("the driver connects within 20 s")
-        .unwrap();
-    let (rd, wr) = sock.into_split();
-    let mut rd = BufReader::new(rd);
-    let mut start = String::new();
-    tokio::time::timeout(Duration::from_secs(20), rd.read_line(&mut start))
-        .await
-        .expect("the driver sends START")
-        .unwrap();
-    assert!(start.starts_with("START,"), "{start:?}");
+    let (mut rd, wr) = accept_start(&listener).await;
     let wr = Arc::new(tokio::sync::Mutex::new(wr));
     wr.lock()
         .await

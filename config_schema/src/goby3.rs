@@ -55,6 +55,11 @@ pub struct Goby3Config {
     /// Cap of the reconnect delay. Unit: ms.
     #[schemars(range(min = 1))]
     pub reconnect_max_ms: u64,
+    /// Largest frame or message accepted from gobyd. ZeroMQ has no limit of its own here: a
+    /// bigger one closes the connection (counted as `oversized`, then the link joins again).
+    /// Unit: bytes.
+    #[schemars(range(min = 1024))]
+    pub max_message_bytes: u64,
     /// The name this process answers goby_coroner's health requests with (its
     /// `--expected_name`); empty = the Goby3 application it replaces: `goby_frontseat_interface`
     /// for `frontseat interface`, `goby_moos_gateway` for `frontseat moos-gateway`.
@@ -86,6 +91,7 @@ impl Default for Goby3Config {
             settle_ms: 1000,
             reconnect_initial_ms: 100,
             reconnect_max_ms: 2000,
+            max_message_bytes: 4 * 1024 * 1024,
             app_name: String::new(),
         }
     }

@@ -377,3 +377,42 @@ async fn a_gobyd_hold_keeps_the_link_down_until_the_required_client_is_ready() {
     gobyd.stop().await;
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// A "gobyd" that answers the ZMTP greeting and then announces a frame of 2^40 bytes. Without
+/// the length guard the zeromq decoder reserves that much and the whole process aborts; with it
+/// the connection is closed before the header reaches the socket, counted, and joining goes on.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_gobyd_announcing_a_huge_frame_is_cut_off_and_the_process_lives() {
+    use tokio::io::{AsyncReadExt, AsyncWriteExt};
+    let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.unwrap();
+    let port = listener.local_addr().unwrap().port();
+    let hostile = tokio::spawn(async move {
+        loop {
+            let Ok((mut s, _)) = listener.accept().await else {
+                return;
+            };
+            tokio::spawn(async move {
+                let mut greeting = vec![0xff, 0, 0, 0, 0, 0, 0, 0, 0, 0x7f, 3, 0];
+                greeting.extend_from_slice(b"NULL");
+                greeting.resize(64, 0);
+                let mut header = vec![0x02];
+                header.extend_from_slice(&(1u64 << 40).to_be_bytes());
+                let _ = s.write_all(&greeting).await;
+                let _ = s.write_all(&header).await;
+                let _ = s.write_all(&[0u8; 4096]).await;
+                let mut sink = [0u8; 1024];
+                while matches!(s.read(&mut sink).await, Ok(n) if n > 0) {}
+            });
+        }
+    });
+    let bus = Bus::new();
+    let gw = start(&bus, tcp_settings(port), &["FrontSeatInterface"]);
+    let s = wait_stats(&gw, "oversized frames cut off, joins retried", |s| {
+        s.oversized >= 2 && s.connect_failures >= 2
+    })
+    .await;
+    assert!(!s.link_up, "{s:?}");
+    assert_eq!(s.imported, 0);
+    gw.close().await;
+    hostile.abort();
+}

@@ -19,6 +19,7 @@ use zeromq::{
     ZmqMessage,
 };
 
+use super::guard::{self, Guard};
 use super::manager::{self, PubSub};
 use super::settings::Goby3Settings;
 use super::traffic::{Counters, Exporter, Importer, Origin3, bump};
@@ -59,6 +60,8 @@ struct Session {
     publ: PubSocket,
     sub_events: fmpsc::Receiver<SocketEvent>,
     pub_events: fmpsc::Receiver<SocketEvent>,
+    /// The length guards the three sockets reach gobyd through; they close with the session.
+    _guards: [Guard; 3],
 }
 
 fn options(s: &Goby3Settings) -> SocketOptions {
@@ -116,15 +119,32 @@ impl Link {
         .await
     }
 
+    /// A length guard in front of gobyd's `endpoint` (see [`guard`]).
+    async fn guard(&self, endpoint: &str) -> Result<Guard, LinkError> {
+        let limit = self.settings.max_message_bytes;
+        self.within(endpoint, async {
+            guard::front(endpoint, limit, self.counters.clone())
+                .await
+                .map_err(|e| LinkError::Zmq {
+                    endpoint: endpoint.to_string(),
+                    error: e.to_string(),
+                })
+        })
+        .await
+    }
+
     /// Handshake and connect; the hold is handled by the caller.
     async fn join(&self, prefixes: &[String]) -> Result<Session, LinkError> {
         let s = &self.settings;
         let name = s.client_name.as_str();
         let pid = self.me.pid;
         let manager_ep = s.transport.manager_endpoint();
+        let manager_guard = self.guard(&manager_ep).await?;
         let mut req = ReqSocket::with_options(options(s));
         self.within(&manager_ep, async {
-            req.connect(&manager_ep).await.map_err(zmq_err(&manager_ep))
+            req.connect(&manager_guard.endpoint)
+                .await
+                .map_err(zmq_err(&manager_ep))
         })
         .await?;
         let answer = self
@@ -133,19 +153,25 @@ impl Link {
         let (PubSub { publish, subscribe }, _hold) =
             manager::parse_sockets_response(&answer, name, pid, &s.transport)?;
 
+        let sub_guard = self.guard(&subscribe).await?;
         let mut sub = SubSocket::with_options(options(s));
         let sub_events = sub.monitor();
         for p in prefixes {
             sub.subscribe(p).await.map_err(zmq_err(&subscribe))?;
         }
         self.within(&subscribe, async {
-            sub.connect(&subscribe).await.map_err(zmq_err(&subscribe))
+            sub.connect(&sub_guard.endpoint)
+                .await
+                .map_err(zmq_err(&subscribe))
         })
         .await?;
+        let pub_guard = self.guard(&publish).await?;
         let mut publ = PubSocket::with_options(options(s));
         let pub_events = publ.monitor();
         self.within(&publish, async {
-            publ.connect(&publish).await.map_err(zmq_err(&publish))
+            publ.connect(&pub_guard.endpoint)
+                .await
+                .map_err(zmq_err(&publish))
         })
         .await?;
         tracing::debug!(%publish, %subscribe, "Goby3 sockets connected");
@@ -155,6 +181,7 @@ impl Link {
             publ,
             sub_events,
             pub_events,
+            _guards: [manager_guard, sub_guard, pub_guard],
         })
     }
 

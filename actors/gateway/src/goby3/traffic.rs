@@ -40,6 +40,9 @@ pub struct Goby3Stats {
     pub undecodable: u64,
     /// Well-formed frames of a group, type or scheme we do not import.
     pub unexpected: u64,
+    /// Connections to gobyd closed by the length guard: a frame or message over
+    /// `max_message_bytes` was coming.
+    pub oversized: u64,
 }
 
 impl Goby3Stats {
@@ -64,6 +67,7 @@ pub(crate) struct Counters {
     pub(crate) malformed: AtomicU64,
     pub(crate) undecodable: AtomicU64,
     pub(crate) unexpected: AtomicU64,
+    pub(crate) oversized: AtomicU64,
 }
 
 pub(crate) fn bump(c: &AtomicU64) -> u64 {
@@ -87,6 +91,7 @@ impl Counters {
             malformed: g(&self.malformed),
             undecodable: g(&self.undecodable),
             unexpected: g(&self.unexpected),
+            oversized: g(&self.oversized),
         }
     }
 }

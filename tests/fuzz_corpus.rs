@@ -64,3 +64,8 @@ fn iver_sentence_corpus() {
 fn bluefin_codec_corpus() {
     replay("bluefin_codec", targets::bluefin_codec);
 }
+
+#[test]
+fn zmtp_guard_corpus() {
+    replay("zmtp_guard", targets::zmtp_guard);
+}

@@ -308,3 +308,27 @@ pub fn iver_sentence(data: &[u8]) {
     assert_eq!(sink.raw_in, lines);
     assert_eq!(sink.responses, 0);
 }
+
+/// The Goby3 link's ZMTP length guard (`frontseat_gateway::goby3::guard::Meter`) over the bytes
+/// gobyd sends: the verdict (and the limit it names) must not depend on how the stream is cut
+/// into reads — whole, byte by byte, or split at a point the input picks — and a refusal is
+/// always over the limit.
+pub fn zmtp_guard(data: &[u8]) {
+    use frontseat_gateway::goby3::guard::Meter;
+    let limit = 1024 + u64::from(data.first().copied().unwrap_or(0)) * 64;
+    let whole = Meter::new(limit).feed(data);
+    let mut m = Meter::new(limit);
+    let bytewise = data
+        .iter()
+        .try_for_each(|b| m.feed(std::slice::from_ref(b)));
+    assert_eq!(whole, bytewise, "whole vs byte by byte");
+    let cut = data
+        .get(1)
+        .map_or(0, |&b| usize::from(b) * data.len() / 256);
+    let mut m = Meter::new(limit);
+    let split = m.feed(&data[..cut]).and_then(|()| m.feed(&data[cut..]));
+    assert_eq!(whole, split, "whole vs split at {cut}");
+    if let Err(o) = whole {
+        assert!(o.size > o.limit && o.limit == limit, "{o:?}");
+    }
+}

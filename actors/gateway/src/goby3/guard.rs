@@ -174,7 +174,7 @@ impl Upstream {
 
 /// A running guard: connect the zeromq socket to `endpoint`. Dropping it closes every relayed
 /// connection.
-pub(crate) struct Guard {
+pub struct Guard {
     pub endpoint: String,
     task: tokio::task::JoinHandle<()>,
 }

@@ -7,7 +7,7 @@
 //! retried with capped backoff, and reported as the bus link [`GOBY3_LINK`].
 
 pub mod frame;
-mod guard;
+pub mod guard;
 mod link;
 pub mod manager;
 mod settings;

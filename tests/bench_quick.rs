@@ -4,8 +4,8 @@
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
-const ROWS: [&str; 14] = [
-    "L0", "P1", "P2", "P3", "P4", "P5", "P6", "M1", "M2", "Z1", "Z2", "Z3", "T1", "W1",
+const ROWS: [&str; 16] = [
+    "L0", "P1", "P2", "P3", "P4", "P5", "P6", "M1", "M2", "G1", "G2", "Z1", "Z2", "Z3", "T1", "W1",
 ];
 
 /// One bench at a time: two at once on a 2-core machine starve each other's children (the
@@ -60,7 +60,9 @@ fn quick_bench_prints_every_row_and_exits_0() {
         assert!(!row.contains("n/a"), "{row}");
         assert!(row.chars().any(|c| c.is_ascii_digit()), "{row}");
     }
-    for id in ["L0", "P1", "P2", "P5", "M1", "M2", "Z1", "Z2", "W1"] {
+    for id in [
+        "L0", "P1", "P2", "P5", "M1", "M2", "G1", "G2", "Z1", "Z2", "W1",
+    ] {
         let row = stdout
             .lines()
             .find(|l| l.starts_with(&format!("| {id} |")))

@@ -56,9 +56,9 @@ pub struct Goby3Config {
     #[schemars(range(min = 1))]
     pub reconnect_max_ms: u64,
     /// Largest frame or message accepted from gobyd. ZeroMQ has no limit of its own here: a
-    /// bigger one closes the connection (counted as `oversized`, then the link joins again).
-    /// Unit: bytes.
-    #[schemars(range(min = 1024))]
+    /// bigger one closes the connection (counted as `oversized`, then the link joins again). The
+    /// guard costs one loopback hop each way; 0 turns it off and trusts gobyd with any size.
+    /// Unit: bytes (0, or at least 1024).
     pub max_message_bytes: u64,
     /// The name this process answers goby_coroner's health requests with (its
     /// `--expected_name`); empty = the Goby3 application it replaces: `goby_frontseat_interface`
@@ -115,6 +115,14 @@ impl Goby3Config {
                 at(prefix, "socket_name"),
                 format!("{:?}", self.socket_name),
                 "must not contain NUL",
+            ));
+        }
+        if (1..1024).contains(&self.max_message_bytes) {
+            c.push(FieldError::new(
+                at(prefix, "max_message_bytes"),
+                self.max_message_bytes.to_string(),
+                "must be 0 (no length guard) or at least 1024 (a Goby3 frame's header alone can \
+                 take hundreds of bytes)",
             ));
         }
         c.non_empty(&at(prefix, "client_name"), &self.client_name);

@@ -442,6 +442,13 @@ fn gateway_rules() {
         "gobyd's own name",
     );
     rejects::<G>(
+        "[moos]\n[goby3]\nmax_message_bytes = 512\n",
+        "goby3.max_message_bytes",
+        "at least 1024",
+    );
+    // 0 turns the length guard off; it is a valid choice.
+    assert!(frontseat_config::parse::<G>("[moos]\n[goby3]\nmax_message_bytes = 0\n", "t").is_ok());
+    rejects::<G>(
         "[moos]\n[telemetry]\nsampling_ratio = 3\n",
         "telemetry.sampling_ratio",
         "outside",

@@ -416,3 +416,26 @@ async fn a_gobyd_announcing_a_huge_frame_is_cut_off_and_the_process_lives() {
     gw.close().await;
     hostile.abort();
 }
+
+/// `max_message_bytes = 0` takes the length guard out (the sockets connect to gobyd itself):
+/// the link still joins and exchanges, here with one side guarded and the other not.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn with_the_length_guard_off_the_link_still_joins_and_exchanges() {
+    let gobyd = StandinGobyd::start(StandinTransport::Tcp { manager_port: 0 }, &[])
+        .await
+        .unwrap();
+    let port = gobyd.manager_port().unwrap();
+    let mut unguarded = tcp_settings(port);
+    unguarded.max_message_bytes = 0;
+    let bus_if = Bus::new();
+    let bus_helm = Bus::new();
+    let gw_if = start(&bus_if, unguarded, &["FrontSeatInterface"]);
+    let gw_helm = start(&bus_helm, tcp_settings(port), &["FrontSeatTranslation"]);
+    wait_stats(&gw_if, "link up", |s| s.link_up).await;
+    wait_stats(&gw_helm, "link up", |s| s.link_up).await;
+    exchange(&bus_if, &bus_helm).await;
+    assert_eq!(gw_if.stats().oversized, 0);
+    gw_helm.close().await;
+    gw_if.close().await;
+    gobyd.stop().await;
+}

@@ -103,7 +103,7 @@ pub async fn run(count: usize, rate_hz: f64) -> Row {
 }
 
 /// The data-path latency rows whose figures are compared as ratios over L0.
-const RATIO_ROWS: [&str; 7] = ["P1", "P2", "M1", "M2", "Z1", "Z2", "W1"];
+const RATIO_ROWS: [&str; 9] = ["P1", "P2", "M1", "M2", "G1", "G2", "Z1", "Z2", "W1"];
 
 /// Adds "p50 ×a, p99 ×b over L0" to every data-path latency row (and the ratios to its JSON).
 pub fn add_ratios(rows: &mut [Row]) {

@@ -6,7 +6,8 @@
 //! simulator's own capacity bench, P4 and P5 run the `frontseat` binary as child processes
 //! (`procs`). Z1–Z3 and T1 run `frontseat interface` as a child with its Zenoh gateway on (and for T1 a
 //! second child exporting traces to a loopback OTLP sink), this process being the frontseat and
-//! the Zenoh helm (`xproc`).
+//! the Zenoh helm (`xproc`). G1 and G2 run the interface with its Goby3 gateway in this process
+//! and a second Goby3 gateway as the helm's side, through the stand-in gobyd (`goby3`).
 //! L0 is the bench's own floor (a loopback line → the reader wakes) and every latency row is
 //! also given as a ratio over it (`floor`).
 //! W1 runs the web scope in this process and reads its event stream over loopback (`web`).
@@ -22,6 +23,7 @@
 mod compare;
 mod floor;
 mod frontseat;
+mod goby3;
 mod inproc;
 mod procs;
 mod report;
@@ -56,11 +58,11 @@ pub struct BenchOptions {
 }
 
 /// Every row's id, in the order of the table.
-pub const ROW_IDS: [&str; 14] = [
-    "L0", "P1", "P2", "P3", "P4", "P5", "P6", "M1", "M2", "Z1", "Z2", "Z3", "T1", "W1",
+pub const ROW_IDS: [&str; 16] = [
+    "L0", "P1", "P2", "P3", "P4", "P5", "P6", "M1", "M2", "G1", "G2", "Z1", "Z2", "Z3", "T1", "W1",
 ];
 
-/// Which rows a run measures. Rows measured together (P4/P5, M1/M2, Z1–Z3/T1) share their
+/// Which rows a run measures. Rows measured together (P4/P5, M1/M2, G1/G2, Z1–Z3/T1) share their
 /// setup, so asking for one runs its group and the others are left out of the table.
 #[derive(Clone, Debug)]
 pub struct Selection(Vec<&'static str>);
@@ -101,6 +103,7 @@ impl Selection {
 #[derive(Clone, Copy, Debug)]
 struct Plan {
     inproc: inproc::Plan,
+    goby3: goby3::Plan,
     xproc: xproc::Plan,
     web: web::Plan,
     capacity: (usize, f64, f64, Duration),
@@ -123,6 +126,12 @@ impl Plan {
                 m1_rate_hz: 500.0,
                 m2_count: 5_000,
                 m2_rate_hz: 500.0,
+            },
+            goby3: goby3::Plan {
+                g1_count: 5_000,
+                g1_rate_hz: 500.0,
+                g2_count: 5_000,
+                g2_rate_hz: 500.0,
             },
             xproc: xproc::Plan {
                 z1_count: 5_000,
@@ -158,6 +167,12 @@ impl Plan {
                 m1_rate_hz: 1000.0,
                 m2_count: 100,
                 m2_rate_hz: 1000.0,
+            },
+            goby3: goby3::Plan {
+                g1_count: 100,
+                g1_rate_hz: 1000.0,
+                g2_count: 100,
+                g2_rate_hz: 1000.0,
             },
             xproc: xproc::Plan {
                 z1_count: 200,
@@ -281,6 +296,9 @@ pub async fn run(args: BenchOptions) -> ExitCode {
     let mut rows = vec![l0];
     if sel.any(&["P1", "P2", "P6", "M1", "M2"]) {
         rows.extend(inproc::run(plan.inproc, &sel).await);
+    }
+    if sel.any(&["G1", "G2"]) {
+        rows.extend(goby3::run(plan.goby3).await);
     }
     if sel.wants("P3") {
         rows.push(capacity(&plan).await);

@@ -18,7 +18,7 @@ pub struct Goby3Settings {
     pub settle: Duration,
     pub reconnect_initial: Duration,
     pub reconnect_max: Duration,
-    /// Largest frame or message accepted from gobyd (the length guard's limit).
+    /// Largest frame or message accepted from gobyd (the length guard's limit); 0 = no guard.
     pub max_message_bytes: u64,
 }
 
@@ -49,7 +49,7 @@ impl Goby3Settings {
             settle: Duration::from_millis(cfg.settle_ms),
             reconnect_initial: Duration::from_millis(cfg.reconnect_initial_ms.max(1)),
             reconnect_max: Duration::from_millis(cfg.reconnect_max_ms.max(1)),
-            max_message_bytes: cfg.max_message_bytes.max(1024),
+            max_message_bytes: cfg.max_message_bytes,
         })
     }
 }

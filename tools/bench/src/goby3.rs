@@ -10,17 +10,14 @@ use std::time::{Duration, Instant};
 use frontseat_actors::bus::Bus;
 use frontseat_actors::groups;
 use frontseat_actors::interface::InterfaceService;
-use frontseat_actors::proto::goby::middleware::frontseat::protobuf::{
-    DesiredCourse, HelmState, HelmStateReport, InterfaceState,
-};
 use frontseat_config::{Goby3Config, Goby3Transport, InterfaceConfig};
 use frontseat_gateway::GatewayOptions;
 use frontseat_gateway::goby3::standin::{StandinGobyd, StandinTransport};
 use frontseat_gateway::goby3::{self, Goby3Handle, Goby3Settings};
 
 use super::frontseat::{ScriptedFrontseat, Stamps};
-use super::inproc::{GRACE, latency_row, match_up};
-use super::report::{Row, fmt_count};
+use super::inproc::{course_row, helm_drive, nav_burst_row, reached_command, stamp_node_status};
+use super::report::Row;
 
 /// How much each row measures.
 #[derive(Clone, Copy, Debug)]
@@ -96,35 +93,12 @@ async fn run_inner(plan: Plan) -> Result<Vec<Row>, String> {
     let bus_if = Bus::new();
     let bus_helm = Bus::new();
     let mut tasks = Vec::new();
-    let (_ns_sub, mut ns_rx) = bus_helm.subscribe_channel(
-        &groups::GOBY_MIDDLEWARE_FRONTSEAT_NODE_STATUS,
-        "bench",
-        capacity,
-    );
-    let at = node_status_at.clone();
-    tasks.push(tokio::spawn(async move {
-        while let Some(env) = ns_rx.recv().await {
-            let now = Instant::now();
-            let depth = env.msg.global_fix.depth();
-            if depth >= 1.0 && depth.fract() == 0.0 {
-                at.set(depth as usize - 1, now);
-            }
-        }
-    }));
+    let (_ns_sub, ns_task) = stamp_node_status(&bus_helm, &node_status_at, capacity);
+    tasks.push(ns_task);
     let (_st_sub, mut st_rx) =
         bus_if.subscribe_channel(&groups::GOBY_MIDDLEWARE_FRONTSEAT_STATUS, "bench", capacity);
-    let helm_bus = bus_helm.clone();
-    tasks.push(tokio::spawn(async move {
-        loop {
-            helm_bus.publish(
-                &groups::GOBY_MIDDLEWARE_FRONTSEAT_HELM_STATE,
-                HelmStateReport {
-                    state: HelmState::HelmDrive as i32,
-                },
-            );
-            tokio::time::sleep(Duration::from_millis(100)).await;
-        }
-    }));
+    // The helm's DRIVE goes through gobyd, as a Goby3 helm's would.
+    tasks.push(helm_drive(&bus_helm));
 
     let service = InterfaceService::start(&cfg, &bus_if)
         .await
@@ -147,16 +121,7 @@ async fn run_inner(plan: Plan) -> Result<Vec<Row>, String> {
     let result = async {
         until_up(&gw_if, Duration::from_secs(10)).await?;
         until_up(&gw_helm, Duration::from_secs(10)).await?;
-        let reached = tokio::time::timeout(Duration::from_secs(10), async {
-            while let Some(env) = st_rx.recv().await {
-                if env.msg.state() == InterfaceState::InterfaceCommand {
-                    return true;
-                }
-            }
-            false
-        })
-        .await;
-        if !matches!(reached, Ok(true)) {
+        if !reached_command(&mut st_rx).await {
             return Err(
                 "the interface did not reach running:command (helm DRIVE through gobyd) within 10 s"
                     .to_string(),
@@ -180,45 +145,32 @@ async fn run_inner(plan: Plan) -> Result<Vec<Row>, String> {
 }
 
 async fn g1(plan: &Plan, fs: &ScriptedFrontseat, written: &Stamps, got: &Stamps) -> Row {
-    let report = match fs.burst(0, plan.g1_count, plan.g1_rate_hz, false).await {
-        Ok(r) => r,
-        Err(_) => return Row::failed("G1", G1, "the scripted frontseat stopped"),
-    };
-    tokio::time::sleep(GRACE).await;
-    let (h, n, lost) = match_up(written, got, 0..plan.g1_count);
-    let detail = format!(
-        "{} NAV lines at {} Hz; interface + Goby3 gateway → stand-in gobyd (TCP, loopback) → a second Goby3 gateway's bus; lost {lost}",
-        fmt_count(n as f64),
-        plan.g1_rate_hz
-    );
-    latency_row("G1", G1, &h, detail, report.written, lost)
+    let how = "; interface + Goby3 gateway → stand-in gobyd (TCP, loopback) → a second Goby3 gateway's bus";
+    nav_burst_row(
+        "G1",
+        G1,
+        fs,
+        written,
+        got,
+        plan.g1_count,
+        plan.g1_rate_hz,
+        how,
+    )
+    .await
 }
 
 async fn g2(plan: &Plan, bus: &Bus, fs: &ScriptedFrontseat, sent: &Stamps, read: &Stamps) -> Row {
-    let start = tokio::time::Instant::now();
-    let period = Duration::from_secs_f64(1.0 / plan.g2_rate_hz);
-    let before = fs.cmds_read();
-    for i in 0..plan.g2_count {
-        tokio::time::sleep_until(start + period.mul_f64(i as f64)).await;
-        let course = DesiredCourse {
-            time: 0.0,
-            heading: Some(90.0),
-            speed: Some(1.5),
-            depth: Some((i + 1) as f64),
-            ..Default::default()
-        };
-        sent.set(i, Instant::now());
-        bus.publish(&groups::GOBY_MIDDLEWARE_FRONTSEAT_DESIRED_COURSE, course);
-    }
-    let deadline = tokio::time::Instant::now() + GRACE;
-    while fs.cmds_read() < before + plan.g2_count as u64 && tokio::time::Instant::now() < deadline {
-        tokio::time::sleep(Duration::from_millis(5)).await;
-    }
-    let (h, n, lost) = match_up(sent, read, 0..plan.g2_count);
-    let detail = format!(
-        "{} desired_course at {} Hz (sequence in DEPTH), published on the helm side's bus → its Goby3 gateway → gobyd → the interface; lost {lost}",
-        fmt_count(n as f64),
-        plan.g2_rate_hz
-    );
-    latency_row("G2", G2, &h, detail, n, lost)
+    let how = ", published on the helm side's bus → its Goby3 gateway → gobyd → the interface";
+    course_row(
+        "G2",
+        G2,
+        bus,
+        fs,
+        sent,
+        read,
+        plan.g2_count,
+        plan.g2_rate_hz,
+        how,
+    )
+    .await
 }

@@ -2,13 +2,14 @@
 //! process, connected over loopback TCP to the scripted frontseat, with a helm heartbeat so the
 //! interface reaches COMMAND and passes desired courses on.
 
+use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use frontseat_actors::bus::Bus;
+use frontseat_actors::bus::{Bus, Envelope, Subscription};
 use frontseat_actors::groups;
 use frontseat_actors::interface::InterfaceService;
 use frontseat_actors::proto::goby::middleware::frontseat::protobuf::{
-    DesiredCourse, HelmState, HelmStateReport, InterfaceState,
+    DesiredCourse, HelmState, HelmStateReport, InterfaceState, InterfaceStatus,
 };
 use frontseat_actors::translation;
 use frontseat_config::{InterfaceConfig, MoosConfig};
@@ -94,21 +95,8 @@ async fn run_inner(plan: Plan, sel: &super::Selection) -> Result<Vec<Row>, Strin
 
     let bus = Bus::new();
     let mut tasks = Vec::new();
-    let (_ns_sub, mut ns_rx) = bus.subscribe_channel(
-        &groups::GOBY_MIDDLEWARE_FRONTSEAT_NODE_STATUS,
-        "bench",
-        capacity,
-    );
-    let at = node_status_at.clone();
-    tasks.push(tokio::spawn(async move {
-        while let Some(env) = ns_rx.recv().await {
-            let now = Instant::now();
-            let depth = env.msg.global_fix.depth();
-            if depth >= 1.0 && depth.fract() == 0.0 {
-                at.set(depth as usize - 1, now);
-            }
-        }
-    }));
+    let (_ns_sub, ns_task) = stamp_node_status(&bus, &node_status_at, capacity);
+    tasks.push(ns_task);
     let (_raw_sub, mut raw_rx) =
         bus.subscribe_channel(&groups::GOBY_MIDDLEWARE_FRONTSEAT_RAW_IN, "bench", capacity);
     let at = raw_in_at.clone();
@@ -122,32 +110,12 @@ async fn run_inner(plan: Plan, sel: &super::Selection) -> Result<Vec<Row>, Strin
     }));
     let (_st_sub, mut st_rx) =
         bus.subscribe_channel(&groups::GOBY_MIDDLEWARE_FRONTSEAT_STATUS, "bench", capacity);
-    let helm_bus = bus.clone();
-    tasks.push(tokio::spawn(async move {
-        loop {
-            helm_bus.publish(
-                &groups::GOBY_MIDDLEWARE_FRONTSEAT_HELM_STATE,
-                HelmStateReport {
-                    state: HelmState::HelmDrive as i32,
-                },
-            );
-            tokio::time::sleep(Duration::from_millis(100)).await;
-        }
-    }));
+    tasks.push(helm_drive(&bus));
 
     let service = InterfaceService::start(&cfg, &bus)
         .await
         .map_err(|e| format!("interface: {e}"))?;
-    let reached = tokio::time::timeout(Duration::from_secs(10), async {
-        while let Some(env) = st_rx.recv().await {
-            if env.msg.state() == InterfaceState::InterfaceCommand {
-                return true;
-            }
-        }
-        false
-    })
-    .await;
-    let rows = if matches!(reached, Ok(true)) {
+    let rows = if reached_command(&mut st_rx).await {
         // Each row has its own range of sequence numbers, so leaving one out moves no other.
         let mut rows = Vec::new();
         if sel.wants("P1") {
@@ -176,6 +144,94 @@ async fn run_inner(plan: Plan, sel: &super::Selection) -> Result<Vec<Row>, Strin
     rows
 }
 
+/// Stamps every node_status on `bus` whose DEPTH carries a sequence number (`DEPTH:n + 1`) with
+/// the instant a bus subscriber woke with it.
+pub(super) fn stamp_node_status(
+    bus: &Bus,
+    at: &Arc<Stamps>,
+    capacity: usize,
+) -> (Subscription, tokio::task::JoinHandle<()>) {
+    let (sub, mut rx) = bus.subscribe_channel(
+        &groups::GOBY_MIDDLEWARE_FRONTSEAT_NODE_STATUS,
+        "bench",
+        capacity,
+    );
+    let at = at.clone();
+    let task = tokio::spawn(async move {
+        while let Some(env) = rx.recv().await {
+            let now = Instant::now();
+            let depth = env.msg.global_fix.depth();
+            if depth >= 1.0 && depth.fract() == 0.0 {
+                at.set(depth as usize - 1, now);
+            }
+        }
+    });
+    (sub, task)
+}
+
+/// A helm heartbeat on `bus`: HelmStateReport DRIVE every 100 ms.
+pub(super) fn helm_drive(bus: &Bus) -> tokio::task::JoinHandle<()> {
+    let bus = bus.clone();
+    tokio::spawn(async move {
+        loop {
+            bus.publish(
+                &groups::GOBY_MIDDLEWARE_FRONTSEAT_HELM_STATE,
+                HelmStateReport {
+                    state: HelmState::HelmDrive as i32,
+                },
+            );
+            tokio::time::sleep(Duration::from_millis(100)).await;
+        }
+    })
+}
+
+/// True once the interface's status says running:command, within 10 s.
+pub(super) async fn reached_command(
+    status: &mut tokio::sync::mpsc::UnboundedReceiver<Envelope<InterfaceStatus>>,
+) -> bool {
+    let reached = tokio::time::timeout(Duration::from_secs(10), async {
+        while let Some(env) = status.recv().await {
+            if env.msg.state() == InterfaceState::InterfaceCommand {
+                return true;
+            }
+        }
+        false
+    })
+    .await;
+    matches!(reached, Ok(true))
+}
+
+/// `count` desired_course at `rate_hz` on `bus`, sequence `off + i + 1` in DEPTH, each stamped
+/// in `sent` right before its publish; then up to [`GRACE`] for the frontseat to read them all.
+pub(super) async fn publish_courses(
+    bus: &Bus,
+    fs: &ScriptedFrontseat,
+    sent: &Stamps,
+    off: usize,
+    count: usize,
+    rate_hz: f64,
+) {
+    let before = fs.cmds_read();
+    let start = tokio::time::Instant::now();
+    let period = Duration::from_secs_f64(1.0 / rate_hz.max(1e-3));
+    for i in 0..count {
+        tokio::time::sleep_until(start + period.mul_f64(i as f64)).await;
+        let course = DesiredCourse {
+            time: 0.0,
+            heading: Some(90.0),
+            speed: Some(1.5),
+            depth: Some((off + i + 1) as f64),
+            ..Default::default()
+        };
+        sent.set(off + i, Instant::now());
+        bus.publish(&groups::GOBY_MIDDLEWARE_FRONTSEAT_DESIRED_COURSE, course);
+    }
+    let deadline = tokio::time::Instant::now() + GRACE;
+    while fs.cmds_read() < before + count as u64 && tokio::time::Instant::now() < deadline {
+        tokio::time::sleep(Duration::from_millis(5)).await;
+    }
+}
+
 /// Latency of every index in `range` stamped in both; and how many were written but never
 /// delivered.
 pub(super) fn match_up(
@@ -196,47 +252,83 @@ pub(super) fn match_up(
     (h, written, lost)
 }
 
-async fn p1(plan: &Plan, fs: &ScriptedFrontseat, written: &Stamps, got: &Stamps) -> Row {
-    let report = match fs.burst(0, plan.p1_count, plan.p1_rate_hz, false).await {
+/// A latency row over a burst of `count` NAV lines from sequence 0 at `rate_hz`, each matched
+/// to its delivery in `got`; `how` says what the path was.
+#[allow(clippy::too_many_arguments)]
+pub(super) async fn nav_burst_row(
+    id: &'static str,
+    what: &str,
+    fs: &ScriptedFrontseat,
+    written: &Stamps,
+    got: &Stamps,
+    count: usize,
+    rate_hz: f64,
+    how: &str,
+) -> Row {
+    let report = match fs.burst(0, count, rate_hz, false).await {
         Ok(r) => r,
-        Err(_) => return Row::failed("P1", P1, "the scripted frontseat stopped"),
+        Err(_) => return Row::failed(id, what, "the scripted frontseat stopped"),
     };
     tokio::time::sleep(GRACE).await;
-    let (h, n, lost) = match_up(written, got, 0..plan.p1_count);
+    let (h, n, lost) = match_up(written, got, 0..count);
     let detail = format!(
-        "{} NAV lines at {} Hz, one write each (scripted loopback frontseat, stamp before write(2)); lost {lost}",
-        fmt_count(n as f64),
-        plan.p1_rate_hz
+        "{} NAV lines at {rate_hz} Hz{how}; lost {lost}",
+        fmt_count(n as f64)
     );
-    latency_row("P1", P1, &h, detail, report.written, lost)
+    latency_row(id, what, &h, detail, report.written, lost)
+}
+
+/// A latency row over `count` desired_course at `rate_hz` (sequence 0.., in DEPTH) published on
+/// `bus`, each matched to the CMD line the frontseat read; `how` says what the path was.
+#[allow(clippy::too_many_arguments)]
+pub(super) async fn course_row(
+    id: &'static str,
+    what: &str,
+    bus: &Bus,
+    fs: &ScriptedFrontseat,
+    sent: &Stamps,
+    read: &Stamps,
+    count: usize,
+    rate_hz: f64,
+    how: &str,
+) -> Row {
+    publish_courses(bus, fs, sent, 0, count, rate_hz).await;
+    let (h, n, lost) = match_up(sent, read, 0..count);
+    let detail = format!(
+        "{} desired_course at {rate_hz} Hz (sequence in DEPTH){how}; lost {lost}",
+        fmt_count(n as f64)
+    );
+    latency_row(id, what, &h, detail, n, lost)
+}
+
+async fn p1(plan: &Plan, fs: &ScriptedFrontseat, written: &Stamps, got: &Stamps) -> Row {
+    let how = ", one write each (scripted loopback frontseat, stamp before write(2))";
+    nav_burst_row(
+        "P1",
+        P1,
+        fs,
+        written,
+        got,
+        plan.p1_count,
+        plan.p1_rate_hz,
+        how,
+    )
+    .await
 }
 
 async fn p2(plan: &Plan, bus: &Bus, fs: &ScriptedFrontseat, sent: &Stamps, read: &Stamps) -> Row {
-    let start = tokio::time::Instant::now();
-    let period = Duration::from_secs_f64(1.0 / plan.p2_rate_hz);
-    for i in 0..plan.p2_count {
-        tokio::time::sleep_until(start + period.mul_f64(i as f64)).await;
-        let course = DesiredCourse {
-            time: 0.0,
-            heading: Some(90.0),
-            speed: Some(1.5),
-            depth: Some((i + 1) as f64),
-            ..Default::default()
-        };
-        sent.set(i, Instant::now());
-        bus.publish(&groups::GOBY_MIDDLEWARE_FRONTSEAT_DESIRED_COURSE, course);
-    }
-    let deadline = tokio::time::Instant::now() + GRACE;
-    while fs.cmds_read() < plan.p2_count as u64 && tokio::time::Instant::now() < deadline {
-        tokio::time::sleep(Duration::from_millis(5)).await;
-    }
-    let (h, n, lost) = match_up(sent, read, 0..plan.p2_count);
-    let detail = format!(
-        "{} desired_course at {} Hz (sequence in DEPTH); lost {lost}",
-        fmt_count(n as f64),
-        plan.p2_rate_hz
-    );
-    latency_row("P2", P2, &h, detail, n, lost)
+    course_row(
+        "P2",
+        P2,
+        bus,
+        fs,
+        sent,
+        read,
+        plan.p2_count,
+        plan.p2_rate_hz,
+        "",
+    )
+    .await
 }
 
 pub(super) fn latency_row(

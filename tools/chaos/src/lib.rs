@@ -1006,8 +1006,8 @@ impl Run {
                 one_shot(t)
             }
             FaultKind::VehiclePanic => {
+                self.vehicle_panic(i).await;
                 let t = Instant::now();
-                self.sim_fault(sim_fault::Fault::Panic(true));
                 self.monitor.until_left_command(f.hold).await;
                 one_shot(t)
             }
@@ -1078,6 +1078,34 @@ impl Run {
                 break;
             }
             tokio::time::sleep(Duration::from_millis(5)).await;
+        }
+    }
+
+    /// Panics the connected vehicle. A burst may have left none connected (the driver still
+    /// reconnecting), and a panic sent to nobody proves nothing: wait (bounded) for a vehicle,
+    /// then for the simulator to count the panic.
+    async fn vehicle_panic(&mut self, i: u32) {
+        let bound = self.opts.recovery_bound;
+        let deadline = Instant::now() + bound;
+        while self.sim.handle.vehicles().is_empty() {
+            if Instant::now() >= deadline {
+                self.violations.push(format!(
+                    "fault #{i} (vehicle panic): no vehicle connected within {bound:?}"
+                ));
+                return;
+            }
+            tokio::time::sleep(Duration::from_millis(2)).await;
+        }
+        let before = self.sim.handle.stats().vehicle_panics;
+        self.sim_fault(sim_fault::Fault::Panic(true));
+        while self.sim.handle.stats().vehicle_panics == before {
+            if Instant::now() >= deadline {
+                self.violations.push(format!(
+                    "fault #{i} (vehicle panic): injected but not raised within {bound:?}"
+                ));
+                return;
+            }
+            tokio::time::sleep(Duration::from_millis(2)).await;
         }
     }
 

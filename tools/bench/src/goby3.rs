@@ -43,7 +43,9 @@ pub async fn run(plan: Plan) -> Vec<Row> {
     }
 }
 
-fn settings(manager_port: u16, name: &str) -> Result<Goby3Settings, String> {
+/// A Goby3 gateway on `bus` hosting `actor`'s groups, joining the stand-in gobyd's TCP manager
+/// on `manager_port`.
+fn gateway(bus: &Bus, manager_port: u16, actor: &str) -> Result<Goby3Handle, String> {
     let cfg = Goby3Config {
         enabled: true,
         transport: Goby3Transport::Tcp,
@@ -52,7 +54,10 @@ fn settings(manager_port: u16, name: &str) -> Result<Goby3Settings, String> {
         manager_timeout_seconds: 2.0,
         ..Goby3Config::default()
     };
-    Goby3Settings::from_config(&cfg, name).map_err(|e| format!("goby3 settings: {e}"))
+    let settings = Goby3Settings::from_config(&cfg, "bench-auv")
+        .map_err(|e| format!("goby3 settings: {e}"))?;
+    goby3::start(bus, settings, &[actor], GatewayOptions::default())
+        .map_err(|e| format!("{actor}'s Goby3 gateway: {e}"))
 }
 
 async fn until_up(h: &Goby3Handle, within: Duration) -> Result<(), String> {
@@ -103,20 +108,8 @@ async fn run_inner(plan: Plan) -> Result<Vec<Row>, String> {
     let service = InterfaceService::start(&cfg, &bus_if)
         .await
         .map_err(|e| format!("interface: {e}"))?;
-    let gw_if = goby3::start(
-        &bus_if,
-        settings(port, "bench-auv")?,
-        &["FrontSeatInterface"],
-        GatewayOptions::default(),
-    )
-    .map_err(|e| format!("interface's Goby3 gateway: {e}"))?;
-    let gw_helm = goby3::start(
-        &bus_helm,
-        settings(port, "bench-auv")?,
-        &["FrontSeatTranslation"],
-        GatewayOptions::default(),
-    )
-    .map_err(|e| format!("helm's Goby3 gateway: {e}"))?;
+    let gw_if = gateway(&bus_if, port, "FrontSeatInterface")?;
+    let gw_helm = gateway(&bus_helm, port, "FrontSeatTranslation")?;
 
     let result = async {
         until_up(&gw_if, Duration::from_secs(10)).await?;

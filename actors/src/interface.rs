@@ -98,7 +98,8 @@ impl InterfaceSettings {
 pub enum ServiceExit {
     /// Orderly shutdown.
     Clean,
-    /// exit_on_error and an error state was entered.
+    /// exit_on_error and an error state was entered. Its code is Goby3's (0, frontseat_interface.cpp
+    /// 176-184); `frontseat interface` exits with the configured `exit_on_error_code` instead.
     ErrorState(String),
     /// The driver failed more often than the restart limit allows.
     RestartLimit(String),
@@ -110,7 +111,7 @@ impl ServiceExit {
     pub fn code(&self) -> i32 {
         match self {
             ServiceExit::Clean => 0,
-            ServiceExit::ErrorState(_) => 2,
+            ServiceExit::ErrorState(_) => 0,
             ServiceExit::RestartLimit(_) => 3,
             ServiceExit::Failed(_) => 4,
         }

@@ -184,7 +184,7 @@ impl ServiceConfig for InterfaceConfig {
             m.check("moos", &mut c);
             // Goby3 has one warp for the interface and its MOOS side (moos_plugin_translator.cpp:56);
             // two that differ would run the helm's clock apart from the vehicle's, silently.
-            if m.time_warp != 0.0 && m.time_warp != self.sim_warp_factor {
+            if m.time_warp > 0.0 && m.time_warp != self.sim_warp_factor {
                 c.push(FieldError::new(
                     "moos.time_warp",
                     m.time_warp,

@@ -50,7 +50,9 @@ pub fn interface_children(
     ));
     if config.goby3.enabled {
         children.push(crate::gateway_cmd::goby3_child(
-            &config.goby3.with_client_name_for("goby_frontseat_interface"),
+            &config
+                .goby3
+                .with_client_name_for("goby_frontseat_interface"),
             &config.name,
             bus,
             crate::gateway_cmd::interface_actors(config),

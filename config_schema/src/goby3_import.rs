@@ -52,12 +52,7 @@ impl Imported {
     pub fn warnings(&self) -> Vec<String> {
         self.ignored
             .iter()
-            .map(|n| {
-                format!(
-                    "Goby3 field {} = {} ignored: {}",
-                    n.path, n.value, n.why
-                )
-            })
+            .map(|n| format!("Goby3 field {} = {} ignored: {}", n.path, n.value, n.why))
             .collect()
     }
 }
@@ -369,7 +364,10 @@ fn float(x: f64) -> Result<toml::Value, String> {
 fn inline(v: &toml::Value) -> String {
     match v {
         toml::Value::Table(t) => {
-            let items: Vec<String> = t.iter().map(|(k, v)| format!("{k} = {}", inline(v))).collect();
+            let items: Vec<String> = t
+                .iter()
+                .map(|(k, v)| format!("{k} = {}", inline(v)))
+                .collect();
             format!("{{ {} }}", items.join(", "))
         }
         toml::Value::Array(a) => {
@@ -651,7 +649,10 @@ pub fn import_interface(text: &str, file: &str) -> Result<Imported, ConfigError>
     }
 
     // The datum: frontseat_cfg.origin, else app.geodesy (Goby3 apps take the datum from either).
-    let geodesy = (imp.take("app.geodesy.lat_origin"), imp.take("app.geodesy.lon_origin"));
+    let geodesy = (
+        imp.take("app.geodesy.lat_origin"),
+        imp.take("app.geodesy.lon_origin"),
+    );
     let has_origin = imp.left.contains_key(&format!("{fs}.origin.lat"));
     for key in ["lat", "lon", "depth"] {
         imp.map(&format!("{fs}.origin.{key}"), "origin", key);
@@ -776,10 +777,19 @@ mod tests {
     fn goby3_library_names_select_our_built_in_drivers() {
         for (lib, want) in [
             ("libgoby_frontseat_bluefin.so.30", Some("bluefin")),
-            ("/usr/lib/x86_64-linux-gnu/libgoby_frontseat_iver.so.30", Some("iver3")),
-            ("libgoby_frontseat_waveglider_sv2.so", Some("waveglider_sv2")),
+            (
+                "/usr/lib/x86_64-linux-gnu/libgoby_frontseat_iver.so.30",
+                Some("iver3"),
+            ),
+            (
+                "libgoby_frontseat_waveglider_sv2.so",
+                Some("waveglider_sv2"),
+            ),
             ("goby_frontseat_basic_simulator", Some("basic_simulator")),
-            ("libgoby_frontseat_basic_simulator.so.30.1.2", Some("basic_simulator")),
+            (
+                "libgoby_frontseat_basic_simulator.so.30.1.2",
+                Some("basic_simulator"),
+            ),
             ("/opt/lib/libmy_driver.so", None),
             ("libgoby_frontseat_bluefinx.so", None),
             ("", None),

@@ -164,6 +164,27 @@ impl Default for InterfaceConfig {
     }
 }
 
+impl InterfaceConfig {
+    /// Goby3's way of choosing the driver: `FRONTSEAT_DRIVER_LIBRARY` (given here as
+    /// `env_library`), or `driver.library`, naming one of Goby3's own driver libraries
+    /// (`libgoby_frontseat_bluefin.so.30`) selects our built-in driver of that vehicle, so a
+    /// Goby3 unit file works unchanged. Returns what was chosen (to be logged); None when no
+    /// Goby3 library is named (another library stays a plugin of ours).
+    pub fn select_goby3_driver(&mut self, env_library: Option<&str>) -> Option<String> {
+        let (source, library) = match env_library.filter(|l| !l.is_empty()) {
+            Some(l) => ("FRONTSEAT_DRIVER_LIBRARY", l.to_owned()),
+            None => ("driver.library", self.driver.library.clone()?),
+        };
+        let builtin = crate::goby3_import::goby3_driver_for_library(&library)?;
+        let was = std::mem::replace(&mut self.driver.name, builtin.to_owned());
+        self.driver.library = None;
+        Some(format!(
+            "{source}={library} is Goby3's {builtin} driver library: running frontseat's built-in \
+             `{builtin}` driver (config's [driver] name was {was:?})"
+        ))
+    }
+}
+
 impl ServiceConfig for InterfaceConfig {
     const SERVICE: &'static str = "interface";
 

@@ -64,7 +64,10 @@ pub trait ServiceConfig: Serialize + DeserializeOwned + JsonSchema + Default {
 
     /// The Goby3 application's .pb.cfg of this service turned into our TOML, when there is one
     /// (`interface`: goby_frontseat_interface, `moos-gateway`: goby_moos_gateway).
-    fn import_goby3(_text: &str, _file: &str) -> Option<Result<goby3_import::Imported, ConfigError>> {
+    fn import_goby3(
+        _text: &str,
+        _file: &str,
+    ) -> Option<Result<goby3_import::Imported, ConfigError>> {
         None
     }
 }
@@ -102,7 +105,10 @@ pub fn import_goby3<T: ServiceConfig>(path: &Path) -> Result<goby3_import::Impor
             file: file.clone(),
             line: 0,
             column: 0,
-            message: format!("`frontseat {}` has no Goby3 counterpart to import", T::SERVICE),
+            message: format!(
+                "`frontseat {}` has no Goby3 counterpart to import",
+                T::SERVICE
+            ),
         })
     })?;
     // What it prints must load: checked here, so a bad value is reported against the Goby3 file.

@@ -33,7 +33,10 @@ fn filled(name: &str) -> String {
             };
             // Required values print blank, required strings as "".
             let rest = rest.trim_start();
-            let rest = rest.strip_prefix("\"\"").map(str::trim_start).unwrap_or(rest);
+            let rest = rest
+                .strip_prefix("\"\"")
+                .map(str::trim_start)
+                .unwrap_or(rest);
             if !rest.starts_with('#') || key.contains(' ') || key == "extra_bplog" {
                 return format!("{line}\n");
             }
@@ -89,7 +92,8 @@ fn goby3_examples_as_printed_name_the_blank_required_value_and_its_line() {
 
 #[test]
 fn basic_simulator_example_runs_the_basic_simulator_driver_on_gobyd_and_moos() {
-    let (cfg, toml, warnings) = interface("goby_frontseat_interface_basic_simulator.example.pb.cfg");
+    let (cfg, toml, warnings) =
+        interface("goby_frontseat_interface_basic_simulator.example.pb.cfg");
     assert_eq!(cfg.driver.name, "basic_simulator");
     let bs = &cfg.driver.basic_simulator;
     assert_eq!(bs.tcp_address, "127.0.0.1");
@@ -105,12 +109,20 @@ fn basic_simulator_example_runs_the_basic_simulator_driver_on_gobyd_and_moos() {
     assert!(cfg.goby3.enabled, "a Goby3 interface always joins gobyd");
     assert_eq!(cfg.goby3.platform, "default_goby_platform");
     assert_eq!(cfg.goby3.transport, Goby3Transport::Ipc);
-    let moos = cfg.moos.as_ref().expect("the moos_helm block runs the MOOS bridge");
+    let moos = cfg
+        .moos
+        .as_ref()
+        .expect("the moos_helm block runs the MOOS bridge");
     assert_eq!((moos.server.as_str(), moos.port), ("localhost", 9000));
     // A comment per setting names its Goby3 field; the ignored ones are named too.
-    assert!(toml.contains("require_helm = true  # frontseat_cfg.require_helm"), "{toml}");
     assert!(
-        toml.contains("[goby.middleware.frontseat.protobuf.basic_simulator_config].start.vehicle.accel"),
+        toml.contains("require_helm = true  # frontseat_cfg.require_helm"),
+        "{toml}"
+    );
+    assert!(
+        toml.contains(
+            "[goby.middleware.frontseat.protobuf.basic_simulator_config].start.vehicle.accel"
+        ),
         "{toml}"
     );
     for ignored in [
@@ -183,8 +195,14 @@ fn iver_example_selects_the_iver3_driver_with_its_mode_assignments() {
     assert_eq!(i.serial_port, "/dev/ttyUSB0");
     assert_eq!(i.serial_baud, 19200);
     assert_eq!(i.remote_helm_version_major, Some(5));
-    assert_eq!(i.mode_assignments.parking, FrontSeatStateName::FrontseatInControl);
-    assert_eq!(i.mode_assignments.stopped, FrontSeatStateName::FrontseatIdle);
+    assert_eq!(
+        i.mode_assignments.parking,
+        FrontSeatStateName::FrontseatInControl
+    );
+    assert_eq!(
+        i.mode_assignments.stopped,
+        FrontSeatStateName::FrontseatIdle
+    );
 }
 
 #[test]
@@ -203,10 +221,21 @@ fn moos_gateway_example_bridges_through_gobyd() {
     let cfg = frontseat_config::parse::<GatewayConfig>(&imported.toml, name)
         .unwrap_or_else(|e| panic!("{e}\n{}", imported.toml));
     assert!(cfg.goby3.enabled);
-    assert!(!cfg.interprocess.enabled, "Goby3's gateway reaches gobyd only");
-    assert_eq!((cfg.moos.server.as_str(), cfg.moos.port), ("localhost", 9000));
+    assert!(
+        !cfg.interprocess.enabled,
+        "Goby3's gateway reaches gobyd only"
+    );
+    assert_eq!(
+        (cfg.moos.server.as_str(), cfg.moos.port),
+        ("localhost", 9000)
+    );
     assert_eq!(cfg.moos.time_warp, 1.0);
-    assert!(imported.warnings().iter().any(|w| w.contains("poll_frequency")));
+    assert!(
+        imported
+            .warnings()
+            .iter()
+            .any(|w| w.contains("poll_frequency"))
+    );
 }
 
 fn refused(text: &str) -> Vec<String> {
@@ -259,7 +288,8 @@ fn goby3_mistakes_and_settings_we_cannot_honour_are_errors_not_guesses() {
     );
     assert!(e[0].contains("more than one driver"), "{e:?}");
     // A MOOS encoding we do not speak.
-    let e = refused("frontseat_cfg {}\n[goby.moos.protobuf.moos_helm] { use_binary_protobuf: true }\n");
+    let e =
+        refused("frontseat_cfg {}\n[goby.moos.protobuf.moos_helm] { use_binary_protobuf: true }\n");
     assert!(e[0].contains("use_binary_protobuf"), "{e:?}");
     // Two datums.
     let e = refused(
@@ -287,7 +317,11 @@ fn a_pb_cfg_file_loads_through_the_normal_loader() {
     let dir = std::env::temp_dir().join(format!("fs-goby3-import-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let path: PathBuf = dir.join("vehicle.pb.cfg");
-    std::fs::write(&path, filled("goby_frontseat_interface_bluefin.example.pb.cfg")).unwrap();
+    std::fs::write(
+        &path,
+        filled("goby_frontseat_interface_bluefin.example.pb.cfg"),
+    )
+    .unwrap();
     let (cfg, notes) = frontseat_config::load_with_notes::<InterfaceConfig>(&path).unwrap();
     assert_eq!(cfg.driver.name, "bluefin");
     assert!(notes.iter().any(|n| n.contains("glog_config")), "{notes:?}");

@@ -36,9 +36,14 @@ struct Cli {
 /// Config handling shared by every service subcommand.
 #[derive(Args, Debug, Clone)]
 struct ConfigArgs {
-    /// Configuration file (TOML). `--example_config` prints a complete one.
+    /// Configuration file: TOML, or a Goby3 .pb.cfg of the Goby3 application this replaces.
+    /// `--example_config` prints a complete TOML one.
     #[arg(short = 'c', long = "config", value_name = "FILE")]
     config: Option<PathBuf>,
+    /// The configuration file given as Goby3 applications take it (`goby_frontseat_interface
+    /// vehicle.pb.cfg`): the same as -c.
+    #[arg(value_name = "CONFIG", conflicts_with = "config")]
+    config_positional: Option<PathBuf>,
     /// Print a complete example config (every field, its default, unit and description) and exit.
     #[arg(long = "example_config", alias = "example-config")]
     example_config: bool,
@@ -57,6 +62,13 @@ struct ConfigArgs {
         value_name = "FILE.pb.cfg"
     )]
     import_goby3: Option<PathBuf>,
+}
+
+impl ConfigArgs {
+    /// The config file, by -c or as Goby3's positional argument.
+    fn file(&self) -> Option<&PathBuf> {
+        self.config.as_ref().or(self.config_positional.as_ref())
+    }
 }
 
 #[derive(Subcommand, Debug)]
@@ -184,7 +196,7 @@ fn config_commands<T: frontseat_config::ServiceConfig>(
         return Some(ExitCode::SUCCESS);
     }
     if a.check {
-        let Some(path) = &a.config else {
+        let Some(path) = a.file() else {
             eprintln!("--check needs a config file: --check -c FILE");
             return Some(ExitCode::from(2));
         };
@@ -219,7 +231,7 @@ fn load_config_with<T: frontseat_config::ServiceConfig>(
     optional: bool,
     loader: fn(&std::path::Path) -> Loaded<T>,
 ) -> Result<(T, Vec<String>), ExitCode> {
-    match &a.config {
+    match a.file() {
         Some(path) => loader(path).map_err(|e| {
             eprintln!("{e}");
             ExitCode::from(2)
@@ -235,8 +247,29 @@ fn load_config_with<T: frontseat_config::ServiceConfig>(
     }
 }
 
+/// The command line, with Goby3's application names as aliases: installed (or linked) as
+/// `goby_frontseat_interface` this binary is `frontseat interface`, as `goby_moos_gateway` it is
+/// `frontseat moos-gateway`, so a Goby3 unit file's ExecStart works with the binary swapped.
+fn cli_args() -> Vec<std::ffi::OsString> {
+    let mut args: Vec<std::ffi::OsString> = std::env::args_os().collect();
+    let called = args
+        .first()
+        .and_then(|a| std::path::Path::new(a).file_name())
+        .and_then(|n| n.to_str())
+        .map(str::to_owned);
+    let sub = match called.as_deref() {
+        Some("goby_frontseat_interface") => Some("interface"),
+        Some("goby_moos_gateway") => Some("moos-gateway"),
+        _ => None,
+    };
+    if let Some(sub) = sub {
+        args.insert(1.min(args.len()), sub.into());
+    }
+    args
+}
+
 fn main() -> ExitCode {
-    let cli = Cli::parse();
+    let cli = Cli::parse_from(cli_args());
     match cli.command {
         Command::Interfaces => {
             print!("{}", frontseat_actors::generated::RESOLVED_INTERFACES_YAML);

@@ -122,11 +122,14 @@ async fn goby3s_example_config_and_unit_environment_fly_through_gobyds_hold() {
     assert!(said.contains("app.glog_config.tty_verbosity"), "{said}");
     assert!(said.contains("built-in `basic_simulator` driver"), "{said}");
 
-    // The unit file's environment, the binary swapped.
+    // The unit file's ExecStart and environment, the binary swapped: ours installed under
+    // Goby3's name, the config as Goby3 takes it (positional).
+    let goby_name = dir.join("goby_frontseat_interface");
+    std::os::unix::fs::symlink(BIN, &goby_name).unwrap();
     let interface_log = dir.join("interface.log");
     let _interface = Kill(
-        Command::new(BIN)
-            .args(["interface", "-c", cfg_path.to_str().unwrap()])
+        Command::new(&goby_name)
+            .arg(cfg_path.to_str().unwrap())
             .env(
                 "FRONTSEAT_DRIVER_LIBRARY",
                 "libgoby_frontseat_basic_simulator.so.30",

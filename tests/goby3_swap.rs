@@ -268,3 +268,51 @@ fn exit_on_error_exits_with_goby3s_code_unless_told_otherwise() {
     assert_eq!(exit_code_with(""), Some(0), "Goby3 quits with 0");
     assert_eq!(exit_code_with("exit_on_error_code = 2\n"), Some(2));
 }
+
+/// `--import-goby3` prints TOML that `--check` takes, for both Goby3 applications.
+#[test]
+fn import_goby3_prints_toml_that_checks() {
+    let dir = scratch("goby3swap", "import");
+    let gw = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("config_schema/tests/fixtures/goby3/goby_moos_gateway_ivp.example.pb.cfg");
+    let iface = dir.join("auv1.pb.cfg");
+    std::fs::write(&iface, goby3_user_config(54321, 9000, "/tmp/goby_auv1")).unwrap();
+    for (sub, file) in [
+        ("interface", iface.as_path()),
+        ("moos-gateway", gw.as_path()),
+    ] {
+        let out = Command::new(BIN)
+            .args([sub, "--import-goby3", file.to_str().unwrap()])
+            .output()
+            .unwrap();
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let toml = String::from_utf8(out.stdout).unwrap();
+        assert!(
+            toml.contains("[goby3]") && toml.contains("enabled = true"),
+            "{toml}"
+        );
+        let path = dir.join(format!("{sub}.toml"));
+        std::fs::write(&path, &toml).unwrap();
+        let check = Command::new(BIN)
+            .args([sub, "--check", "-c", path.to_str().unwrap()])
+            .output()
+            .unwrap();
+        assert!(
+            check.status.success(),
+            "{sub}: {}\n{toml}",
+            String::from_utf8_lossy(&check.stderr)
+        );
+    }
+    // A service with no Goby3 counterpart says so.
+    let out = Command::new(BIN)
+        .args(["sim", "--import-goby3", iface.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("no Goby3 counterpart"));
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -69,12 +69,24 @@ impl<T: prost::Message + Default + Clone + Send + Sync + 'static> BusMessage for
 pub use crate::telemetry::TraceContext;
 
 /// Whether a message was published in this process or imported from another (so the gateway
-/// does not export it again).
+/// does not export it again), or replayed from a recording (`frontseat replay`: it never meets
+/// a live driver, see [`Bus::claim`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
 pub enum Origin {
     #[default]
     Local,
     Imported,
+    Replayed,
+}
+
+/// What a process's bus is for; the two exclude each other so recorded messages never reach a
+/// real vehicle through the same bus.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BusRole {
+    /// A driver talks to a vehicle (or its simulator) on this bus.
+    LiveDriver,
+    /// A recording is replayed onto this bus.
+    Replay,
 }
 
 #[derive(Clone, Debug, Default)]
@@ -211,6 +223,7 @@ struct Inner {
     /// Up/down of this process's links to other processes (e.g. "goby3"), set by the gateways
     /// that own them and read by whoever reports status: neither depends on the other.
     links: RwLock<Vec<(&'static str, bool)>>,
+    role: std::sync::Mutex<Option<BusRole>>,
 }
 
 /// The bus. Cheap to clone; every clone is the same bus.
@@ -262,6 +275,7 @@ impl Bus {
                 next_id: AtomicU64::new(1),
                 dropped_total: AtomicU64::new(0),
                 links: RwLock::new(Vec::new()),
+                role: std::sync::Mutex::new(None),
             }),
         }
     }
@@ -450,6 +464,20 @@ impl Bus {
         self.inner.dropped_total.load(Ordering::Relaxed)
     }
 
+    /// Claims the bus for `role`: refused (with the role already held) when the other role has
+    /// it, so a replay and a live driver can never share a bus. Claiming a held role again is
+    /// fine (a restarted driver).
+    pub fn claim(&self, role: BusRole) -> Result<(), BusRole> {
+        let mut r = self.inner.role.lock().unwrap_or_else(|p| p.into_inner());
+        match *r {
+            Some(held) if held != role => Err(held),
+            _ => {
+                *r = Some(role);
+                Ok(())
+            }
+        }
+    }
+
     /// Records whether the link `name` (a transport to other processes) is up.
     pub fn set_link_up(&self, name: &'static str, up: bool) {
         let mut links = self.inner.links.write().unwrap_or_else(|p| p.into_inner());
@@ -542,6 +570,20 @@ mod tests {
     fn publish_without_subscribers_is_a_no_op() {
         let bus = Bus::new();
         assert_eq!(bus.publish(&PING, Ping { n: 1 }), PublishReport::default());
+    }
+
+    #[test]
+    fn replay_and_live_driver_exclude_each_other() {
+        let bus = Bus::new();
+        assert_eq!(bus.claim(BusRole::LiveDriver), Ok(()));
+        assert_eq!(bus.claim(BusRole::LiveDriver), Ok(()));
+        assert_eq!(bus.claim(BusRole::Replay), Err(BusRole::LiveDriver));
+        let other = Bus::new();
+        assert_eq!(other.claim(BusRole::Replay), Ok(()));
+        assert_eq!(
+            other.clone().claim(BusRole::LiveDriver),
+            Err(BusRole::Replay)
+        );
     }
 
     #[tokio::test]

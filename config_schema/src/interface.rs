@@ -135,6 +135,8 @@ pub struct InterfaceConfig {
     pub bus: BusConfig,
     /// The live web scope and commander served by this process.
     pub web: WebConfig,
+    /// Recording every message this process sees to MCAP files.
+    pub record: crate::RecordConfig,
 }
 
 impl Default for InterfaceConfig {
@@ -160,6 +162,7 @@ impl Default for InterfaceConfig {
             chaos: ChaosConfig::default(),
             bus: BusConfig::default(),
             web: WebConfig::default(),
+            record: crate::RecordConfig::default(),
         }
     }
 }
@@ -222,6 +225,7 @@ impl ServiceConfig for InterfaceConfig {
         self.telemetry.check("telemetry", &mut c);
         self.bus.check("bus", &mut c);
         self.web.check("web", &mut c);
+        self.record.check("record", &mut c);
         c.errors
     }
 

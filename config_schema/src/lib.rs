@@ -12,6 +12,7 @@ mod gateway;
 mod goby3;
 pub mod goby3_import;
 mod interface;
+mod record;
 mod sections;
 mod sim;
 mod web;
@@ -34,6 +35,7 @@ pub use interface::{
     SupervisionConfig, TransportKind, VehicleLinkConfig, VehicleType, WAVEGLIDER_SV2,
     WavegliderSv2Config,
 };
+pub use record::{RecordCompression, RecordConfig};
 pub use sections::{
     DEFAULT_MAX_EXPORT_BATCH_SIZE, DEFAULT_MAX_QUEUE_SIZE, DEFAULT_METRICS_INTERVAL_S,
     DEFAULT_ORIGIN_LAT, DEFAULT_ORIGIN_LON, DEFAULT_SCHEDULED_DELAY_MS, InterprocessConfig,

@@ -96,6 +96,8 @@ fn interface_example_has_every_setting_and_commented_ones_work() {
     rest.driver.iver3.remote_helm_version_major = None;
     assert!(on.driver.iver3.ntp_serial_port.is_some());
     rest.driver.iver3.ntp_serial_port = None;
+    assert!(on.record.path.is_some());
+    rest.record.path = None;
     assert_eq!(rest, InterfaceConfig::default());
 }
 

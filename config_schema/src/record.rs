@@ -1,0 +1,167 @@
+//! The `[record]` section: the MCAP recorder of every group the process sees (crate
+//! `frontseat-record`): where files go, which groups, rotation, the disk budget and how much a
+//! crash may lose. Checked here so a bad regex or an impossible budget fails `--check`.
+
+use schemars::JsonSchema;
+use serde::{Deserialize, Serialize};
+
+use crate::FieldError;
+use crate::check::{Checker, at};
+
+/// Chunk compression of the recorded MCAP files.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, JsonSchema, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum RecordCompression {
+    /// zstd: the smallest files, the MCAP default; read by every MCAP tool.
+    #[default]
+    Zstd,
+    /// lz4: less CPU per message, larger files.
+    Lz4,
+    /// No compression.
+    None,
+}
+
+/// Recording every message of the bus to MCAP files.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields, default)]
+pub struct RecordConfig {
+    /// Record this process's bus (both layers) to MCAP.
+    pub enabled: bool,
+    /// Directory of the rotated files `<vehicle>_<UTC start>_<seq>.mcap`; created if missing.
+    pub dir: String,
+    /// One file instead of rotated files in `dir` (no rotation, no budget): e.g. a bench run.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    #[schemars(example = &"/tmp/run.mcap")]
+    pub path: Option<String>,
+    /// Record only groups whose name matches one of these regexes; empty = every group.
+    pub include: Vec<String>,
+    /// Never record groups whose name matches one of these regexes (wins over include).
+    pub exclude: Vec<String>,
+    /// Start a new file past this size; 0 = no size limit. Unit: MiB.
+    pub rotate_mb: u64,
+    /// Start a new file after this long; 0 = no time limit. Unit: s.
+    pub rotate_s: u64,
+    /// Total size of the files in `dir` kept: the oldest are removed past it; 0 = no budget
+    /// (not advised on a vehicle). Unit: MiB.
+    pub budget_mb: u64,
+    /// Warn (rate-limited, counted) when the disk holding `dir` has less free than this, and
+    /// stop writing below half of it, so a full disk degrades the recorder, never the vehicle.
+    /// Unit: MiB.
+    pub min_free_mb: u64,
+    /// The most a crash or power loss may lose: the open chunk is closed, written and synced at
+    /// least this often. Unit: s, 0.05 to 60.
+    pub flush_s: f64,
+    /// Chunk compression.
+    pub compression: RecordCompression,
+    /// Messages waiting for the writer; past it new ones are dropped and counted, so a slow disk
+    /// never slows a publisher. Unit: messages, 16 to 1048576.
+    pub queue: usize,
+}
+
+impl Default for RecordConfig {
+    fn default() -> Self {
+        Self {
+            enabled: false,
+            dir: "/var/log/frontseat".into(),
+            path: None,
+            include: Vec::new(),
+            exclude: Vec::new(),
+            rotate_mb: 256,
+            rotate_s: 3600,
+            budget_mb: 8192,
+            min_free_mb: 512,
+            flush_s: 1.0,
+            compression: RecordCompression::Zstd,
+            queue: 65536,
+        }
+    }
+}
+
+impl RecordConfig {
+    pub(crate) fn check(&self, prefix: &str, c: &mut Checker) {
+        for (name, list) in [("include", &self.include), ("exclude", &self.exclude)] {
+            for (i, r) in list.iter().enumerate() {
+                if let Err(e) = regex::Regex::new(r) {
+                    c.push(FieldError::new(
+                        format!("{}[{i}]", at(prefix, name)),
+                        format!("{r:?}"),
+                        format!("not a regex: {e}"),
+                    ));
+                }
+            }
+        }
+        c.within(&at(prefix, "flush_s"), self.flush_s, 0.05, 60.0);
+        c.count(&at(prefix, "queue"), self.queue as u64, 16, 1 << 20);
+        if self.path.is_none() && self.dir.trim().is_empty() {
+            c.push(FieldError::new(
+                at(prefix, "dir"),
+                "\"\"",
+                "empty: give a directory (or `path` for one file)",
+            ));
+        }
+        if self.path.as_deref().is_some_and(|p| p.trim().is_empty()) {
+            c.push(FieldError::new(
+                at(prefix, "path"),
+                "\"\"",
+                "empty: leave it out to rotate files in `dir`",
+            ));
+        }
+        // A budget smaller than two files would remove the file before the one being written,
+        // leaving at most one file: almost certainly not what was meant.
+        if self.path.is_none()
+            && self.budget_mb > 0
+            && self.rotate_mb > 0
+            && self.budget_mb < self.rotate_mb.saturating_mul(2)
+        {
+            c.push(FieldError::new(
+                at(prefix, "budget_mb"),
+                self.budget_mb,
+                format!("smaller than two files of rotate_mb = {}", self.rotate_mb),
+            ));
+        }
+        if self.path.is_none() && self.budget_mb > 0 && self.rotate_mb == 0 && self.rotate_s == 0 {
+            c.push(FieldError::new(
+                at(prefix, "budget_mb"),
+                self.budget_mb,
+                "a budget needs rotation (rotate_mb or rotate_s): one endless file cannot be trimmed",
+            ));
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn errors(r: &RecordConfig) -> Vec<String> {
+        let mut c = Checker::default();
+        r.check("record", &mut c);
+        c.errors.iter().map(|e| e.to_string()).collect()
+    }
+
+    #[test]
+    fn defaults_are_valid() {
+        assert!(errors(&RecordConfig::default()).is_empty());
+    }
+
+    #[test]
+    fn bad_regex_flush_and_budget_are_refused_with_their_path() {
+        let r = RecordConfig {
+            include: vec!["(".into()],
+            flush_s: 0.0,
+            budget_mb: 10,
+            rotate_mb: 8,
+            ..Default::default()
+        };
+        let e = errors(&r).join("\n");
+        assert!(e.contains("record.include[0]"), "{e}");
+        assert!(e.contains("record.flush_s"), "{e}");
+        assert!(e.contains("record.budget_mb"), "{e}");
+        let endless = RecordConfig {
+            rotate_mb: 0,
+            rotate_s: 0,
+            ..Default::default()
+        };
+        assert!(errors(&endless).join("\n").contains("needs rotation"));
+    }
+}

@@ -44,6 +44,9 @@ pub struct DemoArgs {
     /// Address of the web scope with --web.
     #[arg(long, value_name = "ADDR", default_value = "127.0.0.1:50001")]
     pub web_listen: String,
+    /// Record every group of the run to this MCAP file (`frontseat log info FILE` reads it).
+    #[arg(long, value_name = "FILE")]
+    pub record: Option<PathBuf>,
 }
 
 /// The basic simulator or the Bluefin emulator over loopback TCP (the serial vehicles' demo is
@@ -69,6 +72,27 @@ pub async fn run(args: DemoArgs) -> ExitCode {
             listen: args.web_listen.clone(),
             ..Default::default()
         };
+    }
+    if let Some(path) = &args.record {
+        cfg.record = frontseat_config::RecordConfig {
+            enabled: true,
+            path: Some(path.display().to_string()),
+            ..Default::default()
+        };
+    }
+    if let Err(held) = bus.claim(frontseat_actors::bus::BusRole::LiveDriver) {
+        eprintln!("the bus is already claimed by {held:?}");
+        return ExitCode::from(2);
+    }
+    let recorder = match crate::record_cmd::start_recorder(&bus, &cfg, "demo") {
+        Ok(r) => r,
+        Err(e) => {
+            eprintln!("cannot record: {e}");
+            return ExitCode::from(1);
+        }
+    };
+    if let Some(p) = &args.record {
+        eprintln!("frontseat demo: recording to {}", p.display());
     }
     let loopback = ([127, 0, 0, 1], 0).into();
     let mut children = Vec::new();
@@ -177,6 +201,7 @@ pub async fn run(args: DemoArgs) -> ExitCode {
     if let Some(h) = huxley {
         h.shutdown().await;
     }
+    crate::record_cmd::stop_recorder(recorder).await;
 
     write_outputs(&args.out, &report)
 }

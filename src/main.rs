@@ -8,6 +8,7 @@ mod chaos_cmd;
 mod demo;
 mod driver_host;
 mod gateway_cmd;
+mod record_cmd;
 mod service;
 mod shutdown;
 mod vehicle_kind;
@@ -116,6 +117,11 @@ enum Command {
     /// Print the resolved interface (application → layer → publishes/subscribes → group, type,
     /// actor) of every application, as compiled from interface_yaml/.
     Interfaces,
+    /// Look into a recording (MCAP, from `[record]` or `demo --record`): `info`, `export`.
+    Log(record_cmd::LogArgs),
+    /// Publish a recording's vehicle side (node_status, status, ...) onto Zenoh as it was
+    /// recorded, so a helm under test meets the recorded vehicle. Never commands a vehicle.
+    Replay(record_cmd::ReplayArgs),
 }
 
 /// Console logs always (no colours off a TTY, so journald and files stay clean); OTLP traces when
@@ -379,6 +385,10 @@ fn main() -> ExitCode {
             }
         }
         Command::Bench(args) => run_traced(&Default::default(), "bench", "", bench_cmd::run(args)),
+        Command::Log(args) => record_cmd::log(args),
+        Command::Replay(args) => {
+            run_traced(&Default::default(), "replay", "", record_cmd::replay(args))
+        }
     }
 }
 

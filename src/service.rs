@@ -102,6 +102,22 @@ pub fn interface_children(
 pub async fn interface(config: InterfaceConfig) -> ExitCode {
     let notifier = Arc::new(Notifier::from_env());
     let bus = Bus::new();
+    // A live driver runs on this bus: a replay may never share it.
+    if let Err(held) = bus.claim(frontseat_actors::bus::BusRole::LiveDriver) {
+        tracing::error!(
+            ?held,
+            "the bus is already claimed; not starting a live driver"
+        );
+        return ExitCode::from(2);
+    }
+    // Started before the children so their start-up is on the record too.
+    let recorder = match crate::record_cmd::start_recorder(&bus, &config, "interface") {
+        Ok(r) => r,
+        Err(e) => {
+            tracing::error!(error = %e, "cannot start the recorder ([record])");
+            return ExitCode::from(2);
+        }
+    };
     let reporter = systemd::spawn_status_reporter(notifier.clone(), &bus);
     // One supervision tree: every part of the service is a child of the root supervisor,
     // restarted by its policy in [supervision]; past a limit the process exits non-zero.
@@ -112,6 +128,7 @@ pub async fn interface(config: InterfaceConfig) -> ExitCode {
         Err(e) => {
             tracing::error!(error = %e, "cannot start the frontseat interface");
             reporter.abort();
+            crate::record_cmd::stop_recorder(recorder).await;
             return ExitCode::from(2);
         }
     };
@@ -140,6 +157,7 @@ pub async fn interface(config: InterfaceConfig) -> ExitCode {
     // Children stop in reverse start order, each within its bound.
     root.shutdown(SHUTDOWN_BOUND * 3).await;
     reporter.abort();
+    crate::record_cmd::stop_recorder(recorder).await;
     if let ServiceExit::ErrorState(why) = &exit {
         // Goby3's goby_frontseat_interface quits with 0 here; exit_on_error_code says otherwise.
         tracing::error!(%why, code = config.exit_on_error_code, "exit_on_error: service ended");

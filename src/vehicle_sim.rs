@@ -186,7 +186,22 @@ pub async fn run_demo(args: DemoArgs, kind: VehicleKind) -> ExitCode {
         // Never reached: `start` refuses Bluefin, and demo.rs flies it itself.
         VehicleKind::Bluefin => {}
     }
+    if let Some(p) = &args.record {
+        cfg.record = frontseat_config::RecordConfig {
+            enabled: true,
+            path: Some(p.display().to_string()),
+            ..Default::default()
+        };
+    }
     let bus = Bus::new();
+    let _ = bus.claim(frontseat_actors::bus::BusRole::LiveDriver);
+    let recorder = match crate::record_cmd::start_recorder(&bus, &cfg, "demo") {
+        Ok(r) => r,
+        Err(e) => {
+            eprintln!("cannot record: {e}");
+            return ExitCode::from(1);
+        }
+    };
     let service = match InterfaceService::start(&cfg, &bus).await {
         Ok(s) => s,
         Err(e) => {
@@ -214,6 +229,7 @@ pub async fn run_demo(args: DemoArgs, kind: VehicleKind) -> ExitCode {
     }
     service.shutdown(SHUTDOWN_BOUND).await;
     drop(running);
+    crate::record_cmd::stop_recorder(recorder).await;
 
     crate::demo::write_outputs(&args.out, &report)
 }

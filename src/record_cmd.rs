@@ -1,0 +1,347 @@
+//! The recording commands: `frontseat log info|export`, `frontseat replay`, and starting the
+//! recorder of a service or the demo (`[record]`, `demo --record FILE`). The work is in
+//! `frontseat-record`; this is argument handling and exit codes.
+
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+use clap::{Args, Subcommand, ValueEnum};
+use frontseat_actors::bus::Bus;
+use frontseat_config::InterfaceConfig;
+use frontseat_record::recorder::{RecordMeta, Recorder, RecorderOptions, config_digest};
+use frontseat_record::replay::{ReplayOptions, Speed};
+use frontseat_record::{Recording, export, info};
+
+#[derive(Args, Debug)]
+pub struct LogArgs {
+    #[command(subcommand)]
+    pub command: LogCommand,
+}
+
+#[derive(Subcommand, Debug)]
+pub enum LogCommand {
+    /// Span, groups with counts, rates and gaps, the recorder's drops, and whether the file was
+    /// closed or cut short (read up to its last whole chunk).
+    Info {
+        file: PathBuf,
+        /// Print JSON instead of the table.
+        #[arg(long)]
+        json: bool,
+    },
+    /// One group's messages as CSV (fields flattened by path) or JSON Lines, decoded with the
+    /// schema stored in the file.
+    Export {
+        file: PathBuf,
+        /// The Goby3 group, e.g. goby::middleware::frontseat::node_status.
+        #[arg(long)]
+        group: String,
+        #[arg(long, value_enum, default_value_t = ExportFormat::Csv)]
+        format: ExportFormat,
+        /// Write here instead of standard output.
+        #[arg(long, short = 'o', value_name = "FILE")]
+        output: Option<PathBuf>,
+    },
+}
+
+#[derive(Clone, Copy, Debug, ValueEnum)]
+pub enum ExportFormat {
+    Csv,
+    Json,
+}
+
+pub fn log(args: LogArgs) -> ExitCode {
+    match args.command {
+        LogCommand::Info { file, json } => {
+            let rec = match Recording::open(&file) {
+                Ok(r) => r,
+                Err(e) => return fail(&e),
+            };
+            match info::info(rec) {
+                Ok(i) if json => {
+                    let groups: Vec<_> = i
+                        .groups
+                        .iter()
+                        .map(|g| {
+                            serde_json::json!({
+                                "group": g.group, "type": g.type_name, "count": g.count,
+                                "bytes": g.bytes, "rate_hz": g.rate_hz(),
+                                "max_gap_s": g.max_interval as f64 / 1e9, "gaps": g.gaps,
+                                "not_local": g.not_local,
+                            })
+                        })
+                        .collect();
+                    let v = serde_json::json!({
+                        "messages": i.messages,
+                        "start_ns": i.start, "end_ns": i.end,
+                        "duration_s": i.end.saturating_sub(i.start) as f64 / 1e9,
+                        "run": i.run, "dropped": i.dropped, "truncated": i.truncated,
+                        "groups": groups,
+                    });
+                    println!("{v:#}");
+                    ExitCode::SUCCESS
+                }
+                Ok(i) => {
+                    print!("{}", i.render());
+                    ExitCode::SUCCESS
+                }
+                Err(e) => fail(&e),
+            }
+        }
+        LogCommand::Export {
+            file,
+            group,
+            format,
+            output,
+        } => {
+            let rec = match Recording::open(&file) {
+                Ok(r) => r,
+                Err(e) => return fail(&e),
+            };
+            let format = match format {
+                ExportFormat::Csv => export::Format::Csv,
+                ExportFormat::Json => export::Format::Json,
+            };
+            let result = match &output {
+                Some(p) => match std::fs::File::create(p) {
+                    Ok(f) => {
+                        let mut w = std::io::BufWriter::new(f);
+                        let r = export::export(rec, &group, format, &mut w);
+                        std::io::Write::flush(&mut w)
+                            .map_err(export::ExportError::Write)
+                            .and(r)
+                    }
+                    Err(e) => {
+                        eprintln!("cannot create {}: {e}", p.display());
+                        return ExitCode::from(1);
+                    }
+                },
+                None => {
+                    let mut w = std::io::BufWriter::new(std::io::stdout().lock());
+                    let r = export::export(rec, &group, format, &mut w);
+                    std::io::Write::flush(&mut w)
+                        .map_err(export::ExportError::Write)
+                        .and(r)
+                }
+            };
+            match result {
+                Ok(done) => {
+                    eprintln!(
+                        "{} rows{}{}",
+                        done.rows,
+                        if done.undecodable > 0 {
+                            format!(", {} undecodable messages skipped", done.undecodable)
+                        } else {
+                            String::new()
+                        },
+                        done.truncated
+                            .map(|t| format!("; the file was cut short: {t}"))
+                            .unwrap_or_default()
+                    );
+                    ExitCode::SUCCESS
+                }
+                Err(e) => fail(&e),
+            }
+        }
+    }
+}
+
+fn fail(e: &dyn std::fmt::Display) -> ExitCode {
+    eprintln!("{e}");
+    ExitCode::from(1)
+}
+
+#[derive(Args, Debug)]
+pub struct ReplayArgs {
+    /// The recording (MCAP) to replay.
+    pub file: PathBuf,
+    /// Speed: a factor (2 = twice as fast) or `max`.
+    #[arg(long, default_value = "1")]
+    pub speed: String,
+    /// Start this many seconds after the first message of the file.
+    #[arg(long, value_name = "S")]
+    pub from: Option<f64>,
+    /// Stop this many seconds after the first message of the file.
+    #[arg(long, value_name = "S")]
+    pub to: Option<f64>,
+    /// Only groups matching this regex (among the vehicle's publications).
+    #[arg(long, value_name = "REGEX")]
+    pub groups: Option<String>,
+    /// Start over at the end, until Ctrl-C.
+    #[arg(long = "loop")]
+    pub looped: bool,
+    /// Zenoh platform (key prefix); default: the vehicle name recorded in the file.
+    #[arg(long)]
+    pub platform: Option<String>,
+    /// Zenoh endpoints to listen on (default tcp/127.0.0.1:7447, as the interface).
+    #[arg(long = "listen", value_name = "ENDPOINT")]
+    pub listen: Vec<String>,
+    /// Zenoh endpoints to connect to.
+    #[arg(long = "connect", value_name = "ENDPOINT")]
+    pub connect: Vec<String>,
+    /// Publish onto this process's bus only (for tests and benches): no Zenoh.
+    #[arg(long)]
+    pub no_zenoh: bool,
+}
+
+impl ReplayArgs {
+    pub fn options(&self) -> Result<ReplayOptions, String> {
+        let speed = match self.speed.as_str() {
+            "max" => Speed::Max,
+            s => match s.parse::<f64>() {
+                Ok(f) if f.is_finite() && f > 0.0 => Speed::Factor(f),
+                _ => return Err(format!("--speed {s:?}: a number greater than 0, or max")),
+            },
+        };
+        let groups = match &self.groups {
+            Some(r) => Some(regex::Regex::new(r).map_err(|e| format!("--groups: {e}"))?),
+            None => None,
+        };
+        for (n, v) in [("--from", self.from), ("--to", self.to)] {
+            if v.is_some_and(|v| !(v.is_finite() && v >= 0.0)) {
+                return Err(format!("{n}: seconds, 0 or more"));
+            }
+        }
+        Ok(ReplayOptions {
+            speed,
+            from_s: self.from,
+            to_s: self.to,
+            groups,
+            looped: self.looped,
+        })
+    }
+}
+
+/// The vehicle name the file's run metadata gives, if any.
+fn recorded_vehicle(path: &Path) -> Option<String> {
+    let mut r = Recording::open(path).ok()?;
+    let _ = r.next_message();
+    r.metadata()
+        .iter()
+        .find(|(n, _)| n == frontseat_record::META_RUN)
+        .and_then(|(_, m)| m.get("vehicle").cloned())
+        .filter(|v| !v.is_empty())
+}
+
+pub async fn replay(args: ReplayArgs) -> ExitCode {
+    let opts = match args.options() {
+        Ok(o) => o,
+        Err(e) => {
+            eprintln!("{e}");
+            return ExitCode::from(2);
+        }
+    };
+    let bus = Bus::new();
+    let mut gateway = None;
+    if !args.no_zenoh {
+        let mut cfg = frontseat_config::InterprocessConfig {
+            enabled: true,
+            ..Default::default()
+        };
+        if !args.listen.is_empty() {
+            cfg.listen = args.listen.clone();
+        }
+        cfg.connect = args.connect.clone();
+        let vehicle = recorded_vehicle(&args.file).unwrap_or_default();
+        cfg.platform = args.platform.clone().unwrap_or_default();
+        let platform = match frontseat_gateway::resolve_platform(&cfg, &vehicle) {
+            Ok(p) => p,
+            Err(e) => {
+                eprintln!("{e}");
+                return ExitCode::from(2);
+            }
+        };
+        // The replay stands in for the vehicle's interface: it exports what that publishes.
+        match frontseat_gateway::start(
+            &bus,
+            &cfg,
+            &platform,
+            &["FrontSeatInterface"],
+            frontseat_gateway::GatewayOptions::default(),
+        )
+        .await
+        {
+            Ok(g) => {
+                eprintln!("frontseat replay: publishing on Zenoh platform {platform}");
+                gateway = Some(g);
+            }
+            Err(e) => {
+                eprintln!("cannot start Zenoh: {e}");
+                return ExitCode::from(1);
+            }
+        }
+    }
+    let started = std::time::Instant::now();
+    let result = tokio::select! {
+        r = frontseat_record::replay::replay(&bus, &args.file, &opts) => Some(r),
+        _ = crate::service::shutdown_signal() => None,
+    };
+    if let Some(g) = gateway {
+        g.close().await;
+    }
+    match result {
+        None => ExitCode::SUCCESS,
+        Some(Ok(s)) => {
+            let took = started.elapsed().as_secs_f64();
+            eprintln!(
+                "replayed {} messages in {took:.3} s ({:.0} msg/s); skipped {} (commands to a vehicle, interthread, or outside --groups); {} undecodable{}",
+                s.published,
+                s.published as f64 / took.max(1e-9),
+                s.skipped,
+                s.undecodable,
+                s.truncated
+                    .map(|t| format!("; the file was cut short: {t}"))
+                    .unwrap_or_default()
+            );
+            ExitCode::SUCCESS
+        }
+        Some(Err(e)) => fail(&e),
+    }
+}
+
+/// The interface's (or demo's) recorder when `[record] enabled`: `Ok(None)` when not.
+pub fn start_recorder(
+    bus: &Bus,
+    cfg: &InterfaceConfig,
+    application: &str,
+) -> Result<Option<Recorder>, String> {
+    if !cfg.record.enabled {
+        return Ok(None);
+    }
+    let opts = RecorderOptions::from_config(&cfg.record, &cfg.name).map_err(|e| e.to_string())?;
+    Recorder::start(bus, opts, run_meta(cfg, application))
+        .map(Some)
+        .map_err(|e| e.to_string())
+}
+
+/// The run's metadata from the interface config.
+pub fn run_meta(cfg: &InterfaceConfig, application: &str) -> RecordMeta {
+    let mut extra = std::collections::BTreeMap::new();
+    extra.insert("application".into(), application.to_string());
+    RecordMeta {
+        vehicle: cfg.name.clone(),
+        datum_lat: cfg.origin.lat,
+        datum_lon: cfg.origin.lon,
+        config_digest: config_digest(&serde_json::to_string(cfg).unwrap_or_default()),
+        version: env!("CARGO_PKG_VERSION").into(),
+        driver: cfg.driver.name.clone(),
+        extra,
+    }
+}
+
+/// Stops a recorder off the async threads (it joins its writer) and logs what it counted.
+pub async fn stop_recorder(rec: Option<Recorder>) {
+    let Some(rec) = rec else { return };
+    let file = rec.current_file();
+    match tokio::task::spawn_blocking(move || rec.stop()).await {
+        Ok(s) => tracing::info!(
+            written = s.written,
+            dropped = s.dropped(),
+            files = s.files_opened,
+            removed = s.files_removed,
+            write_errors = s.write_errors,
+            last_file = %file.map(|f| f.display().to_string()).unwrap_or_default(),
+            "recorder stopped"
+        ),
+        Err(e) => tracing::error!(error = %e, "the recorder did not stop cleanly"),
+    }
+}

@@ -254,7 +254,7 @@ fn bump(c: &AtomicU64) -> u64 {
 
 /// Logs the 1st, 10th, 100th, ... occurrence: a failing disk must not flood the journal.
 fn worth_logging(n: u64) -> bool {
-    n > 0 && (n == 1 || n.is_power_of_two() && n >= 8 || n % 10_000 == 0)
+    n > 0 && (n == 1 || n.is_power_of_two() && n >= 8 || n.is_multiple_of(10_000))
 }
 
 /// One message on its way to the file.
@@ -524,10 +524,9 @@ impl Sink {
         if self.file.is_none()
             && self.disk_ok
             && self.last_failure.is_none_or(|t| t.elapsed() >= RETRY_AFTER)
+            && let Err(e) = self.open_next()
         {
-            if let Err(e) = self.open_next() {
-                self.fail(&e.to_string());
-            }
+            self.fail(&e.to_string());
         }
         let Some(f) = self.file.as_mut() else {
             self.counters

@@ -9,7 +9,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
-use common::procs::{Kill, scratch};
+use common::procs::{Kill, free_port, scratch, wait_for_tcp};
 use frontseat_record::{Recording, info};
 
 const NODE_STATUS: &str = "goby::middleware::frontseat::node_status";
@@ -183,4 +183,86 @@ fn reference_python_reader_decodes_every_recorded_message() {
     let rows = csv.lines().count() as u64 - 1;
     assert_eq!(Some(rows), v["topics"][NODE_STATUS].as_u64());
     assert!(csv.lines().next().unwrap().contains("global_fix.lat"));
+}
+
+/// A short completed demo recording in `dir`.
+fn record_demo(dir: &Path) -> PathBuf {
+    let file = dir.join("demo.mcap");
+    let _ = std::fs::remove_file(&file);
+    let out = frontseat()
+        .args([
+            "demo", "--lines", "--warp", "50", "--east", "20", "--south", "20",
+        ])
+        .arg("--record")
+        .arg(&file)
+        .arg("--out")
+        .arg(dir.join("out"))
+        .stdout(Stdio::null())
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "demo failed: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    file
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn replay_reaches_a_helm_over_zenoh_in_order_and_never_commands() {
+    use frontseat_actors::proto::goby::middleware::frontseat::protobuf::NodeStatus;
+    use frontseat_gateway::zenoh;
+    use frontseat_gateway::{client_config, key_for};
+    use prost::Message;
+
+    let dir = scratch("record", "replay-zenoh");
+    let file = record_demo(&dir);
+    let port = free_port();
+    let _replay = Kill(
+        frontseat()
+            .arg("replay")
+            .arg(&file)
+            .args(["--loop", "--platform", "rauv", "--listen"])
+            .arg(format!("tcp/127.0.0.1:{port}"))
+            .stdout(Stdio::null())
+            .stderr(std::fs::File::create(dir.join("replay.log")).unwrap())
+            .spawn()
+            .unwrap(),
+    );
+    wait_for_tcp(port).await;
+    let session = zenoh::open(client_config(&[format!("tcp/127.0.0.1:{port}")]).unwrap())
+        .await
+        .unwrap();
+    let (tx, mut nav) = tokio::sync::mpsc::unbounded_channel();
+    let _n = session
+        .declare_subscriber(key_for("rauv", NODE_STATUS))
+        .callback(move |s| {
+            let _ = tx.send(NodeStatus::decode(&*s.payload().to_bytes()).map(|n| n.time));
+        })
+        .await
+        .unwrap();
+    let (ctx, mut commands) = tokio::sync::mpsc::unbounded_channel();
+    let _c = session
+        .declare_subscriber("rauv/goby/middleware/frontseat/desired_course")
+        .callback(move |_| {
+            let _ = ctx.send(());
+        })
+        .await
+        .unwrap();
+    let mut times = Vec::new();
+    let deadline = tokio::time::Instant::now() + Duration::from_secs(30);
+    while times.len() < 200 {
+        let t = tokio::time::timeout_at(deadline, nav.recv())
+            .await
+            .unwrap_or_else(|_| panic!("{} node_status in 30 s", times.len()))
+            .unwrap();
+        times.push(t.expect("replayed bytes decode as NodeStatus"));
+    }
+    // In order: the vehicle's time only goes back where the loop starts over.
+    let backwards = times.windows(2).filter(|w| w[1] < w[0]).count();
+    assert!(backwards <= 1, "{backwards} steps back in {times:?}");
+    assert!(
+        commands.try_recv().is_err(),
+        "a replay published a command to a vehicle"
+    );
 }

@@ -28,3 +28,28 @@ pub const META_RUN: &str = "frontseat.run";
 pub const META_RECORDER: &str = "frontseat.recorder";
 /// Channel metadata key telling where the channel's messages came from (local, imported, replayed).
 pub const CHANNEL_ORIGIN: &str = "origin";
+
+/// The fuzz target body (`fuzz/fuzz_targets/mcap_reader.rs`, and the corpus replay in
+/// `record/tests/fuzz_corpus.rs`): any bytes go through the reader, `info` and `export` without a
+/// panic, and `info` counts exactly the messages the reader yields.
+pub fn fuzz_read(data: &[u8]) {
+    let mut rec = Recording::new(data);
+    let mut n = 0u64;
+    let mut first_topic = None;
+    while let Ok(Some(m)) = rec.next_message() {
+        n += 1;
+        if first_topic.is_none() {
+            first_topic = rec.channel(m.channel_id).map(|c| c.topic.to_string());
+        }
+    }
+    if let Ok(i) = info::info(Recording::new(data)) {
+        assert_eq!(i.messages, n, "info and the reader disagree");
+        assert_eq!(i.groups.iter().map(|g| g.count).sum::<u64>(), n);
+        let _ = i.render();
+    }
+    if let Some(t) = first_topic {
+        for f in [export::Format::Csv, export::Format::Json] {
+            let _ = export::export(Recording::new(data), &t, f, &mut std::io::sink());
+        }
+    }
+}

@@ -1,0 +1,31 @@
+//! Replays the checked-in corpus of the `mcap_reader` fuzz target (`fuzz/corpus/mcap_reader/`:
+//! recordings in each compression, cut at many points, with flipped bytes, and hostile lengths)
+//! through the same body the fuzzer runs, [`frontseat_record::fuzz_read`].
+
+use std::path::PathBuf;
+
+#[test]
+fn mcap_reader_corpus() {
+    let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../fuzz/corpus/mcap_reader");
+    let mut files: Vec<PathBuf> = std::fs::read_dir(&dir)
+        .unwrap_or_else(|e| panic!("{}: {e}", dir.display()))
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.is_file())
+        .collect();
+    files.sort();
+    assert!(files.len() >= 20, "only {} corpus files", files.len());
+    let mut whole = 0;
+    for f in &files {
+        let data = std::fs::read(f).unwrap();
+        let r = std::panic::catch_unwind(|| frontseat_record::fuzz_read(&data));
+        assert!(r.is_ok(), "{} panics", f.display());
+        if f.to_string_lossy().ends_with("_whole.mcap") {
+            // The intact files are real recordings: they read completely.
+            let i = frontseat_record::info::info(frontseat_record::Recording::new(data.as_slice()))
+                .unwrap();
+            assert_eq!((i.messages, i.truncated), (6, None), "{}", f.display());
+            whole += 1;
+        }
+    }
+    assert_eq!(whole, 3, "one intact recording per compression");
+}

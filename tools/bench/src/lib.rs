@@ -11,6 +11,7 @@
 //! L0 is the bench's own floor (a loopback line → the reader wakes) and every latency row is
 //! also given as a ratio over it (`floor`).
 //! W1 runs the web scope in this process and reads its event stream over loopback (`web`).
+//! R1 and R2 are the cost of the MCAP record: recording, and replay at full speed (`record`).
 //! Figures are measured, never asserted: no test checks a timing.
 //! `--rows` picks rows; `--against <exe>` compares this build with another over alternating runs
 //! of both (`compare`), the way to tell whether a change made a path slower on a noisy machine.
@@ -26,6 +27,7 @@ mod frontseat;
 mod goby3;
 mod inproc;
 mod procs;
+mod record;
 mod report;
 mod sink;
 mod web;
@@ -58,8 +60,9 @@ pub struct BenchOptions {
 }
 
 /// Every row's id, in the order of the table.
-pub const ROW_IDS: [&str; 16] = [
+pub const ROW_IDS: [&str; 18] = [
     "L0", "P1", "P2", "P3", "P4", "P5", "P6", "M1", "M2", "G1", "G2", "Z1", "Z2", "Z3", "T1", "W1",
+    "R1", "R2",
 ];
 
 /// Which rows a run measures. Rows measured together (P4/P5, M1/M2, G1/G2, Z1–Z3/T1) share their
@@ -106,6 +109,7 @@ struct Plan {
     goby3: goby3::Plan,
     xproc: xproc::Plan,
     web: web::Plan,
+    record: record::Plan,
     capacity: (usize, f64, f64, Duration),
     start_runs: usize,
     settle: Duration,
@@ -147,6 +151,10 @@ impl Plan {
                 count: 300,
                 rate_hz: 10.0,
             },
+            record: record::Plan {
+                rate_hz: 10_000,
+                window: Duration::from_secs(10),
+            },
             capacity: (100, 10.0, 100.0, Duration::from_secs(10)),
             start_runs: 20,
             settle: Duration::from_secs(2),
@@ -187,6 +195,10 @@ impl Plan {
             web: web::Plan {
                 count: 20,
                 rate_hz: 10.0,
+            },
+            record: record::Plan {
+                rate_hz: 10_000,
+                window: Duration::from_millis(500),
             },
             capacity: (10, 10.0, 10.0, Duration::from_millis(500)),
             start_runs: 2,
@@ -318,6 +330,9 @@ pub async fn run(args: BenchOptions) -> ExitCode {
     }
     if sel.wants("W1") {
         rows.push(web::run(plan.web).await);
+    }
+    if sel.any(&["R1", "R2"]) {
+        rows.extend(record::run(plan.record).await);
     }
     rows.retain(|r| sel.wants(r.id));
     rows.sort_by_key(|r| ROW_IDS.iter().position(|id| *id == r.id));

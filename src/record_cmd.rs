@@ -41,6 +41,13 @@ pub enum LogCommand {
         #[arg(long, short = 'o', value_name = "FILE")]
         output: Option<PathBuf>,
     },
+    /// Writes DIR/track.svg (the recorded track on the local grid) and DIR/time.svg (speed,
+    /// heading and depth against time, actual from node_status, commanded from desired_course).
+    Plot {
+        file: PathBuf,
+        #[arg(long, value_name = "DIR", default_value = "plot-out")]
+        out: PathBuf,
+    },
 }
 
 #[derive(Clone, Copy, Debug, ValueEnum)]
@@ -51,6 +58,38 @@ pub enum ExportFormat {
 
 pub fn log(args: LogArgs) -> ExitCode {
     match args.command {
+        LogCommand::Plot { file, out } => {
+            let rec = match Recording::open(&file) {
+                Ok(r) => r,
+                Err(e) => return fail(&e),
+            };
+            let s = match frontseat_record::plot::series(rec) {
+                Ok(s) => s,
+                Err(e) => return fail(&e),
+            };
+            if let Err(e) = std::fs::create_dir_all(&out) {
+                eprintln!("cannot create {}: {e}", out.display());
+                return ExitCode::from(1);
+            }
+            for (name, text) in [
+                ("track.svg", frontseat_record::plot::track_svg(&s)),
+                ("time.svg", frontseat_record::plot::time_svg(&s)),
+            ] {
+                let p = out.join(name);
+                if let Err(e) = std::fs::write(&p, text) {
+                    eprintln!("cannot write {}: {e}", p.display());
+                    return ExitCode::from(1);
+                }
+            }
+            eprintln!(
+                "{} node_status and {} desired_course samples; wrote {} and {}",
+                s.actual.len(),
+                s.commanded.len(),
+                out.join("track.svg").display(),
+                out.join("time.svg").display()
+            );
+            ExitCode::SUCCESS
+        }
         LogCommand::Info { file, json } => {
             let rec = match Recording::open(&file) {
                 Ok(r) => r,

@@ -217,6 +217,29 @@ async fn replay_reaches_a_helm_over_zenoh_in_order_and_never_commands() {
 
     let dir = scratch("record", "replay-zenoh");
     let file = record_demo(&dir);
+    // The plots of the same file: the track and actual vs commanded against time.
+    let plots = dir.join("plot");
+    let out = frontseat()
+        .args(["log", "plot"])
+        .arg(&file)
+        .arg("--out")
+        .arg(&plots)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let track = std::fs::read_to_string(plots.join("track.svg")).unwrap();
+    assert!(
+        track.contains("<polyline") && track.contains("<circle"),
+        "{track}"
+    );
+    let time = std::fs::read_to_string(plots.join("time.svg")).unwrap();
+    // speed, heading (actual and commanded) and depth (actual) at least.
+    assert!(time.matches("<polyline").count() >= 4, "{time}");
+    assert!(!time.contains("NaN"));
     let port = free_port();
     let _replay = Kill(
         frontseat()

@@ -11,6 +11,7 @@
 
 pub mod export;
 pub mod info;
+pub mod plot;
 pub mod reader;
 pub mod recorder;
 pub mod replay;

@@ -1,0 +1,297 @@
+//! `frontseat log plot`: what the vehicle did against what the helm asked, from a recording.
+//! The samples are read by reflection with the file's own schemas (node_status for the actual
+//! track, speed, heading and depth; desired_course for the commanded ones), and drawn as a plain
+//! SVG of three panels against time. The track itself is drawn by the caller (the demo's SVG).
+
+use std::collections::HashMap;
+use std::fmt::Write as _;
+use std::io::Read;
+
+use prost_reflect::{DescriptorPool, DynamicMessage, MessageDescriptor, ReflectMessage, Value};
+
+use crate::reader::{ReadError, Recording};
+
+pub const NODE_STATUS: &str = "goby::middleware::frontseat::node_status";
+pub const DESIRED_COURSE: &str = "goby::middleware::frontseat::desired_course";
+/// Samples kept per series: a day at 10 Hz is 864 000; beyond this every n-th is kept.
+const MAX_SAMPLES: usize = 20_000;
+
+/// One sample; `None` where the message lacks the field.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Sample {
+    /// Seconds since the first message of the file.
+    pub t: f64,
+    pub x: Option<f64>,
+    pub y: Option<f64>,
+    pub speed: Option<f64>,
+    pub heading: Option<f64>,
+    pub depth: Option<f64>,
+}
+
+#[derive(Clone, Debug, Default)]
+pub struct Series {
+    pub actual: Vec<Sample>,
+    pub commanded: Vec<Sample>,
+}
+
+fn get(msg: &DynamicMessage, path: &[&str]) -> Option<f64> {
+    let (last, head) = path.split_last()?;
+    let mut cur = msg.clone();
+    for p in head {
+        let f = cur.descriptor().get_field_by_name(p)?;
+        if !cur.has_field(&f) {
+            return None;
+        }
+        cur = cur.get_field(&f).as_message()?.clone();
+    }
+    let f = cur.descriptor().get_field_by_name(last)?;
+    if !cur.has_field(&f) {
+        return None;
+    }
+    match cur.get_field(&f).as_ref() {
+        Value::F64(v) => Some(*v),
+        Value::F32(v) => Some(f64::from(*v)),
+        Value::I32(v) => Some(f64::from(*v)),
+        _ => None,
+    }
+    .filter(|v| v.is_finite())
+}
+
+/// Reads node_status and desired_course samples (decimated past [`MAX_SAMPLES`]).
+pub fn series<R: Read>(mut rec: Recording<R>) -> Result<Series, ReadError> {
+    let mut descs: HashMap<u16, Option<MessageDescriptor>> = HashMap::new();
+    let mut out = Series::default();
+    let mut start = None;
+    let mut seen = [0usize; 2];
+    while let Some(m) = rec.next_message()? {
+        let t0 = *start.get_or_insert(m.log_time);
+        let Some(ch) = rec.channel(m.channel_id) else {
+            continue;
+        };
+        let which = match &*ch.topic {
+            NODE_STATUS => 0,
+            DESIRED_COURSE => 1,
+            _ => continue,
+        };
+        seen[which] += 1;
+        // Decimate evenly once past the bound: keep every k-th, k growing with the count.
+        let k = seen[which].div_ceil(MAX_SAMPLES).max(1);
+        if seen[which] % k != 0 {
+            continue;
+        }
+        let schema_id = ch.schema_id;
+        let Some(desc) = descs
+            .entry(schema_id)
+            .or_insert_with(|| {
+                let s = rec.schema(schema_id)?;
+                DescriptorPool::decode(&*s.data)
+                    .ok()?
+                    .get_message_by_name(&s.name)
+            })
+            .clone()
+        else {
+            continue;
+        };
+        let Ok(msg) = DynamicMessage::decode(desc, m.data.as_slice()) else {
+            continue;
+        };
+        let t = m.log_time.saturating_sub(t0) as f64 / 1e9;
+        let s = if which == 0 {
+            Sample {
+                t,
+                x: get(&msg, &["local_fix", "x"]),
+                y: get(&msg, &["local_fix", "y"]),
+                speed: get(&msg, &["speed", "over_ground"]),
+                heading: get(&msg, &["pose", "heading"]),
+                depth: get(&msg, &["global_fix", "depth"]),
+            }
+        } else {
+            Sample {
+                t,
+                speed: get(&msg, &["speed"]),
+                heading: get(&msg, &["heading"]),
+                depth: get(&msg, &["depth"]),
+                ..Default::default()
+            }
+        };
+        let v = if which == 0 {
+            &mut out.actual
+        } else {
+            &mut out.commanded
+        };
+        if v.len() < 2 * MAX_SAMPLES {
+            v.push(s);
+        }
+    }
+    Ok(out)
+}
+
+/// Speed, heading and depth against time, actual (blue) and commanded (orange), as one SVG.
+pub fn time_svg(s: &Series) -> String {
+    let panels: [(&str, fn(&Sample) -> Option<f64>); 3] = [
+        ("speed (m/s)", |p| p.speed),
+        ("heading (deg)", |p| p.heading),
+        ("depth (m)", |p| p.depth),
+    ];
+    let (w, ph, left, top) = (900.0, 200.0, 70.0, 40.0);
+    let pw = w - left - 30.0;
+    let tmax = s
+        .actual
+        .iter()
+        .chain(&s.commanded)
+        .map(|p| p.t)
+        .fold(1e-3f64, f64::max);
+    let h = top + 3.0 * (ph + 40.0);
+    let mut out = String::new();
+    let _ = writeln!(
+        out,
+        r#"<svg xmlns="http://www.w3.org/2000/svg" width="{w}" height="{h}" viewBox="0 0 {w} {h}" font-family="sans-serif">"#
+    );
+    let _ = writeln!(out, r#"<rect width="100%" height="100%" fill="white"/>"#);
+    let _ = writeln!(
+        out,
+        r##"<text x="{left}" y="24" font-size="15">actual (node_status, <tspan fill="#1f77b4">blue</tspan>) and commanded (desired_course, <tspan fill="#ff7f0e">orange</tspan>) against time, {tmax:.1} s</text>"##
+    );
+    for (i, (name, f)) in panels.iter().enumerate() {
+        let y0 = top + i as f64 * (ph + 40.0);
+        let vals: Vec<f64> = s.actual.iter().chain(&s.commanded).filter_map(f).collect();
+        let (lo, hi) = vals
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
+                (a.min(*v), b.max(*v))
+            });
+        let (lo, hi) = if vals.is_empty() {
+            (0.0, 1.0)
+        } else if hi - lo < 1e-9 {
+            (lo - 0.5, hi + 0.5)
+        } else {
+            (lo, hi)
+        };
+        let px = |t: f64| left + t / tmax * pw;
+        let py = |v: f64| y0 + ph - (v - lo) / (hi - lo) * ph;
+        let _ = writeln!(
+            out,
+            r##"<rect x="{left}" y="{y0}" width="{pw}" height="{ph}" fill="none" stroke="#bbb"/>"##
+        );
+        let _ = writeln!(
+            out,
+            r##"<text x="{left}" y="{:.1}" font-size="12">{name}</text><text x="{:.1}" y="{:.1}" font-size="11" text-anchor="end" fill="#444">{hi:.1}</text><text x="{:.1}" y="{:.1}" font-size="11" text-anchor="end" fill="#444">{lo:.1}</text>"##,
+            y0 - 4.0,
+            left - 6.0,
+            y0 + 10.0,
+            left - 6.0,
+            y0 + ph
+        );
+        for (series, colour) in [(&s.actual, "#1f77b4"), (&s.commanded, "#ff7f0e")] {
+            let pts: Vec<String> = series
+                .iter()
+                .filter_map(|p| f(p).map(|v| format!("{:.1},{:.1}", px(p.t), py(v))))
+                .collect();
+            if !pts.is_empty() {
+                let _ = writeln!(
+                    out,
+                    r#"<polyline fill="none" stroke="{colour}" stroke-width="1.5" points="{}"/>"#,
+                    pts.join(" ")
+                );
+            }
+        }
+    }
+    let _ = writeln!(out, "</svg>");
+    out
+}
+
+/// The actual track on the local grid (x east, y north of the datum), equal scales, start marked.
+pub fn track_svg(s: &Series) -> String {
+    let pts: Vec<(f64, f64)> = s.actual.iter().filter_map(|p| Some((p.x?, p.y?))).collect();
+    let (w, left, top, plot) = (680.0, 60.0, 40.0, 580.0);
+    let (mut minx, mut maxx, mut miny, mut maxy) = (0.0f64, 0.0f64, 0.0f64, 0.0f64);
+    for (x, y) in &pts {
+        minx = minx.min(*x);
+        maxx = maxx.max(*x);
+        miny = miny.min(*y);
+        maxy = maxy.max(*y);
+    }
+    let span = (maxx - minx).max(maxy - miny).max(10.0);
+    let (cx, cy) = ((minx + maxx) / 2.0, (miny + maxy) / 2.0);
+    let (minx, miny) = (cx - span / 2.0, cy - span / 2.0);
+    let px = |x: f64| left + (x - minx) / span * plot;
+    let py = |y: f64| top + plot - (y - miny) / span * plot;
+    let h = top + plot + 40.0;
+    let mut out = String::new();
+    let _ = writeln!(
+        out,
+        r#"<svg xmlns="http://www.w3.org/2000/svg" width="{w}" height="{h}" viewBox="0 0 {w} {h}" font-family="sans-serif">"#
+    );
+    let _ = writeln!(out, r#"<rect width="100%" height="100%" fill="white"/>"#);
+    let _ = writeln!(
+        out,
+        r#"<text x="{left}" y="24" font-size="15">recorded track (node_status local_fix), {} points, {span:.0} m across</text>"#,
+        pts.len()
+    );
+    let _ = writeln!(
+        out,
+        r##"<rect x="{left}" y="{top}" width="{plot}" height="{plot}" fill="none" stroke="#bbb"/>"##
+    );
+    if let Some((x0, y0)) = pts.first() {
+        let line: Vec<String> = pts
+            .iter()
+            .map(|(x, y)| format!("{:.1},{:.1}", px(*x), py(*y)))
+            .collect();
+        let _ = writeln!(
+            out,
+            r##"<polyline fill="none" stroke="#1f77b4" stroke-width="2" points="{}"/>"##,
+            line.join(" ")
+        );
+        let _ = writeln!(
+            out,
+            r#"<circle cx="{:.1}" cy="{:.1}" r="5" fill="black"><title>start</title></circle>"#,
+            px(*x0),
+            py(*y0)
+        );
+    }
+    let _ = writeln!(out, "</svg>");
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn svgs_of_empty_and_flat_series_are_finite() {
+        let empty = Series::default();
+        for s in [time_svg(&empty), track_svg(&empty)] {
+            assert!(s.starts_with("<svg") && s.trim_end().ends_with("</svg>"));
+            assert!(!s.contains("NaN") && !s.contains("inf"), "{s}");
+        }
+        let flat = Series {
+            actual: vec![
+                Sample {
+                    t: 0.0,
+                    x: Some(1.0),
+                    y: Some(1.0),
+                    speed: Some(1.0),
+                    heading: Some(90.0),
+                    depth: Some(0.0),
+                },
+                Sample {
+                    t: 1.0,
+                    x: Some(1.0),
+                    y: Some(1.0),
+                    speed: Some(1.0),
+                    heading: Some(90.0),
+                    depth: Some(0.0),
+                },
+            ],
+            commanded: vec![Sample {
+                t: 0.5,
+                speed: Some(1.5),
+                ..Default::default()
+            }],
+        };
+        let t = time_svg(&flat);
+        assert_eq!(t.matches("<polyline").count(), 4, "3 actual + 1 commanded");
+        assert!(!t.contains("NaN"));
+        assert!(track_svg(&flat).contains("<circle"));
+    }
+}

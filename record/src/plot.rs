@@ -126,9 +126,12 @@ pub fn series<R: Read>(mut rec: Recording<R>) -> Result<Series, ReadError> {
     Ok(out)
 }
 
+/// Picks one quantity of a sample.
+type Field = fn(&Sample) -> Option<f64>;
+
 /// Speed, heading and depth against time, actual (blue) and commanded (orange), as one SVG.
 pub fn time_svg(s: &Series) -> String {
-    let panels: [(&str, fn(&Sample) -> Option<f64>); 3] = [
+    let panels: [(&str, Field); 3] = [
         ("speed (m/s)", |p| p.speed),
         ("heading (deg)", |p| p.heading),
         ("depth (m)", |p| p.depth),

@@ -347,9 +347,10 @@ pub fn start_recorder(
         return Ok(None);
     }
     let opts = RecorderOptions::from_config(&cfg.record, &cfg.name).map_err(|e| e.to_string())?;
-    Recorder::start(bus, opts, run_meta(cfg, application))
-        .map(Some)
-        .map_err(|e| e.to_string())
+    let rec = Recorder::start(bus, opts, run_meta(cfg, application)).map_err(|e| e.to_string())?;
+    // Ends by itself once the recorder stops.
+    drop(rec.spawn_drop_watch(std::time::Duration::from_secs(10)));
+    Ok(Some(rec))
 }
 
 /// The run's metadata from the interface config.

@@ -401,6 +401,35 @@ impl Recorder {
         self.counters.snapshot()
     }
 
+    /// Logs a warning each `period` in which messages were dropped (the queue was full or no
+    /// file was writable), so a recorder falling behind is seen while it happens, not only in
+    /// the file's closing metadata. Runs until the recorder stops (or the task is aborted).
+    pub fn spawn_drop_watch(&self, period: Duration) -> tokio::task::JoinHandle<()> {
+        let counters = self.counters.clone();
+        let stop = self.stop.clone();
+        tokio::spawn(async move {
+            let mut last = counters.snapshot();
+            let mut iv = tokio::time::interval(period);
+            iv.tick().await;
+            while !stop.load(Ordering::Acquire) {
+                iv.tick().await;
+                let now = counters.snapshot();
+                let new = now.dropped().saturating_sub(last.dropped());
+                if new > 0 {
+                    tracing::warn!(
+                        dropped = new,
+                        total = now.dropped(),
+                        queue_full = now.dropped_queue,
+                        unwritable = now.dropped_unwritable,
+                        write_errors = now.write_errors,
+                        "recorder: messages dropped (never slowing a publisher)"
+                    );
+                }
+                last = now;
+            }
+        })
+    }
+
     /// The groups subscribed.
     pub fn groups(&self) -> &[&'static str] {
         &self.groups

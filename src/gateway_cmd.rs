@@ -179,12 +179,21 @@ pub async fn moos_gateway(cfg: GatewayConfig) -> ExitCode {
             return ExitCode::from(2);
         }
     };
+    let recorder = match crate::record_cmd::start_gateway_recorder(&bus, &cfg) {
+        Ok(r) => r,
+        Err(e) => {
+            tracing::error!(error = %e, "cannot start the recorder ([record])");
+            reporter.abort();
+            return ExitCode::from(2);
+        }
+    };
     let children = gateway_children(&cfg, &platform, &bus);
     let mut root = match SupervisorHandle::start("root", children, Some(&bus)).await {
         Ok(r) => r,
         Err(e) => {
             tracing::error!(error = %e, "cannot start the MOOS gateway");
             reporter.abort();
+            crate::record_cmd::stop_recorder(recorder).await;
             return ExitCode::from(2);
         }
     };
@@ -207,6 +216,7 @@ pub async fn moos_gateway(cfg: GatewayConfig) -> ExitCode {
     }
     root.shutdown(crate::shutdown::SHUTDOWN_BOUND * 3).await;
     reporter.abort();
+    crate::record_cmd::stop_recorder(recorder).await;
     tracing::info!("MOOS gateway stopped");
     crate::shutdown::exit_code(&exit)
 }

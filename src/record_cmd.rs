@@ -343,11 +343,37 @@ pub fn start_recorder(
     cfg: &InterfaceConfig,
     application: &str,
 ) -> Result<Option<Recorder>, String> {
-    if !cfg.record.enabled {
+    start_with(bus, &cfg.record, &cfg.name, run_meta(cfg, application))
+}
+
+/// The MOOS gateway's recorder (the helm's side of the link) when `[record] enabled`.
+pub fn start_gateway_recorder(
+    bus: &Bus,
+    cfg: &frontseat_config::GatewayConfig,
+) -> Result<Option<Recorder>, String> {
+    let mut extra = std::collections::BTreeMap::new();
+    extra.insert("application".into(), "moos-gateway".to_string());
+    let meta = RecordMeta {
+        vehicle: cfg.name.clone(),
+        config_digest: config_digest(&serde_json::to_string(cfg).unwrap_or_default()),
+        version: env!("CARGO_PKG_VERSION").into(),
+        extra,
+        ..Default::default()
+    };
+    start_with(bus, &cfg.record, &cfg.name, meta)
+}
+
+fn start_with(
+    bus: &Bus,
+    record: &frontseat_config::RecordConfig,
+    name: &str,
+    meta: RecordMeta,
+) -> Result<Option<Recorder>, String> {
+    if !record.enabled {
         return Ok(None);
     }
-    let opts = RecorderOptions::from_config(&cfg.record, &cfg.name).map_err(|e| e.to_string())?;
-    let rec = Recorder::start(bus, opts, run_meta(cfg, application)).map_err(|e| e.to_string())?;
+    let opts = RecorderOptions::from_config(record, name).map_err(|e| e.to_string())?;
+    let rec = Recorder::start(bus, opts, meta).map_err(|e| e.to_string())?;
     // Ends by itself once the recorder stops.
     drop(rec.spawn_drop_watch(std::time::Duration::from_secs(10)));
     Ok(Some(rec))

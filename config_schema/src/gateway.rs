@@ -32,6 +32,9 @@ pub struct GatewayConfig {
     /// Restart policies of the root supervisor's children.
     #[serde(default)]
     pub supervision: GatewaySupervisionConfig,
+    /// Recording every message this process sees (the helm's side) to MCAP files.
+    #[serde(default)]
+    pub record: crate::RecordConfig,
 }
 
 /// The MOOS gateway's root supervisor: one restart policy per child.
@@ -66,6 +69,7 @@ impl Default for GatewayConfig {
             goby3: Goby3Config::default(),
             telemetry: TelemetryConfig::default(),
             supervision: GatewaySupervisionConfig::default(),
+            record: crate::RecordConfig::default(),
         }
     }
 }
@@ -97,6 +101,7 @@ impl ServiceConfig for GatewayConfig {
         sup.zenoh.check_at("supervision.zenoh", &mut c);
         sup.goby3.check_at("supervision.goby3", &mut c);
         sup.translation.check_at("supervision.translation", &mut c);
+        self.record.check("record", &mut c);
         c.errors
     }
 }

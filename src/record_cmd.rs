@@ -312,7 +312,7 @@ pub async fn replay(args: ReplayArgs) -> ExitCode {
     let started = std::time::Instant::now();
     let result = tokio::select! {
         r = frontseat_record::replay::replay(&bus, &args.file, &opts) => Some(r),
-        _ = crate::service::shutdown_signal() => None,
+        _ = crate::shutdown::shutdown_signal() => None,
     };
     if let Some(g) = gateway {
         g.close().await;

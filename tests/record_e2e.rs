@@ -289,3 +289,94 @@ async fn replay_reaches_a_helm_over_zenoh_in_order_and_never_commands() {
         "a replay published a command to a vehicle"
     );
 }
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn sigkill_of_an_interface_recording_by_its_config_leaves_readable_files() {
+    let dir = scratch("record", "interface");
+    let logs = dir.join("logs");
+    let _ = std::fs::remove_dir_all(&logs);
+    let sim_port = free_port();
+    let _sim = Kill(
+        frontseat()
+            .args(["sim", "--port", &sim_port.to_string()])
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .spawn()
+            .unwrap(),
+    );
+    wait_for_tcp(sim_port).await;
+    let cfg = format!(
+        r#"name = "rec-auv"
+require_helm = false
+sim_warp_factor = 10.0
+[driver.basic_simulator]
+tcp_port = {sim_port}
+[record]
+enabled = true
+dir = "{}"
+flush_s = 0.2
+compression = "lz4"
+exclude = ["^frontseat::chaos"]
+"#,
+        logs.display()
+    );
+    let cfg_path = dir.join("interface.toml");
+    std::fs::write(&cfg_path, cfg).unwrap();
+    let check = frontseat()
+        .args(["interface", "--check", "-c"])
+        .arg(&cfg_path)
+        .output()
+        .unwrap();
+    assert!(
+        check.status.success(),
+        "{}",
+        String::from_utf8_lossy(&check.stderr)
+    );
+    let mut interface = Kill(
+        frontseat()
+            .arg("interface")
+            .arg("-c")
+            .arg(&cfg_path)
+            .stdout(Stdio::null())
+            .stderr(std::fs::File::create(dir.join("interface.log")).unwrap())
+            .spawn()
+            .unwrap(),
+    );
+    let deadline = Instant::now() + Duration::from_secs(60);
+    let file = loop {
+        let found = std::fs::read_dir(&logs).ok().and_then(|rd| {
+            rd.filter_map(Result::ok)
+                .map(|e| e.path())
+                .find(|p| p.extension().is_some_and(|x| x == "mcap"))
+        });
+        if let Some(f) = found
+            && readable(&f).1 >= 5
+        {
+            break f;
+        }
+        assert!(
+            Instant::now() < deadline,
+            "no node_status recorded within 60 s"
+        );
+        tokio::time::sleep(Duration::from_millis(100)).await;
+    };
+    let name = file.file_name().unwrap().to_string_lossy().into_owned();
+    assert!(
+        name.starts_with("rec-auv_") && name.ends_with("_0001.mcap"),
+        "{name}"
+    );
+    interface.0.kill().unwrap();
+    interface.0.wait().unwrap();
+    let i = info::info(Recording::open(&file).unwrap()).unwrap();
+    assert!(i.truncated.is_some());
+    assert_eq!(
+        i.run.get("application").map(String::as_str),
+        Some("interface")
+    );
+    assert_eq!(i.run.get("vehicle").map(String::as_str), Some("rec-auv"));
+    assert!(
+        i.groups
+            .iter()
+            .any(|g| g.group == NODE_STATUS && g.count >= 5)
+    );
+}

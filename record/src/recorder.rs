@@ -32,6 +32,9 @@ use crate::{CHANNEL_ORIGIN, META_RECORDER, META_RUN, PROFILE};
 
 /// Uncompressed bytes per chunk before it is closed regardless of `flush_s`.
 const CHUNK_BYTES: u64 = 512 * 1024;
+/// Envelopes of one group the bus may have inside the recorder's delivery at once (one per
+/// thread publishing that group concurrently).
+const BUS_IN_FLIGHT: usize = 1024;
 /// How often the directory is checked against the budget and the disk for free space.
 const DISK_CHECK: Duration = Duration::from_secs(5);
 /// After a file could not be opened or written, wait this long before trying a new one.
@@ -339,13 +342,14 @@ impl Recorder {
         for g in groups.iter().filter(|g| opts.wants(g.name)) {
             let (tx, c): (SyncSender<Item>, _) = (tx.clone(), counters.clone());
             let type_name = g.type_name;
-            // Capacity 1 in flight on the bus: the envelope is released as soon as it is
-            // queued here, so the bound that matters is this recorder's own queue.
+            // The envelope is released as soon as its bytes are queued here, so it is in flight
+            // on the bus only during this call: the bus bound only has to cover publishers on
+            // several threads at once; the bound that matters is this recorder's own queue.
             let sub = frontseat_actors::generated::subscribe_encoded(
                 bus,
                 g.name,
                 "recorder",
-                1,
+                BUS_IN_FLIGHT,
                 move |env| {
                     c.received.fetch_add(1, Ordering::Relaxed);
                     let since = env

@@ -154,11 +154,14 @@ async fn pass<R: std::io::Read>(
             Speed::Factor(f) => {
                 let (t0, w0) = *first_sent.get_or_insert((m.log_time, tokio::time::Instant::now()));
                 let offset = m.log_time.saturating_sub(t0) as f64 / 1e9 / f;
-                if offset.is_finite() && offset > 0.0 {
-                    tokio::time::sleep_until(
-                        w0 + std::time::Duration::from_secs_f64(offset.min(1e9)),
-                    )
-                    .await;
+                // A tiny speed overflows to infinity: that means "wait (nearly) forever", not "now".
+                let offset = if offset.is_finite() {
+                    offset.min(1e9)
+                } else {
+                    1e9
+                };
+                if offset > 0.0 {
+                    tokio::time::sleep_until(w0 + std::time::Duration::from_secs_f64(offset)).await;
                 }
             }
             Speed::Max => {

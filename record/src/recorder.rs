@@ -298,8 +298,9 @@ pub fn origin_name(o: Origin) -> &'static str {
 }
 
 impl Recorder {
-    /// Opens the first file (so an unwritable directory fails here, at start) and subscribes
-    /// every group of `groups` the options let through.
+    /// Opens the first file and subscribes every group the options let through. A file that
+    /// cannot be opened or written (full disk, read-only card) does not fail the start: messages
+    /// are dropped and counted until a new file works.
     pub fn start(
         bus: &Bus,
         opts: RecorderOptions,
@@ -329,7 +330,11 @@ impl Recorder {
             last_failure: None,
             disk_ok: true,
         };
-        sink.open_next()?;
+        // A disk that is full or unwritable now degrades the recorder, never the process: the
+        // failure is counted and logged, and a new file is tried every RETRY_AFTER.
+        if let Err(e) = sink.open_next() {
+            sink.fail(&e.to_string());
+        }
         sink.enforce_disk();
 
         let (tx, rx) = sync_channel::<Item>(opts.queue);

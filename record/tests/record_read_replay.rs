@@ -370,3 +370,30 @@ async fn replay_window_and_group_filter() {
         .unwrap();
     assert_eq!((s.published, s.skipped), (0, 30));
 }
+
+#[test]
+fn a_full_disk_degrades_the_recorder_never_the_publisher() {
+    // /dev/full accepts the open and refuses every write with ENOSPC: a disk full from the start.
+    if !std::path::Path::new("/dev/full").exists() {
+        panic!("this test needs Linux's /dev/full");
+    }
+    let bus = Bus::new();
+    let mut o = RecorderOptions::file("/dev/full");
+    o.min_free_bytes = 0;
+    let rec = Recorder::start(&bus, o, meta()).expect("a full disk does not fail the start");
+    let t0 = std::time::Instant::now();
+    for i in 0..1000 {
+        let r = bus.publish(&NODE_STATUS, node_status(i));
+        assert_eq!(r.dropped, 0, "the bus never drops for the recorder");
+    }
+    assert!(
+        t0.elapsed() < Duration::from_secs(5),
+        "publishing was slowed"
+    );
+    wait_written(&rec, 1000);
+    let s = rec.stop();
+    assert_eq!(s.written, 0);
+    assert_eq!(s.dropped(), 1000, "{s:?}");
+    assert!(s.write_errors >= 1, "{s:?}");
+    assert_eq!(s.files_opened, 0);
+}

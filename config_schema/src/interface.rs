@@ -195,8 +195,8 @@ impl ServiceConfig for InterfaceConfig {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields, default)]
 pub struct DriverConfig {
-    /// Built-in driver to run when no library is given: "basic_simulator", "bluefin", "iver3"
-    /// or "waveglider_sv2".
+    /// Built-in driver to run when no library is given: "basic_simulator", "bluefin", "iver3",
+    /// "waveglider_sv2" or "ardupilot".
     pub name: String,
     /// Path to a driver plugin (shared library) to load instead of a built-in driver;
     /// FRONTSEAT_DRIVER_LIBRARY in the environment does the same.
@@ -212,6 +212,8 @@ pub struct DriverConfig {
     pub waveglider_sv2: WavegliderSv2Config,
     /// Settings of the Bluefin Huxley driver (Goby3's bluefin_config), used when name = "bluefin".
     pub bluefin: BluefinConfig,
+    /// Settings of the ArduPilot (MAVLink) driver, used when name = "ardupilot".
+    pub ardupilot: crate::ardupilot::ArdupilotConfig,
 }
 
 /// Name of the basic simulator driver (the default).
@@ -222,8 +224,11 @@ pub const IVER3: &str = "iver3";
 pub const WAVEGLIDER_SV2: &str = "waveglider_sv2";
 /// Name of the Bluefin Huxley driver.
 pub const BLUEFIN: &str = "bluefin";
+/// Name of the ArduPilot (MAVLink) driver.
+pub const ARDUPILOT: &str = "ardupilot";
 /// Every built-in driver.
-pub const BUILT_IN_DRIVERS: [&str; 4] = [BASIC_SIMULATOR, BLUEFIN, IVER3, WAVEGLIDER_SV2];
+pub const BUILT_IN_DRIVERS: [&str; 5] =
+    [BASIC_SIMULATOR, BLUEFIN, IVER3, WAVEGLIDER_SV2, ARDUPILOT];
 
 impl Default for DriverConfig {
     fn default() -> Self {
@@ -234,6 +239,7 @@ impl Default for DriverConfig {
             iver3: Iver3Config::default(),
             waveglider_sv2: WavegliderSv2Config::default(),
             bluefin: BluefinConfig::default(),
+            ardupilot: crate::ardupilot::ArdupilotConfig::default(),
         }
     }
 }
@@ -260,6 +266,9 @@ impl DriverConfig {
             self.waveglider_sv2.check(&at(prefix, "waveglider_sv2"), c);
         }
         self.bluefin.check(&at(prefix, "bluefin"), c);
+        if self.library.is_none() && self.name == ARDUPILOT {
+            self.ardupilot.check(&at(prefix, "ardupilot"), c);
+        }
     }
 }
 

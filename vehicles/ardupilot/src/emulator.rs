@@ -354,7 +354,7 @@ impl RoverSession {
             MavMessage::HEARTBEAT(_) => self.stats.gcs_heartbeats += 1,
             MavMessage::COMMAND_LONG(c) => self.command(&c, out),
             MavMessage::SET_POSITION_TARGET_GLOBAL_INT(p) => {
-                let name = "SET_POSITION_TARGET_GLOBAL_INT";
+                let name = "GLOBAL_INT target";
                 let global = matches!(
                     p.coordinate_frame as u8,
                     0 | 3 | 5 | 6 | 10 | 11 // GLOBAL, RELATIVE_ALT, their _INT forms, TERRAIN_ALT
@@ -380,7 +380,7 @@ impl RoverSession {
                     self.stats.targets_ignored += 1;
                     return;
                 }
-                let name = "SET_POSITION_TARGET_LOCAL_NED";
+                let name = "LOCAL_NED target";
                 let (vx, vy) = match p.coordinate_frame as u8 {
                     1 | 7 => (p.vx, p.vy),
                     8 | 9 => {

@@ -189,7 +189,8 @@ pub enum Target {
     Refused(String),
 }
 
-/// Reads a target's fields by `mask`. `msg` names the message in the refusal text.
+/// Reads a target's fields by `mask`. `msg` names the message in the refusal text, which must
+/// fit STATUSTEXT's 50 characters with it ("GLOBAL_INT target" does).
 #[allow(clippy::too_many_arguments)]
 pub fn interpret_target(
     msg: &str,
@@ -298,7 +299,7 @@ mod tests {
 
     #[test]
     fn type_mask_rules_of_the_readme() {
-        let m = "SET_POSITION_TARGET_GLOBAL_INT";
+        let m = "GLOBAL_INT target";
         let h90 = std::f32::consts::FRAC_PI_2;
         // (rule, mask, vx, vy, yaw, yaw_rate, want)
         let rows: [(&str, u16, f32, f32, f32, f32, Target); 6] = [

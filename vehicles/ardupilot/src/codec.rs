@@ -47,8 +47,8 @@ fn is_known(msgid: u32) -> bool {
 
 /// Length of the frame starting at `b[0]` (a start byte), or None while its header is incomplete.
 fn frame_len(b: &[u8]) -> Option<Result<usize, FrameError>> {
-    match b.first()? {
-        &STX_V2 => {
+    match *b.first()? {
+        STX_V2 => {
             if b.len() < 10 {
                 return None;
             }
@@ -60,7 +60,7 @@ fn frame_len(b: &[u8]) -> Option<Result<usize, FrameError>> {
             let sig = if flags & IFLAG_SIGNED != 0 { 13 } else { 0 };
             Some(Ok(10 + len + 2 + sig))
         }
-        &STX_V1 => {
+        STX_V1 => {
             if b.len() < 6 {
                 return None;
             }

@@ -186,7 +186,6 @@ impl RoverSession {
             MavMessage::STATUSTEXT(STATUSTEXT_DATA {
                 severity,
                 text: cut.as_str().into(),
-                ..Default::default()
             }),
             out,
         );
@@ -243,7 +242,6 @@ impl RoverSession {
             MavMessage::COMMAND_ACK(COMMAND_ACK_DATA {
                 command,
                 result,
-                ..Default::default()
             }),
             out,
         );
@@ -564,7 +562,6 @@ impl RoverSession {
                 cog: hdg_cd,
                 fix_type: fix,
                 satellites_visible: if self.ekf_ready() { 10 } else { 0 },
-                ..Default::default()
             }),
             EKF_STATUS_REPORT_DATA::ID => MavMessage::EKF_STATUS_REPORT(EKF_STATUS_REPORT_DATA {
                 velocity_variance: 0.02,
@@ -573,7 +570,6 @@ impl RoverSession {
                 compass_variance: 0.02,
                 terrain_alt_variance: 0.0,
                 flags: EkfStatusFlags::from_bits_retain(self.ekf_flags()),
-                ..Default::default()
             }),
             // Event-driven: nothing to stream.
             _ => return,

@@ -202,6 +202,12 @@ pub struct ArdupilotDriver {
     pub counters: ArdupilotCounters,
 }
 
+/// STATUSTEXT's 50 bytes as text: up to the first NUL, invalid UTF-8 replaced, not dropped.
+fn statustext(bytes: &[u8]) -> String {
+    let end = bytes.iter().position(|&b| b == 0).unwrap_or(bytes.len());
+    String::from_utf8_lossy(&bytes[..end]).into_owned()
+}
+
 fn binary(bytes: Vec<u8>) -> Raw {
     let mut r = Raw {
         raw: Some(bytes),
@@ -515,7 +521,7 @@ impl ArdupilotDriver {
             MavMessage::GPS_RAW_INT(g) => self.gps_fix = Some(g.fix_type),
             MavMessage::STATUSTEXT(t) => self.on_statustext(
                 t.severity,
-                &t.text.to_str().unwrap_or("").to_string(),
+                &statustext(&t.text[..]),
                 now,
                 sig,
             ),

@@ -27,7 +27,7 @@ frames = [
     ("pos_zero", m.global_position_int_encode(1000, 0, 0, 0, 0, 0, 0, 0, 65535)),
     ("pos_out_of_range", m.global_position_int_encode(1000, 950000000, -710875890, 0, 0, 0, 0, 0, 0)),
     ("attitude", m.attitude_encode(1000, 0.05, -0.1, 1.5707964, 0, 0, 0)),
-    ("text_acc_ignore", m.statustext_encode(apm.MAV_SEVERITY_WARNING, b"Ignoring SET_POSITION_TARGET; set ACC_IGNORE in mask")),
+    ("text_acc_ignore", m.statustext_encode(apm.MAV_SEVERITY_WARNING, b"Ignoring GLOBAL_INT target; set ACC_IGNORE in mask")),
     ("text_timeout", m.statustext_encode(apm.MAV_SEVERITY_INFO, b"target not received last 3secs, stopping")),
     ("text_prearm", m.statustext_encode(apm.MAV_SEVERITY_CRITICAL, b"PreArm: Hardware safety switch")),
     ("ack_mode_accepted", m.command_ack_encode(apm.MAV_CMD_DO_SET_MODE, apm.MAV_RESULT_ACCEPTED)),

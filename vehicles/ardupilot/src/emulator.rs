@@ -239,10 +239,7 @@ impl RoverSession {
 
     fn ack(&mut self, command: MavCmd, result: MavResult, out: &mut Vec<u8>) {
         self.send(
-            MavMessage::COMMAND_ACK(COMMAND_ACK_DATA {
-                command,
-                result,
-            }),
+            MavMessage::COMMAND_ACK(COMMAND_ACK_DATA { command, result }),
             out,
         );
     }

@@ -37,6 +37,8 @@ use crate::ratelog::{LogDecision, RateLimitedLog};
 
 /// Requests awaiting a verdict at most (older ones are answered as failed).
 const MAX_PENDING: usize = 64;
+/// Half of the driver loop's 10 Hz period.
+const LOOP_SLACK: Duration = Duration::from_millis(50);
 /// A raw_send_request larger than this is not a handful of MAVLink frames.
 const MAX_RAW_BYTES: usize = 16 * codec::MAX_FRAME;
 
@@ -910,10 +912,11 @@ impl Driver for ArdupilotDriver {
                 // The helm stopped: stop re-sending, and the vehicle's own 3 s timeout stops it.
                 tracing::info!("helm course not renewed: no longer re-sending the GUIDED target");
                 self.course = None;
-            } else if c
-                .sent
-                .is_none_or(|s| now.saturating_sub(s) >= self.settings.resend_period)
-            {
+            } else if c.sent.is_none_or(|s| {
+                // Half a loop tick of slack: waiting for a full period after a late tick would
+                // drop the rate below the one configured (the vehicle wants ≥ 5 Hz).
+                now.saturating_sub(s) + LOOP_SLACK >= self.settings.resend_period
+            }) {
                 self.send_target(now, sig);
             }
         }

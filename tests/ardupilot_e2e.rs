@@ -184,7 +184,8 @@ async fn helm_drives_an_ardupilot_boat_through_guided() {
     };
     let rate = (n1 - n0) as f64 / (t1 - t0);
     assert!(
-        (4.0..=6.5).contains(&rate),
+        // 5 Hz nominal; room for loop ticks late on a loaded 2-core CI machine.
+        (3.0..=7.5).contains(&rate),
         "targets at {rate:.1} Hz of sim time"
     );
     assert_eq!(emu.session().stats.target_timeouts, 0);

@@ -285,3 +285,53 @@ async fn mode_commands_are_refused_unless_allowed() {
     );
     service.shutdown(Duration::from_secs(5)).await;
 }
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn mode_commands_wait_for_listen_and_early_navigation_is_not_published() {
+    // An estimate that never becomes usable: the interface stays in standby.
+    let emu = Emulator::start(
+        RoverSession::new(RoverOptions {
+            ekf_ready_s: 1e9,
+            ..Default::default()
+        }),
+        Endpoint::Tcp(([127, 0, 0, 1], 0).into()),
+        WARP,
+    )
+    .await
+    .unwrap();
+    let bus = Bus::new();
+    let (_s, mut responses) = bus.subscribe_channel(
+        &groups::GOBY_MIDDLEWARE_FRONTSEAT_COMMAND_RESPONSE,
+        "t",
+        10_000,
+    );
+    let (_n, mut nav) =
+        bus.subscribe_channel(&groups::GOBY_MIDDLEWARE_FRONTSEAT_NODE_STATUS, "t", 1000);
+    let service = InterfaceService::start(&config(emu.tcp_addr().unwrap(), true), &bus)
+        .await
+        .unwrap();
+    // Streams asked and positions flowing (past INITIALISING), yet nothing published.
+    wait_for("positions streamed by the vehicle", || {
+        emu.session().stats.commands >= 6 && emu.session().sim_time() > 3.0
+    })
+    .await;
+    tokio::time::sleep(Duration::from_millis(300)).await;
+    assert!(
+        nav.try_recv().is_err(),
+        "no navigation from a backup estimate"
+    );
+    bus.publish(
+        &groups::FRONTSEAT_ARDUPILOT_ARDUPILOT_COMMAND_REQUEST,
+        mode_request(Action::Arm, 5),
+    );
+    let r = response(&mut responses, 5).await;
+    assert_eq!(r.request_successful, Some(false));
+    assert!(
+        r.error_string().contains("not in listen or command"),
+        "{r:?}"
+    );
+    assert!(!emu.session().armed());
+    let snap = service.snapshot(Duration::from_secs(5)).await.unwrap();
+    assert_eq!(snap.status.state(), InterfaceState::InterfaceStandby);
+    service.shutdown(Duration::from_secs(5)).await;
+}

@@ -61,6 +61,10 @@ pub struct Settings {
     pub streams: Vec<(u32, f64)>,
     pub modes: BTreeMap<u32, FrontSeatState>,
     pub allow_mode_commands: bool,
+    /// Navigation waits for an EKF_STATUS_REPORT / GPS_RAW_INT when they are streamed: a
+    /// position before them may be the backup estimate.
+    pub require_ekf: bool,
+    pub require_gps: bool,
 }
 
 impl Settings {
@@ -117,6 +121,8 @@ impl Settings {
                 .map(|m| (m.mode, state_of(m.state)))
                 .collect(),
             allow_mode_commands: c.allow_mode_commands,
+            require_ekf: r.ekf_status_report > 0.0,
+            require_gps: r.gps_raw_int > 0.0,
         }
     }
 }
@@ -530,8 +536,19 @@ impl ArdupilotDriver {
         }
     }
 
+    /// Why navigation is not to be steered by, or Ok.
+    fn nav_ready(&self) -> Result<(), String> {
+        if self.settings.require_ekf && self.ekf.is_none() {
+            return Err("no EKF_STATUS_REPORT heard yet".into());
+        }
+        if self.settings.require_gps && self.gps_fix.is_none() {
+            return Err("no GPS_RAW_INT heard yet".into());
+        }
+        infer::nav_usable(self.ekf, self.gps_fix)
+    }
+
     fn on_position(&mut self, pos: infer::Position, now: Duration, sig: &mut dyn SignalSink) {
-        if let Err(why) = infer::nav_usable(self.ekf, self.gps_fix) {
+        if let Err(why) = self.nav_ready() {
             if self.nav_problem.as_deref() != Some(why.as_str()) {
                 tracing::warn!(%why, "ArduPilot navigation not usable: not providing data");
             }
@@ -810,7 +827,7 @@ impl Driver for ArdupilotDriver {
         let (cmd, p1, p2) = match action {
             Some(Action::Guided) => {
                 // README: GUIDED before the estimate is ready ends in an EKF failsafe to HOLD.
-                if let Err(why) = infer::nav_usable(self.ekf, self.gps_fix) {
+                if let Err(why) = self.nav_ready() {
                     fail(
                         &base,
                         &format!("navigation not ready for GUIDED: {why}"),
@@ -1097,6 +1114,11 @@ mod tests {
     #[test]
     fn navigation_only_while_the_estimate_is_usable() {
         let (mut d, _rx, mut sink) = driver();
+        // A position before any EKF report may be the backup estimate: not published.
+        feed(&mut d, &mut sink, "hb_guided_armed", 0.0);
+        feed(&mut d, &mut sink, "pos_boston", 0.0);
+        assert!(sink.data.is_empty());
+        assert!(d.nav_problem().unwrap().contains("EKF_STATUS_REPORT"));
         for f in ["hb_guided_armed", "ekf_backup", "gps_3d", "pos_boston"] {
             feed(&mut d, &mut sink, f, 0.0);
         }

@@ -147,7 +147,8 @@ pub struct ArdupilotConfig {
     pub system_id: u8,
     /// The autopilot's component id; 0 = the first heard (usually 1).
     pub component_id: u8,
-    /// Our own system id (a companion computer shares the vehicle's, or uses 255 as a GCS).
+    /// Our own system id: 255 as in the setup checked against SITL (pymavlink's default; also
+    /// ArduPilot's MAV_GCS_SYSID, should FS_GCS_ENABLE be turned on).
     pub own_system_id: u8,
     /// Our component id (MAV_COMP_ID_ONBOARD_COMPUTER = 191).
     pub own_component_id: u8,
@@ -191,7 +192,7 @@ impl Default for ArdupilotConfig {
             vehicle: ArdupilotVehicle::Rover,
             system_id: 0,
             component_id: 0,
-            own_system_id: 1,
+            own_system_id: 255,
             own_component_id: 191,
             heartbeat_timeout: 3.0,
             resend_rate: 5.0,

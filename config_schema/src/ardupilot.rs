@@ -8,7 +8,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::FieldError;
 use crate::check::{Checker, at};
-use crate::interface::FrontSeatStateName;
+use crate::state_name::FrontSeatStateName;
 
 /// A MAVLink link, written as the `mavlink` crate writes it.
 #[derive(Debug, Clone, PartialEq, Eq)]

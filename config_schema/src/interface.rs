@@ -808,15 +808,7 @@ pub enum FlowControlConfig {
     Hardware,
 }
 
-/// A FrontSeatState, by Goby3's proto name.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
-#[serde(rename_all = "SCREAMING_SNAKE_CASE")]
-pub enum FrontSeatStateName {
-    FrontseatNotConnected,
-    FrontseatIdle,
-    FrontseatInControl,
-    FrontseatAcceptingCommands,
-}
+pub use crate::state_name::FrontSeatStateName;
 
 /// The link settings both vehicle drivers share (ours; Goby3 has only port and baud).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]

@@ -14,6 +14,7 @@ mod goby3;
 mod interface;
 mod sections;
 mod sim;
+mod state_name;
 mod web;
 
 use std::io::Read;

@@ -10,7 +10,7 @@ use std::collections::BTreeMap;
 use mavlink::MessageData;
 
 use frontseat_sim::emulator::Session;
-use frontseat_sim::vehicle::{Limits, Setpoint, Vehicle, short_turn};
+use frontseat_sim::vehicle::{Limits, Setpoint, Vehicle};
 
 use crate::codec::{Deframer, FrameError, MavMessage, Sender, decode};
 use crate::dialect::*;
@@ -323,13 +323,12 @@ impl RoverSession {
         self.ack(c.command, result, out);
     }
 
-    fn target(&mut self, name: &str, t: Target, system: u8, out: &mut Vec<u8>) {
+    fn target(&mut self, t: Target, system: u8, out: &mut Vec<u8>) {
         // Silently ignored outside GUIDED, and never acknowledged.
         if !self.for_me(system) || self.mode != rover::GUIDED {
             self.stats.targets_ignored += 1;
             return;
         }
-        let _ = name;
         match t {
             Target::Refused(why) => {
                 self.stats.targets_refused += 1;
@@ -367,7 +366,7 @@ impl RoverSession {
                 } else {
                     Target::Refused(format!("Ignoring {name}; unsupported frame"))
                 };
-                self.target(name, t, p.target_system, out);
+                self.target(t, p.target_system, out);
             }
             MavMessage::SET_POSITION_TARGET_LOCAL_NED(p) => {
                 // Dropped without a word until the EKF origin is set.
@@ -396,7 +395,7 @@ impl RoverSession {
                     p.yaw,
                     p.yaw_rate,
                 );
-                self.target(name, t, p.target_system, out);
+                self.target(t, p.target_system, out);
             }
             _ => {}
         }
@@ -455,9 +454,7 @@ impl RoverSession {
             },
         };
         self.vehicle.set_setpoint(sp);
-        let before = self.vehicle.heading;
         self.vehicle.step(dt);
-        let _ = short_turn(before, self.vehicle.heading);
         if self.guided_on_backup
             && self.mode == rover::GUIDED
             && !self.failsafe()

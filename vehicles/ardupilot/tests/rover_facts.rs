@@ -393,3 +393,19 @@ fn noise_bad_crc_and_floods_are_counted_never_fatal() {
         "still steering after the noise"
     );
 }
+
+#[test]
+fn no_gcs_failsafe_by_default_when_the_backseat_falls_silent() {
+    // README: FS_GCS_ENABLE 0 — a silent backseat changes nothing; only the target times out.
+    let mut g = Gcs::guided_and_armed();
+    g.send(MavMessage::HEARTBEAT(HEARTBEAT_DATA {
+        mavtype: MavType::MAV_TYPE_ONBOARD_CONTROLLER,
+        autopilot: MavAutopilot::MAV_AUTOPILOT_INVALID,
+        ..Default::default()
+    }));
+    assert_eq!(g.rover.stats.gcs_heartbeats, 1);
+    g.run(30.0);
+    assert_eq!(g.rover.mode(), rover::GUIDED);
+    assert!(g.rover.armed());
+    assert_eq!(g.last_heartbeat().system_status, MavState::MAV_STATE_ACTIVE);
+}

@@ -12,7 +12,7 @@ use std::time::Duration;
 use frontseat_ardupilot::codec::{self, FrameError, MavMessage, Sender};
 use frontseat_ardupilot::dialect::{
     COMMAND_LONG_DATA, EkfStatusFlags, GpsFixType, HEARTBEAT_DATA, MavAutopilot, MavCmd,
-    MavModeFlag, MavResult, MavSeverity, MavState, MavType,
+    MavModeFlag, MavResult, MavSeverity, MavState, MavSysStatusSensor, MavType,
 };
 use frontseat_ardupilot::infer::{self, Beat};
 use frontseat_ardupilot::modes::{Control, Firmware};
@@ -198,6 +198,8 @@ pub struct ArdupilotDriver {
     own_heartbeat_at: Option<Duration>,
     ekf: Option<EkfStatusFlags>,
     gps_fix: Option<GpsFixType>,
+    /// SYS_STATUS says the GPS is present and enabled but unhealthy.
+    gps_unhealthy: bool,
     attitude: Option<(f64, f64, f64)>,
     last_nav: Option<Duration>,
     providing_data: bool,
@@ -266,6 +268,7 @@ impl ArdupilotDriver {
             own_heartbeat_at: None,
             ekf: None,
             gps_fix: None,
+            gps_unhealthy: false,
             attitude: None,
             last_nav: None,
             providing_data: false,
@@ -531,7 +534,13 @@ impl ArdupilotDriver {
                 self.on_statustext(t.severity, &statustext(&t.text[..]), now, sig)
             }
             MavMessage::COMMAND_ACK(a) => self.on_ack(a.command, a.result, now, sig),
-            MavMessage::SYS_STATUS(_) | MavMessage::VFR_HUD(_) => {}
+            MavMessage::SYS_STATUS(st) => {
+                let gps = MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_GPS;
+                self.gps_unhealthy = st.onboard_control_sensors_present.contains(gps)
+                    && st.onboard_control_sensors_enabled.contains(gps)
+                    && !st.onboard_control_sensors_health.contains(gps);
+            }
+            MavMessage::VFR_HUD(_) => {}
             _ => self.counters.ignored += 1,
         }
     }
@@ -543,6 +552,9 @@ impl ArdupilotDriver {
         }
         if self.settings.require_gps && self.gps_fix.is_none() {
             return Err("no GPS_RAW_INT heard yet".into());
+        }
+        if self.gps_unhealthy {
+            return Err("SYS_STATUS: GPS present and enabled but unhealthy".into());
         }
         infer::nav_usable(self.ekf, self.gps_fix)
     }
@@ -1145,6 +1157,28 @@ mod tests {
         feed(&mut d, &mut sink, "pos_boston", 2.0);
         assert!(!d.frontseat_providing_data());
         assert!(d.nav_problem().unwrap().contains("GPS"));
+        // SYS_STATUS: the GPS sensor present and enabled but not healthy.
+        feed(&mut d, &mut sink, "gps_3d", 3.0);
+        let gps = MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_GPS;
+        let sick = MavMessage::SYS_STATUS(frontseat_ardupilot::dialect::SYS_STATUS_DATA {
+            onboard_control_sensors_present: gps,
+            onboard_control_sensors_enabled: gps,
+            onboard_control_sensors_health: MavSysStatusSensor::empty(),
+            ..Default::default()
+        });
+        d.handle_io(
+            DriverIoEvent::Frame(codec::encode(1, 1, 0, &sick)),
+            Duration::from_secs(3),
+            &mut sink,
+        );
+        let n = sink.data.len();
+        feed(&mut d, &mut sink, "pos_boston", 3.0);
+        assert_eq!(sink.data.len(), n);
+        assert!(
+            d.nav_problem().unwrap().contains("SYS_STATUS"),
+            "{:?}",
+            d.nav_problem()
+        );
     }
 
     #[test]

@@ -335,3 +335,29 @@ async fn mode_commands_wait_for_listen_and_early_navigation_is_not_published() {
     assert_eq!(snap.status.state(), InterfaceState::InterfaceStandby);
     service.shutdown(Duration::from_secs(5)).await;
 }
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn serial_address_reaches_listen_over_a_pty() {
+    let emu = Emulator::start(
+        RoverSession::new(RoverOptions::default()),
+        Endpoint::Pty,
+        WARP,
+    )
+    .await
+    .unwrap();
+    let path = emu.pty_path().unwrap().to_string_lossy().into_owned();
+    let bus = Bus::new();
+    let mut status = StatusWatch::new(&bus);
+    let mut cfg = config(([127, 0, 0, 1], 1).into(), false);
+    cfg.driver.ardupilot.address = format!("serial:{path}:57600");
+    let service = InterfaceService::start(&cfg, &bus).await.unwrap();
+    status
+        .until_state(InterfaceState::InterfaceListen, LONG)
+        .await;
+    assert_eq!(
+        emu.session().stats.commands,
+        6,
+        "stream requests arrived over the pty"
+    );
+    service.shutdown(Duration::from_secs(5)).await;
+}

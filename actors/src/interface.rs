@@ -172,6 +172,7 @@ macro_rules! extended_command {
 
 extended_command!(crate::proto::frontseat::protobuf::bluefin::CommandRequest);
 extended_command!(crate::proto::frontseat::protobuf::iver::CommandRequest);
+extended_command!(crate::proto::frontseat::protobuf::ardupilot::CommandRequest);
 
 pub enum FsiMsg {
     Bus(FrontSeatInterfaceInbox),
@@ -474,6 +475,46 @@ impl FsiState {
             (
                 error_code::NOT_IN_COMMAND,
                 format!("not in command state (state: {})", state_words(state)),
+            )
+        };
+        self.refuse(&base, code, why);
+        None
+    }
+
+    /// A vehicle mode/arming request (the ArduPilot extension): GUIDED is how COMMAND is
+    /// reached, so it passes in listen as well as command; a course riding along still needs
+    /// command and the safety envelope, as everywhere.
+    fn gate_mode_command<M: ExtendedCommand>(
+        &mut self,
+        env: Envelope<M>,
+    ) -> Option<(M, crate::bus::PublishMeta)> {
+        if self.sm.state() == InterfaceState::InterfaceCommand
+            || env.msg.base().desired_course.is_some()
+        {
+            return self.gate_extended(env);
+        }
+        let base = env.msg.base();
+        if self.listen_or_command() {
+            if base.response_requested() {
+                self.pending
+                    .insert(base.request_id, self.now() + self.s.command_timeout);
+            }
+            let meta = env.meta();
+            return Some(((*env.msg).clone(), meta));
+        }
+        self.counters.commands_gated += 1;
+        let (code, why) = if self.shutting_down {
+            (
+                error_code::SHUTTING_DOWN,
+                "interface shutting down".to_string(),
+            )
+        } else {
+            (
+                error_code::NOT_IN_COMMAND,
+                format!(
+                    "not in listen or command state (state: {})",
+                    state_words(self.sm.state())
+                ),
             )
         };
         self.refuse(&base, code, why);
@@ -865,6 +906,11 @@ impl FrontSeatInterface {
                 I::IverCommandRequest(env) => {
                     if let Some((req, meta)) = st.gate_extended(env) {
                         st.ports.publish_iver_command_with(Arc::new(req), meta);
+                    }
+                }
+                I::ArdupilotCommandRequest(env) => {
+                    if let Some((req, meta)) = st.gate_mode_command(env) {
+                        st.ports.publish_ardupilot_command_with(Arc::new(req), meta);
                     }
                 }
                 I::BluefinDataToFrontseat(env) => {

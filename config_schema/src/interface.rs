@@ -241,8 +241,8 @@ impl ServiceConfig for InterfaceConfig {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields, default)]
 pub struct DriverConfig {
-    /// Built-in driver to run when no library is given: "basic_simulator", "bluefin", "iver3"
-    /// or "waveglider_sv2".
+    /// Built-in driver to run when no library is given: "basic_simulator", "bluefin", "iver3",
+    /// "waveglider_sv2" or "ardupilot".
     pub name: String,
     /// Path to a driver plugin (shared library) to load instead of a built-in driver;
     /// FRONTSEAT_DRIVER_LIBRARY in the environment does the same.
@@ -258,6 +258,8 @@ pub struct DriverConfig {
     pub waveglider_sv2: WavegliderSv2Config,
     /// Settings of the Bluefin Huxley driver (Goby3's bluefin_config), used when name = "bluefin".
     pub bluefin: BluefinConfig,
+    /// Settings of the ArduPilot (MAVLink) driver, used when name = "ardupilot".
+    pub ardupilot: crate::ardupilot::ArdupilotConfig,
 }
 
 /// Name of the basic simulator driver (the default).
@@ -268,8 +270,11 @@ pub const IVER3: &str = "iver3";
 pub const WAVEGLIDER_SV2: &str = "waveglider_sv2";
 /// Name of the Bluefin Huxley driver.
 pub const BLUEFIN: &str = "bluefin";
+/// Name of the ArduPilot (MAVLink) driver.
+pub const ARDUPILOT: &str = "ardupilot";
 /// Every built-in driver.
-pub const BUILT_IN_DRIVERS: [&str; 4] = [BASIC_SIMULATOR, BLUEFIN, IVER3, WAVEGLIDER_SV2];
+pub const BUILT_IN_DRIVERS: [&str; 5] =
+    [BASIC_SIMULATOR, BLUEFIN, IVER3, WAVEGLIDER_SV2, ARDUPILOT];
 
 impl Default for DriverConfig {
     fn default() -> Self {
@@ -280,6 +285,7 @@ impl Default for DriverConfig {
             iver3: Iver3Config::default(),
             waveglider_sv2: WavegliderSv2Config::default(),
             bluefin: BluefinConfig::default(),
+            ardupilot: crate::ardupilot::ArdupilotConfig::default(),
         }
     }
 }
@@ -306,6 +312,9 @@ impl DriverConfig {
             self.waveglider_sv2.check(&at(prefix, "waveglider_sv2"), c);
         }
         self.bluefin.check(&at(prefix, "bluefin"), c);
+        if self.library.is_none() && self.name == ARDUPILOT {
+            self.ardupilot.check(&at(prefix, "ardupilot"), c);
+        }
     }
 }
 
@@ -845,15 +854,7 @@ pub enum FlowControlConfig {
     Hardware,
 }
 
-/// A FrontSeatState, by Goby3's proto name.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
-#[serde(rename_all = "SCREAMING_SNAKE_CASE")]
-pub enum FrontSeatStateName {
-    FrontseatNotConnected,
-    FrontseatIdle,
-    FrontseatInControl,
-    FrontseatAcceptingCommands,
-}
+pub use crate::state_name::FrontSeatStateName;
 
 /// The link settings both vehicle drivers share (ours; Goby3 has only port and baud).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]

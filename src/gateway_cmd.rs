@@ -137,7 +137,7 @@ fn gateway_children(cfg: &GatewayConfig, platform: &str, bus: &Bus) -> Vec<Child
     }
     if cfg.goby3.enabled {
         children.push(goby3_child(
-            &cfg.goby3,
+            &cfg.goby3.with_client_name_for("goby_moos_gateway"),
             &cfg.name,
             bus,
             HOSTED.to_vec(),
@@ -155,7 +155,7 @@ fn gateway_children(cfg: &GatewayConfig, platform: &str, bus: &Bus) -> Vec<Child
     };
     children.push(frontseat_actors::translation::child_spec(
         frontseat_actors::translation::TranslationArgs {
-            cfg: cfg.moos.clone(),
+            cfg: cfg.moos.with_warp(1.0),
             vehicle,
             bus: bus.clone(),
             chaos: None,

@@ -36,9 +36,14 @@ struct Cli {
 /// Config handling shared by every service subcommand.
 #[derive(Args, Debug, Clone)]
 struct ConfigArgs {
-    /// Configuration file (TOML). `--example_config` prints a complete one.
+    /// Configuration file: TOML, or a Goby3 .pb.cfg of the Goby3 application this replaces.
+    /// `--example_config` prints a complete TOML one.
     #[arg(short = 'c', long = "config", value_name = "FILE")]
     config: Option<PathBuf>,
+    /// The configuration file given as Goby3 applications take it (`goby_frontseat_interface
+    /// vehicle.pb.cfg`): the same as -c.
+    #[arg(value_name = "CONFIG", conflicts_with = "config")]
+    config_positional: Option<PathBuf>,
     /// Print a complete example config (every field, its default, unit and description) and exit.
     #[arg(long = "example_config", alias = "example-config")]
     example_config: bool,
@@ -48,6 +53,22 @@ struct ConfigArgs {
     /// Validate the config given with -c and exit: 0 when valid, 2 with the errors otherwise.
     #[arg(long)]
     check: bool,
+    /// Print the TOML equivalent of a Goby3 .pb.cfg of the Goby3 application this replaces
+    /// (goby_frontseat_interface, goby_moos_gateway), a comment per field, and exit. `-c
+    /// FILE.pb.cfg` runs such a file as it is.
+    #[arg(
+        long = "import-goby3",
+        alias = "import_goby3",
+        value_name = "FILE.pb.cfg"
+    )]
+    import_goby3: Option<PathBuf>,
+}
+
+impl ConfigArgs {
+    /// The config file, by -c or as Goby3's positional argument.
+    fn file(&self) -> Option<&PathBuf> {
+        self.config.as_ref().or(self.config_positional.as_ref())
+    }
 }
 
 #[derive(Subcommand, Debug)]
@@ -120,9 +141,52 @@ fn run_traced(
     code
 }
 
-/// `--example_config`, `--schema`, `--check`: answered here, before any service starts.
-/// Returns Some(exit code) when one of them was asked for.
-fn config_commands<T: frontseat_config::ServiceConfig>(a: &ConfigArgs) -> Option<ExitCode> {
+/// How a service's config is loaded: the config and the lines to log about it (a Goby3 .pb.cfg's
+/// ignored fields, the driver a Goby3 library name selected).
+type Loaded<T> = Result<(T, Vec<String>), frontseat_config::ConfigError>;
+
+fn load_plain<T: frontseat_config::ServiceConfig>(path: &std::path::Path) -> Loaded<T> {
+    frontseat_config::load_with_notes::<T>(path)
+}
+
+/// The interface's config as Goby3 would choose its driver: FRONTSEAT_DRIVER_LIBRARY naming one
+/// of Goby3's driver libraries selects our built-in driver of that vehicle (then validated again,
+/// since that driver's section now counts).
+fn load_interface(path: &std::path::Path) -> Loaded<frontseat_config::InterfaceConfig> {
+    use frontseat_config::ServiceConfig;
+    let (mut cfg, mut notes) = load_plain::<frontseat_config::InterfaceConfig>(path)?;
+    let env = std::env::var("FRONTSEAT_DRIVER_LIBRARY").ok();
+    if let Some(chosen) = cfg.select_goby3_driver(env.as_deref()) {
+        notes.push(chosen);
+        let errors = cfg.validate();
+        if !errors.is_empty() {
+            return Err(frontseat_config::ConfigError::Invalid {
+                file: path.display().to_string(),
+                errors,
+            });
+        }
+    }
+    Ok((cfg, notes))
+}
+
+/// `--example_config`, `--schema`, `--check`, `--import-goby3`: answered here, before any service
+/// starts. Returns Some(exit code) when one of them was asked for.
+fn config_commands<T: frontseat_config::ServiceConfig>(
+    a: &ConfigArgs,
+    loader: fn(&std::path::Path) -> Loaded<T>,
+) -> Option<ExitCode> {
+    if let Some(path) = &a.import_goby3 {
+        return Some(match frontseat_config::import_goby3::<T>(path) {
+            Ok(imported) => {
+                print!("{}", imported.toml);
+                ExitCode::SUCCESS
+            }
+            Err(e) => {
+                eprintln!("{e}");
+                ExitCode::from(2)
+            }
+        });
+    }
     if a.example_config {
         print!("{}", frontseat_config::example::<T>());
         return Some(ExitCode::SUCCESS);
@@ -132,13 +196,13 @@ fn config_commands<T: frontseat_config::ServiceConfig>(a: &ConfigArgs) -> Option
         return Some(ExitCode::SUCCESS);
     }
     if a.check {
-        let Some(path) = &a.config else {
+        let Some(path) = a.file() else {
             eprintln!("--check needs a config file: --check -c FILE");
             return Some(ExitCode::from(2));
         };
-        return Some(match frontseat_config::load::<T>(path) {
-            Ok(cfg) => {
-                for w in cfg.warnings() {
+        return Some(match loader(path) {
+            Ok((cfg, notes)) => {
+                for w in notes.iter().chain(cfg.warnings().iter()) {
                     eprintln!("{}: warning: {w}", path.display());
                 }
                 println!("{}: ok ({} config)", path.display(), T::SERVICE);
@@ -158,12 +222,21 @@ fn load_config<T: frontseat_config::ServiceConfig>(
     a: &ConfigArgs,
     optional: bool,
 ) -> Result<T, ExitCode> {
-    match &a.config {
-        Some(path) => frontseat_config::load::<T>(path).map_err(|e| {
+    load_config_with(a, optional, load_plain::<T>).map(|(cfg, _)| cfg)
+}
+
+/// [`load_config`] with the service's loader, keeping the lines to log once logging is up.
+fn load_config_with<T: frontseat_config::ServiceConfig>(
+    a: &ConfigArgs,
+    optional: bool,
+    loader: fn(&std::path::Path) -> Loaded<T>,
+) -> Result<(T, Vec<String>), ExitCode> {
+    match a.file() {
+        Some(path) => loader(path).map_err(|e| {
             eprintln!("{e}");
             ExitCode::from(2)
         }),
-        None if optional => Ok(T::default()),
+        None if optional => Ok((T::default(), Vec::new())),
         None => {
             eprintln!(
                 "frontseat {}: a config file is required: -c FILE (see --example_config)",
@@ -174,8 +247,29 @@ fn load_config<T: frontseat_config::ServiceConfig>(
     }
 }
 
+/// The command line, with Goby3's application names as aliases: installed (or linked) as
+/// `goby_frontseat_interface` this binary is `frontseat interface`, as `goby_moos_gateway` it is
+/// `frontseat moos-gateway`, so a Goby3 unit file's ExecStart works with the binary swapped.
+fn cli_args() -> Vec<std::ffi::OsString> {
+    let mut args: Vec<std::ffi::OsString> = std::env::args_os().collect();
+    let called = args
+        .first()
+        .and_then(|a| std::path::Path::new(a).file_name())
+        .and_then(|n| n.to_str())
+        .map(str::to_owned);
+    let sub = match called.as_deref() {
+        Some("goby_frontseat_interface") => Some("interface"),
+        Some("goby_moos_gateway") => Some("moos-gateway"),
+        _ => None,
+    };
+    if let Some(sub) = sub {
+        args.insert(1.min(args.len()), sub.into());
+    }
+    args
+}
+
 fn main() -> ExitCode {
-    let cli = Cli::parse();
+    let cli = Cli::parse_from(cli_args());
     match cli.command {
         Command::Interfaces => {
             print!("{}", frontseat_actors::generated::RESOLVED_INTERFACES_YAML);
@@ -183,16 +277,19 @@ fn main() -> ExitCode {
             ExitCode::SUCCESS
         }
         Command::Interface { cfg } => {
-            if let Some(code) = config_commands::<frontseat_config::InterfaceConfig>(&cfg) {
+            if let Some(code) = config_commands(&cfg, load_interface) {
                 return code;
             }
-            let config = match load_config::<frontseat_config::InterfaceConfig>(&cfg, false) {
+            let (config, notes) = match load_config_with(&cfg, false, load_interface) {
                 Ok(c) => c,
                 Err(code) => return code,
             };
             let tel = config.telemetry.clone();
             let name = config.name.clone();
-            run_traced(&tel, "interface", &name, service::interface(config))
+            run_traced(&tel, "interface", &name, async move {
+                log_config_notes(&notes);
+                service::interface(config).await
+            })
         }
         Command::Sim {
             cfg,
@@ -200,7 +297,7 @@ fn main() -> ExitCode {
             port,
             emulator,
         } if emulator.vehicle == vehicle_sim::VehicleKind::Bluefin => {
-            if let Some(code) = config_commands::<frontseat_config::SimConfig>(&cfg) {
+            if let Some(code) = config_commands(&cfg, load_plain::<frontseat_config::SimConfig>) {
                 return code;
             }
             let mut config = match load_config::<frontseat_config::SimConfig>(&cfg, true) {
@@ -225,7 +322,7 @@ fn main() -> ExitCode {
         Command::Sim {
             cfg, port, bind, ..
         } => {
-            if let Some(code) = config_commands::<frontseat_config::SimConfig>(&cfg) {
+            if let Some(code) = config_commands(&cfg, load_plain::<frontseat_config::SimConfig>) {
                 return code;
             }
             let mut config = match load_config::<frontseat_config::SimConfig>(&cfg, true) {
@@ -242,21 +339,24 @@ fn main() -> ExitCode {
             run_traced(&tel, "sim", "", service::sim(config))
         }
         Command::MoosGateway { cfg } => {
-            if let Some(code) = config_commands::<frontseat_config::GatewayConfig>(&cfg) {
+            if let Some(code) = config_commands(&cfg, load_plain::<frontseat_config::GatewayConfig>)
+            {
                 return code;
             }
-            let config = match load_config::<frontseat_config::GatewayConfig>(&cfg, false) {
+            let (config, notes) = match load_config_with(
+                &cfg,
+                false,
+                load_plain::<frontseat_config::GatewayConfig>,
+            ) {
                 Ok(c) => c,
                 Err(code) => return code,
             };
             let tel = config.telemetry.clone();
             let name = config.name.clone();
-            run_traced(
-                &tel,
-                "moos-gateway",
-                &name,
-                gateway_cmd::moos_gateway(config),
-            )
+            run_traced(&tel, "moos-gateway", &name, async move {
+                log_config_notes(&notes);
+                gateway_cmd::moos_gateway(config).await
+            })
         }
         // No logging set-up: stdout carries the frames to the interface.
         Command::DriverHost(args) => driver_host::run(args),
@@ -280,6 +380,14 @@ fn main() -> ExitCode {
             }
         }
         Command::Bench(args) => run_traced(&Default::default(), "bench", "", bench_cmd::run(args)),
+    }
+}
+
+/// What loading the config has to say (a Goby3 file's ignored fields, the driver a Goby3 library
+/// name chose), once logging is up.
+fn log_config_notes(notes: &[String]) {
+    for n in notes {
+        tracing::warn!("config: {n}");
     }
 }
 

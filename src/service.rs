@@ -50,7 +50,9 @@ pub fn interface_children(
     ));
     if config.goby3.enabled {
         children.push(crate::gateway_cmd::goby3_child(
-            &config.goby3,
+            &config
+                .goby3
+                .with_client_name_for("goby_frontseat_interface"),
             &config.name,
             bus,
             crate::gateway_cmd::interface_actors(config),
@@ -72,7 +74,7 @@ pub fn interface_children(
     if let Some(moos) = &config.moos {
         children.push(frontseat_actors::translation::child_spec(
             frontseat_actors::translation::TranslationArgs {
-                cfg: moos.clone(),
+                cfg: moos.with_warp(config.sim_warp_factor),
                 vehicle: config.name.clone(),
                 bus: bus.clone(),
                 chaos: None,
@@ -138,6 +140,11 @@ pub async fn interface(config: InterfaceConfig) -> ExitCode {
     // Children stop in reverse start order, each within its bound.
     root.shutdown(SHUTDOWN_BOUND * 3).await;
     reporter.abort();
+    if let ServiceExit::ErrorState(why) = &exit {
+        // Goby3's goby_frontseat_interface quits with 0 here; exit_on_error_code says otherwise.
+        tracing::error!(%why, code = config.exit_on_error_code, "exit_on_error: service ended");
+        return ExitCode::from(config.exit_on_error_code);
+    }
     exit_code(&exit)
 }
 

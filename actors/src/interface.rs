@@ -86,11 +86,35 @@ impl InterfaceSettings {
             max_restarts: cfg.supervision.max_restarts,
             restart_window: secs(cfg.supervision.restart_window_s),
             queue_capacity: cfg.bus.queue_capacity.max(1),
-            command_timeout: Duration::from_secs(5),
+            command_timeout: command_timeout(cfg),
             driver_name: cfg.driver.name.clone(),
             limits: Limits::from(&cfg.limits),
         }
     }
+}
+
+/// Our own answer to a command waits at least this long for the driver's.
+const MIN_COMMAND_TIMEOUT: Duration = Duration::from_secs(5);
+
+/// How long the interface waits before answering a command itself (failed): past the selected
+/// driver's own acknowledgement budget (Bluefin: nmea_resend_attempts × nmea_resend_interval; the
+/// serial vehicles: their link's ack_timeout), plus a second, so the driver's real answer (a
+/// Bluefin "pending", then its ack) is the one the helm gets, as in Goby3, which forwards every
+/// driver answer and never answers on its own (frontseat_interface.cpp:205-208).
+pub fn command_timeout(cfg: &InterfaceConfig) -> Duration {
+    let secs = |s: f64| Duration::try_from_secs_f64(s).unwrap_or(MIN_COMMAND_TIMEOUT);
+    let budget = match cfg.driver.name.as_str() {
+        frontseat_config::BLUEFIN => {
+            let b = &cfg.driver.bluefin;
+            Duration::from_secs(
+                u64::from(b.nmea_resend_attempts.max(1)) * u64::from(b.nmea_resend_interval.max(1)),
+            )
+        }
+        frontseat_config::IVER3 => secs(cfg.driver.iver3.link.ack_timeout),
+        frontseat_config::WAVEGLIDER_SV2 => secs(cfg.driver.waveglider_sv2.link.ack_timeout),
+        _ => Duration::ZERO,
+    };
+    (budget + Duration::from_secs(1)).max(MIN_COMMAND_TIMEOUT)
 }
 
 /// Why the service ended.
@@ -98,7 +122,8 @@ impl InterfaceSettings {
 pub enum ServiceExit {
     /// Orderly shutdown.
     Clean,
-    /// exit_on_error and an error state was entered.
+    /// exit_on_error and an error state was entered. Its code is Goby3's (0, frontseat_interface.cpp
+    /// 176-184); `frontseat interface` exits with the configured `exit_on_error_code` instead.
     ErrorState(String),
     /// The driver failed more often than the restart limit allows.
     RestartLimit(String),
@@ -110,7 +135,7 @@ impl ServiceExit {
     pub fn code(&self) -> i32 {
         match self {
             ServiceExit::Clean => 0,
-            ServiceExit::ErrorState(_) => 2,
+            ServiceExit::ErrorState(_) => 0,
             ServiceExit::RestartLimit(_) => 3,
             ServiceExit::Failed(_) => 4,
         }
@@ -547,17 +572,20 @@ impl FsiState {
             .publish_data_from_frontseat_with(Arc::new(data), env.meta());
     }
 
+    /// Every answer a driver gives reaches the helm, whenever it comes, as in Goby3
+    /// (frontseat_interface.cpp:205-208): a Bluefin "pending" and then its ack are two answers.
+    /// The pending table only decides whether our own timeout still has to answer.
     fn handle_driver_response(&mut self, env: Envelope<CommandResponse>) {
         let key = env.msg.request_id;
         if self.pending.remove(&key).is_some() {
             self.sm.command_result(env.msg.request_successful());
-            self.ports
-                .publish_command_response_with(env.msg.clone(), env.meta());
         } else {
-            // Already answered (timed out, or the driver restarted): exactly one answer per request.
+            // After our timeout answered, a restart, or a second answer to the same request.
             self.counters.late_responses += 1;
-            tracing::debug!(request_id = ?key, "late or unknown command response dropped");
+            tracing::debug!(request_id = ?key, "late or further command response forwarded");
         }
+        self.ports
+            .publish_command_response_with(env.msg.clone(), env.meta());
     }
 
     /// A burst's summary once its window has ended, even when no further bad input comes to

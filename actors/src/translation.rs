@@ -271,7 +271,12 @@ pub fn client_config(cfg: &MoosConfig) -> MoosClientConfig {
     };
     MoosClientConfig {
         server,
-        time_warp: cfg.time_warp,
+        // 0 = the service's warp; a config not resolved by the service (with_warp) runs unwarped.
+        time_warp: if cfg.time_warp > 0.0 {
+            cfg.time_warp
+        } else {
+            1.0
+        },
         queue_limit: MOOS_QUEUE_LIMIT,
         mail_by_packet: true,
         ..MoosClientConfig::new(cfg.app_name.clone())

@@ -73,6 +73,13 @@ impl Default for GatewayConfig {
 impl ServiceConfig for GatewayConfig {
     const SERVICE: &'static str = "moos-gateway";
 
+    fn import_goby3(
+        text: &str,
+        file: &str,
+    ) -> Option<Result<crate::goby3_import::Imported, crate::ConfigError>> {
+        Some(crate::goby3_import::import_gateway(text, file))
+    }
+
     fn validate(&self) -> Vec<FieldError> {
         let mut c = Checker::default();
         self.moos.check("moos", &mut c);

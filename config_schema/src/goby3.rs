@@ -40,7 +40,10 @@ pub struct Goby3Config {
     /// TCP only: port of gobyd's manager (Goby3's `tcp_port`, default 11144).
     #[schemars(range(min = 1))]
     pub tcp_port: u16,
-    /// Name we give gobyd's manager (Goby3's `client_name`; gobyd's hold list names clients by it).
+    /// Name we give gobyd's manager (Goby3's `client_name`; gobyd's hold list names clients by
+    /// it); empty = as in Goby3, the application name (`app_name`, else the Goby3 application
+    /// this service replaces: `goby_frontseat_interface`, `goby_moos_gateway`), so a vehicle's
+    /// existing `hold { required_client: "goby_frontseat_interface" }` is released by us.
     pub client_name: String,
     /// How long to wait for each manager answer before giving up on this attempt. Unit: s.
     #[schemars(extend("exclusiveMinimum" = 0.0))]
@@ -67,6 +70,16 @@ pub struct Goby3Config {
 }
 
 impl Goby3Config {
+    /// This config with an empty `client_name` resolved as Goby3 does: to the application name
+    /// (`app_name`, else `default`, the Goby3 application replaced).
+    pub fn with_client_name_for(&self, default: &str) -> Self {
+        let mut c = self.clone();
+        if c.client_name.is_empty() {
+            c.client_name = self.health_name(default).to_string();
+        }
+        c
+    }
+
     /// The name in health answers: `app_name`, else `default` (the Goby3 application replaced).
     pub fn health_name<'a>(&'a self, default: &'a str) -> &'a str {
         if self.app_name.is_empty() {
@@ -86,7 +99,7 @@ impl Default for Goby3Config {
             socket_name: String::new(),
             ip_address: "127.0.0.1".into(),
             tcp_port: 11144,
-            client_name: "frontseat".into(),
+            client_name: String::new(),
             manager_timeout_seconds: 5.0,
             settle_ms: 1000,
             reconnect_initial_ms: 100,
@@ -125,8 +138,7 @@ impl Goby3Config {
                  take hundreds of bytes)",
             ));
         }
-        c.non_empty(&at(prefix, "client_name"), &self.client_name);
-        if self.client_name == "gobyd" {
+        if self.client_name == "gobyd" || self.app_name == "gobyd" {
             c.push(FieldError::new(
                 at(prefix, "client_name"),
                 "\"gobyd\"",

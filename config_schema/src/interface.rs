@@ -102,8 +102,12 @@ pub struct InterfaceConfig {
     /// 0 = no periodic status. Unit: s.
     #[schemars(range(min = 0.0))]
     pub status_period: f64,
-    /// Exit the service (non-zero) when it enters an error state.
+    /// Exit the service when it enters an error state (with exit_on_error_code).
     pub exit_on_error: bool,
+    /// The process exit code when exit_on_error ends the service. 0 is Goby3's (its interface
+    /// quits with 0, so systemd's Restart=on-failure does not restart it); a non-zero code (we
+    /// used 2) makes Restart=on-failure bring the interface back.
+    pub exit_on_error_code: u8,
     /// Simulation time warp: every timer runs this many times faster, and the basic simulator is
     /// told WARP:<this>. Unit: factor, greater than 0 and at most 10000.
     #[schemars(extend("exclusiveMinimum" = 0.0))]
@@ -144,6 +148,7 @@ impl Default for InterfaceConfig {
             frontseat_connected_timeout: 10.0,
             status_period: 5.0,
             exit_on_error: false,
+            exit_on_error_code: 0,
             sim_warp_factor: 1.0,
             driver: DriverConfig::default(),
             supervision: SupervisionConfig::default(),
@@ -156,6 +161,27 @@ impl Default for InterfaceConfig {
             bus: BusConfig::default(),
             web: WebConfig::default(),
         }
+    }
+}
+
+impl InterfaceConfig {
+    /// Goby3's way of choosing the driver: `FRONTSEAT_DRIVER_LIBRARY` (given here as
+    /// `env_library`), or `driver.library`, naming one of Goby3's own driver libraries
+    /// (`libgoby_frontseat_bluefin.so.30`) selects our built-in driver of that vehicle, so a
+    /// Goby3 unit file works unchanged. Returns what was chosen (to be logged); None when no
+    /// Goby3 library is named (another library stays a plugin of ours).
+    pub fn select_goby3_driver(&mut self, env_library: Option<&str>) -> Option<String> {
+        let (source, library) = match env_library.filter(|l| !l.is_empty()) {
+            Some(l) => ("FRONTSEAT_DRIVER_LIBRARY", l.to_owned()),
+            None => ("driver.library", self.driver.library.clone()?),
+        };
+        let builtin = crate::goby3_import::goby3_driver_for_library(&library)?;
+        let was = std::mem::replace(&mut self.driver.name, builtin.to_owned());
+        self.driver.library = None;
+        Some(format!(
+            "{source}={library} is Goby3's {builtin} driver library: running frontseat's built-in \
+             `{builtin}` driver (config's [driver] name was {was:?})"
+        ))
     }
 }
 
@@ -177,6 +203,19 @@ impl ServiceConfig for InterfaceConfig {
         self.limits.check("limits", &mut c);
         if let Some(m) = &self.moos {
             m.check("moos", &mut c);
+            // Goby3 has one warp for the interface and its MOOS side (moos_plugin_translator.cpp:56);
+            // two that differ would run the helm's clock apart from the vehicle's, silently.
+            if m.time_warp > 0.0 && m.time_warp != self.sim_warp_factor {
+                c.push(FieldError::new(
+                    "moos.time_warp",
+                    m.time_warp,
+                    format!(
+                        "differs from sim_warp_factor = {}: leave time_warp out (0) to follow it, \
+                         or set both to the MOOSDB's MOOSTimeWarp",
+                        self.sim_warp_factor
+                    ),
+                ));
+            }
         }
         self.interprocess.check("interprocess", &mut c);
         self.goby3.check("goby3", &mut c);
@@ -188,6 +227,13 @@ impl ServiceConfig for InterfaceConfig {
 
     fn warnings(&self) -> Vec<String> {
         self.web.warnings("web")
+    }
+
+    fn import_goby3(
+        text: &str,
+        file: &str,
+    ) -> Option<Result<crate::goby3_import::Imported, crate::ConfigError>> {
+        Some(crate::goby3_import::import_interface(text, file))
     }
 }
 

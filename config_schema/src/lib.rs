@@ -11,6 +11,7 @@ mod error;
 mod example;
 mod gateway;
 mod goby3;
+pub mod goby3_import;
 mod interface;
 mod sections;
 mod sim;
@@ -66,10 +67,68 @@ pub trait ServiceConfig: Serialize + DeserializeOwned + JsonSchema + Default {
     fn warnings(&self) -> Vec<String> {
         Vec::new()
     }
+
+    /// The Goby3 application's .pb.cfg of this service turned into our TOML, when there is one
+    /// (`interface`: goby_frontseat_interface, `moos-gateway`: goby_moos_gateway).
+    fn import_goby3(
+        _text: &str,
+        _file: &str,
+    ) -> Option<Result<goby3_import::Imported, ConfigError>> {
+        None
+    }
 }
 
-/// Read, parse and validate a config file.
+/// Read, parse and validate a config file: TOML, or a Goby3 `.pb.cfg` of the Goby3 application
+/// the service replaces. Returns the config and, for a .pb.cfg, the Goby3 fields it set that
+/// have no setting here (each named; the service logs them, `--check` prints them).
+pub fn load_with_notes<T: ServiceConfig>(path: &Path) -> Result<(T, Vec<String>), ConfigError> {
+    let file = path.display().to_string();
+    let text = read_text(path)?;
+    if goby3_import::is_goby3_file(&file) {
+        let imported = T::import_goby3(&text, &file).unwrap_or_else(|| {
+            Err(ConfigError::Parse {
+                file: file.clone(),
+                line: 0,
+                column: 0,
+                message: format!(
+                    "a Goby3 .pb.cfg, but `frontseat {}` has no Goby3 counterpart: use TOML",
+                    T::SERVICE
+                ),
+            })
+        })?;
+        let cfg = parse::<T>(&imported.toml, &format!("{file} (as imported)"))?;
+        return Ok((cfg, imported.warnings()));
+    }
+    Ok((parse(&text, &file)?, Vec::new()))
+}
+
+/// A Goby3 .pb.cfg of `T`'s Goby3 application as commented TOML (`--import-goby3`).
+pub fn import_goby3<T: ServiceConfig>(path: &Path) -> Result<goby3_import::Imported, ConfigError> {
+    let file = path.display().to_string();
+    let text = read_text(path)?;
+    let imported = T::import_goby3(&text, &file).unwrap_or_else(|| {
+        Err(ConfigError::Parse {
+            file: file.clone(),
+            line: 0,
+            column: 0,
+            message: format!(
+                "`frontseat {}` has no Goby3 counterpart to import",
+                T::SERVICE
+            ),
+        })
+    })?;
+    // What it prints must load: checked here, so a bad value is reported against the Goby3 file.
+    parse::<T>(&imported.toml, &format!("{file} (as imported)"))?;
+    Ok(imported)
+}
+
+/// Read, parse and validate a config file (TOML, or a Goby3 .pb.cfg: see [`load_with_notes`]).
 pub fn load<T: ServiceConfig>(path: &Path) -> Result<T, ConfigError> {
+    load_with_notes(path).map(|(cfg, _)| cfg)
+}
+
+/// A config file's text: bounded in size, UTF-8.
+fn read_text(path: &Path) -> Result<String, ConfigError> {
     let file = path.display().to_string();
     let io = |source| ConfigError::Io {
         file: file.clone(),
@@ -86,9 +145,8 @@ pub fn load<T: ServiceConfig>(path: &Path) -> Result<T, ConfigError> {
             format!("larger than {MAX_FILE_BYTES} bytes; not a config file"),
         )));
     }
-    let text = String::from_utf8(bytes)
-        .map_err(|e| io(std::io::Error::new(std::io::ErrorKind::InvalidData, e)))?;
-    parse(&text, &file)
+    String::from_utf8(bytes)
+        .map_err(|e| io(std::io::Error::new(std::io::ErrorKind::InvalidData, e)))
 }
 
 /// Parse and validate TOML text; `file_name` only labels the errors.

@@ -68,10 +68,11 @@ pub struct MoosConfig {
     pub community: String,
     /// Name this client registers under at the MOOSDB (Goby3's is iFrontSeat).
     pub app_name: String,
-    /// MOOSTimeWarp of the community: every MOOS timestamp is Unix time times this. Must match
-    /// the MOOSDB's. Unit: factor, greater than 0.
-    #[schemars(extend("exclusiveMinimum" = 0.0))]
-    #[schemars(range(max = 10000.0))]
+    /// MOOSTimeWarp of the community: every MOOS timestamp is Unix time times this; it must
+    /// match the MOOSDB's. 0 = the service's own warp (the interface's sim_warp_factor; 1 for the
+    /// gateway), as Goby3 runs both sides from one app.simulation.time.warp_factor; any other
+    /// value must equal sim_warp_factor in an interface config. Unit: factor, 0 or (0, 10000].
+    #[schemars(range(min = 0.0, max = 10000.0))]
     pub time_warp: f64,
     /// Report the helm as stale on our status group when no DESIRED_* has arrived for this long;
     /// 0 = never report. Unit: s.
@@ -86,18 +87,29 @@ impl Default for MoosConfig {
             port: 9000,
             community: String::new(),
             app_name: "iFrontSeat".into(),
-            time_warp: 1.0,
+            time_warp: 0.0,
             desired_timeout_s: 5.0,
         }
     }
 }
 
 impl MoosConfig {
+    /// This section with `time_warp = 0` resolved to the service's warp (`service_warp`).
+    pub fn with_warp(&self, service_warp: f64) -> Self {
+        let mut m = self.clone();
+        if m.time_warp == 0.0 {
+            m.time_warp = service_warp;
+        }
+        m
+    }
+
     pub(crate) fn check(&self, prefix: &str, c: &mut Checker) {
         c.non_empty(&at(prefix, "server"), &self.server);
         c.port(&at(prefix, "port"), self.port);
         c.non_empty(&at(prefix, "app_name"), &self.app_name);
-        c.positive_up_to(&at(prefix, "time_warp"), self.time_warp, crate::MAX_WARP);
+        if self.time_warp != 0.0 {
+            c.positive_up_to(&at(prefix, "time_warp"), self.time_warp, crate::MAX_WARP);
+        }
         c.non_negative(&at(prefix, "desired_timeout_s"), self.desired_timeout_s);
     }
 }

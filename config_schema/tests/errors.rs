@@ -259,10 +259,19 @@ fn interface_ranges_name_the_field() {
     );
     rejects::<I>("[moos]\nport = 0\n", "moos.port", "port 0");
     rejects::<I>(
-        "[moos]\ntime_warp = 0\n",
+        "[moos]\ntime_warp = -1\n",
         "moos.time_warp",
         "outside (0, 10000]",
     );
+    // One warp (Goby3's app.simulation.time.warp_factor): a MOOS warp that differs is refused,
+    // 0 (the default) follows sim_warp_factor.
+    rejects::<I>(
+        "sim_warp_factor = 10\n[moos]\ntime_warp = 1\n",
+        "moos.time_warp",
+        "differs from sim_warp_factor = 10",
+    );
+    assert!(parse::<I>("sim_warp_factor = 10\n[moos]\ntime_warp = 10\n", "c").is_ok());
+    assert!(parse::<I>("sim_warp_factor = 10\n[moos]\n", "c").is_ok());
     rejects::<I>(
         "[moos]\ndesired_timeout_s = -1\n",
         "moos.desired_timeout_s",

@@ -258,6 +258,9 @@ impl Service for GatewayHandle {
 
 /// Goby3's default platform name, used when neither `[interprocess] platform` nor `name` is set.
 pub const DEFAULT_PLATFORM: &str = "default_goby_platform";
+/// Goby3's application name of the interface, its gobyd client name by default
+/// (middleware/application/detail/interprocess_common.h:35-36: client_name defaults to app.name).
+pub const GOBY3_INTERFACE_APP: &str = "goby_frontseat_interface";
 
 /// The platform name: `[interprocess] platform`, else the vehicle name, else Goby3's default.
 pub fn resolve_platform(cfg: &InterprocessConfig, name: &str) -> Result<String, GatewayError> {

@@ -32,6 +32,27 @@ pub fn factory_with_env(
     cfg: &InterfaceConfig,
     env: &dyn Fn(&str) -> Option<String>,
 ) -> Result<DriverFactory, DriverSelectError> {
+    // A Goby3 driver library named by the environment or the config selects our built-in
+    // driver (normally already applied when the config was loaded; applied here too so every
+    // caller of the factory agrees with the service).
+    let mut resolved;
+    let mut cfg = cfg;
+    let env_library = env("FRONTSEAT_DRIVER_LIBRARY");
+    if frontseat_config::goby3_import::goby3_driver_for_library(
+        env_library.as_deref().unwrap_or(""),
+    )
+    .is_some()
+        || cfg
+            .driver
+            .library
+            .as_deref()
+            .and_then(frontseat_config::goby3_import::goby3_driver_for_library)
+            .is_some()
+    {
+        resolved = cfg.clone();
+        resolved.select_goby3_driver(env_library.as_deref());
+        cfg = &resolved;
+    }
     if let Some(settings) = plugin::PluginSettings::select(cfg, env)? {
         settings.preflight()?;
         return Ok(std::sync::Arc::new(move || {

@@ -67,9 +67,14 @@ impl PluginSettings {
         cfg: &InterfaceConfig,
         env: &dyn Fn(&str) -> Option<String>,
     ) -> Result<Option<Self>, PluginError> {
+        // One of Goby3's own driver libraries is not a plugin: it selects our built-in driver
+        // of that vehicle (InterfaceConfig::select_goby3_driver).
+        let is_goby3 =
+            |l: &String| frontseat_config::goby3_import::goby3_driver_for_library(l).is_some();
         let library = env("FRONTSEAT_DRIVER_LIBRARY")
             .filter(|s| !s.is_empty())
-            .or_else(|| cfg.driver.library.clone().filter(|s| !s.is_empty()));
+            .or_else(|| cfg.driver.library.clone().filter(|s| !s.is_empty()))
+            .filter(|l| !is_goby3(l));
         let Some(library) = library else {
             return Ok(None);
         };

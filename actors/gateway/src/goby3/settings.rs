@@ -44,7 +44,12 @@ impl Goby3Settings {
         Ok(Self {
             platform: platform.to_string(),
             transport,
-            client_name: cfg.client_name.clone(),
+            // Unresolved (see Goby3Config::with_client_name_for): the interface's Goby3 name.
+            client_name: if cfg.client_name.is_empty() {
+                cfg.health_name(crate::GOBY3_INTERFACE_APP).to_string()
+            } else {
+                cfg.client_name.clone()
+            },
             manager_timeout: secs(cfg.manager_timeout_seconds),
             settle: Duration::from_millis(cfg.settle_ms),
             reconnect_initial: Duration::from_millis(cfg.reconnect_initial_ms.max(1)),

@@ -1,0 +1,806 @@
+//! Goby3 `.pb.cfg` files as they are: a goby_frontseat_interface or goby_moos_gateway
+//! configuration (protobuf text format) read with Goby3's own field names and types, and turned
+//! into the equivalent TOML, one comment per field saying where it came from.
+//!
+//! The text is parsed against descriptors of Goby3's config messages (proto/goby3/, compiled by
+//! build.rs), so a misspelt field or a wrong enum name is an error as it is in Goby3. Every field
+//! the file sets is then either mapped to a TOML setting, or named in a note: ignored (a Goby3
+//! feature with no counterpart that cannot change what reaches the vehicle, e.g. the ncurses log
+//! GUI) or refused (a setting we cannot honour and must not pretend to). Nothing is dropped
+//! silently: a field no rule takes becomes an "ignored" note by name.
+//!
+//! Running a .pb.cfg is importing it and loading the TOML text, so what `--import-goby3` prints
+//! is exactly what runs.
+
+use std::collections::BTreeMap;
+use std::fmt::Write as _;
+use std::sync::OnceLock;
+
+use prost_reflect::{DescriptorPool, DynamicMessage, MessageDescriptor, ReflectMessage, Value};
+
+use crate::{ConfigError, FieldError};
+
+static DESCRIPTORS: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/goby3_config.bin"));
+
+/// Goby3's top-level config message of goby_frontseat_interface.
+pub const INTERFACE_MESSAGE: &str = "goby.apps.zeromq.protobuf.FrontSeatInterfaceConfig";
+/// Goby3's top-level config message of goby_moos_gateway.
+pub const GATEWAY_MESSAGE: &str = "goby.apps.moos.protobuf.GobyMOOSGatewayConfig";
+
+/// What became of one field of the .pb.cfg that has no setting of ours.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Note {
+    /// Goby3's dotted path, extensions in brackets (`app.glog_config.tty_verbosity`).
+    pub path: String,
+    /// The value as the file gave it.
+    pub value: String,
+    /// Why it has no setting here.
+    pub why: String,
+}
+
+/// A .pb.cfg turned into TOML: the text (it loads as the equivalent config) and the fields that
+/// have no setting of ours, named.
+#[derive(Debug, Clone)]
+pub struct Imported {
+    pub toml: String,
+    /// Set in the file, ignored here (no effect on what reaches the vehicle or the helm).
+    pub ignored: Vec<Note>,
+}
+
+impl Imported {
+    /// The ignored fields as warning lines (`--check` prints them, the service logs them).
+    pub fn warnings(&self) -> Vec<String> {
+        self.ignored
+            .iter()
+            .map(|n| format!("Goby3 field {} = {} ignored: {}", n.path, n.value, n.why))
+            .collect()
+    }
+}
+
+/// Whether `file` names a Goby3 protobuf-text config (`*.pb.cfg`, as Goby3's examples and
+/// launch files name them) rather than TOML.
+pub fn is_goby3_file(file: &str) -> bool {
+    file.ends_with(".pb.cfg")
+}
+
+/// Goby3's driver library names (`FRONTSEAT_DRIVER_LIBRARY=libgoby_frontseat_bluefin.so.30`, as
+/// a Goby3 unit file sets it) → our built-in driver of that vehicle. A path, a missing `lib`
+/// prefix and any `.so[.N…]` suffix are accepted; None for any other library (a plugin of ours).
+pub fn goby3_driver_for_library(library: &str) -> Option<&'static str> {
+    let file = library.rsplit('/').next().unwrap_or(library);
+    let file = file.strip_prefix("lib").unwrap_or(file);
+    let stem = file.split(".so").next().unwrap_or(file);
+    match stem {
+        "goby_frontseat_basic_simulator" => Some(crate::BASIC_SIMULATOR),
+        "goby_frontseat_bluefin" => Some(crate::BLUEFIN),
+        "goby_frontseat_iver" => Some(crate::IVER3),
+        "goby_frontseat_waveglider_sv2" => Some(crate::WAVEGLIDER_SV2),
+        _ => None,
+    }
+}
+
+fn pool() -> Result<&'static DescriptorPool, String> {
+    static POOL: OnceLock<Result<DescriptorPool, String>> = OnceLock::new();
+    POOL.get_or_init(|| DescriptorPool::decode(DESCRIPTORS).map_err(|e| e.to_string()))
+        .as_ref()
+        .map_err(Clone::clone)
+}
+
+fn descriptor(name: &str) -> Result<MessageDescriptor, String> {
+    pool()?
+        .get_message_by_name(name)
+        .ok_or_else(|| format!("no descriptor for {name}"))
+}
+
+/// Parses Goby3 text format against `message` (Goby3's rules: unknown fields and enum names
+/// are errors); the error names the file, line and column.
+pub fn parse_text(message: &str, text: &str, file: &str) -> Result<DynamicMessage, ConfigError> {
+    let internal = |message: String| ConfigError::Parse {
+        file: file.to_owned(),
+        line: 0,
+        column: 0,
+        message,
+    };
+    let desc = descriptor(message).map_err(internal)?;
+    DynamicMessage::parse_text_format(desc, text).map_err(|e| {
+        use miette::Diagnostic;
+        let offset = e
+            .labels()
+            .and_then(|mut l| l.next())
+            .map(|l| l.offset())
+            .unwrap_or(0);
+        let (line, column) = crate::line_column(text, offset).unwrap_or((0, 0));
+        ConfigError::Parse {
+            file: file.to_owned(),
+            line,
+            column,
+            message: format!("Goby3 config (protobuf text format): {e}"),
+        }
+    })
+}
+
+/// Every field the message sets, by Goby3 path: scalars and lists of scalars as leaves,
+/// singular sub-messages flattened, lists of messages (rpm_table) as one leaf.
+fn leaves(msg: &DynamicMessage, prefix: &str, out: &mut BTreeMap<String, Value>) {
+    let join = |name: &str| {
+        if prefix.is_empty() {
+            name.to_owned()
+        } else {
+            format!("{prefix}.{name}")
+        }
+    };
+    for (field, value) in msg.fields() {
+        match value {
+            Value::Message(m) => leaves(m, &join(field.name()), out),
+            v => {
+                out.insert(join(field.name()), v.clone());
+            }
+        }
+    }
+    for (ext, value) in msg.extensions() {
+        let path = join(&format!("[{}]", ext.full_name()));
+        match value {
+            Value::Message(m) => {
+                // A set but empty extension block still selects its driver.
+                out.insert(path.clone(), Value::Bool(true));
+                leaves(m, &path, out);
+            }
+            v => {
+                out.insert(path, v.clone());
+            }
+        }
+    }
+}
+
+/// Goby3's text for a value (notes and comments).
+fn goby_text(v: &Value, field_enum: Option<&prost_reflect::EnumDescriptor>) -> String {
+    match v {
+        Value::String(s) => format!("{s:?}"),
+        Value::EnumNumber(n) => field_enum
+            .and_then(|e| e.get_value(*n))
+            .map(|e| e.name().to_owned())
+            .unwrap_or_else(|| n.to_string()),
+        Value::List(l) => {
+            let items: Vec<String> = l.iter().map(|x| goby_text(x, field_enum)).collect();
+            format!("[{}]", items.join(", "))
+        }
+        Value::Message(m) => format!("{{ {} }}", m.to_text_format()),
+        Value::Bool(b) => b.to_string(),
+        Value::I32(x) => x.to_string(),
+        Value::I64(x) => x.to_string(),
+        Value::U32(x) => x.to_string(),
+        Value::U64(x) => x.to_string(),
+        Value::F32(x) => x.to_string(),
+        Value::F64(x) => x.to_string(),
+        other => format!("{other:?}"),
+    }
+}
+
+/// One TOML setting and the Goby3 field it came from.
+struct Setting {
+    key: String,
+    value: toml::Value,
+    from: String,
+}
+
+/// The import in progress: the fields still to place, the settings by table, the notes.
+struct Import {
+    left: BTreeMap<String, Value>,
+    /// Enum descriptors by path, for printing enum names.
+    enums: BTreeMap<String, prost_reflect::EnumDescriptor>,
+    tables: Vec<(String, Vec<Setting>)>,
+    ignored: Vec<Note>,
+    refused: Vec<FieldError>,
+}
+
+impl Import {
+    fn new(msg: &DynamicMessage) -> Self {
+        let mut left = BTreeMap::new();
+        leaves(msg, "", &mut left);
+        let mut enums = BTreeMap::new();
+        enum_fields(&msg.descriptor(), "", &mut enums, 0);
+        Self {
+            left,
+            enums,
+            tables: Vec::new(),
+            ignored: Vec::new(),
+            refused: Vec::new(),
+        }
+    }
+
+    fn text(&self, path: &str, v: &Value) -> String {
+        goby_text(v, self.enums.get(path))
+    }
+
+    /// Takes a field out of the ones still to place.
+    fn take(&mut self, path: &str) -> Option<Value> {
+        self.left.remove(path)
+    }
+
+    fn set(&mut self, table: &str, key: &str, value: toml::Value, from: impl Into<String>) {
+        let s = Setting {
+            key: key.to_owned(),
+            value,
+            from: from.into(),
+        };
+        match self.tables.iter_mut().find(|(t, _)| t == table) {
+            Some((_, list)) => {
+                list.retain(|x| x.key != key);
+                list.push(s);
+            }
+            None => self.tables.push((table.to_owned(), vec![s])),
+        }
+    }
+
+    /// Moves `goby` (when the file sets it) to `key` in `table`, converted by [`to_toml`].
+    fn map(&mut self, goby: &str, table: &str, key: &str) {
+        if let Some(v) = self.take(goby) {
+            match self.to_toml(goby, &v) {
+                Ok(t) => self.set(table, key, t, goby),
+                Err(why) => self.refuse(goby, &v, why),
+            }
+        }
+    }
+
+    /// Every field still to place under `goby_prefix.` moved to the same name in `table`
+    /// (Goby3's names are ours in the vehicle sections), sub-messages to sub-tables.
+    fn map_same_names(&mut self, goby_prefix: &str, table: &str) {
+        let p = format!("{goby_prefix}.");
+        let paths: Vec<String> = self
+            .left
+            .keys()
+            .filter(|k| k.starts_with(&p))
+            .cloned()
+            .collect();
+        for path in paths {
+            let rest = &path[p.len()..];
+            let (sub, key) = match rest.rsplit_once('.') {
+                Some((sub, key)) => (format!("{table}.{sub}"), key.to_owned()),
+                None => (table.to_owned(), rest.to_owned()),
+            };
+            self.map(&path, &sub, &key);
+        }
+    }
+
+    fn ignore(&mut self, goby: &str, why: &str) {
+        if let Some(v) = self.take(goby) {
+            let value = self.text(goby, &v);
+            self.ignored.push(Note {
+                path: goby.to_owned(),
+                value,
+                why: why.to_owned(),
+            });
+        }
+    }
+
+    /// Every field still to place under `goby_prefix` ignored for `why`.
+    fn ignore_all(&mut self, goby_prefix: &str, why: &str) {
+        let paths: Vec<String> = self
+            .left
+            .keys()
+            .filter(|k| *k == goby_prefix || k.starts_with(&format!("{goby_prefix}.")))
+            .cloned()
+            .collect();
+        for p in paths {
+            self.ignore(&p, why);
+        }
+    }
+
+    fn refuse(&mut self, goby: &str, v: &Value, why: String) {
+        let value = self.text(goby, v);
+        self.refused
+            .push(FieldError::new(format!("(Goby3) {goby}"), value, why));
+    }
+
+    fn to_toml(&self, path: &str, v: &Value) -> Result<toml::Value, String> {
+        Ok(match v {
+            Value::Bool(b) => toml::Value::Boolean(*b),
+            Value::I32(x) => toml::Value::Integer(i64::from(*x)),
+            Value::I64(x) => toml::Value::Integer(*x),
+            Value::U32(x) => toml::Value::Integer(i64::from(*x)),
+            Value::U64(x) => toml::Value::Integer(
+                i64::try_from(*x).map_err(|_| "too large for a TOML integer".to_owned())?,
+            ),
+            Value::F32(x) => float(f64::from(*x))?,
+            Value::F64(x) => float(*x)?,
+            Value::String(s) => toml::Value::String(s.clone()),
+            Value::EnumNumber(_) => toml::Value::String(self.text(path, v)),
+            Value::List(items) => toml::Value::Array(
+                items
+                    .iter()
+                    .map(|x| self.to_toml(path, x))
+                    .collect::<Result<_, _>>()?,
+            ),
+            Value::Message(m) => {
+                let mut t = toml::map::Map::new();
+                for (f, fv) in m.fields() {
+                    t.insert(f.name().to_owned(), self.to_toml(path, fv)?);
+                }
+                toml::Value::Table(t)
+            }
+            other => return Err(format!("unsupported value {other:?}")),
+        })
+    }
+
+    /// The TOML text: top-level settings first, then each table, every line commented with
+    /// its Goby3 field; the ignored fields listed at the end.
+    fn render(&self, header: &str) -> String {
+        let mut out = String::new();
+        let _ = writeln!(out, "{header}");
+        let mut tables: Vec<&(String, Vec<Setting>)> = self.tables.iter().collect();
+        // Top level first (TOML: keys after a [table] header belong to it).
+        tables.sort_by_key(|(t, _)| !t.is_empty());
+        for (table, settings) in tables {
+            if !table.is_empty() {
+                let _ = writeln!(out, "\n[{table}]");
+            }
+            for s in settings {
+                let _ = writeln!(out, "{} = {}  # {}", s.key, inline(&s.value), s.from);
+            }
+        }
+        if !self.ignored.is_empty() {
+            let _ = writeln!(
+                out,
+                "\n# Set in the Goby3 file, with no setting here (ignored, named so nothing is \
+                 dropped silently):"
+            );
+            for n in &self.ignored {
+                let _ = writeln!(out, "#   {} = {}: {}", n.path, n.value, n.why);
+            }
+        }
+        out
+    }
+}
+
+fn float(x: f64) -> Result<toml::Value, String> {
+    if x.is_finite() {
+        Ok(toml::Value::Float(x))
+    } else {
+        Err("not a finite number".to_owned())
+    }
+}
+
+/// A TOML value on one line (tables inline).
+fn inline(v: &toml::Value) -> String {
+    match v {
+        toml::Value::Table(t) => {
+            let items: Vec<String> = t
+                .iter()
+                .map(|(k, v)| format!("{k} = {}", inline(v)))
+                .collect();
+            format!("{{ {} }}", items.join(", "))
+        }
+        toml::Value::Array(a) => {
+            let items: Vec<String> = a.iter().map(inline).collect();
+            format!("[{}]", items.join(", "))
+        }
+        other => other.to_string(),
+    }
+}
+
+/// The enum type of every enum field, by Goby3 path (extensions included), for printing names.
+fn enum_fields(
+    desc: &MessageDescriptor,
+    prefix: &str,
+    out: &mut BTreeMap<String, prost_reflect::EnumDescriptor>,
+    depth: usize,
+) {
+    if depth > 8 {
+        return;
+    }
+    let join = |name: &str| {
+        if prefix.is_empty() {
+            name.to_owned()
+        } else {
+            format!("{prefix}.{name}")
+        }
+    };
+    for f in desc.fields() {
+        match f.kind() {
+            prost_reflect::Kind::Enum(e) => {
+                out.insert(join(f.name()), e);
+            }
+            prost_reflect::Kind::Message(m) => enum_fields(&m, &join(f.name()), out, depth + 1),
+            _ => {}
+        }
+    }
+    for ext in desc.extensions() {
+        let path = join(&format!("[{}]", ext.full_name()));
+        match ext.kind() {
+            prost_reflect::Kind::Enum(e) => {
+                out.insert(path, e);
+            }
+            prost_reflect::Kind::Message(m) => enum_fields(&m, &path, out, depth + 1),
+            _ => {}
+        }
+    }
+}
+
+const GLOG: &str = "Goby3's glog logger: our logs go to stderr through tracing (journald under \
+                    systemd; RUST_LOG=debug for more)";
+const ZMQ_TUNING: &str = "ZeroMQ tuning of Goby3's portal; ours has its own bounded queues";
+const BLUEFIN_EXT: &str = "[goby.middleware.frontseat.protobuf.bluefin_config]";
+const BASIC_EXT: &str = "[goby.middleware.frontseat.protobuf.basic_simulator_config]";
+const IVER_EXT: &str = "[goby.middleware.frontseat.protobuf.iver_config]";
+const SV2_EXT: &str = "[goby.middleware.frontseat.protobuf.waveglider_sv2_config]";
+const MOOS_HELM_EXT: &str = "[goby.moos.protobuf.moos_helm]";
+
+/// `app { }` and `interprocess { }`, shared by both applications. `goby3` is the TOML table the
+/// gobyd settings go to. Returns the app warp factor when the file sets it.
+fn import_app_and_interprocess(imp: &mut Import) -> Option<Value> {
+    imp.map("app.name", "goby3", "app_name");
+    imp.ignore_all("app.glog_config", GLOG);
+    imp.ignore(
+        "app.binary",
+        "set by Goby3's configurator, not by users (cfg action NEVER)",
+    );
+    imp.ignore(
+        "app.loop_frequency",
+        "our services are event-driven; there is no loop() to pace",
+    );
+    imp.ignore_all(
+        "app.health_cfg",
+        "health is answered by our goby_coroner responder ([goby3] app_name)",
+    );
+    imp.ignore_all("app.tool_cfg", "set by Goby3's tools only");
+    imp.ignore(
+        "app.load_shared_library",
+        "no DCCL/protobuf plugins are loaded: the frontseat messages are compiled in",
+    );
+    imp.ignore(
+        "app.debug_cfg",
+        "use `frontseat interface --import-goby3 FILE` to see the parsed config",
+    );
+    imp.ignore_all(
+        "app.intervehicle_cfg",
+        "no intervehicle (DCCL) layer in these services",
+    );
+    imp.ignore(
+        "app.simulation.time.reference_microtime",
+        "our sim clock warps from the process start",
+    );
+    imp.ignore(
+        "app.simulation.time.use_sim_time",
+        "the warp factor alone sets our simulated clock",
+    );
+    let warp = imp.take("app.simulation.time.warp_factor");
+    // Goby3 always joins gobyd: so does an imported config.
+    imp.set(
+        "goby3",
+        "enabled",
+        toml::Value::Boolean(true),
+        "Goby3 applications always join gobyd (interprocess)",
+    );
+    imp.map("interprocess.platform", "goby3", "platform");
+    imp.map("interprocess.transport", "goby3", "transport");
+    imp.map("interprocess.socket_name", "goby3", "socket_name");
+    imp.map("interprocess.ipv4_address", "goby3", "ip_address");
+    match imp.take("interprocess.ip_address") {
+        Some(Value::String(s)) if s.is_empty() => imp.ignored.push(Note {
+            path: "interprocess.ip_address".into(),
+            value: "\"\"".into(),
+            why: "empty: ipv4_address (or its default) is the manager's address".into(),
+        }),
+        Some(v) => {
+            if let Ok(t) = imp.to_toml("interprocess.ip_address", &v) {
+                imp.set("goby3", "ip_address", t, "interprocess.ip_address");
+            }
+        }
+        None => {}
+    }
+    imp.map("interprocess.tcp_port", "goby3", "tcp_port");
+    imp.map(
+        "interprocess.manager_timeout_seconds",
+        "goby3",
+        "manager_timeout_seconds",
+    );
+    imp.map("interprocess.client_name", "goby3", "client_name");
+    imp.ignore("interprocess.send_queue_size", ZMQ_TUNING);
+    imp.ignore("interprocess.receive_queue_size", ZMQ_TUNING);
+    imp.ignore("interprocess.zeromq_number_io_threads", ZMQ_TUNING);
+    warp
+}
+
+/// `moos { }` / the moos_helm extension at `goby` → `[moos]`.
+fn import_moos(imp: &mut Import, goby: &str) {
+    if imp.take(goby).is_some() || imp.left.keys().any(|k| k.starts_with(&format!("{goby}."))) {
+        // The block is present (even empty): the MOOS bridge runs, as in Goby3.
+        if !imp.tables.iter().any(|(t, _)| t == "moos") {
+            imp.tables.push(("moos".to_owned(), Vec::new()));
+        }
+    }
+    imp.map(&format!("{goby}.server"), "moos", "server");
+    imp.map(&format!("{goby}.port"), "moos", "port");
+    let binary = format!("{goby}.use_binary_protobuf");
+    if let Some(v) = imp.take(&binary) {
+        if v == Value::Bool(false) {
+            imp.ignored.push(Note {
+                path: binary,
+                value: "false".into(),
+                why: "the default, which is what we speak".into(),
+            });
+        } else {
+            imp.refuse(
+                &binary,
+                &v,
+                "only the text technique is spoken to pHelmIvP (TECHNIQUE_PREFIXED_PROTOBUF_TEXT_FORMAT)"
+                    .into(),
+            );
+        }
+    }
+    let technique = format!("{goby}.moos_parser_technique");
+    if let Some(v) = imp.take(&technique) {
+        let name = imp.text(&technique, &v);
+        if name == "TECHNIQUE_PREFIXED_PROTOBUF_TEXT_FORMAT" {
+            imp.ignored.push(Note {
+                path: technique,
+                value: name,
+                why: "the default, which is what we speak".into(),
+            });
+        } else {
+            imp.refuse(
+                &technique,
+                &v,
+                "only TECHNIQUE_PREFIXED_PROTOBUF_TEXT_FORMAT (Goby3's default) is spoken".into(),
+            );
+        }
+    }
+}
+
+/// Goby3's example configs print `""` for optional strings (`ntp_serial_port: ""`,
+/// `extra_bplog: ""`); an empty one configures nothing, so it is named and left out rather than
+/// becoming an empty serial port or an empty `$BPLOG,,ON`. Required strings stay, to be refused
+/// by validation when empty.
+fn drop_empty_strings(imp: &mut Import, prefix: &str) {
+    const OPTIONAL: [&str; 3] = ["ntp_serial_port", "extra_bplog", "name"];
+    let paths: Vec<String> = imp
+        .left
+        .keys()
+        .filter(|k| k.starts_with(prefix))
+        .filter(|k| OPTIONAL.iter().any(|o| k.ends_with(&format!(".{o}"))))
+        .cloned()
+        .collect();
+    for p in paths {
+        let empty = match imp.left.get(&p) {
+            Some(Value::String(s)) => s.is_empty(),
+            Some(Value::List(l)) => l.iter().all(|v| v.as_str() == Some("")),
+            _ => false,
+        };
+        if empty {
+            imp.ignore(&p, "empty: configures nothing, left out");
+        }
+    }
+}
+
+/// Whatever no rule placed: named, never dropped.
+fn finish_unplaced(imp: &mut Import) {
+    let rest: Vec<String> = imp.left.keys().cloned().collect();
+    for p in rest {
+        imp.ignore(&p, "no equivalent setting in frontseat");
+    }
+}
+
+fn result(imp: Import, file: &str, header: &str) -> Result<Imported, ConfigError> {
+    if !imp.refused.is_empty() {
+        return Err(ConfigError::Invalid {
+            file: file.to_owned(),
+            errors: imp.refused,
+        });
+    }
+    Ok(Imported {
+        toml: imp.render(header),
+        ignored: imp.ignored,
+    })
+}
+
+fn header(kind: &str, file: &str) -> String {
+    format!(
+        "# frontseat {kind} config imported from the Goby3 config {file}\n\
+         # Each setting names the Goby3 field it came from; fields with no setting here are\n\
+         # listed at the end. Anything not set keeps its default (`frontseat {kind} --example_config`)."
+    )
+}
+
+/// A goby_frontseat_interface .pb.cfg → the TOML of `frontseat interface`.
+pub fn import_interface(text: &str, file: &str) -> Result<Imported, ConfigError> {
+    let msg = parse_text(INTERFACE_MESSAGE, text, file)?;
+    let mut imp = Import::new(&msg);
+    let app_warp = import_app_and_interprocess(&mut imp);
+
+    let fs = "frontseat_cfg";
+    imp.map(&format!("{fs}.name"), "", "name");
+    imp.map(&format!("{fs}.type"), "", "type");
+    for key in [
+        "require_helm",
+        "helm_running_timeout",
+        "frontseat_connected_timeout",
+        "status_period",
+        "exit_on_error",
+    ] {
+        imp.map(&format!("{fs}.{key}"), "", key);
+    }
+    // One warp, as in Goby3 (app.simulation.time.warp_factor drives the interface's clock and
+    // the MOOS side; sim_warp_factor what the basic simulator is told): two different values
+    // cannot both hold here.
+    let sim_warp = imp.take(&format!("{fs}.sim_warp_factor"));
+    match (&app_warp, &sim_warp) {
+        (Some(a), Some(s)) if a != s => {
+            let why = format!(
+                "differs from app.simulation.time.warp_factor = {}: frontseat runs the interface, \
+                 the simulator and the MOOS side on one warp (sim_warp_factor); set them equal",
+                imp.text("", a)
+            );
+            imp.refuse(&format!("{fs}.sim_warp_factor"), s, why);
+        }
+        (Some(w), also) => {
+            let t = imp.to_toml("", w).unwrap_or(toml::Value::Integer(1));
+            let from = if also.is_some() {
+                format!("app.simulation.time.warp_factor and {fs}.sim_warp_factor")
+            } else {
+                "app.simulation.time.warp_factor".to_owned()
+            };
+            imp.set("", "sim_warp_factor", t, from);
+        }
+        (None, Some(w)) => {
+            let t = imp.to_toml("", w).unwrap_or(toml::Value::Integer(1));
+            imp.set("", "sim_warp_factor", t, format!("{fs}.sim_warp_factor"));
+        }
+        (None, None) => {}
+    }
+
+    // The datum: frontseat_cfg.origin, else app.geodesy (Goby3 apps take the datum from either).
+    let geodesy = (
+        imp.take("app.geodesy.lat_origin"),
+        imp.take("app.geodesy.lon_origin"),
+    );
+    let has_origin = imp.left.contains_key(&format!("{fs}.origin.lat"));
+    for key in ["lat", "lon", "depth"] {
+        imp.map(&format!("{fs}.origin.{key}"), "origin", key);
+    }
+    let alt = format!("{fs}.origin.altitude");
+    if let Some(v) = imp.take(&alt) {
+        match v {
+            // Goby3's default: unknown, which is ours when the key is left out.
+            Value::F64(x) if x.is_nan() => imp.ignored.push(Note {
+                path: alt.clone(),
+                value: "nan".into(),
+                why: "Goby3's \"unknown\", our default when origin.altitude is left out".into(),
+            }),
+            other => match imp.to_toml(&alt, &other) {
+                Ok(t) => imp.set("origin", "altitude", t, alt.clone()),
+                Err(why) => imp.refuse(&alt, &other, why),
+            },
+        }
+    }
+    if let (Some(lat), Some(lon)) = geodesy {
+        for (key, v, path) in [
+            ("lat", lat, "app.geodesy.lat_origin"),
+            ("lon", lon, "app.geodesy.lon_origin"),
+        ] {
+            if has_origin {
+                let ours = imp
+                    .tables
+                    .iter()
+                    .find(|(t, _)| t == "origin")
+                    .and_then(|(_, s)| s.iter().find(|s| s.key == key))
+                    .map(|s| s.value.clone());
+                let theirs = imp.to_toml(path, &v).ok();
+                if ours != theirs {
+                    imp.refuse(
+                        path,
+                        &v,
+                        format!("differs from frontseat_cfg.origin.{key}: one datum per vehicle"),
+                    );
+                }
+            } else {
+                match imp.to_toml(path, &v) {
+                    Ok(t) => imp.set("origin", key, t, path),
+                    Err(why) => imp.refuse(path, &v, why),
+                }
+            }
+        }
+    }
+
+    // The driver: its extension block names it (FRONTSEAT_DRIVER_LIBRARY may too, at start).
+    let drivers = [
+        (BLUEFIN_EXT, crate::BLUEFIN),
+        (BASIC_EXT, crate::BASIC_SIMULATOR),
+        (IVER_EXT, crate::IVER3),
+        (SV2_EXT, crate::WAVEGLIDER_SV2),
+    ];
+    let mut named = Vec::new();
+    for (ext, name) in drivers {
+        let path = format!("{fs}.{ext}");
+        if imp.take(&path).is_some() {
+            named.push((path.clone(), name));
+            drop_empty_strings(&mut imp, &path);
+            imp.map_same_names(&path, &format!("driver.{name}"));
+        }
+    }
+    match named.as_slice() {
+        [] => {}
+        [(path, name)] => imp.set(
+            "driver",
+            "name",
+            toml::Value::String((*name).to_owned()),
+            format!("{path} is present"),
+        ),
+        many => {
+            let list: Vec<&str> = many.iter().map(|(p, _)| p.as_str()).collect();
+            imp.refused.push(FieldError::new(
+                "(Goby3) frontseat_cfg",
+                list.join(", "),
+                "more than one driver's block: keep the one FRONTSEAT_DRIVER_LIBRARY loads",
+            ));
+        }
+    }
+    import_moos(&mut imp, MOOS_HELM_EXT);
+    finish_unplaced(&mut imp);
+    result(imp, file, &header("interface", file))
+}
+
+/// A goby_moos_gateway .pb.cfg → the TOML of `frontseat moos-gateway` (reaching the interface
+/// through gobyd, as Goby3's gateway does).
+pub fn import_gateway(text: &str, file: &str) -> Result<Imported, ConfigError> {
+    let msg = parse_text(GATEWAY_MESSAGE, text, file)?;
+    let mut imp = Import::new(&msg);
+    let warp = import_app_and_interprocess(&mut imp);
+    // The gateway reaches the interface through gobyd alone, as Goby3's does.
+    imp.set(
+        "interprocess",
+        "enabled",
+        toml::Value::Boolean(false),
+        "Goby3's gateway reaches the interface through gobyd only",
+    );
+    imp.tables.retain(|(t, _)| t != "moos");
+    imp.tables.push(("moos".to_owned(), Vec::new()));
+    import_moos(&mut imp, "moos");
+    if let Some(w) = warp {
+        match imp.to_toml("", &w) {
+            Ok(t) => imp.set("moos", "time_warp", t, "app.simulation.time.warp_factor"),
+            Err(why) => imp.refuse("app.simulation.time.warp_factor", &w, why),
+        }
+    }
+    imp.ignore(
+        "poll_frequency",
+        "the bridge is event-driven: MOOS mail is handled as it arrives",
+    );
+    finish_unplaced(&mut imp);
+    result(imp, file, &header("moos-gateway", file))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn goby3_library_names_select_our_built_in_drivers() {
+        for (lib, want) in [
+            ("libgoby_frontseat_bluefin.so.30", Some("bluefin")),
+            (
+                "/usr/lib/x86_64-linux-gnu/libgoby_frontseat_iver.so.30",
+                Some("iver3"),
+            ),
+            (
+                "libgoby_frontseat_waveglider_sv2.so",
+                Some("waveglider_sv2"),
+            ),
+            ("goby_frontseat_basic_simulator", Some("basic_simulator")),
+            (
+                "libgoby_frontseat_basic_simulator.so.30.1.2",
+                Some("basic_simulator"),
+            ),
+            ("/opt/lib/libmy_driver.so", None),
+            ("libgoby_frontseat_bluefinx.so", None),
+            ("", None),
+        ] {
+            assert_eq!(goby3_driver_for_library(lib), want, "{lib}");
+        }
+    }
+
+    #[test]
+    fn descriptors_decode_and_name_both_applications() {
+        assert!(descriptor(INTERFACE_MESSAGE).is_ok());
+        assert!(descriptor(GATEWAY_MESSAGE).is_ok());
+    }
+}

@@ -18,6 +18,7 @@ pub mod health;
 pub mod interface;
 pub mod link;
 pub mod metrics;
+pub mod nav_gate;
 pub mod ratelog;
 pub mod seawater;
 pub mod service_child;

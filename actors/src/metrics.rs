@@ -26,6 +26,8 @@ pub struct VehicleMetrics {
     pub setpoints_sent: AtomicU64,
     pub setpoints_refused: AtomicU64,
     pub nav_refused: AtomicU64,
+    /// Navigation fields dropped as out of bounds ([limits.navigation]).
+    pub nav_fields_dropped: AtomicU64,
     pub commands_gated: AtomicU64,
     pub bus_dropped: AtomicU64,
     pub driver_restarts: AtomicU64,
@@ -84,6 +86,7 @@ fn each_vehicle(mut f: impl FnMut(&[KeyValue], &VehicleMetrics)) {
 pub mod names {
     pub const NAV_RECEIVED: &str = "frontseat.nav.received";
     pub const NAV_REFUSED: &str = "frontseat.nav.refused";
+    pub const NAV_FIELDS_DROPPED: &str = "frontseat.nav.fields_dropped";
     pub const SETPOINTS_SENT: &str = "frontseat.setpoints.sent";
     pub const SETPOINTS_REFUSED: &str = "frontseat.setpoints.refused";
     pub const COMMANDS_GATED: &str = "frontseat.commands.gated";
@@ -101,7 +104,7 @@ type Field = fn(&VehicleMetrics) -> &AtomicU64;
 /// meter provider's life.
 /// `spans` says (exported, dropped) so far: the telemetry that installs these owns the counts.
 pub(crate) fn install(meter: &Meter, spans: fn() -> (u64, u64)) {
-    let per_vehicle: [(&'static str, &'static str, &'static str, Field); 7] = [
+    let per_vehicle: [(&'static str, &'static str, &'static str, Field); 8] = [
         (
             names::NAV_RECEIVED,
             "{message}",
@@ -113,6 +116,12 @@ pub(crate) fn install(meter: &Meter, spans: fn() -> (u64, u64)) {
             "{message}",
             "NodeStatus refused as insane",
             |m| &m.nav_refused,
+        ),
+        (
+            names::NAV_FIELDS_DROPPED,
+            "{field}",
+            "NodeStatus fields dropped as out of physical bounds",
+            |m| &m.nav_fields_dropped,
         ),
         (
             names::SETPOINTS_SENT,

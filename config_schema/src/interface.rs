@@ -730,6 +730,82 @@ pub struct LimitsConfig {
     /// Largest vertical rate either way. Unit: m/s.
     #[schemars(range(min = 0.0))]
     pub max_abs_z_rate: f64,
+    /// Physical bounds of the navigation coming back from the vehicle (`[limits.navigation]`).
+    pub navigation: NavLimitsConfig,
+}
+
+/// What navigation from the frontseat may say before it reaches the helm: physical bounds, wider
+/// than any vehicle, so that only an impossible value (a broken or hostile frontseat: speed
+/// 1e308) is caught. Position (latitude, longitude, local x/y), time, speed over ground, depth and
+/// z, and heading refuse the whole node_status (the helm keeps its last good NAV rather than
+/// steering by a stale value beside fresh ones); altitude, pitch, roll, the angular rates, course
+/// over ground and speed over water are dropped from it and the rest is published. Heading and
+/// course over ground are wrapped into [0, 360) when within ten turns, and refused past that.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields, default)]
+pub struct NavLimitsConfig {
+    /// Largest speed over ground or over water either way. Unit: m/s, greater than 0.
+    #[schemars(extend("exclusiveMinimum" = 0.0))]
+    pub max_abs_speed: f64,
+    /// Shallowest depth (negative: above the sea surface). Unit: m, positive down.
+    pub min_depth: f64,
+    /// Deepest depth. Unit: m, positive down.
+    pub max_depth: f64,
+    /// Highest altitude above the bottom. Unit: m, greater than 0.
+    #[schemars(extend("exclusiveMinimum" = 0.0))]
+    pub max_altitude: f64,
+    /// Largest pitch either way. Unit: degrees, 0 to 90.
+    #[schemars(range(min = 0.0, max = 90.0))]
+    pub max_abs_pitch: f64,
+    /// Largest roll either way. Unit: degrees, 0 to 180.
+    #[schemars(range(min = 0.0, max = 180.0))]
+    pub max_abs_roll: f64,
+    /// Largest roll, pitch or heading rate either way. Unit: degrees/s, greater than 0.
+    #[schemars(extend("exclusiveMinimum" = 0.0))]
+    pub max_abs_angular_rate: f64,
+}
+
+impl Default for NavLimitsConfig {
+    fn default() -> Self {
+        Self {
+            max_abs_speed: 50.0,
+            min_depth: -100.0,
+            max_depth: 11_000.0,
+            max_altitude: 11_000.0,
+            max_abs_pitch: 90.0,
+            max_abs_roll: 180.0,
+            max_abs_angular_rate: 1000.0,
+        }
+    }
+}
+
+impl NavLimitsConfig {
+    fn check(&self, prefix: &str, c: &mut Checker) {
+        c.positive(&at(prefix, "max_abs_speed"), self.max_abs_speed);
+        c.within(&at(prefix, "min_depth"), self.min_depth, -1.0e5, 1.0e5);
+        c.within(&at(prefix, "max_depth"), self.max_depth, -1.0e5, 1.0e5);
+        if self.min_depth.is_finite()
+            && self.max_depth.is_finite()
+            && self.min_depth > self.max_depth
+        {
+            c.push(FieldError::new(
+                at(prefix, "min_depth"),
+                self.min_depth,
+                format!(
+                    "greater than {} ({})",
+                    at(prefix, "max_depth"),
+                    self.max_depth
+                ),
+            ));
+        }
+        c.positive(&at(prefix, "max_altitude"), self.max_altitude);
+        c.within(&at(prefix, "max_abs_pitch"), self.max_abs_pitch, 0.0, 90.0);
+        c.within(&at(prefix, "max_abs_roll"), self.max_abs_roll, 0.0, 180.0);
+        c.positive(
+            &at(prefix, "max_abs_angular_rate"),
+            self.max_abs_angular_rate,
+        );
+    }
 }
 
 impl Default for LimitsConfig {
@@ -742,6 +818,7 @@ impl Default for LimitsConfig {
             max_abs_pitch: 45.0,
             max_abs_roll: 45.0,
             max_abs_z_rate: 2.0,
+            navigation: NavLimitsConfig::default(),
         }
     }
 }
@@ -769,6 +846,7 @@ impl LimitsConfig {
         c.within(&at(prefix, "max_abs_pitch"), self.max_abs_pitch, 0.0, 90.0);
         c.within(&at(prefix, "max_abs_roll"), self.max_abs_roll, 0.0, 180.0);
         c.non_negative(&at(prefix, "max_abs_z_rate"), self.max_abs_z_rate);
+        self.navigation.check(&at(prefix, "navigation"), c);
     }
 }
 

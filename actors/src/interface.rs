@@ -25,11 +25,12 @@ use crate::ports::{FrontSeatInterfaceInbox, FrontSeatInterfacePorts};
 use crate::proto::frontseat::protobuf::{InterfaceDetail, NavFieldCount};
 use crate::proto::goby::middleware::frontseat::protobuf::{
     CartesianCoordinate, CommandRequest, CommandResponse, DesiredCourse, FrontSeatError,
-    FrontSeatState, HelmError, InterfaceData, InterfaceState, InterfaceStatus, NodeStatus,
+    FrontSeatState, HelmError, InterfaceData, InterfaceState, InterfaceStatus, NodeStatus, Raw,
     VehicleType,
 };
 use crate::proto::goby::middleware::protobuf::LatLonPoint;
 use crate::ratelog::{LogDecision, RateLimitedLog, more, summary};
+use crate::raw_gate::{RawPolicy, check_raw, source_name, source_of};
 use crate::state_machine::{Inputs, StateMachine, StateMachineConfig, Transition, state_words};
 use frontseat_sim::geodesy::LocalGrid;
 
@@ -65,6 +66,8 @@ pub struct InterfaceSettings {
     pub limits: Limits,
     /// Physical bounds of navigation from the frontseat (`[limits.navigation]`).
     pub nav_limits: NavLimits,
+    /// Who may use raw_send_request and what one may carry (`[raw_send]`).
+    pub raw: RawPolicy,
 }
 
 impl InterfaceSettings {
@@ -93,6 +96,7 @@ impl InterfaceSettings {
             driver_name: cfg.driver.name.clone(),
             limits: Limits::from(&cfg.limits),
             nav_limits: NavLimits::from(&cfg.limits.navigation),
+            raw: RawPolicy::from_config(cfg),
         }
     }
 }
@@ -220,6 +224,9 @@ pub struct Snapshot {
     pub nav_fields_dropped: u64,
     /// Per field (index: [`NavField::index`]), how often it was out of bounds.
     pub nav_field_violations: [u64; NavField::COUNT],
+    /// raw_send_requests passed to the driver, and refused by the raw gate.
+    pub raw_sent: u64,
+    pub raw_refused: u64,
 }
 
 /// How long a running driver actor may go without handling its loop tick before the watchdog
@@ -238,6 +245,8 @@ struct Counters {
     nav_refused: u64,
     nav_fields_dropped: u64,
     nav_field_violations: [u64; NavField::COUNT],
+    raw_sent: u64,
+    raw_refused: u64,
 }
 
 pub struct FsiState {
@@ -261,6 +270,8 @@ pub struct FsiState {
     refused_log: RateLimitedLog,
     nav_log: RateLimitedLog,
     nav_drop_log: RateLimitedLog,
+    raw_log: RateLimitedLog,
+    raw_refused_log: RateLimitedLog,
     /// The detail's counters for the OTel metrics (crate::metrics): written here, read by the
     /// exporter.
     metrics: Arc<crate::metrics::VehicleMetrics>,
@@ -333,6 +344,8 @@ impl FsiState {
                 })
                 .collect(),
             nav_fields_dropped: Some(self.counters.nav_fields_dropped),
+            raw_sent: Some(self.counters.raw_sent),
+            raw_refused: Some(self.counters.raw_refused),
         };
         let detail = with_telemetry(detail, &self.metrics);
         self.ports.publish_detail(detail);
@@ -622,6 +635,56 @@ impl FsiState {
             .publish_iver_data_from_frontseat_with(Arc::new(data), env.meta());
     }
 
+    /// Goby3's raw backdoor, through the raw gate (raw_gate): one line or frame, from an allowed
+    /// source, in listen or command; every one counted and logged (rate-limited).
+    fn handle_raw_send(&mut self, env: Envelope<Raw>) {
+        let source = source_of(env.origin);
+        let checked = check_raw(&env.msg, source, &self.s.raw);
+        let raw = match checked {
+            Err(why) => {
+                self.counters.raw_refused += 1;
+                if let LogDecision::Log { suppressed_before } =
+                    self.raw_refused_log.decide_at(self.now())
+                {
+                    tracing::warn!(
+                        source = source_name(source),
+                        raw_refused_total = self.counters.raw_refused,
+                        "raw_send_request refused: {why}: {:?}{}",
+                        crate::telemetry::truncate(&String::from_utf8_lossy(
+                            env.msg.raw.as_deref().unwrap_or_default()
+                        )),
+                        more(
+                            suppressed_before,
+                            "refused raw sends",
+                            self.raw_refused_log.window()
+                        )
+                    );
+                }
+                return;
+            }
+            Ok(raw) => raw,
+        };
+        if !self.listen_or_command() {
+            self.counters.raw_gated += 1;
+            tracing::debug!("raw_send_request dropped: not in listen or command");
+            return;
+        }
+        self.counters.raw_sent += 1;
+        if let LogDecision::Log { suppressed_before } = self.raw_log.decide_at(self.now()) {
+            tracing::info!(
+                source = source_name(source),
+                raw_sent_total = self.counters.raw_sent,
+                "raw_send_request to the frontseat: {:?}{}",
+                crate::telemetry::truncate(&String::from_utf8_lossy(
+                    raw.raw.as_deref().unwrap_or_default()
+                )),
+                more(suppressed_before, "raw sends", self.raw_log.window())
+            );
+        }
+        self.ports
+            .publish_raw_send_request_with(Arc::new(raw), env.meta());
+    }
+
     /// Every answer a driver gives reaches the helm, whenever it comes, as in Goby3
     /// (frontseat_interface.cpp:205-208): a Bluefin "pending" and then its ack are two answers.
     /// The pending table only decides whether our own timeout still has to answer.
@@ -647,6 +710,22 @@ impl FsiState {
             tracing::warn!(
                 suppressed = n,
                 refused_total = self.counters.setpoints_refused,
+                "{line}"
+            );
+        }
+        if let Some(n) = self.raw_log.summary_due_at(now) {
+            let line = summary(n, "raw sends", self.raw_log.window());
+            tracing::info!(
+                suppressed = n,
+                raw_sent_total = self.counters.raw_sent,
+                "{line}"
+            );
+        }
+        if let Some(n) = self.raw_refused_log.summary_due_at(now) {
+            let line = summary(n, "refused raw sends", self.raw_refused_log.window());
+            tracing::warn!(
+                suppressed = n,
+                raw_refused_total = self.counters.raw_refused,
                 "{line}"
             );
         }
@@ -821,6 +900,8 @@ fn with_telemetry(mut d: InterfaceDetail, m: &crate::metrics::VehicleMetrics) ->
     M::set(&m.setpoints_refused, d.setpoints_refused());
     M::set(&m.nav_refused, d.nav_refused());
     M::set(&m.nav_fields_dropped, d.nav_fields_dropped());
+    M::set(&m.raw_sent, d.raw_sent());
+    M::set(&m.raw_refused, d.raw_refused());
     M::set(&m.commands_gated, d.commands_gated());
     M::set(&m.bus_dropped, d.bus_dropped());
     M::set(&m.driver_restarts, u64::from(d.driver_restarts()));
@@ -896,6 +977,8 @@ impl Actor for FrontSeatInterface {
             refused_log: RateLimitedLog::for_bad_input(),
             nav_log: RateLimitedLog::for_bad_input(),
             nav_drop_log: RateLimitedLog::for_bad_input(),
+            raw_log: RateLimitedLog::for_bad_input(),
+            raw_refused_log: RateLimitedLog::for_bad_input(),
             metrics: crate::metrics::register(&args.settings.name),
             shutting_down: false,
             exit: args.exit,
@@ -992,15 +1075,7 @@ impl FrontSeatInterface {
                         );
                     }
                 }
-                I::RawSendRequest(env) => {
-                    if st.listen_or_command() {
-                        st.ports
-                            .publish_raw_send_request_with(env.msg.clone(), env.meta());
-                    } else {
-                        st.counters.raw_gated += 1;
-                        tracing::debug!("raw_send_request dropped: not in listen or command");
-                    }
-                }
+                I::RawSendRequest(env) => st.handle_raw_send(env),
                 I::HelmState(env) => {
                     let helm = env.msg.state();
                     if helm != st.inputs.helm {
@@ -1107,6 +1182,8 @@ impl FrontSeatInterface {
                     nav_refused: st.counters.nav_refused,
                     nav_fields_dropped: st.counters.nav_fields_dropped,
                     nav_field_violations: st.counters.nav_field_violations,
+                    raw_sent: st.counters.raw_sent,
+                    raw_refused: st.counters.raw_refused,
                 });
             }
         }

@@ -20,6 +20,7 @@ pub mod link;
 pub mod metrics;
 pub mod nav_gate;
 pub mod ratelog;
+pub mod raw_gate;
 pub mod seawater;
 pub mod service_child;
 pub mod sim_glue;

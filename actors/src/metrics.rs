@@ -28,6 +28,9 @@ pub struct VehicleMetrics {
     pub nav_refused: AtomicU64,
     /// Navigation fields dropped as out of bounds ([limits.navigation]).
     pub nav_fields_dropped: AtomicU64,
+    /// raw_send_request passed to the driver, and refused by the raw gate.
+    pub raw_sent: AtomicU64,
+    pub raw_refused: AtomicU64,
     pub commands_gated: AtomicU64,
     pub bus_dropped: AtomicU64,
     pub driver_restarts: AtomicU64,
@@ -87,6 +90,8 @@ pub mod names {
     pub const NAV_RECEIVED: &str = "frontseat.nav.received";
     pub const NAV_REFUSED: &str = "frontseat.nav.refused";
     pub const NAV_FIELDS_DROPPED: &str = "frontseat.nav.fields_dropped";
+    pub const RAW_SENT: &str = "frontseat.raw.sent";
+    pub const RAW_REFUSED: &str = "frontseat.raw.refused";
     pub const SETPOINTS_SENT: &str = "frontseat.setpoints.sent";
     pub const SETPOINTS_REFUSED: &str = "frontseat.setpoints.refused";
     pub const COMMANDS_GATED: &str = "frontseat.commands.gated";
@@ -104,7 +109,7 @@ type Field = fn(&VehicleMetrics) -> &AtomicU64;
 /// meter provider's life.
 /// `spans` says (exported, dropped) so far: the telemetry that installs these owns the counts.
 pub(crate) fn install(meter: &Meter, spans: fn() -> (u64, u64)) {
-    let per_vehicle: [(&'static str, &'static str, &'static str, Field); 8] = [
+    let per_vehicle: [(&'static str, &'static str, &'static str, Field); 10] = [
         (
             names::NAV_RECEIVED,
             "{message}",
@@ -122,6 +127,18 @@ pub(crate) fn install(meter: &Meter, spans: fn() -> (u64, u64)) {
             "{field}",
             "NodeStatus fields dropped as out of physical bounds",
             |m| &m.nav_fields_dropped,
+        ),
+        (
+            names::RAW_SENT,
+            "{message}",
+            "raw_send_request passed to the driver",
+            |m| &m.raw_sent,
+        ),
+        (
+            names::RAW_REFUSED,
+            "{message}",
+            "raw_send_request refused (source, terminator, size)",
+            |m| &m.raw_refused,
         ),
         (
             names::SETPOINTS_SENT,

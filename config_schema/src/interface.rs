@@ -119,6 +119,8 @@ pub struct InterfaceConfig {
     pub supervision: SupervisionConfig,
     /// The safety envelope: a setpoint outside it never reaches the frontseat.
     pub limits: LimitsConfig,
+    /// Goby3's debugging backdoor `raw_send_request`: who may use it and how much one may carry.
+    pub raw_send: RawSendConfig,
     /// Bridge to pHelmIvP on a MOOSDB. Absent = no MOOS bridge; an empty [moos] table enables it
     /// with the defaults shown.
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -153,6 +155,7 @@ impl Default for InterfaceConfig {
             driver: DriverConfig::default(),
             supervision: SupervisionConfig::default(),
             limits: LimitsConfig::default(),
+            raw_send: RawSendConfig::default(),
             moos: None,
             interprocess: InterprocessConfig::default(),
             goby3: Goby3Config::default(),
@@ -201,6 +204,7 @@ impl ServiceConfig for InterfaceConfig {
         self.driver.check("driver", &mut c);
         self.supervision.check("supervision", &mut c);
         self.limits.check("limits", &mut c);
+        self.raw_send.check("raw_send", &mut c);
         if let Some(m) = &self.moos {
             m.check("moos", &mut c);
             // Goby3 has one warp for the interface and its MOOS side (moos_plugin_translator.cpp:56);
@@ -847,6 +851,59 @@ impl LimitsConfig {
         c.within(&at(prefix, "max_abs_roll"), self.max_abs_roll, 0.0, 180.0);
         c.non_negative(&at(prefix, "max_abs_z_rate"), self.max_abs_z_rate);
         self.navigation.check(&at(prefix, "navigation"), c);
+    }
+}
+
+/// Where a `raw_send_request` came from, as the interface tells them apart.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum RawSource {
+    /// Published in this process (the demo helm, the chaos harness, an in-process plugin).
+    Local,
+    /// A Goby3 application through gobyd (`[goby3]`).
+    Goby3,
+    /// Another process or host over Zenoh (`[interprocess]`).
+    Zenoh,
+    /// The web commander (`[web]`).
+    Web,
+}
+
+/// `raw_send_request` bypasses the safety envelope: its bytes go to the vehicle as they are. It
+/// is kept because Goby3 has it (and Goby3 applications use it for vehicle sentences the
+/// interface does not model), but bounded: one raw message is exactly one line (or, for a driver
+/// with a binary protocol, one frame) — an embedded CR or LF is refused, so one request cannot
+/// become two commands —, at most `max_bytes`, and only from the `sources` listed. Every raw send
+/// accepted or refused is counted (`raw_sent`, `raw_refused` in the detail status) and logged.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields, default)]
+pub struct RawSendConfig {
+    /// Who may send raw: any of "local", "goby3", "zenoh", "web"; empty = raw sends refused.
+    /// Default: local and goby3 — in-process code, and Goby3 applications as in Goby3; the web
+    /// commander and Zenoh, reachable from the network and new in frontseat, must be named.
+    pub sources: Vec<RawSource>,
+    /// Largest raw message, terminator excluded. Unit: bytes, 1 to 65536.
+    #[schemars(range(min = 1, max = 65536))]
+    pub max_bytes: usize,
+}
+
+impl Default for RawSendConfig {
+    fn default() -> Self {
+        Self {
+            sources: vec![RawSource::Local, RawSource::Goby3],
+            max_bytes: 512,
+        }
+    }
+}
+
+impl RawSendConfig {
+    fn check(&self, prefix: &str, c: &mut Checker) {
+        if !(1..=65536).contains(&self.max_bytes) {
+            c.push(FieldError::new(
+                at(prefix, "max_bytes"),
+                self.max_bytes,
+                "outside [1, 65536]",
+            ));
+        }
     }
 }
 

@@ -73,6 +73,18 @@ pub fn bad_lines() -> u64 {
     BAD_LINES.load(Ordering::Relaxed)
 }
 
+/// Times a helm-side child of a supervisor went down (failed or stopped), for the whole process:
+/// each is a period of running degraded.
+static HELM_SIDE_DOWN: AtomicU64 = AtomicU64::new(0);
+
+pub fn helm_side_down() {
+    HELM_SIDE_DOWN.fetch_add(1, Ordering::Relaxed);
+}
+
+pub fn helm_side_downs() -> u64 {
+    HELM_SIDE_DOWN.load(Ordering::Relaxed)
+}
+
 fn each_vehicle(mut f: impl FnMut(&[KeyValue], &VehicleMetrics)) {
     let live: Vec<(String, Arc<VehicleMetrics>)> = {
         let v = VEHICLES.lock().unwrap_or_else(|p| p.into_inner());
@@ -99,6 +111,7 @@ pub mod names {
     pub const DRIVER_RESTARTS: &str = "frontseat.driver.restarts";
     pub const STATE: &str = "frontseat.interface.state";
     pub const BAD_LINES: &str = "frontseat.bad_lines";
+    pub const HELM_SIDE_DOWN: &str = "frontseat.supervision.helm_side_down";
     pub const SPANS_EXPORTED: &str = "frontseat.spans.exported";
     pub const SPANS_DROPPED: &str = "frontseat.spans.dropped";
 }
@@ -203,6 +216,14 @@ pub(crate) fn install(meter: &Meter, spans: fn() -> (u64, u64)) {
         .with_unit("{line}")
         .with_description("lines from the frontseat no driver could use")
         .with_callback(|obs| obs.observe(bad_lines(), &[]))
+        .build();
+    meter
+        .u64_observable_counter(names::HELM_SIDE_DOWN)
+        .with_unit("{event}")
+        .with_description(
+            "helm-side actors gone down (each a degraded period; restarted without end)",
+        )
+        .with_callback(|obs| obs.observe(helm_side_downs(), &[]))
         .build();
     meter
         .u64_observable_counter(names::SPANS_EXPORTED)

@@ -166,7 +166,10 @@ impl BasicSimulatorDriver {
             }
             "CMD" => {
                 let ok = field(fields, "RESULT") == Some("OK");
-                if let Some(req) = &self.last_request
+                // One answer per request: a further CMD,RESULT (a resumed vehicle repeating
+                // itself, a result of a course sent without response_requested) must not answer
+                // the same request again now that the interface forwards every driver answer.
+                if let Some(req) = self.last_request.take()
                     && req.response_requested()
                 {
                     sig.command_response(CommandResponse {
@@ -493,6 +496,8 @@ mod tests {
         assert_eq!(sink.responses.len(), 1);
         assert_eq!(sink.responses[0].request_successful, Some(true));
         assert_eq!(sink.responses[0].request_id, Some(7));
+        d.handle_io(DriverIoEvent::Line("CMD,RESULT:OK".into()), now, &mut sink);
+        assert_eq!(sink.responses.len(), 1, "a request is answered once");
         req.response_requested = Some(false);
         d.send_command_to_frontseat(&req, now, &mut sink);
         d.handle_io(

@@ -191,7 +191,7 @@ async fn a_goby3_helm_commands_the_interface_through_gobyd_beside_a_zenoh_topsid
     loop {
         match timeout_at(deadline, nav.recv()).await {
             Ok(Some(n)) if heading_near(n.msg.pose.heading(), 90.0, 5.0) => {
-                assert_eq!(n.origin, Origin::Imported);
+                assert_eq!(n.origin, Origin::Goby3);
                 break;
             }
             Ok(Some(_)) => {}

@@ -69,12 +69,34 @@ impl<T: prost::Message + Default + Clone + Send + Sync + 'static> BusMessage for
 pub use crate::telemetry::TraceContext;
 
 /// Whether a message was published in this process or imported from another (so the gateway
-/// does not export it again).
+/// does not export it again), and through which door (so the interface can decide who may use
+/// `raw_send_request`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
 pub enum Origin {
     #[default]
     Local,
+    /// From another process over Zenoh.
     Imported,
+    /// From a Goby3 application through gobyd.
+    Goby3,
+    /// Published in this process by the web commander on behalf of a browser.
+    Web,
+}
+
+impl Origin {
+    /// Came from another process (and so is not exported again).
+    pub fn is_imported(self) -> bool {
+        matches!(self, Origin::Imported | Origin::Goby3)
+    }
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Origin::Local => "local",
+            Origin::Imported => "zenoh",
+            Origin::Goby3 => "goby3",
+            Origin::Web => "web",
+        }
+    }
 }
 
 #[derive(Clone, Debug, Default)]

@@ -36,9 +36,9 @@ pub use interface::{
     ARDUPILOT, AcceptingCommandsHook, BASIC_SIMULATOR, BLUEFIN, BUILT_IN_DRIVERS,
     BasicSimulatorConfig, BluefinConfig, BusConfig, ChaosConfig, DriverConfig, FlowControlConfig,
     FrontSeatStateName, IVER3, InterfaceConfig, Iver3Config, IverModeAssignments, LimitsConfig,
-    MAX_QUEUE_CAPACITY, ParityConfig, RestartConfig, RestartPolicy, RpmTableEntry, SimStartConfig,
-    SimVehicleConfig, SupervisionConfig, TransportKind, VehicleLinkConfig, VehicleType,
-    WAVEGLIDER_SV2, WavegliderSv2Config,
+    MAX_QUEUE_CAPACITY, NavLimitsConfig, ParityConfig, RawSendConfig, RawSource, RestartConfig,
+    RestartPolicy, RpmTableEntry, SimStartConfig, SimVehicleConfig, SupervisionConfig,
+    TransportKind, VehicleLinkConfig, VehicleType, WAVEGLIDER_SV2, WavegliderSv2Config,
 };
 pub use sections::{
     DEFAULT_MAX_EXPORT_BATCH_SIZE, DEFAULT_MAX_QUEUE_SIZE, DEFAULT_METRICS_INTERVAL_S,

@@ -519,6 +519,8 @@ mod tests {
         assert_eq!(sink.responses.len(), 1);
         assert_eq!(sink.responses[0].request_successful, Some(true));
         assert_eq!(sink.responses[0].request_id, Some(7));
+        d.handle_io(DriverIoEvent::Line("CMD,RESULT:OK".into()), now, &mut sink);
+        assert_eq!(sink.responses.len(), 1, "a request is answered once");
         req.response_requested = Some(false);
         d.send_command_to_frontseat(&req, now, &mut sink);
         d.handle_io(

@@ -1226,7 +1226,9 @@ pub async fn run(
                     chaos: Some(panic.clone()),
                     observer: bridge.clone(),
                 },
-                (&config.supervision.translation).into(),
+                // The helm side, as in `frontseat interface`: restarted without end.
+                frontseat_actors::supervisor::Policy::from(&config.supervision.translation)
+                    .helm_side(),
             )],
             Some(&bus),
         )

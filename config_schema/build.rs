@@ -5,6 +5,7 @@ use prost::Message;
 
 fn main() {
     println!("cargo:rerun-if-changed=proto/goby3");
+    println!("cargo:rerun-if-changed=../interface_yaml/proto");
     let files = [
         "app_config.proto",
         "middleware_app.proto",
@@ -14,7 +15,7 @@ fn main() {
         "moos.proto",
         "moos_helm.proto",
     ];
-    let fds = match protox::compile(files, ["proto/goby3"]) {
+    let fds = match protox::compile(files, ["proto/goby3", "../interface_yaml/proto"]) {
         Ok(f) => f,
         Err(e) => panic!("proto/goby3 does not compile: {e}"),
     };

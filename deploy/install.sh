@@ -4,12 +4,15 @@
 # config is never overwritten). Every file placed is listed in a manifest that uninstall.sh reads.
 #
 #   deploy/install.sh [--binary PATH] [--prefix DIR] [--destdir DIR] [--enable] [--no-systemctl]
+#                     [--goby3-names]
 #
 #   --binary PATH   install this binary instead of building one with `cargo install --path .`
 #   --prefix DIR    where bin/ and share/ go (default /usr/local; the units are rewritten to match)
 #   --destdir DIR   stage everything under DIR (packaging, tests): no user, no chown, no systemctl
 #   --enable        also `systemctl enable --now frontseat-interface.service`
 #   --no-systemctl  do not create the user or run systemctl even when installing for real
+#   --goby3-names   also link goby_frontseat_interface and goby_moos_gateway to frontseat in
+#                   bin/, so a Goby3 unit file runs us unchanged (never over a real Goby3 binary)
 # The environment variables DESTDIR, PREFIX and FRONTSEAT_BINARY do the same as the options.
 set -euo pipefail
 
@@ -20,6 +23,7 @@ prefix="${PREFIX:-/usr/local}"
 binary="${FRONTSEAT_BINARY:-}"
 enable=0
 system_actions=1
+goby3_names=0
 
 die() { echo "install.sh: $*" >&2; exit 2; }
 
@@ -30,7 +34,8 @@ while [ $# -gt 0 ]; do
     --destdir) [ $# -ge 2 ] || die "--destdir needs a directory"; destdir="$2"; shift 2 ;;
     --enable) enable=1; shift ;;
     --no-systemctl) system_actions=0; shift ;;
-    -h|--help) sed -n '2,13p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    --goby3-names) goby3_names=1; shift ;;
+    -h|--help) sed -n '2,16p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
     *) die "unknown argument: $1 (see --help)" ;;
   esac
 done
@@ -87,6 +92,19 @@ place() { # place MODE SOURCE TARGET (TARGET without DESTDIR)
 
 echo "installing into ${destdir:-/} (prefix $prefix)"
 place 0755 "$binary" "$bindir/frontseat"
+
+if [ "$goby3_names" = 1 ]; then
+  # Named so, the binary is that Goby3 application (it takes the .pb.cfg as Goby3 does).
+  for name in goby_frontseat_interface goby_moos_gateway; do
+    link="$destdir$bindir/$name"
+    if [ -e "$link" ] && [ "$(readlink "$link" || true)" != frontseat ]; then
+      die "$bindir/$name exists and is not our link (Goby3's own binary?): left alone; remove it first"
+    fi
+    ln -sfn frontseat "$link"
+    record "file $bindir/$name"
+    echo "  $bindir/$name -> frontseat"
+  done
+fi
 
 for unit in "$here"/systemd/*.service; do
   # The units name /usr/local; follow the prefix.

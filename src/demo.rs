@@ -98,7 +98,11 @@ pub async fn run(args: DemoArgs) -> ExitCode {
     let mut children = Vec::new();
     let mut huxley = None;
     let vehicle_addr = match args.vehicle {
-        VehicleKind::Basic | VehicleKind::Iver3 | VehicleKind::WavegliderSv2 => {
+        // ArduPilot is flown by vehicle_sim::run_demo (main picks); the basic simulator stands in.
+        VehicleKind::Basic
+        | VehicleKind::Iver3
+        | VehicleKind::WavegliderSv2
+        | VehicleKind::Ardupilot => {
             let sim = match SimServer::bind(loopback, SimOptions::default()).await {
                 Ok(s) => s,
                 Err(e) => {

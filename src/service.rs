@@ -9,7 +9,7 @@ use std::time::Duration;
 use frontseat_actors::bus::Bus;
 use frontseat_actors::interface::{InterfaceService, ServiceExit};
 use frontseat_actors::service_child::{BoxFuture, Service, service_child_with};
-use frontseat_actors::supervisor::{ChildFailure, ChildSpec, SupervisorHandle};
+use frontseat_actors::supervisor::{ChildFailure, ChildSpec, Policy, SupervisorHandle};
 use frontseat_config::{FaultKind, InterfaceConfig, SimConfig};
 use frontseat_sim::{CtrlState, Fault, ScheduledFault, SimHandle, SimOptions, SimServer};
 
@@ -21,6 +21,10 @@ pub use crate::shutdown::{SHUTDOWN_BOUND, exit_code, shutdown_signal};
 /// reverse order): the gateways first, so that the interface's first statuses are already
 /// exported and its last ones still are; then the FrontSeatInterface (with its DriverActor), the
 /// FrontSeatTranslation and the web scope.
+///
+/// Only the FrontSeatInterface is on the vehicle side (its restart limit, its driver's and
+/// exit_on_error end the process). Every other child is on the helm side: restarted without end,
+/// so that no helm fault, however often it repeats, ends the process and with it the vehicle link.
 pub fn interface_children(
     config: &InterfaceConfig,
     bus: &Bus,
@@ -32,7 +36,7 @@ pub fn interface_children(
     if config.interprocess.enabled {
         children.push(service_child_with(
             "ZenohGateway",
-            (&sup.zenoh).into(),
+            Policy::from(&sup.zenoh).helm_side(),
             ctx.clone(),
             |(cfg, bus)| async move {
                 match crate::gateway_cmd::start_for_interface(&cfg, &bus).await {
@@ -44,10 +48,10 @@ pub fn interface_children(
         ));
     }
     // First of the rest, so that its first answer already knows every child.
-    children.push(crate::gateway_cmd::health_child(
-        config.goby3.health_name("goby_frontseat_interface"),
-        bus,
-    ));
+    let mut health =
+        crate::gateway_cmd::health_child(config.goby3.health_name("goby_frontseat_interface"), bus);
+    health.policy = health.policy.helm_side();
+    children.push(health);
     if config.goby3.enabled {
         children.push(crate::gateway_cmd::goby3_child(
             &config
@@ -56,7 +60,7 @@ pub fn interface_children(
             &config.name,
             bus,
             crate::gateway_cmd::interface_actors(config),
-            (&sup.goby3).into(),
+            Policy::from(&sup.goby3).helm_side(),
         ));
     }
     children.push(service_child_with(
@@ -80,13 +84,13 @@ pub fn interface_children(
                 chaos: None,
                 observer: Default::default(),
             },
-            (&sup.translation).into(),
+            Policy::from(&sup.translation).helm_side(),
         ));
     }
     if config.web.enabled {
         children.push(service_child_with(
             "WebScope",
-            (&sup.web).into(),
+            Policy::from(&sup.web).helm_side(),
             ctx,
             |(cfg, bus)| async move {
                 frontseat_web::WebService::start(&cfg, &bus)

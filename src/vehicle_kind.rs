@@ -16,4 +16,6 @@ pub enum VehicleKind {
     WavegliderSv2,
     /// Bluefin Huxley payload NMEA over TCP (port 29500 unless `--port`; see bluefin_sim.rs).
     Bluefin,
+    /// ArduPilot Rover (motorboat) over MAVLink 2.
+    Ardupilot,
 }

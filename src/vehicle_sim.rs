@@ -1,6 +1,7 @@
-//! `frontseat sim --vehicle iver3|waveglider_sv2` (a vehicle emulator on a pseudo-terminal or a
-//! loopback TCP port) and `frontseat demo --vehicle …` (the homework path flown through the real
-//! driver over a real pty). The emulators themselves live in `frontseat_sim`.
+//! `frontseat sim --vehicle iver3|waveglider_sv2|ardupilot` (a vehicle emulator on a
+//! pseudo-terminal or a loopback TCP port) and `frontseat demo --vehicle …` (the homework path
+//! flown through the real driver over a real pty, or loopback TCP for ArduPilot). The emulators
+//! themselves live in `frontseat_sim` and `frontseat_ardupilot`.
 
 use std::io::{IsTerminal, Write};
 use std::net::SocketAddr;
@@ -10,6 +11,7 @@ use clap::ValueEnum;
 use frontseat_actors::bus::Bus;
 use frontseat_actors::clock::SimClock;
 use frontseat_actors::interface::InterfaceService;
+use frontseat_ardupilot::emulator::{RoverOptions, RoverSession};
 use frontseat_config::InterfaceConfig;
 use frontseat_demo_helm::{self as demo_helm, DemoParams};
 use frontseat_sim::emulator::{Emulator, Endpoint};
@@ -45,6 +47,7 @@ pub struct EmulatorArgs {
 enum Running {
     Iver(Emulator<IverSession>),
     Sv2(Emulator<Sv2Session>),
+    Rover(Emulator<RoverSession>),
 }
 
 impl Running {
@@ -52,6 +55,7 @@ impl Running {
         let (p, a) = match self {
             Running::Iver(e) => (e.pty_path().map(|p| p.display().to_string()), e.tcp_addr()),
             Running::Sv2(e) => (e.pty_path().map(|p| p.display().to_string()), e.tcp_addr()),
+            Running::Rover(e) => (e.pty_path().map(|p| p.display().to_string()), e.tcp_addr()),
         };
         p.or(a.map(|a| a.to_string())).unwrap_or_default()
     }
@@ -78,6 +82,18 @@ async fn start(
                     lat: origin.0,
                     lon: origin.1,
                     remote_helm_version_major: rh,
+                    ..Default::default()
+                }),
+                endpoint,
+                warp,
+            )
+            .await?,
+        ),
+        VehicleKind::Ardupilot => Running::Rover(
+            Emulator::start(
+                RoverSession::new(RoverOptions {
+                    lat: origin.0,
+                    lon: origin.1,
                     ..Default::default()
                 }),
                 endpoint,
@@ -163,7 +179,13 @@ pub async fn run_demo(args: DemoArgs, kind: VehicleKind) -> ExitCode {
         ..Default::default()
     };
     let origin = (cfg.origin.lat, cfg.origin.lon);
-    let running = match start(kind, Endpoint::Pty, args.warp, 5, params.speed, origin).await {
+    // ArduPilot speaks MAVLink over TCP as SITL does; the serial vehicles use a pty.
+    let endpoint = if kind == VehicleKind::Ardupilot {
+        Endpoint::Tcp(SocketAddr::from(([127, 0, 0, 1], 0)))
+    } else {
+        Endpoint::Pty
+    };
+    let running = match start(kind, endpoint, args.warp, 5, params.speed, origin).await {
         Ok(r) => r,
         Err(e) => {
             eprintln!("cannot start the emulator on a pseudo-terminal: {e}");
@@ -182,6 +204,12 @@ pub async fn run_demo(args: DemoArgs, kind: VehicleKind) -> ExitCode {
             cfg.driver.waveglider_sv2.pm_serial_port = path.clone();
             // The glider's own position is the only navigation this demo has.
             cfg.driver.waveglider_sv2.publish_navigation = true;
+        }
+        VehicleKind::Ardupilot => {
+            cfg.driver.name = frontseat_config::ARDUPILOT.into();
+            cfg.driver.ardupilot.address = format!("tcpout:{path}");
+            // The demo plays the pilot too: it arms and selects GUIDED through the extension.
+            cfg.driver.ardupilot.allow_mode_commands = true;
         }
         // Never reached: `start` refuses Bluefin, and demo.rs flies it itself.
         VehicleKind::Bluefin => {}
@@ -209,8 +237,12 @@ pub async fn run_demo(args: DemoArgs, kind: VehicleKind) -> ExitCode {
             return ExitCode::from(1);
         }
     };
+    let pilot = (kind == VehicleKind::Ardupilot).then(|| {
+        let bus = bus.clone();
+        tokio::spawn(async move { ardupilot_pilot(&bus).await })
+    });
     eprintln!(
-        "frontseat demo: {:?} emulator on pty {path}, driver {}, warp {}, homework path east {} s, south {} s, then northwest",
+        "frontseat demo: {:?} emulator on {path}, driver {}, warp {}, homework path east {} s, south {} s, then northwest",
         kind, cfg.driver.name, args.warp, args.east, args.south
     );
     let live = std::io::stdout().is_terminal() && !args.lines;
@@ -227,9 +259,59 @@ pub async fn run_demo(args: DemoArgs, kind: VehicleKind) -> ExitCode {
     if live {
         println!();
     }
+    if let Some(p) = pilot {
+        p.abort();
+    }
     service.shutdown(SHUTDOWN_BOUND).await;
     drop(running);
     crate::record_cmd::stop_recorder(recorder).await;
 
     crate::demo::write_outputs(&args.out, &report)
+}
+
+/// The person at the ground station of the ArduPilot demo: once the vehicle's navigation is
+/// ready, arm and select GUIDED through the ArduPilot CommandRequest extension (the interface
+/// never does either by itself). Retries until both are accepted; bounded by the demo.
+pub async fn ardupilot_pilot(bus: &Bus) {
+    use frontseat_actors::groups;
+    use frontseat_actors::proto::frontseat::protobuf::ardupilot::{
+        ArdupilotCommand, CommandRequest, ardupilot_command::Action,
+    };
+    let (_sub, mut responses) = bus.subscribe_channel(
+        &groups::GOBY_MIDDLEWARE_FRONTSEAT_COMMAND_RESPONSE,
+        "ardupilot_pilot",
+        64,
+    );
+    let mut id = 90_000;
+    for action in [Action::Arm, Action::Guided] {
+        loop {
+            id += 1;
+            bus.publish(
+                &groups::FRONTSEAT_ARDUPILOT_ARDUPILOT_COMMAND_REQUEST,
+                CommandRequest {
+                    response_requested: Some(true),
+                    request_id: Some(id),
+                    ardupilot_command: Some(ArdupilotCommand {
+                        action: Some(action as i32),
+                    }),
+                    ..Default::default()
+                },
+            );
+            let answer = tokio::time::timeout(std::time::Duration::from_secs(5), async {
+                while let Some(env) = responses.recv().await {
+                    if env.msg.request_id == Some(id) {
+                        return env.msg.request_successful();
+                    }
+                }
+                false
+            })
+            .await;
+            if answer == Ok(true) {
+                tracing::info!(?action, "pilot: accepted");
+                break;
+            }
+            tracing::info!(?action, "pilot: not yet (navigation not ready?); retrying");
+            tokio::time::sleep(std::time::Duration::from_millis(200)).await;
+        }
+    }
 }

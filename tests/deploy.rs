@@ -323,6 +323,59 @@ fn install_places_everything_keeps_existing_config_and_uninstall_removes_it() {
     );
 }
 
+/// `--goby3-names`: the binary also answers to Goby3's application names, so a Goby3 unit file
+/// runs it unchanged; a real Goby3 binary already there is never replaced.
+#[test]
+fn install_can_link_goby3s_application_names_and_never_replaces_goby3s_binary() {
+    let stage = TempDir::new("goby3names");
+    let root = &stage.0;
+    script("install.sh", &["--binary", BIN, "--goby3-names"], root);
+    let bin = root.join("usr/local/bin");
+    for name in ["goby_frontseat_interface", "goby_moos_gateway"] {
+        assert_eq!(
+            std::fs::read_link(bin.join(name)).unwrap(),
+            Path::new("frontseat"),
+            "{name}"
+        );
+    }
+    // Called by Goby3's name, it is that application.
+    let out = Command::new(bin.join("goby_frontseat_interface"))
+        .arg("--example_config")
+        .output()
+        .unwrap();
+    let example = Command::new(BIN)
+        .args(["interface", "--example_config"])
+        .output()
+        .unwrap();
+    assert!(out.status.success());
+    assert_eq!(out.stdout, example.stdout);
+    script("uninstall.sh", &[], root);
+    assert!(!bin.join("goby_frontseat_interface").exists());
+
+    // A Goby3 binary in the way: refused, left as it was.
+    let other = TempDir::new("goby3names-real");
+    let obin = other.0.join("usr/local/bin");
+    std::fs::create_dir_all(&obin).unwrap();
+    std::fs::write(obin.join("goby_moos_gateway"), "#!/bin/sh\n# Goby3's\n").unwrap();
+    let out = Command::new("bash")
+        .arg(deploy_dir().join("install.sh"))
+        .args(["--binary", BIN, "--goby3-names", "--destdir"])
+        .arg(&other.0)
+        .output()
+        .unwrap();
+    assert_eq!(
+        out.status.code(),
+        Some(2),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(String::from_utf8_lossy(&out.stderr).contains("not our link"));
+    assert_eq!(
+        std::fs::read_to_string(obin.join("goby_moos_gateway")).unwrap(),
+        "#!/bin/sh\n# Goby3's\n"
+    );
+}
+
 #[test]
 fn install_with_a_prefix_rewrites_the_units() {
     let stage = TempDir::new("prefix");

@@ -69,3 +69,8 @@ fn bluefin_codec_corpus() {
 fn zmtp_guard_corpus() {
     replay("zmtp_guard", targets::zmtp_guard);
 }
+
+#[test]
+fn mavlink_frame_corpus() {
+    replay("mavlink_frame", targets::mavlink_frame);
+}

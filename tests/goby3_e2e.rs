@@ -14,6 +14,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::Duration;
 
+use common::phelm::{ScriptedHelm, heading_near};
 use frontseat_actors::bus::{Bus, Origin};
 use frontseat_actors::groups;
 use frontseat_actors::proto::frontseat::protobuf::InterfaceDetail;
@@ -26,7 +27,7 @@ use frontseat_gateway::goby3::standin::{StandinGobyd, StandinTransport};
 use frontseat_gateway::goby3::{self, Goby3Handle, Goby3Settings};
 use frontseat_gateway::zenoh;
 use frontseat_gateway::{GatewayOptions, client_config, key_for};
-use frontseat_moos::{Broker, MoosClient, MoosClientConfig, MoosEvent};
+use frontseat_moos::Broker;
 use prost::Message;
 use tokio::time::{Instant, timeout_at};
 
@@ -95,11 +96,6 @@ fn goby3_client(bus: &Bus, base: &str, client: &str, hosted: &str) -> Goby3Handl
     };
     let settings = Goby3Settings::from_config(&cfg, "auv1").unwrap();
     goby3::start(bus, settings, &[hosted], GatewayOptions::default()).unwrap()
-}
-
-fn heading_near(h: f64, target: f64, tol: f64) -> bool {
-    let d = (h - target).rem_euclid(360.0);
-    d.min(360.0 - d) <= tol
 }
 
 async fn standin(base: &str) -> StandinGobyd {
@@ -195,7 +191,7 @@ async fn a_goby3_helm_commands_the_interface_through_gobyd_beside_a_zenoh_topsid
     loop {
         match timeout_at(deadline, nav.recv()).await {
             Ok(Some(n)) if heading_near(n.msg.pose.heading(), 90.0, 5.0) => {
-                assert_eq!(n.origin, Origin::Imported);
+                assert_eq!(n.origin, Origin::Goby3);
                 break;
             }
             Ok(Some(_)) => {}
@@ -319,45 +315,15 @@ async fn phelmivp_steers_through_moos_gateway_and_gobyd() {
     );
 
     // A scripted pHelmIvP: IVPHELM_STATE, DESIRED_* at 4 Hz; it reads NAV_HEADING.
-    let (moos, mut events) = MoosClient::start(MoosClientConfig {
-        server: format!("127.0.0.1:{moos_port}"),
-        reconnect_initial: Duration::from_millis(50),
-        reconnect_max: Duration::from_millis(200),
-        ..MoosClientConfig::new("pHelmIvP")
-    })
-    .unwrap();
-    moos.register("NAV_HEADING", 0.0).unwrap();
-    let poster = moos.clone();
-    let helm = tokio::spawn(async move {
-        let mut tick = tokio::time::interval(Duration::from_millis(250));
-        loop {
-            tick.tick().await;
-            let _ = poster.notify_string("IVPHELM_STATE", "DRIVE", None);
-            let _ = poster.notify_double("DESIRED_DEPTH", 0.0, None);
-            let _ = poster.notify_double("DESIRED_SPEED", 1.5, None);
-            let _ = poster.notify_double("DESIRED_HEADING", 270.0, None);
-        }
-    });
-    let deadline = Instant::now() + LONG;
-    loop {
-        match timeout_at(deadline, events.recv()).await {
-            Ok(Some(MoosEvent::Mail(m)))
-                if m.key == "NAV_HEADING"
-                    && m.as_double().is_some_and(|h| heading_near(h, 270.0, 5.0)) =>
-            {
-                break;
-            }
-            Ok(Some(_)) => {}
-            _ => panic!(
-                "pHelmIvP never saw the vehicle head west\ninterface log:\n{}\nmoos-gateway log:\n{}",
-                log(&dir, "interface"),
-                log(&dir, "moos-gateway")
-            ),
-        }
-    }
+    let mut helm = ScriptedHelm::start(moos_port, 270.0, 1.0);
+    assert!(
+        helm.sees_heading(270.0, Instant::now() + LONG).await,
+        "pHelmIvP never saw the vehicle head west\ninterface log:\n{}\nmoos-gateway log:\n{}",
+        log(&dir, "interface"),
+        log(&dir, "moos-gateway")
+    );
     assert!(gobyd.forwarded() > 0);
-    helm.abort();
-    moos.shutdown().await;
+    helm.stop().await;
     broker.shutdown().await;
     gobyd.stop().await;
     let _ = std::fs::remove_dir_all(&dir);

@@ -16,22 +16,18 @@ use std::path::Path;
 use std::process::{Command, Stdio};
 use std::time::Duration;
 
+use common::phelm::{ScriptedHelm, heading_near};
 use frontseat_actors::bus::Bus;
 use frontseat_actors::groups;
 use frontseat_config::Goby3Config;
 use frontseat_gateway::GatewayOptions;
 use frontseat_gateway::goby3::standin::{StandinGobyd, StandinTransport};
 use frontseat_gateway::goby3::{self, Goby3Settings};
-use frontseat_moos::{Broker, MoosClient, MoosClientConfig, MoosEvent};
+use frontseat_moos::Broker;
 use tokio::time::{Instant, timeout_at};
 
 const LONG: Duration = Duration::from_secs(60);
 const BIN: &str = env!("CARGO_BIN_EXE_frontseat");
-
-fn heading_near(h: f64, target: f64, tol: f64) -> bool {
-    let d = (h - target).rem_euclid(360.0);
-    d.min(360.0 - d) <= tol
-}
 
 /// Goby3's printed example for the basic simulator, with what a user fills in: the datum, the
 /// simulator's address, gobyd's socket and platform, the MOOSDB port and a warp of 10.
@@ -164,51 +160,14 @@ async fn goby3s_example_config_and_unit_environment_fly_through_gobyds_hold() {
     )
     .unwrap();
 
-    // pHelmIvP: IVPHELM_STATE and DESIRED_* at 4 Hz; it reads NAV_HEADING.
-    let (moos, mut events) = MoosClient::start(MoosClientConfig {
-        server: format!("127.0.0.1:{moos_port}"),
-        reconnect_initial: Duration::from_millis(50),
-        reconnect_max: Duration::from_millis(200),
-        time_warp: 10.0,
-        ..MoosClientConfig::new("pHelmIvP")
-    })
-    .unwrap();
-    moos.register("NAV_HEADING", 0.0).unwrap();
-    let poster = moos.clone();
-    let helm = tokio::spawn(async move {
-        let mut tick = tokio::time::interval(Duration::from_millis(250));
-        loop {
-            tick.tick().await;
-            let _ = poster.notify_string("IVPHELM_STATE", "DRIVE", None);
-            let _ = poster.notify_double("DESIRED_DEPTH", 0.0, None);
-            let _ = poster.notify_double("DESIRED_SPEED", 1.5, None);
-            let _ = poster.notify_double("DESIRED_HEADING", 270.0, None);
-        }
-    });
+    // pHelmIvP on the MOOSDB, at the community's warp.
+    let mut helm = ScriptedHelm::start(moos_port, 270.0, 10.0);
     let deadline = Instant::now() + LONG;
-    loop {
-        match timeout_at(deadline, events.recv()).await {
-            Ok(Some(MoosEvent::Mail(m)))
-                if m.key == "NAV_HEADING"
-                    && m.as_double().is_some_and(|h| heading_near(h, 270.0, 5.0)) =>
-            {
-                break;
-            }
-            Ok(Some(MoosEvent::Packet(p)))
-                if p.iter().any(|m| {
-                    m.key == "NAV_HEADING"
-                        && m.as_double().is_some_and(|h| heading_near(h, 270.0, 5.0))
-                }) =>
-            {
-                break;
-            }
-            Ok(Some(_)) => {}
-            _ => panic!(
-                "pHelmIvP never saw the vehicle head west\ninterface log:\n{}",
-                log()
-            ),
-        }
-    }
+    assert!(
+        helm.sees_heading(270.0, deadline).await,
+        "pHelmIvP never saw the vehicle head west\ninterface log:\n{}",
+        log()
+    );
     // Through gobyd's hold: the held client sees the vehicle heading west too.
     loop {
         match timeout_at(deadline, nav.recv()).await {
@@ -222,9 +181,8 @@ async fn goby3s_example_config_and_unit_environment_fly_through_gobyds_hold() {
     }
     let l = log();
     assert!(l.contains("libgoby_frontseat_basic_simulator.so.30"), "{l}");
-    helm.abort();
+    helm.stop().await;
     drop(observer);
-    moos.shutdown().await;
     broker.shutdown().await;
     gobyd.stop().await;
     let _ = std::fs::remove_dir_all(&dir);

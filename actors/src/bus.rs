@@ -69,14 +69,39 @@ impl<T: prost::Message + Default + Clone + Send + Sync + 'static> BusMessage for
 pub use crate::telemetry::TraceContext;
 
 /// Whether a message was published in this process or imported from another (so the gateway
-/// does not export it again), or replayed from a recording (`frontseat replay`: it never meets
-/// a live driver, see [`Bus::claim`]).
+/// does not export it again), and through which door (so the interface can decide who may use
+/// `raw_send_request`), or replayed from a recording (`frontseat replay`: it never meets a live
+/// driver, see [`Bus::claim`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
 pub enum Origin {
     #[default]
     Local,
+    /// From another process over Zenoh.
     Imported,
+    /// From a Goby3 application through gobyd.
+    Goby3,
+    /// Published in this process by the web commander on behalf of a browser.
+    Web,
+    /// Replayed from a recording (exported like a local message: the replay stands in for the
+    /// vehicle's interface).
     Replayed,
+}
+
+impl Origin {
+    /// Came from another process (and so is not exported again).
+    pub fn is_imported(self) -> bool {
+        matches!(self, Origin::Imported | Origin::Goby3)
+    }
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Origin::Local => "local",
+            Origin::Imported => "zenoh",
+            Origin::Goby3 => "goby3",
+            Origin::Web => "web",
+            Origin::Replayed => "replayed",
+        }
+    }
 }
 
 /// What a process's bus is for; the two exclude each other so recorded messages never reach a

@@ -1,17 +1,18 @@
 //! The safety envelope: the one check every setpoint crosses on its way to a driver, whatever sent
 //! it (the bus, pHelmIvP through MOOS, a Zenoh or Goby3 helm, a command_request, the web
 //! commander) — they all reach the driver through FrontSeatInterface, which calls [`check_course`].
-//! Also the sanity check of navigation coming back ([`check_node_status`]). Pure: no I/O, no
-//! clock; the interface counts and logs what it refuses.
+//! Navigation coming back is checked by `nav_gate`. Pure: no I/O, no clock; the interface counts
+//! and logs what it refuses.
 //!
-//! Rules: a non-finite value refuses the setpoint; heading is wrapped into [0, 360); speed, depth,
+//! Rules: a non-finite value refuses the setpoint; a heading within ten turns either way is
+//! wrapped into [0, 360), one beyond (1e308) is not a heading and is refused; speed, depth,
 //! altitude, pitch, roll and z_rate must lie within the configured [`Limits`]; a course without a
 //! heading keeps the last commanded heading (else the vehicle's current heading) — never the
 //! protobuf default 0, which would turn the vehicle north.
 
 use frontseat_config::LimitsConfig;
 
-use crate::proto::goby::middleware::frontseat::protobuf::{DesiredCourse, NodeStatus};
+use crate::proto::goby::middleware::frontseat::protobuf::DesiredCourse;
 
 /// The envelope, from `[limits]`.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -86,6 +87,11 @@ fn within(
     }
 }
 
+/// Past this magnitude a heading is not wrapped but refused: ten turns either way covers every
+/// convention a vehicle or helm uses (−180..180, 0..360, a little past); beyond, the number is not
+/// an angle (`1e308` rem 360 is an arbitrary 296).
+pub const MAX_WRAPPABLE_DEGREES: f64 = 3600.0;
+
 /// Wraps degrees into [0, 360) (`rem_euclid` alone gives 360 for tiny negative inputs).
 pub fn wrap_heading(h: f64) -> f64 {
     let w = h.rem_euclid(360.0);
@@ -110,7 +116,18 @@ pub fn check_course(
     let mut c = *course;
     finite("time", c.time)?;
     c.heading = match c.heading {
-        Some(h) => Some(wrap_heading(finite("heading", h)?)),
+        Some(h) => {
+            finite("heading", h)?;
+            let max = MAX_WRAPPABLE_DEGREES;
+            if h.abs() > max {
+                return Err(refuse(
+                    "heading",
+                    h,
+                    format!("beyond ±{max} degrees: not a heading to wrap"),
+                ));
+            }
+            Some(wrap_heading(h))
+        }
         None => match ctx.last_commanded_heading.or(ctx.current_heading) {
             Some(h) => Some(wrap_heading(h)),
             None => {
@@ -155,55 +172,9 @@ pub fn check_course(
     Ok(c)
 }
 
-/// Navigation a helm may be shown: a position on the earth and finite numbers. A NAV outside
-/// this is a frontseat fault, refused like a non-finite one.
-pub fn check_node_status(ns: &NodeStatus) -> Result<(), Refusal> {
-    let g = &ns.global_fix;
-    finite("global_fix.lat", g.lat)?;
-    finite("global_fix.lon", g.lon)?;
-    if !(-90.0..=90.0).contains(&g.lat) {
-        return Err(refuse("global_fix.lat", g.lat, "outside [-90, 90] degrees"));
-    }
-    if !(-180.0..=180.0).contains(&g.lon) {
-        return Err(refuse(
-            "global_fix.lon",
-            g.lon,
-            "outside [-180, 180] degrees",
-        ));
-    }
-    if let Some(d) = g.depth {
-        finite("global_fix.depth", d)?;
-    }
-    if let Some(l) = &ns.local_fix {
-        finite("local_fix.x", l.x)?;
-        finite("local_fix.y", l.y)?;
-        if let Some(z) = l.z {
-            finite("local_fix.z", z)?;
-        }
-    }
-    let p = &ns.pose;
-    for (field, v) in [
-        ("pose.heading", p.heading),
-        ("pose.pitch", p.pitch),
-        ("pose.roll", p.roll),
-    ] {
-        if let Some(v) = v {
-            finite(field, v)?;
-        }
-    }
-    finite("speed.over_ground", ns.speed.over_ground)?;
-    if let Some(v) = ns.speed.over_water {
-        finite("speed.over_water", v)?;
-    }
-    finite("time", ns.time)?;
-    Ok(())
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::proto::goby::middleware::frontseat::protobuf::{EulerAngles, Speed};
-    use crate::proto::goby::middleware::protobuf::LatLonPoint;
 
     fn course(heading: Option<f64>, speed: f64) -> DesiredCourse {
         DesiredCourse {
@@ -235,6 +206,13 @@ mod tests {
             (
                 "infinite heading",
                 course(Some(f64::INFINITY), 1.5),
+                "heading",
+            ),
+            ("1e308 heading", course(Some(1e308), 1.5), "heading"),
+            ("-5.1e307 heading", course(Some(-5.1e307), 1.5), "heading"),
+            (
+                "heading past ten turns",
+                course(Some(3600.5), 1.5),
                 "heading",
             ),
             ("NaN speed", course(Some(90.0), f64::NAN), "speed"),
@@ -276,6 +254,7 @@ mod tests {
             ("heading 360 wraps to 0", course(Some(360.0), 1.5), 0.0),
             ("heading -90 wraps to 270", course(Some(-90.0), 1.5), 270.0),
             ("heading 725 wraps to 5", course(Some(725.0), 1.5), 5.0),
+            ("heading -3600 wraps to 0", course(Some(-3600.0), 1.5), 0.0),
             (
                 "tiny negative wraps below 360",
                 course(Some(-1e-20), 1.5),
@@ -328,61 +307,5 @@ mod tests {
             (out.depth, out.pitch, out.roll, out.z_rate, out.altitude),
             (None, None, None, None, None)
         );
-    }
-
-    fn nav(lat: f64, lon: f64) -> NodeStatus {
-        NodeStatus {
-            time: 1.0,
-            global_fix: LatLonPoint {
-                lat,
-                lon,
-                depth: Some(0.0),
-                altitude: None,
-            },
-            pose: EulerAngles {
-                heading: Some(10.0),
-                ..Default::default()
-            },
-            speed: Speed {
-                over_ground: 1.0,
-                over_water: None,
-            },
-            ..Default::default()
-        }
-    }
-
-    #[test]
-    fn navigation_sanity_table() {
-        assert!(check_node_status(&nav(42.0, -71.0)).is_ok());
-        assert!(check_node_status(&nav(90.0, 180.0)).is_ok());
-        assert!(check_node_status(&nav(-90.0, -180.0)).is_ok());
-        for (name, ns, field) in [
-            ("LAT:95", nav(95.0, 0.0), "global_fix.lat"),
-            ("LAT:-90.1", nav(-90.1, 0.0), "global_fix.lat"),
-            ("LON:180.5", nav(0.0, 180.5), "global_fix.lon"),
-            ("LAT:NaN", nav(f64::NAN, 0.0), "global_fix.lat"),
-            ("LON:inf", nav(0.0, f64::INFINITY), "global_fix.lon"),
-            (
-                "heading NaN",
-                {
-                    let mut n = nav(1.0, 1.0);
-                    n.pose.heading = Some(f64::NAN);
-                    n
-                },
-                "pose.heading",
-            ),
-            (
-                "speed inf",
-                {
-                    let mut n = nav(1.0, 1.0);
-                    n.speed.over_ground = f64::INFINITY;
-                    n
-                },
-                "speed.over_ground",
-            ),
-        ] {
-            let r = check_node_status(&ns).expect_err(name);
-            assert_eq!(r.field, field, "{name}");
-        }
     }
 }

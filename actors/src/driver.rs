@@ -151,6 +151,22 @@ pub trait Driver: Send + 'static {
             "Iver3",
         );
     }
+    /// A CommandRequest with our ArduPilot extension (`ardupilot_command`, field 1002: GUIDED,
+    /// HOLD, arm, disarm). Drivers other than ArduPilot refuse it.
+    fn send_ardupilot_command(
+        &mut self,
+        req: &crate::proto::frontseat::protobuf::ardupilot::CommandRequest,
+        _now: Duration,
+        sig: &mut dyn SignalSink,
+    ) {
+        refuse_unsupported(
+            sig,
+            req.response_requested(),
+            req.request_id,
+            self.name(),
+            "ArduPilot",
+        );
+    }
     /// InterfaceData with Goby3's Bluefin extension (payload status, modem lines). Drivers other
     /// than Bluefin ignore it.
     fn send_bluefin_data(

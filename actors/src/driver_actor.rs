@@ -194,6 +194,9 @@ impl Actor for DriverActor {
                 DriverActorInbox::IverCommand(env) => {
                     state.driver.send_iver_command(&env.msg, now, &mut sink)
                 }
+                DriverActorInbox::ArdupilotCommand(env) => state
+                    .driver
+                    .send_ardupilot_command(&env.msg, now, &mut sink),
                 DriverActorInbox::BluefinData(env) => {
                     state.driver.send_bluefin_data(&env.msg, now, &mut sink)
                 }

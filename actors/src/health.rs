@@ -35,15 +35,28 @@ pub fn process_health(
     if let Some(s) = supervision {
         for (uid, c) in s.children.iter().enumerate() {
             let up = c.up.unwrap_or(false);
+            // A helm-side child down leaves the vehicle link up: degraded, not failed.
+            let helm = c.side.as_deref() == Some("helm");
+            let since = c
+                .down_since
+                .map(|t| format!(" (down since Unix time {t:.0})"))
+                .unwrap_or_default();
             children.push(ThreadHealth {
                 name: c.name.clone().unwrap_or_default(),
                 uid: i32::try_from(uid).ok(),
-                state: if up {
-                    HealthState::HealthOk as i32
-                } else {
-                    HealthState::HealthFailed as i32
+                state: match (up, helm) {
+                    (true, _) => HealthState::HealthOk as i32,
+                    (false, true) => HealthState::HealthDegraded as i32,
+                    (false, false) => HealthState::HealthFailed as i32,
                 },
-                error_message: if up { None } else { c.last_failure.clone() },
+                error_message: if up {
+                    None
+                } else {
+                    Some(format!(
+                        "{}{since}",
+                        c.last_failure.as_deref().unwrap_or("down")
+                    ))
+                },
                 ..Default::default()
             });
         }
@@ -176,6 +189,16 @@ mod tests {
             up: Some(up),
             restarts: Some(0),
             last_failure: failure.map(str::to_string),
+            side: Some("vehicle".into()),
+            down_since: None,
+        }
+    }
+
+    fn helm_child(name: &str, failure: &str) -> SupervisedActor {
+        SupervisedActor {
+            side: Some("helm".into()),
+            down_since: Some(1.7e9),
+            ..child(name, false, Some(failure))
         }
     }
 
@@ -195,12 +218,21 @@ mod tests {
                 child("Goby3Gateway", true, None),
             ],
             gave_up: Some(false),
+            degraded: Some(false),
         };
         let one_down = SupervisionStatus {
             children: vec![
-                child("FrontSeatInterface", true, None),
-                child("FrontSeatTranslation", false, Some("panicked: boom")),
+                child("FrontSeatTranslation", true, None),
+                child("FrontSeatInterface", false, Some("panicked: boom")),
             ],
+            ..all_up.clone()
+        };
+        let helm_down = SupervisionStatus {
+            children: vec![
+                child("FrontSeatInterface", true, None),
+                helm_child("FrontSeatTranslation", "panicked: boom"),
+            ],
+            degraded: Some(true),
             ..all_up.clone()
         };
         let rows = [
@@ -218,10 +250,16 @@ mod tests {
                 HealthState::HealthDegraded,
             ),
             (
-                "a child down: FAILED",
+                "a vehicle-side child down: FAILED",
                 Some(&one_down),
                 Some(status(InterfaceState::InterfaceCommand)),
                 HealthState::HealthFailed,
+            ),
+            (
+                "a helm-side child down: DEGRADED",
+                Some(&helm_down),
+                Some(status(InterfaceState::InterfaceCommand)),
+                HealthState::HealthDegraded,
             ),
         ];
         for (name, sup, iface, want) in rows {
@@ -237,9 +275,16 @@ mod tests {
             Some(&status(InterfaceState::InterfaceCommand)),
         );
         let down = &h.main.child[1];
-        assert_eq!(down.name, "FrontSeatTranslation");
+        assert_eq!(down.name, "FrontSeatInterface");
         assert_eq!(down.error_message.as_deref(), Some("panicked: boom"));
         assert_eq!(h.main.child[2].name, "interface state: running:command");
+        let h = process_health("x", 1, Some(&helm_down), None);
+        let down = &h.main.child[1];
+        assert_eq!(down.state(), HealthState::HealthDegraded);
+        assert_eq!(
+            down.error_message.as_deref(),
+            Some("panicked: boom (down since Unix time 1700000000)")
+        );
     }
 
     #[tokio::test]

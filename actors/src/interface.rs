@@ -17,18 +17,20 @@ use tokio::sync::watch;
 
 use crate::bus::{Bus, Envelope, Subscription, Undeliverable};
 use crate::clock::SimClock;
-use crate::command_gate::{GateContext, Limits, check_course, check_node_status};
+use crate::command_gate::{GateContext, Limits, check_course};
 use crate::driver::DriverFactory;
 use crate::driver_actor::{DriverActor, DriverArgs, DriverMsg};
+use crate::nav_gate::{NavField, NavLimits, NavViolation, OnViolation, check_navigation};
 use crate::ports::{FrontSeatInterfaceInbox, FrontSeatInterfacePorts};
-use crate::proto::frontseat::protobuf::InterfaceDetail;
+use crate::proto::frontseat::protobuf::{InterfaceDetail, NavFieldCount};
 use crate::proto::goby::middleware::frontseat::protobuf::{
     CartesianCoordinate, CommandRequest, CommandResponse, DesiredCourse, FrontSeatError,
-    FrontSeatState, HelmError, InterfaceData, InterfaceState, InterfaceStatus, NodeStatus,
+    FrontSeatState, HelmError, InterfaceData, InterfaceState, InterfaceStatus, NodeStatus, Raw,
     VehicleType,
 };
 use crate::proto::goby::middleware::protobuf::LatLonPoint;
 use crate::ratelog::{LogDecision, RateLimitedLog, more, summary};
+use crate::raw_gate::{RawPolicy, check_raw, source_name, source_of};
 use crate::state_machine::{Inputs, StateMachine, StateMachineConfig, Transition, state_words};
 use frontseat_sim::geodesy::LocalGrid;
 
@@ -62,6 +64,10 @@ pub struct InterfaceSettings {
     pub command_timeout: Duration,
     pub driver_name: String,
     pub limits: Limits,
+    /// Physical bounds of navigation from the frontseat (`[limits.navigation]`).
+    pub nav_limits: NavLimits,
+    /// Who may use raw_send_request and what one may carry (`[raw_send]`).
+    pub raw: RawPolicy,
 }
 
 impl InterfaceSettings {
@@ -89,6 +95,8 @@ impl InterfaceSettings {
             command_timeout: command_timeout(cfg),
             driver_name: cfg.driver.name.clone(),
             limits: Limits::from(&cfg.limits),
+            nav_limits: NavLimits::from(&cfg.limits.navigation),
+            raw: RawPolicy::from_config(cfg),
         }
     }
 }
@@ -172,6 +180,7 @@ macro_rules! extended_command {
 
 extended_command!(crate::proto::frontseat::protobuf::bluefin::CommandRequest);
 extended_command!(crate::proto::frontseat::protobuf::iver::CommandRequest);
+extended_command!(crate::proto::frontseat::protobuf::ardupilot::CommandRequest);
 
 pub enum FsiMsg {
     Bus(FrontSeatInterfaceInbox),
@@ -212,6 +221,13 @@ pub struct Snapshot {
     pub commands_gated: u64,
     pub setpoints_refused: u64,
     pub nav_refused: u64,
+    /// Navigation fields dropped as out of bounds (the message itself was published).
+    pub nav_fields_dropped: u64,
+    /// Per field (index: [`NavField::index`]), how often it was out of bounds.
+    pub nav_field_violations: [u64; NavField::COUNT],
+    /// raw_send_requests passed to the driver, and refused by the raw gate.
+    pub raw_sent: u64,
+    pub raw_refused: u64,
 }
 
 /// How long a running driver actor may go without handling its loop tick before the watchdog
@@ -228,6 +244,10 @@ struct Counters {
     late_responses: u64,
     setpoints_refused: u64,
     nav_refused: u64,
+    nav_fields_dropped: u64,
+    nav_field_violations: [u64; NavField::COUNT],
+    raw_sent: u64,
+    raw_refused: u64,
 }
 
 pub struct FsiState {
@@ -250,6 +270,9 @@ pub struct FsiState {
     gate: GateContext,
     refused_log: RateLimitedLog,
     nav_log: RateLimitedLog,
+    nav_drop_log: RateLimitedLog,
+    raw_log: RateLimitedLog,
+    raw_refused_log: RateLimitedLog,
     /// The detail's counters for the OTel metrics (crate::metrics): written here, read by the
     /// exporter.
     metrics: Arc<crate::metrics::VehicleMetrics>,
@@ -313,6 +336,17 @@ impl FsiState {
             goby3_link_up: self.bus.link_up(crate::bus::GOBY3_LINK),
             spans_dropped: None,
             spans_exported: None,
+            nav_field_violations: NavField::ALL
+                .iter()
+                .filter(|f| self.counters.nav_field_violations[f.index()] > 0)
+                .map(|f| NavFieldCount {
+                    field: Some(f.name().to_string()),
+                    count: Some(self.counters.nav_field_violations[f.index()]),
+                })
+                .collect(),
+            nav_fields_dropped: Some(self.counters.nav_fields_dropped),
+            raw_sent: Some(self.counters.raw_sent),
+            raw_refused: Some(self.counters.raw_refused),
         };
         let detail = with_telemetry(detail, &self.metrics);
         self.ports.publish_detail(detail);
@@ -480,6 +514,46 @@ impl FsiState {
         None
     }
 
+    /// A vehicle mode/arming request (the ArduPilot extension): GUIDED is how COMMAND is
+    /// reached, so it passes in listen as well as command; a course riding along still needs
+    /// command and the safety envelope, as everywhere.
+    fn gate_mode_command<M: ExtendedCommand>(
+        &mut self,
+        env: Envelope<M>,
+    ) -> Option<(M, crate::bus::PublishMeta)> {
+        if self.sm.state() == InterfaceState::InterfaceCommand
+            || env.msg.base().desired_course.is_some()
+        {
+            return self.gate_extended(env);
+        }
+        let base = env.msg.base();
+        if self.listen_or_command() {
+            if base.response_requested() {
+                self.pending
+                    .insert(base.request_id, self.now() + self.s.command_timeout);
+            }
+            let meta = env.meta();
+            return Some(((*env.msg).clone(), meta));
+        }
+        self.counters.commands_gated += 1;
+        let (code, why) = if self.shutting_down {
+            (
+                error_code::SHUTTING_DOWN,
+                "interface shutting down".to_string(),
+            )
+        } else {
+            (
+                error_code::NOT_IN_COMMAND,
+                format!(
+                    "not in listen or command state (state: {})",
+                    state_words(self.sm.state())
+                ),
+            )
+        };
+        self.refuse(&base, code, why);
+        None
+    }
+
     fn listen_or_command(&self) -> bool {
         !self.shutting_down
             && matches!(
@@ -492,28 +566,64 @@ impl FsiState {
         compute_missing(ns, &self.s.name, self.s.vehicle_type, self.frame.as_ref());
     }
 
+    /// The navigation gate (nav_gate) with its counters and logs: `ns` fit for the helm, or
+    /// false when it must not be published at all. `count` is false for a second copy of
+    /// navigation already counted (the Iver3 driver's extended $OSI).
+    fn nav_fit_for_helm(&mut self, ns: &mut NodeStatus, count: bool) -> bool {
+        let (refused, dropped) = match check_navigation(ns, &self.s.nav_limits) {
+            Ok(dropped) => (None, dropped),
+            Err(r) => (Some(r), Vec::new()),
+        };
+        if !count {
+            return refused.is_none();
+        }
+        for v in refused.iter().chain(dropped.iter()) {
+            self.counters.nav_field_violations[v.field.index()] += 1;
+        }
+        self.counters.nav_fields_dropped += dropped.len() as u64;
+        if let Some(v) = dropped.first()
+            && let LogDecision::Log { suppressed_before } = self.nav_drop_log.decide_at(self.now())
+        {
+            tracing::warn!(
+                field = v.field.name(),
+                value = v.value,
+                fields = dropped.len(),
+                "navigation field from the frontseat dropped: {}{}",
+                list(&dropped),
+                more(
+                    suppressed_before,
+                    "navigation messages with fields dropped",
+                    self.nav_drop_log.window()
+                )
+            );
+        }
+        let Some(r) = refused else { return true };
+        debug_assert_eq!(r.field.on_violation(), OnViolation::RefuseMessage);
+        // Impossible navigation is a frontseat fault: the helm must not steer by it.
+        self.counters.nav_refused += 1;
+        if let LogDecision::Log { suppressed_before } = self.nav_log.decide_at(self.now()) {
+            tracing::warn!(
+                field = r.field.name(),
+                value = r.value,
+                "navigation from the frontseat refused: {r}{}",
+                more(
+                    suppressed_before,
+                    "refused navigation messages",
+                    self.nav_log.window()
+                )
+            );
+        }
+        false
+    }
+
     fn handle_data_from_frontseat(&mut self, env: Envelope<InterfaceData>) {
         let mut data = (*env.msg).clone();
         if data.node_status.is_some() {
             crate::metrics::VehicleMetrics::add(&self.metrics.nav_received);
         }
-        if let Some(ns) = data.node_status.as_ref()
-            && let Err(r) = check_node_status(ns)
+        if let Some(ns) = data.node_status.as_mut()
+            && !self.nav_fit_for_helm(ns, true)
         {
-            // Insane navigation is a frontseat fault: the helm must not steer by it.
-            self.counters.nav_refused += 1;
-            if let LogDecision::Log { suppressed_before } = self.nav_log.decide_at(self.now()) {
-                tracing::warn!(
-                    field = r.field,
-                    value = r.value,
-                    "navigation from the frontseat refused: {r}{}",
-                    more(
-                        suppressed_before,
-                        "refused navigation messages",
-                        self.nav_log.window()
-                    )
-                );
-            }
             data.node_status = None;
             if data == InterfaceData::default() {
                 return;
@@ -529,6 +639,91 @@ impl FsiState {
         }
         self.ports
             .publish_data_from_frontseat_with(Arc::new(data), env.meta());
+    }
+
+    /// The Bluefin driver's extended data: its node_status (none today) crosses the same gate.
+    fn handle_bluefin_data(
+        &mut self,
+        env: Envelope<crate::proto::frontseat::protobuf::bluefin::InterfaceData>,
+    ) {
+        let mut data = (*env.msg).clone();
+        if let Some(ns) = data.node_status.as_mut() {
+            if self.nav_fit_for_helm(ns, true) {
+                self.compute_missing(ns);
+            } else {
+                data.node_status = None;
+            }
+        }
+        self.ports
+            .publish_bluefin_data_from_frontseat_with(Arc::new(data), env.meta());
+    }
+
+    /// The Iver3 driver's extended $OSI: the same navigation as its plain data_from_frontseat,
+    /// gated alike but counted there only.
+    fn handle_iver_data(
+        &mut self,
+        env: Envelope<crate::proto::frontseat::protobuf::iver::InterfaceData>,
+    ) {
+        let mut data = (*env.msg).clone();
+        if let Some(ns) = data.node_status.as_mut() {
+            if self.nav_fit_for_helm(ns, false) {
+                self.compute_missing(ns);
+            } else {
+                data.node_status = None;
+            }
+        }
+        self.ports
+            .publish_iver_data_from_frontseat_with(Arc::new(data), env.meta());
+    }
+
+    /// Goby3's raw backdoor, through the raw gate (raw_gate): one line or frame, from an allowed
+    /// source, in listen or command; every one counted and logged (rate-limited).
+    fn handle_raw_send(&mut self, env: Envelope<Raw>) {
+        let source = source_of(env.origin);
+        let checked = check_raw(&env.msg, source, &self.s.raw);
+        let raw = match checked {
+            Err(why) => {
+                self.counters.raw_refused += 1;
+                if let LogDecision::Log { suppressed_before } =
+                    self.raw_refused_log.decide_at(self.now())
+                {
+                    tracing::warn!(
+                        source = source_name(source),
+                        raw_refused_total = self.counters.raw_refused,
+                        "raw_send_request refused: {why}: {:?}{}",
+                        crate::telemetry::truncate(&String::from_utf8_lossy(
+                            env.msg.raw.as_deref().unwrap_or_default()
+                        )),
+                        more(
+                            suppressed_before,
+                            "refused raw sends",
+                            self.raw_refused_log.window()
+                        )
+                    );
+                }
+                return;
+            }
+            Ok(raw) => raw,
+        };
+        if !self.listen_or_command() {
+            self.counters.raw_gated += 1;
+            tracing::debug!("raw_send_request dropped: not in listen or command");
+            return;
+        }
+        self.counters.raw_sent += 1;
+        if let LogDecision::Log { suppressed_before } = self.raw_log.decide_at(self.now()) {
+            tracing::info!(
+                source = source_name(source),
+                raw_sent_total = self.counters.raw_sent,
+                "raw_send_request to the frontseat: {:?}{}",
+                crate::telemetry::truncate(&String::from_utf8_lossy(
+                    raw.raw.as_deref().unwrap_or_default()
+                )),
+                more(suppressed_before, "raw sends", self.raw_log.window())
+            );
+        }
+        self.ports
+            .publish_raw_send_request_with(Arc::new(raw), env.meta());
     }
 
     /// Every answer a driver gives reaches the helm, whenever it comes, as in Goby3
@@ -556,6 +751,34 @@ impl FsiState {
             tracing::warn!(
                 suppressed = n,
                 refused_total = self.counters.setpoints_refused,
+                "{line}"
+            );
+        }
+        if let Some(n) = self.raw_log.summary_due_at(now) {
+            let line = summary(n, "raw sends", self.raw_log.window());
+            tracing::info!(
+                suppressed = n,
+                raw_sent_total = self.counters.raw_sent,
+                "{line}"
+            );
+        }
+        if let Some(n) = self.raw_refused_log.summary_due_at(now) {
+            let line = summary(n, "refused raw sends", self.raw_refused_log.window());
+            tracing::warn!(
+                suppressed = n,
+                raw_refused_total = self.counters.raw_refused,
+                "{line}"
+            );
+        }
+        if let Some(n) = self.nav_drop_log.summary_due_at(now) {
+            let line = summary(
+                n,
+                "navigation messages with fields dropped",
+                self.nav_drop_log.window(),
+            );
+            tracing::warn!(
+                suppressed = n,
+                nav_fields_dropped_total = self.counters.nav_fields_dropped,
                 "{line}"
             );
         }
@@ -653,6 +876,15 @@ impl FsiState {
     }
 }
 
+/// "pose.pitch = NaN (not a finite number), …" for a log line.
+fn list(violations: &[NavViolation]) -> String {
+    violations
+        .iter()
+        .map(|v| v.to_string())
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
 /// Goby3's compute_missing: name, type and time when absent, and the local fix (x east, y north,
 /// z = −depth) from the global one around the datum — or the global from the local.
 pub fn compute_missing(
@@ -708,6 +940,9 @@ fn with_telemetry(mut d: InterfaceDetail, m: &crate::metrics::VehicleMetrics) ->
     use crate::metrics::VehicleMetrics as M;
     M::set(&m.setpoints_refused, d.setpoints_refused());
     M::set(&m.nav_refused, d.nav_refused());
+    M::set(&m.nav_fields_dropped, d.nav_fields_dropped());
+    M::set(&m.raw_sent, d.raw_sent());
+    M::set(&m.raw_refused, d.raw_refused());
     M::set(&m.commands_gated, d.commands_gated());
     M::set(&m.bus_dropped, d.bus_dropped());
     M::set(&m.driver_restarts, u64::from(d.driver_restarts()));
@@ -782,6 +1017,9 @@ impl Actor for FrontSeatInterface {
             gate: GateContext::default(),
             refused_log: RateLimitedLog::for_bad_input(),
             nav_log: RateLimitedLog::for_bad_input(),
+            nav_drop_log: RateLimitedLog::for_bad_input(),
+            raw_log: RateLimitedLog::for_bad_input(),
+            raw_refused_log: RateLimitedLog::for_bad_input(),
             metrics: crate::metrics::register(&args.settings.name),
             shutting_down: false,
             exit: args.exit,
@@ -867,6 +1105,11 @@ impl FrontSeatInterface {
                         st.ports.publish_iver_command_with(Arc::new(req), meta);
                     }
                 }
+                I::ArdupilotCommandRequest(env) => {
+                    if let Some((req, meta)) = st.gate_mode_command(env) {
+                        st.ports.publish_ardupilot_command_with(Arc::new(req), meta);
+                    }
+                }
                 I::BluefinDataToFrontseat(env) => {
                     if st.listen_or_command() {
                         st.ports
@@ -878,15 +1121,7 @@ impl FrontSeatInterface {
                         );
                     }
                 }
-                I::RawSendRequest(env) => {
-                    if st.listen_or_command() {
-                        st.ports
-                            .publish_raw_send_request_with(env.msg.clone(), env.meta());
-                    } else {
-                        st.counters.raw_gated += 1;
-                        tracing::debug!("raw_send_request dropped: not in listen or command");
-                    }
-                }
+                I::RawSendRequest(env) => st.handle_raw_send(env),
                 I::HelmState(env) => {
                     let helm = env.msg.state();
                     if helm != st.inputs.helm {
@@ -907,6 +1142,8 @@ impl FrontSeatInterface {
                 }
                 I::CommandResponse(env) => st.handle_driver_response(env),
                 I::DataFromFrontseat(env) => st.handle_data_from_frontseat(env),
+                I::BluefinDataFromFrontseat(env) => st.handle_bluefin_data(env),
+                I::IverDataFromFrontseat(env) => st.handle_iver_data(env),
                 I::RawFromFrontseat(env) => {
                     st.ports.publish_raw_in_with(env.msg.clone(), env.meta());
                 }
@@ -989,6 +1226,10 @@ impl FrontSeatInterface {
                     commands_gated: st.counters.commands_gated,
                     setpoints_refused: st.counters.setpoints_refused,
                     nav_refused: st.counters.nav_refused,
+                    nav_fields_dropped: st.counters.nav_fields_dropped,
+                    nav_field_violations: st.counters.nav_field_violations,
+                    raw_sent: st.counters.raw_sent,
+                    raw_refused: st.counters.raw_refused,
                 });
             }
         }

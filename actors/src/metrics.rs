@@ -26,6 +26,11 @@ pub struct VehicleMetrics {
     pub setpoints_sent: AtomicU64,
     pub setpoints_refused: AtomicU64,
     pub nav_refused: AtomicU64,
+    /// Navigation fields dropped as out of bounds ([limits.navigation]).
+    pub nav_fields_dropped: AtomicU64,
+    /// raw_send_request passed to the driver, and refused by the raw gate.
+    pub raw_sent: AtomicU64,
+    pub raw_refused: AtomicU64,
     pub commands_gated: AtomicU64,
     pub bus_dropped: AtomicU64,
     pub driver_restarts: AtomicU64,
@@ -68,6 +73,18 @@ pub fn bad_lines() -> u64 {
     BAD_LINES.load(Ordering::Relaxed)
 }
 
+/// Times a helm-side child of a supervisor went down (failed or stopped), for the whole process:
+/// each is a period of running degraded.
+static HELM_SIDE_DOWN: AtomicU64 = AtomicU64::new(0);
+
+pub fn helm_side_down() {
+    HELM_SIDE_DOWN.fetch_add(1, Ordering::Relaxed);
+}
+
+pub fn helm_side_downs() -> u64 {
+    HELM_SIDE_DOWN.load(Ordering::Relaxed)
+}
+
 fn each_vehicle(mut f: impl FnMut(&[KeyValue], &VehicleMetrics)) {
     let live: Vec<(String, Arc<VehicleMetrics>)> = {
         let v = VEHICLES.lock().unwrap_or_else(|p| p.into_inner());
@@ -84,6 +101,9 @@ fn each_vehicle(mut f: impl FnMut(&[KeyValue], &VehicleMetrics)) {
 pub mod names {
     pub const NAV_RECEIVED: &str = "frontseat.nav.received";
     pub const NAV_REFUSED: &str = "frontseat.nav.refused";
+    pub const NAV_FIELDS_DROPPED: &str = "frontseat.nav.fields_dropped";
+    pub const RAW_SENT: &str = "frontseat.raw.sent";
+    pub const RAW_REFUSED: &str = "frontseat.raw.refused";
     pub const SETPOINTS_SENT: &str = "frontseat.setpoints.sent";
     pub const SETPOINTS_REFUSED: &str = "frontseat.setpoints.refused";
     pub const COMMANDS_GATED: &str = "frontseat.commands.gated";
@@ -91,6 +111,7 @@ pub mod names {
     pub const DRIVER_RESTARTS: &str = "frontseat.driver.restarts";
     pub const STATE: &str = "frontseat.interface.state";
     pub const BAD_LINES: &str = "frontseat.bad_lines";
+    pub const HELM_SIDE_DOWN: &str = "frontseat.supervision.helm_side_down";
     pub const SPANS_EXPORTED: &str = "frontseat.spans.exported";
     pub const SPANS_DROPPED: &str = "frontseat.spans.dropped";
 }
@@ -101,7 +122,7 @@ type Field = fn(&VehicleMetrics) -> &AtomicU64;
 /// meter provider's life.
 /// `spans` says (exported, dropped) so far: the telemetry that installs these owns the counts.
 pub(crate) fn install(meter: &Meter, spans: fn() -> (u64, u64)) {
-    let per_vehicle: [(&'static str, &'static str, &'static str, Field); 7] = [
+    let per_vehicle: [(&'static str, &'static str, &'static str, Field); 10] = [
         (
             names::NAV_RECEIVED,
             "{message}",
@@ -113,6 +134,24 @@ pub(crate) fn install(meter: &Meter, spans: fn() -> (u64, u64)) {
             "{message}",
             "NodeStatus refused as insane",
             |m| &m.nav_refused,
+        ),
+        (
+            names::NAV_FIELDS_DROPPED,
+            "{field}",
+            "NodeStatus fields dropped as out of physical bounds",
+            |m| &m.nav_fields_dropped,
+        ),
+        (
+            names::RAW_SENT,
+            "{message}",
+            "raw_send_request passed to the driver",
+            |m| &m.raw_sent,
+        ),
+        (
+            names::RAW_REFUSED,
+            "{message}",
+            "raw_send_request refused (source, terminator, size)",
+            |m| &m.raw_refused,
         ),
         (
             names::SETPOINTS_SENT,
@@ -177,6 +216,14 @@ pub(crate) fn install(meter: &Meter, spans: fn() -> (u64, u64)) {
         .with_unit("{line}")
         .with_description("lines from the frontseat no driver could use")
         .with_callback(|obs| obs.observe(bad_lines(), &[]))
+        .build();
+    meter
+        .u64_observable_counter(names::HELM_SIDE_DOWN)
+        .with_unit("{event}")
+        .with_description(
+            "helm-side actors gone down (each a degraded period; restarted without end)",
+        )
+        .with_callback(|obs| obs.observe(helm_side_downs(), &[]))
         .build();
     meter
         .u64_observable_counter(names::SPANS_EXPORTED)

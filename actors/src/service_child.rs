@@ -248,6 +248,7 @@ mod tests {
 
     fn policy(restart: RestartPolicy, max: u32) -> Policy {
         Policy {
+            side: crate::supervisor::Side::Vehicle,
             restart,
             max_restarts: max,
             window: Duration::from_secs(60),

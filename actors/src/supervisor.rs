@@ -1,9 +1,15 @@
 //! The supervision tree's generic supervisor: a ractor actor that starts its children linked to
 //! itself and restarts them by policy, the way OTP and dora-rs do it — never / on-failure /
-//! always, at most `max_restarts` within `restart_window`, after a delay that doubles from
-//! `backoff_initial` to `backoff_max`. Past the limit (or when a `never` child fails) it gives up
-//! and reports a [`ServiceExit::RestartLimit`], so the process exits non-zero and systemd
-//! restarts it. Every restart is logged and counted; [`SupervisorSnapshot`] says who is up.
+//! always, after a delay that doubles from `backoff_initial` to `backoff_max`.
+//!
+//! Two sides, two policies ([`Side`]). A vehicle-side child (the FrontSeatInterface and its
+//! driver) is restarted at most `max_restarts` within `restart_window`; past the limit (or when a
+//! `never` child fails) the supervisor gives up and reports a [`ServiceExit::RestartLimit`], so
+//! the process exits non-zero and systemd restarts it. A helm-side child (translation, gateways,
+//! web, health) is restarted without end, its backoff capped and jittered: a helm fault that
+//! repeats must never end the process and with it the vehicle link. While a helm-side child is
+//! down the supervisor reports itself *degraded* (which child, since when). Every restart is
+//! logged and counted; [`SupervisorSnapshot`] says who is up.
 //!
 //! The pure decision ([`Decider`]) is separate from the actor so it is table-tested.
 
@@ -23,9 +29,33 @@ use crate::interface::ServiceExit;
 use crate::ports::RootSupervisorPorts;
 use crate::proto::frontseat::protobuf::{SupervisedActor, SupervisionStatus};
 
+/// Which side of the frontseat link a child is on, and so what repeated failures of it do.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum Side {
+    /// The vehicle side, or any child whose repeated failure must end its supervisor: at most
+    /// `max_restarts` within the window, then give up (the process ends for systemd).
+    #[default]
+    Vehicle,
+    /// The helm side: restarted without end (capped, jittered backoff); never ends the process.
+    Helm,
+}
+
+impl Side {
+    pub fn name(self) -> &'static str {
+        match self {
+            Side::Vehicle => "vehicle",
+            Side::Helm => "helm",
+        }
+    }
+}
+
+/// Remembered restart times per child at most (the helm side has no limit to count towards).
+const MAX_REMEMBERED_RESTARTS: usize = 1024;
+
 /// What a supervisor knows about how to restart one child.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Policy {
+    pub side: Side,
     pub restart: RestartPolicy,
     pub max_restarts: u32,
     pub window: Duration,
@@ -33,9 +63,20 @@ pub struct Policy {
     pub backoff_max: Duration,
 }
 
+impl Policy {
+    /// The same policy on the helm side.
+    pub fn helm_side(self) -> Self {
+        Self {
+            side: Side::Helm,
+            ..self
+        }
+    }
+}
+
 impl From<&RestartConfig> for Policy {
     fn from(c: &RestartConfig) -> Self {
         Self {
+            side: Side::Vehicle,
             restart: c.policy,
             max_restarts: c.max_restarts,
             window: Duration::from_secs_f64(c.restart_window_s.max(0.0)),
@@ -115,24 +156,48 @@ impl std::fmt::Display for ChildFailure {
 
 impl std::error::Error for ChildFailure {}
 
-/// The restart bookkeeping of one child: pure, clock passed in.
+/// The restart bookkeeping of one child: pure, clock passed in (and the jitter's seed).
 #[derive(Clone, Debug)]
 pub struct Decider {
     policy: Policy,
     recent: VecDeque<Instant>,
     pub restarts: u32,
+    /// xorshift state for the helm side's jitter: children failing together (one cause) must
+    /// not come back in lockstep.
+    jitter: u64,
 }
 
 impl Decider {
     pub fn new(policy: Policy) -> Self {
+        let seed = std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .map_or(0x9e37_79b9, |d| d.as_nanos() as u64);
+        Self::with_seed(policy, seed)
+    }
+
+    pub fn with_seed(policy: Policy, seed: u64) -> Self {
         Self {
             policy,
             recent: VecDeque::new(),
             restarts: 0,
+            jitter: seed | 1,
         }
     }
 
+    /// A factor in [0.5, 1): "equal jitter", so the delay stays within half of its cap.
+    fn jitter_factor(&mut self) -> f64 {
+        let mut x = self.jitter;
+        x ^= x << 13;
+        x ^= x >> 7;
+        x ^= x << 17;
+        self.jitter = x;
+        0.5 + (x >> 11) as f64 / (1u64 << 53) as f64 / 2.0
+    }
+
     pub fn decide(&mut self, name: &str, ending: Ending, now: Instant) -> Decision {
+        if self.policy.side == Side::Helm {
+            return self.decide_helm(ending, now);
+        }
         let wanted = match (self.policy.restart, ending) {
             (RestartPolicy::Always, _) | (RestartPolicy::OnFailure, Ending::Failed) => true,
             (RestartPolicy::Never, Ending::Failed) => {
@@ -173,6 +238,40 @@ impl Decider {
             nth: self.restarts,
         }
     }
+
+    /// The helm side never gives up: restarted by its policy (a `never` child is left down,
+    /// degraded), after a delay doubling with the restarts in the window up to the cap, jittered.
+    fn decide_helm(&mut self, ending: Ending, now: Instant) -> Decision {
+        let wanted = match (self.policy.restart, ending) {
+            (RestartPolicy::Always, _) | (RestartPolicy::OnFailure, Ending::Failed) => true,
+            (RestartPolicy::OnFailure | RestartPolicy::Never, _) => false,
+        };
+        if !wanted {
+            return Decision::LeaveDown;
+        }
+        while let Some(t) = self.recent.front() {
+            if now.saturating_duration_since(*t) > self.policy.window
+                || self.recent.len() >= MAX_REMEMBERED_RESTARTS
+            {
+                self.recent.pop_front();
+            } else {
+                break;
+            }
+        }
+        let n = u32::try_from(self.recent.len()).unwrap_or(u32::MAX);
+        let cap = self
+            .policy
+            .backoff_initial
+            .saturating_mul(2u32.saturating_pow(n))
+            .min(self.policy.backoff_max);
+        let after = cap.mul_f64(self.jitter_factor());
+        self.recent.push_back(now);
+        self.restarts = self.restarts.saturating_add(1);
+        Decision::Restart {
+            after,
+            nth: self.restarts,
+        }
+    }
 }
 
 /// How long a supervisor waits for each child to stop when it stops itself.
@@ -200,12 +299,22 @@ pub struct ChildReport {
     pub up: bool,
     pub restarts: u32,
     pub last_failure: Option<String>,
+    pub side: Side,
+    /// While down: since when.
+    pub down_since: Option<std::time::SystemTime>,
 }
 
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct SupervisorSnapshot {
     pub name: String,
     pub children: Vec<ChildReport>,
+}
+
+impl SupervisorSnapshot {
+    /// A helm-side child is down: the process runs, degraded.
+    pub fn degraded(&self) -> bool {
+        self.children.iter().any(|c| c.side == Side::Helm && !c.up)
+    }
 }
 
 pub enum SupervisorMsg {
@@ -226,6 +335,7 @@ struct Child {
     cell: Option<ActorCell>,
     decider: Decider,
     last_failure: Option<String>,
+    down_since: Option<std::time::SystemTime>,
 }
 
 pub struct SupervisorState {
@@ -250,6 +360,8 @@ impl SupervisorState {
                     up: c.cell.is_some(),
                     restarts: c.decider.restarts,
                     last_failure: c.last_failure.clone(),
+                    side: c.spec.policy.side,
+                    down_since: c.down_since,
                 })
                 .collect(),
         }
@@ -259,6 +371,7 @@ impl SupervisorState {
     fn publish(&self) {
         let Some(ports) = &self.ports else { return };
         let snap = self.snapshot();
+        let degraded = snap.degraded();
         ports.publish_status(SupervisionStatus {
             supervisor: Some(snap.name),
             children: snap
@@ -269,9 +382,16 @@ impl SupervisorState {
                     up: Some(c.up),
                     restarts: Some(c.restarts),
                     last_failure: c.last_failure,
+                    side: Some(c.side.name().to_string()),
+                    down_since: c.down_since.and_then(|t| {
+                        t.duration_since(std::time::UNIX_EPOCH)
+                            .ok()
+                            .map(|d| d.as_secs_f64())
+                    }),
                 })
                 .collect(),
             gave_up: Some(self.giving_up),
+            degraded: Some(degraded),
         });
     }
 
@@ -306,6 +426,12 @@ impl SupervisorState {
         let sup = self.name.clone();
         let child = &mut self.children[i];
         child.cell = None;
+        child
+            .down_since
+            .get_or_insert_with(std::time::SystemTime::now);
+        if child.spec.policy.side == Side::Helm {
+            crate::metrics::helm_side_down();
+        }
         let why = failure
             .as_ref()
             .map(|f| f.why.clone())
@@ -319,7 +445,9 @@ impl SupervisorState {
         let mut decision = child
             .decider
             .decide(&child.spec.name, ending, Instant::now());
-        if failure.as_ref().is_some_and(ChildFailure::escalates) {
+        if child.spec.policy.side == Side::Vehicle
+            && failure.as_ref().is_some_and(ChildFailure::escalates)
+        {
             decision = Decision::GiveUp(format!(
                 "{} gave up past its own restart limit: {why}",
                 child.spec.name
@@ -341,6 +469,10 @@ impl SupervisorState {
                     "supervised actor ended; restarting"
                 );
                 myself.send_after(after, move || SupervisorMsg::Restart(i));
+                None
+            }
+            Decision::LeaveDown if ending == Ending::Failed => {
+                tracing::error!(supervisor = %sup, child = %child.spec.name, %why, "helm-side actor failed and is left down (policy never): degraded");
                 None
             }
             Decision::LeaveDown => {
@@ -385,6 +517,7 @@ impl Actor for Supervisor {
                 spec,
                 cell: Some(cell),
                 last_failure: None,
+                down_since: None,
             });
         }
         let st = SupervisorState {
@@ -414,6 +547,7 @@ impl Actor for Supervisor {
                     Ok(cell) => {
                         tracing::info!(supervisor = %st.name, child = %st.children[i].spec.name, "supervised actor restarted");
                         st.children[i].cell = Some(cell);
+                        st.children[i].down_since = None;
                         st.publish();
                     }
                     Err(e) => {
@@ -521,6 +655,11 @@ impl SupervisorHandle {
         }
     }
 
+    /// The exit, if the supervisor gave up or stopped already.
+    pub fn exit_now(&self) -> Option<ServiceExit> {
+        self.exit.borrow().clone()
+    }
+
     /// Resolves when the supervisor gave up (restart limit) or stopped.
     pub async fn wait(&mut self) -> ServiceExit {
         loop {
@@ -543,21 +682,27 @@ impl SupervisorHandle {
 /// Who supervises whom, as `frontseat interfaces` prints it.
 pub const TREE: &str = "\
 # supervision tree (every restart is logged, counted, and published on frontseat::supervision::status)
+# two sides, two policies: only the vehicle side can end the process; a helm-side child is
+# restarted without end (backoff doubling to backoff_max_ms, jittered), and while it is down the
+# process is degraded (supervision status: degraded, the child's down_since; goby_coroner health:
+# DEGRADED; metric frontseat.supervision.helm_side_down), never dead
 # frontseat interface
-#   root supervisor                 gives up past a child's limit: exit 3 (or the child's own code)
-#   ├── ZenohGateway                with [interprocess] enabled   [supervision.zenoh]
-#   ├── HealthReporter              answers goby_coroner (goby::health::request)
-#   ├── Goby3Gateway                with [goby3] enabled          [supervision.goby3]
-#   ├── FrontSeatInterface          [supervision.interface] (on-failure, 3 in 60 s); an error state
-#   │   │                           (exit_on_error) or its driver's exhausted limit is not restarted:
-#   │   │                           the process ends with exit 2 / exit 3
-#   │   └── DriverActor             [supervision]: restart after restart_initial_delay_ms doubling to
-#   │                               restart_max_delay_ms, at most max_restarts within restart_window_s
-#   ├── FrontSeatTranslation        with [moos]                   [supervision.translation]
-#   └── WebScope                    with [web] enabled            [supervision.web]
-#       └── WebHub                  always restarted, at most 5 a minute; then the scope fails
-#   each [supervision.X]: policy never|on-failure|always, max_restarts within restart_window_s,
-#   backoff_initial_ms doubling to backoff_max_ms; children stop in reverse start order
+#   root supervisor                 gives up only past a vehicle-side limit: exit 3 (or the child's code)
+#   ├── ZenohGateway          helm     with [interprocess] enabled   [supervision.zenoh]
+#   ├── HealthReporter        helm     answers goby_coroner (goby::health::request)
+#   ├── Goby3Gateway          helm     with [goby3] enabled          [supervision.goby3]
+#   ├── FrontSeatInterface    VEHICLE  [supervision.interface] (on-failure, 3 in 60 s); an error state
+#   │   │                              (exit_on_error) or its driver's exhausted limit is not restarted:
+#   │   │                              the process ends with exit 2 / exit 3
+#   │   └── DriverActor       VEHICLE  [supervision]: restart after restart_initial_delay_ms doubling to
+#   │                                  restart_max_delay_ms, at most max_restarts within restart_window_s
+#   ├── FrontSeatTranslation  helm     with [moos]                   [supervision.translation]
+#   └── WebScope              helm     with [web] enabled            [supervision.web]
+#       └── WebHub                     always restarted, at most 5 a minute; then the scope fails and
+#                                      the root restarts the scope
+#   each [supervision.X]: policy never|on-failure|always, backoff_initial_ms doubling to
+#   backoff_max_ms; max_restarts within restart_window_s bounds the vehicle side only (a helm-side
+#   `never` child that fails is left down, degraded); children stop in reverse start order
 # frontseat sim (and the demo: SimServer + FrontSeatInterface + WebScope under one root)
 #   root supervisor
 #   └── SimServer                   [supervision] of the sim config
@@ -576,6 +721,7 @@ mod tests {
 
     fn policy(restart: RestartPolicy, max: u32) -> Policy {
         Policy {
+            side: Side::Vehicle,
             restart,
             max_restarts: max,
             window: Duration::from_secs(60),
@@ -661,5 +807,51 @@ mod tests {
                 nth: 6
             }
         );
+    }
+
+    #[tokio::test(start_paused = true)]
+    async fn the_helm_side_never_gives_up_and_its_backoff_is_capped_and_jittered() {
+        let mut d = Decider::with_seed(policy(RestartPolicy::OnFailure, 2).helm_side(), 42);
+        let mut delays = Vec::new();
+        for _ in 0..2000 {
+            match d.decide("c", Ending::Failed, Instant::now()) {
+                Decision::Restart { after, .. } => delays.push(after),
+                other => panic!("the helm side gave up: {other:?}"),
+            }
+        }
+        // Doubling from 100 ms, capped at 1000 ms, each in [cap / 2, cap).
+        let caps = [100u64, 200, 400, 800, 1000];
+        for (n, a) in delays.iter().enumerate() {
+            let cap = Duration::from_millis(caps[n.min(caps.len() - 1)]);
+            assert!(
+                *a >= cap / 2 && *a < cap,
+                "restart {n}: {a:?} for cap {cap:?}"
+            );
+        }
+        let distinct: std::collections::BTreeSet<_> = delays[10..].iter().collect();
+        assert!(distinct.len() > 100, "jittered, not in lockstep");
+        assert_eq!(d.restarts, 2000);
+        // Its bookkeeping stays bounded however often it fails.
+        assert!(d.recent.len() <= MAX_REMEMBERED_RESTARTS);
+    }
+
+    #[tokio::test(start_paused = true)]
+    async fn the_helm_side_honours_never_and_on_failure_without_giving_up() {
+        let now = Instant::now();
+        let never = policy(RestartPolicy::Never, 5).helm_side();
+        assert_eq!(
+            Decider::new(never).decide("c", Ending::Failed, now),
+            Decision::LeaveDown
+        );
+        let on_failure = policy(RestartPolicy::OnFailure, 5).helm_side();
+        assert_eq!(
+            Decider::new(on_failure).decide("c", Ending::Stopped, now),
+            Decision::LeaveDown
+        );
+        let always = policy(RestartPolicy::Always, 0).helm_side();
+        assert!(matches!(
+            Decider::new(always).decide("c", Ending::Stopped, now),
+            Decision::Restart { .. }
+        ));
     }
 }

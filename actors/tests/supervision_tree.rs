@@ -4,7 +4,9 @@
 //! - the interface actor panics → the root restarts it (its old DriverActor stopped), NAV flows on the bus again and the
 //!   restart is visible on `frontseat::supervision::status`;
 //! - the driver's own restart limit exhausted → not restarted by the root: the process's exit is
-//!   the driver limit's (3), as before the root supervisor existed.
+//!   the driver limit's (3), as before the root supervisor existed;
+//! - a helm-side child failing again and again, far past its restart limit → restarted without
+//!   end, the process degraded but alive, the driver's connection to the frontseat never closed.
 //!
 //! Every wait has a deadline.
 
@@ -15,8 +17,9 @@ use frontseat_actors::bus::Bus;
 use frontseat_actors::groups;
 use frontseat_actors::interface::{FsiMsg, InterfaceService};
 use frontseat_actors::proto::frontseat::protobuf::{ChaosFault, chaos_fault};
-use frontseat_actors::service_child::{Service, StartService, service_child};
-use frontseat_actors::supervisor::{ChildSpec, Policy, SupervisorHandle};
+use frontseat_actors::service_child::{BoxFuture, Service, StartService, service_child};
+use frontseat_actors::supervisor::{ChildFailure, ChildSpec, Policy, SupervisorHandle};
+use frontseat_config::RestartPolicy;
 use frontseat_config::{InterfaceConfig, RestartConfig};
 use frontseat_sim::{SimOptions, SimServer};
 use ractor::ActorRef;
@@ -165,5 +168,118 @@ async fn the_drivers_exhausted_limit_ends_the_process_with_exit_3() {
         again.get_id(),
         "the interface was not restarted"
     );
+    root.shutdown(Duration::from_secs(10)).await;
+}
+
+/// A helm-side part that fails as soon as it has started, every time (a gateway that keeps
+/// failing, a panic tripped again and again by some helm input).
+struct FailsAtOnce;
+
+impl Service for FailsAtOnce {
+    fn ended(&mut self) -> BoxFuture<'_, Result<(), ChildFailure>> {
+        Box::pin(async { Err(ChildFailure::new("tripped by helm input, again")) })
+    }
+    fn stop(self: Box<Self>, _within: Duration) -> BoxFuture<'static, ()> {
+        Box::pin(async {})
+    }
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_helm_side_child_failing_without_end_never_ends_the_process_nor_the_vehicle_link() {
+    use tokio::io::AsyncBufReadExt;
+    const FAILURES: u32 = 30;
+    let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.unwrap();
+    let mut cfg = InterfaceConfig {
+        name: "helm-fault-auv".into(),
+        sim_warp_factor: 10.0,
+        ..Default::default()
+    };
+    cfg.driver.basic_simulator.tcp_port = listener.local_addr().unwrap().port();
+    let bus = Bus::new();
+    let (_sup_sub, mut statuses) =
+        bus.subscribe_channel(&groups::FRONTSEAT_SUPERVISION_STATUS, "test-sup", 10_000);
+    // Its limit is 2 restarts a minute: on the vehicle side the 3rd failure would end the process.
+    let flaky = service_child(
+        "FlakyGateway",
+        Policy {
+            restart: RestartPolicy::OnFailure,
+            max_restarts: 2,
+            window: Duration::from_secs(60),
+            backoff_initial: Duration::from_millis(1),
+            backoff_max: Duration::from_millis(5),
+            ..Policy::from(&RestartConfig::default())
+        }
+        .helm_side(),
+        Arc::new(|| Box::pin(async { Ok(Box::new(FailsAtOnce) as Box<dyn Service>) })),
+    );
+    let current = Current::default();
+    let root = SupervisorHandle::start(
+        "root",
+        vec![interface_child(cfg, bus.clone(), current), flaky],
+        Some(&bus),
+    )
+    .await
+    .unwrap();
+    let (sock, _) = tokio::time::timeout(DEADLINE, listener.accept())
+        .await
+        .expect("the driver connects")
+        .unwrap();
+    let mut sock = tokio::io::BufReader::new(sock);
+    let mut start = String::new();
+    tokio::time::timeout(DEADLINE, sock.read_line(&mut start))
+        .await
+        .expect("START")
+        .unwrap();
+    assert!(start.starts_with("START,"), "{start:?}");
+
+    // Restarted far past its limit, reported degraded (which child, since when) while down.
+    let mut degraded_seen = false;
+    tokio::time::timeout(DEADLINE, async {
+        loop {
+            let s = statuses.recv().await.expect("bus open");
+            let flaky = s
+                .msg
+                .children
+                .iter()
+                .find(|c| c.name.as_deref() == Some("FlakyGateway"))
+                .cloned()
+                .expect("a child of the root");
+            assert_eq!(flaky.side.as_deref(), Some("helm"));
+            assert_ne!(s.msg.gave_up, Some(true), "the root gave up: {:?}", s.msg);
+            if flaky.up == Some(false) {
+                assert!(flaky.down_since.is_some(), "{flaky:?}");
+                assert_eq!(s.msg.degraded, Some(true), "{:?}", s.msg);
+                degraded_seen = true;
+            }
+            if flaky.restarts.unwrap_or(0) >= FAILURES {
+                return;
+            }
+        }
+    })
+    .await
+    .expect("the helm-side child is restarted again and again");
+    assert!(degraded_seen);
+
+    assert_eq!(root.exit_now(), None, "the process goes on");
+    let snap = root.snapshot(DEADLINE).await.expect("the root answers");
+    let fsi = snap
+        .children
+        .iter()
+        .find(|c| c.name == "FrontSeatInterface")
+        .unwrap();
+    assert!(
+        fsi.up && fsi.restarts == 0,
+        "vehicle side untouched: {fsi:?}"
+    );
+    // The driver's connection is still the first one, and open: reading finds no end of stream.
+    let mut buf = [0u8; 256];
+    loop {
+        match sock.get_ref().try_read(&mut buf) {
+            Ok(0) => panic!("the driver closed the frontseat connection"),
+            Ok(_) => continue,
+            Err(e) if e.kind() == std::io::ErrorKind::WouldBlock => break,
+            Err(e) => panic!("frontseat connection: {e}"),
+        }
+    }
     root.shutdown(Duration::from_secs(10)).await;
 }

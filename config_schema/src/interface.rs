@@ -119,6 +119,8 @@ pub struct InterfaceConfig {
     pub supervision: SupervisionConfig,
     /// The safety envelope: a setpoint outside it never reaches the frontseat.
     pub limits: LimitsConfig,
+    /// Goby3's debugging backdoor `raw_send_request`: who may use it and how much one may carry.
+    pub raw_send: RawSendConfig,
     /// Bridge to pHelmIvP on a MOOSDB. Absent = no MOOS bridge; an empty [moos] table enables it
     /// with the defaults shown.
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -155,6 +157,7 @@ impl Default for InterfaceConfig {
             driver: DriverConfig::default(),
             supervision: SupervisionConfig::default(),
             limits: LimitsConfig::default(),
+            raw_send: RawSendConfig::default(),
             moos: None,
             interprocess: InterprocessConfig::default(),
             goby3: Goby3Config::default(),
@@ -204,6 +207,7 @@ impl ServiceConfig for InterfaceConfig {
         self.driver.check("driver", &mut c);
         self.supervision.check("supervision", &mut c);
         self.limits.check("limits", &mut c);
+        self.raw_send.check("raw_send", &mut c);
         if let Some(m) = &self.moos {
             m.check("moos", &mut c);
             // Goby3 has one warp for the interface and its MOOS side (moos_plugin_translator.cpp:56);
@@ -245,8 +249,8 @@ impl ServiceConfig for InterfaceConfig {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields, default)]
 pub struct DriverConfig {
-    /// Built-in driver to run when no library is given: "basic_simulator", "bluefin", "iver3"
-    /// or "waveglider_sv2".
+    /// Built-in driver to run when no library is given: "basic_simulator", "bluefin", "iver3",
+    /// "waveglider_sv2" or "ardupilot".
     pub name: String,
     /// Path to a driver plugin (shared library) to load instead of a built-in driver;
     /// FRONTSEAT_DRIVER_LIBRARY in the environment does the same.
@@ -262,6 +266,8 @@ pub struct DriverConfig {
     pub waveglider_sv2: WavegliderSv2Config,
     /// Settings of the Bluefin Huxley driver (Goby3's bluefin_config), used when name = "bluefin".
     pub bluefin: BluefinConfig,
+    /// Settings of the ArduPilot (MAVLink) driver, used when name = "ardupilot".
+    pub ardupilot: crate::ardupilot::ArdupilotConfig,
 }
 
 /// Name of the basic simulator driver (the default).
@@ -272,8 +278,11 @@ pub const IVER3: &str = "iver3";
 pub const WAVEGLIDER_SV2: &str = "waveglider_sv2";
 /// Name of the Bluefin Huxley driver.
 pub const BLUEFIN: &str = "bluefin";
+/// Name of the ArduPilot (MAVLink) driver.
+pub const ARDUPILOT: &str = "ardupilot";
 /// Every built-in driver.
-pub const BUILT_IN_DRIVERS: [&str; 4] = [BASIC_SIMULATOR, BLUEFIN, IVER3, WAVEGLIDER_SV2];
+pub const BUILT_IN_DRIVERS: [&str; 5] =
+    [BASIC_SIMULATOR, BLUEFIN, IVER3, WAVEGLIDER_SV2, ARDUPILOT];
 
 impl Default for DriverConfig {
     fn default() -> Self {
@@ -284,6 +293,7 @@ impl Default for DriverConfig {
             iver3: Iver3Config::default(),
             waveglider_sv2: WavegliderSv2Config::default(),
             bluefin: BluefinConfig::default(),
+            ardupilot: crate::ardupilot::ArdupilotConfig::default(),
         }
     }
 }
@@ -310,6 +320,9 @@ impl DriverConfig {
             self.waveglider_sv2.check(&at(prefix, "waveglider_sv2"), c);
         }
         self.bluefin.check(&at(prefix, "bluefin"), c);
+        if self.library.is_none() && self.name == ARDUPILOT {
+            self.ardupilot.check(&at(prefix, "ardupilot"), c);
+        }
     }
 }
 
@@ -734,6 +747,82 @@ pub struct LimitsConfig {
     /// Largest vertical rate either way. Unit: m/s.
     #[schemars(range(min = 0.0))]
     pub max_abs_z_rate: f64,
+    /// Physical bounds of the navigation coming back from the vehicle (`[limits.navigation]`).
+    pub navigation: NavLimitsConfig,
+}
+
+/// What navigation from the frontseat may say before it reaches the helm: physical bounds, wider
+/// than any vehicle, so that only an impossible value (a broken or hostile frontseat: speed
+/// 1e308) is caught. Position (latitude, longitude, local x/y), time, speed over ground, depth and
+/// z, and heading refuse the whole node_status (the helm keeps its last good NAV rather than
+/// steering by a stale value beside fresh ones); altitude, pitch, roll, the angular rates, course
+/// over ground and speed over water are dropped from it and the rest is published. Heading and
+/// course over ground are wrapped into [0, 360) when within ten turns, and refused past that.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields, default)]
+pub struct NavLimitsConfig {
+    /// Largest speed over ground or over water either way. Unit: m/s, greater than 0.
+    #[schemars(extend("exclusiveMinimum" = 0.0))]
+    pub max_abs_speed: f64,
+    /// Shallowest depth (negative: above the sea surface). Unit: m, positive down.
+    pub min_depth: f64,
+    /// Deepest depth. Unit: m, positive down.
+    pub max_depth: f64,
+    /// Highest altitude above the bottom. Unit: m, greater than 0.
+    #[schemars(extend("exclusiveMinimum" = 0.0))]
+    pub max_altitude: f64,
+    /// Largest pitch either way. Unit: degrees, 0 to 90.
+    #[schemars(range(min = 0.0, max = 90.0))]
+    pub max_abs_pitch: f64,
+    /// Largest roll either way. Unit: degrees, 0 to 180.
+    #[schemars(range(min = 0.0, max = 180.0))]
+    pub max_abs_roll: f64,
+    /// Largest roll, pitch or heading rate either way. Unit: degrees/s, greater than 0.
+    #[schemars(extend("exclusiveMinimum" = 0.0))]
+    pub max_abs_angular_rate: f64,
+}
+
+impl Default for NavLimitsConfig {
+    fn default() -> Self {
+        Self {
+            max_abs_speed: 50.0,
+            min_depth: -100.0,
+            max_depth: 11_000.0,
+            max_altitude: 11_000.0,
+            max_abs_pitch: 90.0,
+            max_abs_roll: 180.0,
+            max_abs_angular_rate: 1000.0,
+        }
+    }
+}
+
+impl NavLimitsConfig {
+    fn check(&self, prefix: &str, c: &mut Checker) {
+        c.positive(&at(prefix, "max_abs_speed"), self.max_abs_speed);
+        c.within(&at(prefix, "min_depth"), self.min_depth, -1.0e5, 1.0e5);
+        c.within(&at(prefix, "max_depth"), self.max_depth, -1.0e5, 1.0e5);
+        if self.min_depth.is_finite()
+            && self.max_depth.is_finite()
+            && self.min_depth > self.max_depth
+        {
+            c.push(FieldError::new(
+                at(prefix, "min_depth"),
+                self.min_depth,
+                format!(
+                    "greater than {} ({})",
+                    at(prefix, "max_depth"),
+                    self.max_depth
+                ),
+            ));
+        }
+        c.positive(&at(prefix, "max_altitude"), self.max_altitude);
+        c.within(&at(prefix, "max_abs_pitch"), self.max_abs_pitch, 0.0, 90.0);
+        c.within(&at(prefix, "max_abs_roll"), self.max_abs_roll, 0.0, 180.0);
+        c.positive(
+            &at(prefix, "max_abs_angular_rate"),
+            self.max_abs_angular_rate,
+        );
+    }
 }
 
 impl Default for LimitsConfig {
@@ -746,6 +835,7 @@ impl Default for LimitsConfig {
             max_abs_pitch: 45.0,
             max_abs_roll: 45.0,
             max_abs_z_rate: 2.0,
+            navigation: NavLimitsConfig::default(),
         }
     }
 }
@@ -773,6 +863,60 @@ impl LimitsConfig {
         c.within(&at(prefix, "max_abs_pitch"), self.max_abs_pitch, 0.0, 90.0);
         c.within(&at(prefix, "max_abs_roll"), self.max_abs_roll, 0.0, 180.0);
         c.non_negative(&at(prefix, "max_abs_z_rate"), self.max_abs_z_rate);
+        self.navigation.check(&at(prefix, "navigation"), c);
+    }
+}
+
+/// Where a `raw_send_request` came from, as the interface tells them apart.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum RawSource {
+    /// Published in this process (the demo helm, the chaos harness, an in-process plugin).
+    Local,
+    /// A Goby3 application through gobyd (`[goby3]`).
+    Goby3,
+    /// Another process or host over Zenoh (`[interprocess]`).
+    Zenoh,
+    /// The web commander (`[web]`).
+    Web,
+}
+
+/// `raw_send_request` bypasses the safety envelope: its bytes go to the vehicle as they are. It
+/// is kept because Goby3 has it (and Goby3 applications use it for vehicle sentences the
+/// interface does not model), but bounded: one raw message is exactly one line (or, for a driver
+/// with a binary protocol, one frame) — an embedded CR or LF is refused, so one request cannot
+/// become two commands —, at most `max_bytes`, and only from the `sources` listed. Every raw send
+/// accepted or refused is counted (`raw_sent`, `raw_refused` in the detail status) and logged.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields, default)]
+pub struct RawSendConfig {
+    /// Who may send raw: any of "local", "goby3", "zenoh", "web"; empty = raw sends refused.
+    /// Default: local and goby3 — in-process code, and Goby3 applications as in Goby3; the web
+    /// commander and Zenoh, reachable from the network and new in frontseat, must be named.
+    pub sources: Vec<RawSource>,
+    /// Largest raw message, terminator excluded. Unit: bytes, 1 to 65536.
+    #[schemars(range(min = 1, max = 65536))]
+    pub max_bytes: usize,
+}
+
+impl Default for RawSendConfig {
+    fn default() -> Self {
+        Self {
+            sources: vec![RawSource::Local, RawSource::Goby3],
+            max_bytes: 512,
+        }
+    }
+}
+
+impl RawSendConfig {
+    fn check(&self, prefix: &str, c: &mut Checker) {
+        if !(1..=65536).contains(&self.max_bytes) {
+            c.push(FieldError::new(
+                at(prefix, "max_bytes"),
+                self.max_bytes,
+                "outside [1, 65536]",
+            ));
+        }
     }
 }
 
@@ -849,15 +993,7 @@ pub enum FlowControlConfig {
     Hardware,
 }
 
-/// A FrontSeatState, by Goby3's proto name.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
-#[serde(rename_all = "SCREAMING_SNAKE_CASE")]
-pub enum FrontSeatStateName {
-    FrontseatNotConnected,
-    FrontseatIdle,
-    FrontseatInControl,
-    FrontseatAcceptingCommands,
-}
+pub use crate::state_name::FrontSeatStateName;
 
 /// The link settings both vehicle drivers share (ours; Goby3 has only port and baud).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]

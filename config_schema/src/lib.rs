@@ -5,6 +5,7 @@
 //! turns them into the schema, and [`example`] walks that schema to comment the example file.
 #![forbid(unsafe_code)]
 
+mod ardupilot;
 mod check;
 mod error;
 mod example;
@@ -15,6 +16,7 @@ mod interface;
 mod record;
 mod sections;
 mod sim;
+mod state_name;
 mod web;
 
 use std::io::Read;
@@ -24,16 +26,20 @@ use schemars::JsonSchema;
 use serde::Serialize;
 use serde::de::DeserializeOwned;
 
+pub use ardupilot::{
+    ArdupilotConfig, ArdupilotModeAssignment, ArdupilotStreamRates, ArdupilotVehicle,
+    MavlinkAddress,
+};
 pub use error::{ConfigError, FieldError};
 pub use gateway::{GatewayConfig, GatewaySupervisionConfig};
 pub use goby3::{Goby3Config, Goby3Transport};
 pub use interface::{
-    AcceptingCommandsHook, BASIC_SIMULATOR, BLUEFIN, BUILT_IN_DRIVERS, BasicSimulatorConfig,
-    BluefinConfig, BusConfig, ChaosConfig, DriverConfig, FlowControlConfig, FrontSeatStateName,
-    IVER3, InterfaceConfig, Iver3Config, IverModeAssignments, LimitsConfig, MAX_QUEUE_CAPACITY,
-    ParityConfig, RestartConfig, RestartPolicy, RpmTableEntry, SimStartConfig, SimVehicleConfig,
-    SupervisionConfig, TransportKind, VehicleLinkConfig, VehicleType, WAVEGLIDER_SV2,
-    WavegliderSv2Config,
+    ARDUPILOT, AcceptingCommandsHook, BASIC_SIMULATOR, BLUEFIN, BUILT_IN_DRIVERS,
+    BasicSimulatorConfig, BluefinConfig, BusConfig, ChaosConfig, DriverConfig, FlowControlConfig,
+    FrontSeatStateName, IVER3, InterfaceConfig, Iver3Config, IverModeAssignments, LimitsConfig,
+    MAX_QUEUE_CAPACITY, NavLimitsConfig, ParityConfig, RawSendConfig, RawSource, RestartConfig,
+    RestartPolicy, RpmTableEntry, SimStartConfig, SimVehicleConfig, SupervisionConfig,
+    TransportKind, VehicleLinkConfig, VehicleType, WAVEGLIDER_SV2, WavegliderSv2Config,
 };
 pub use record::{RecordCompression, RecordConfig};
 pub use sections::{

@@ -506,3 +506,50 @@ fn web_rules_and_the_non_loopback_warning() {
     .unwrap();
     assert!(with_token.warnings().is_empty());
 }
+
+#[test]
+fn navigation_limits_name_the_field() {
+    type I = InterfaceConfig;
+    let nav = |body: &str| format!("[limits.navigation]\n{body}\n");
+    rejects::<I>(
+        &nav("max_abs_speed = 0"),
+        "limits.navigation.max_abs_speed",
+        "greater than 0",
+    );
+    rejects::<I>(
+        &nav("min_depth = 20\nmax_depth = 10"),
+        "limits.navigation.min_depth",
+        "greater than limits.navigation.max_depth",
+    );
+    rejects::<I>(
+        &nav("max_depth = inf"),
+        "limits.navigation.max_depth",
+        "not a finite number",
+    );
+    rejects::<I>(
+        &nav("max_abs_pitch = 91"),
+        "limits.navigation.max_abs_pitch",
+        "outside [0, 90]",
+    );
+    rejects::<I>(
+        &nav("max_abs_roll = -1"),
+        "limits.navigation.max_abs_roll",
+        "outside [0, 180]",
+    );
+    rejects::<I>(
+        &nav("max_altitude = -5"),
+        "limits.navigation.max_altitude",
+        "greater than 0",
+    );
+    rejects::<I>(
+        &nav("max_abs_angular_rate = nan"),
+        "limits.navigation.max_abs_angular_rate",
+        "not a finite number",
+    );
+    let ok = frontseat_config::parse::<I>(
+        &nav("max_abs_speed = 3\nmin_depth = 0\nmax_depth = 100"),
+        "cfg.toml",
+    )
+    .expect("a narrower envelope is fine");
+    assert_eq!(ok.limits.navigation.max_abs_speed, 3.0);
+}

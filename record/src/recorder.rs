@@ -288,13 +288,9 @@ impl std::fmt::Debug for Recorder {
     }
 }
 
-/// The name an origin is recorded under (channel metadata `origin`).
+/// The name an origin is recorded under (channel metadata `origin`): the bus's own names.
 pub fn origin_name(o: Origin) -> &'static str {
-    match o {
-        Origin::Local => "local",
-        Origin::Imported => "imported",
-        Origin::Replayed => "replayed",
-    }
+    o.name()
 }
 
 impl Recorder {

@@ -4,6 +4,7 @@
 
 pub mod logcap;
 pub mod otlp;
+pub mod phelm;
 pub mod procs;
 
 use std::time::Duration;

@@ -111,7 +111,7 @@ impl HubState {
             "group": env.group,
             "type": env.type_name,
             "time": unix_ms(published),
-            "origin": match env.meta.origin { Origin::Local => "local", Origin::Imported => "imported", Origin::Replayed => "replayed" },
+            "origin": match env.meta.origin { Origin::Local => "local", Origin::Web => "web", Origin::Replayed => "replayed", Origin::Imported | Origin::Goby3 => "imported" },
             "bytes": env.bytes.len(),
         });
         let msg = match decoded {

@@ -333,11 +333,13 @@ async fn send(State(st): State<AppState>, headers: HeaderMap, body: axum::body::
         }
     };
     // Exactly the path of any other helm: a publication on the group the interface
-    // subscribes; the interface's gates decide, and answer on command_response.
-    match st
-        .ports
-        .publish_encoded(info.name, &bytes, PublishMeta::default())
-    {
+    // subscribes; the interface's gates decide, and answer on command_response. Marked as the
+    // web's, so that `[raw_send] sources` can tell a browser from in-process code.
+    let meta = PublishMeta {
+        origin: frontseat_actors::bus::Origin::Web,
+        ..PublishMeta::default()
+    };
+    match st.ports.publish_encoded(info.name, &bytes, meta) {
         Ok(report) => {
             st.counters.sends.fetch_add(1, Ordering::Relaxed);
             tracing::info!(

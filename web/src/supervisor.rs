@@ -8,7 +8,7 @@
 use std::sync::{Arc, RwLock};
 use std::time::Duration;
 
-use frontseat_actors::supervisor::{ChildSpec, Policy, SupervisorHandle};
+use frontseat_actors::supervisor::{ChildSpec, Policy, Side, SupervisorHandle};
 use frontseat_config::RestartPolicy;
 use ractor::{Actor, ActorRef, ActorStatus};
 
@@ -35,7 +35,10 @@ impl HubHandle {
 }
 
 fn hub_policy() -> Policy {
+    // Bounded on purpose: past it the WebScope fails, and the root restarts the scope, without
+    // end (the web is on the helm side).
     Policy {
+        side: Side::Vehicle,
         restart: RestartPolicy::Always,
         max_restarts: HUB_MAX_RESTARTS,
         window: Duration::from_secs(60),

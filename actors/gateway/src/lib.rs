@@ -230,7 +230,7 @@ pub(crate) fn subscribe_exports(
     for (i, r) in plan.exports.iter().enumerate() {
         let (tx, echoed) = (tx.clone(), echoed.clone());
         let sub = interprocess_subscribe_encoded(bus, r.group, subscriber, capacity, move |env| {
-            if env.meta.origin == Origin::Imported {
+            if env.meta.origin.is_imported() {
                 echoed();
                 return Ok(());
             }

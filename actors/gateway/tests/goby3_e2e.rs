@@ -130,7 +130,7 @@ async fn exchange(bus_if: &Bus, bus_helm: &Bus) {
     )
     .await;
     assert_eq!(*env.msg, ns(7.0));
-    assert_eq!(env.origin, Origin::Imported);
+    assert_eq!(env.origin, Origin::Goby3);
 
     let (_s2, mut rx2) =
         bus_if.subscribe_channel(&groups::GOBY_MIDDLEWARE_FRONTSEAT_DESIRED_COURSE, "t", 1000);
@@ -142,7 +142,7 @@ async fn exchange(bus_if: &Bus, bus_helm: &Bus) {
     )
     .await;
     assert_eq!(*env.msg, dc(45.0));
-    assert_eq!(env.origin, Origin::Imported);
+    assert_eq!(env.origin, Origin::Goby3);
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]

@@ -58,6 +58,10 @@ impl Settings {
     }
 }
 
+/// Commands awaiting their CMD,RESULT at most (a frontseat that stopped answering cannot make
+/// the queue grow without end).
+const MAX_IN_FLIGHT: usize = 256;
+
 pub struct BasicSimulatorDriver {
     settings: Settings,
     writer: Option<LineWriter>,
@@ -65,7 +69,12 @@ pub struct BasicSimulatorDriver {
     state: FrontSeatState,
     last_nav: Option<Duration>,
     providing_data: bool,
-    last_request: Option<CommandRequest>,
+    /// The requests whose CMD lines are on their way, oldest first: the simulator answers every
+    /// CMD in order, so each CMD,RESULT belongs to the oldest (Goby3 answers with its last
+    /// request instead, so a burst got one request answered several times and the rest never).
+    in_flight: std::collections::VecDeque<CommandRequest>,
+    /// CMD,RESULT lines with no CMD of ours in flight (a reconnect in between).
+    pub unmatched_results: u64,
     pub bad_lines: u64,
     pub unknown_lines: u64,
     pub write_failures: u64,
@@ -82,7 +91,8 @@ impl BasicSimulatorDriver {
             state: FrontSeatState::FrontseatNotConnected,
             last_nav: None,
             providing_data: false,
-            last_request: None,
+            in_flight: std::collections::VecDeque::new(),
+            unmatched_results: 0,
             bad_lines: 0,
             unknown_lines: 0,
             write_failures: 0,
@@ -107,11 +117,12 @@ impl BasicSimulatorDriver {
         }
     }
 
-    fn write(&mut self, line: &str, sig: &mut dyn SignalSink) {
+    /// Writes one line; whether it was handed to the connection.
+    fn write(&mut self, line: &str, sig: &mut dyn SignalSink) -> bool {
         let Some(w) = &self.writer else {
             self.write_failures += 1;
             tracing::debug!(line, "not connected to the frontseat; line not sent");
-            return;
+            return false;
         };
         let _span = tracing::trace_span!(
             target: "frontseat_actors",
@@ -121,10 +132,14 @@ impl BasicSimulatorDriver {
         )
         .entered();
         match w.write_line(line) {
-            Ok(()) => sig.raw_to_frontseat(raw_ascii(line, "")),
+            Ok(()) => {
+                sig.raw_to_frontseat(raw_ascii(line, ""));
+                true
+            }
             Err(e) => {
                 self.write_failures += 1;
                 tracing::warn!(line, error = %e, "line to the frontseat not sent");
+                false
             }
         }
     }
@@ -166,9 +181,12 @@ impl BasicSimulatorDriver {
             }
             "CMD" => {
                 let ok = field(fields, "RESULT") == Some("OK");
-                if let Some(req) = &self.last_request
-                    && req.response_requested()
-                {
+                let Some(req) = self.in_flight.pop_front() else {
+                    self.unmatched_results += 1;
+                    tracing::debug!(line, "CMD,RESULT with no command in flight");
+                    return;
+                };
+                if req.response_requested() {
                     sig.command_response(CommandResponse {
                         request_successful: Some(ok),
                         request_id: req.request_id,
@@ -285,7 +303,7 @@ impl Driver for BasicSimulatorDriver {
                 // Connected but not yet told its state: IDLE until CTRL says otherwise.
                 self.state = FrontSeatState::FrontseatIdle;
                 let start = self.settings.start_line.clone();
-                self.write(&start, sig);
+                let _ = self.write(&start, sig);
             }
             DriverIoEvent::Line(line) => self.handle_line(&line, now, sig),
             DriverIoEvent::Frame(_) => self.bad_input(
@@ -303,6 +321,8 @@ impl Driver for BasicSimulatorDriver {
                 self.state = FrontSeatState::FrontseatNotConnected;
                 self.providing_data = false;
                 self.last_nav = None;
+                // Their answers will not come on a new connection (the interface answers them).
+                self.in_flight.clear();
             }
         }
     }
@@ -315,8 +335,14 @@ impl Driver for BasicSimulatorDriver {
     ) {
         match command_line(req) {
             Some(line) => {
-                self.last_request = Some(*req);
-                self.write(&line, sig);
+                if self.write(&line, sig) {
+                    if self.in_flight.len() >= MAX_IN_FLIGHT {
+                        // A frontseat that stopped answering: the oldest is given up on (the
+                        // interface answers it when its own timeout passes).
+                        self.in_flight.pop_front();
+                    }
+                    self.in_flight.push_back(*req);
+                }
             }
             None => {
                 if req.response_requested() {
@@ -347,7 +373,7 @@ impl Driver for BasicSimulatorDriver {
         match std::str::from_utf8(bytes) {
             Ok(s) => {
                 let line = s.trim_end_matches(['\r', '\n']).to_string();
-                self.write(&line, sig);
+                let _ = self.write(&line, sig);
             }
             Err(_) => self.bad_input(
                 now,
@@ -493,6 +519,8 @@ mod tests {
         assert_eq!(sink.responses.len(), 1);
         assert_eq!(sink.responses[0].request_successful, Some(true));
         assert_eq!(sink.responses[0].request_id, Some(7));
+        d.handle_io(DriverIoEvent::Line("CMD,RESULT:OK".into()), now, &mut sink);
+        assert_eq!(sink.responses.len(), 1, "a request is answered once");
         req.response_requested = Some(false);
         d.send_command_to_frontseat(&req, now, &mut sink);
         d.handle_io(
@@ -501,6 +529,46 @@ mod tests {
             &mut sink,
         );
         assert_eq!(sink.responses.len(), 1);
+    }
+
+    #[test]
+    fn a_burst_of_commands_gets_one_answer_each_in_order() {
+        let mut d = driver();
+        let mut sink = Sink::default();
+        let (w, mut rx) = LineWriter::for_test();
+        let now = Duration::ZERO;
+        d.handle_io(DriverIoEvent::Connected(w), now, &mut sink);
+        let _start = rx.try_recv().unwrap();
+        for (id, respond) in [(1, true), (2, false), (3, true)] {
+            let req = CommandRequest {
+                desired_course: Some(DesiredCourse {
+                    heading: Some(90.0),
+                    speed: Some(1.0),
+                    ..Default::default()
+                }),
+                response_requested: Some(respond),
+                request_id: Some(id),
+                ..Default::default()
+            };
+            d.send_command_to_frontseat(&req, now, &mut sink);
+        }
+        for result in ["OK", "OK", "ERROR"] {
+            d.handle_io(
+                DriverIoEvent::Line(format!("CMD,RESULT:{result}")),
+                now,
+                &mut sink,
+            );
+        }
+        let answers: Vec<(Option<i32>, Option<bool>)> = sink
+            .responses
+            .iter()
+            .map(|r| (r.request_id, r.request_successful))
+            .collect();
+        assert_eq!(answers, vec![(Some(1), Some(true)), (Some(3), Some(false))]);
+        // A result with nothing in flight answers nobody.
+        d.handle_io(DriverIoEvent::Line("CMD,RESULT:OK".into()), now, &mut sink);
+        assert_eq!(sink.responses.len(), 2);
+        assert_eq!(d.unmatched_results, 1);
     }
 
     #[test]

@@ -1,6 +1,7 @@
 //! Driver selection: a plugin library when FRONTSEAT_DRIVER_LIBRARY or `driver.library` names
 //! one (see plugin.rs), otherwise the built-in driver the config names (`driver.name`).
 
+pub mod ardupilot;
 pub mod basic_simulator;
 pub mod bluefin;
 pub mod iver3;
@@ -13,7 +14,7 @@ use frontseat_config::InterfaceConfig;
 #[derive(Debug, thiserror::Error)]
 pub enum DriverSelectError {
     #[error(
-        "unknown driver `{0}` (built-in drivers: basic_simulator, bluefin, iver3, waveglider_sv2)"
+        "unknown driver `{0}` (built-in drivers: basic_simulator, bluefin, iver3, waveglider_sv2, ardupilot)"
     )]
     Unknown(String),
     #[error(transparent)]
@@ -83,6 +84,12 @@ pub fn factory_with_env(
             Ok(std::sync::Arc::new(move || {
                 Box::new(waveglider_sv2::WavegliderSv2Driver::new(settings.clone()))
                     as Box<dyn Driver>
+            }))
+        }
+        frontseat_config::ARDUPILOT => {
+            let settings = ardupilot::Settings::from_config(cfg);
+            Ok(std::sync::Arc::new(move || {
+                Box::new(ardupilot::ArdupilotDriver::new(settings.clone())) as Box<dyn Driver>
             }))
         }
         other => Err(DriverSelectError::Unknown(other.to_string())),

@@ -1,5 +1,5 @@
-//! The vehicle drivers' link: a serial port or a TCP connection (serial-over-IP adapters),
-//! either one cut into lines or SV2 frames by [`Framing`]. Opens without blocking the driver,
+//! The vehicle drivers' link: a serial port, a TCP connection (serial-over-IP adapters) or a
+//! UDP socket (MAVLink routers), cut into lines, SV2 frames or MAVLink frames by [`Framing`]. Opens without blocking the driver,
 //! reopens with capped exponential backoff when the device or connection goes away (USB
 //! adapters vanish and come back), bounds what it buffers both ways, counts what it did, and
 //! hands every event to the driver actor the moment it happens.
@@ -20,7 +20,20 @@ use super::{LineWriter, WRITE_QUEUE};
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub enum Transport {
     Serial(SerialSettings),
-    Tcp { host: String, port: u16 },
+    Tcp {
+        host: String,
+        port: u16,
+    },
+    /// Bound here; every datagram goes to whoever sent the last one (MAVLink `udpin`).
+    UdpIn {
+        host: String,
+        port: u16,
+    },
+    /// From an ephemeral port to this address (MAVLink `udpout`).
+    UdpOut {
+        host: String,
+        port: u16,
+    },
 }
 
 impl Transport {
@@ -29,6 +42,8 @@ impl Transport {
         match self {
             Transport::Serial(s) => format!("{} at {} baud", s.path, s.baud),
             Transport::Tcp { host, port } => format!("tcp {host}:{port}"),
+            Transport::UdpIn { host, port } => format!("udp in {host}:{port}"),
+            Transport::UdpOut { host, port } => format!("udp out {host}:{port}"),
         }
     }
 }
@@ -86,6 +101,20 @@ pub fn spawn(
                         None
                     }
                 },
+                Transport::UdpIn { .. } | Transport::UdpOut { .. } => {
+                    match udp_open(&cfg.transport).await {
+                        Ok((sock, peer)) => {
+                            delay = cfg.backoff_initial;
+                            add(&stats.opens, 1);
+                            Some(run_udp(sock, peer, &cfg, &io, &stats).await)
+                        }
+                        Err(e) => {
+                            add(&stats.open_failures, 1);
+                            tracing::debug!(%what, error = %e, "cannot open the UDP socket; retrying in {:?}", delay);
+                            None
+                        }
+                    }
+                }
                 Transport::Tcp { host, port } => {
                     match TcpStream::connect((host.as_str(), *port)).await {
                         Ok(stream) => {
@@ -162,4 +191,78 @@ where
     };
     writer.abort();
     reason
+}
+
+/// The socket and, for `udpout`, the peer it sends to.
+async fn udp_open(
+    t: &Transport,
+) -> std::io::Result<(tokio::net::UdpSocket, Option<std::net::SocketAddr>)> {
+    use tokio::net::{UdpSocket, lookup_host};
+    match t {
+        Transport::UdpIn { host, port } => {
+            Ok((UdpSocket::bind((host.as_str(), *port)).await?, None))
+        }
+        Transport::UdpOut { host, port } => {
+            let peer = lookup_host((host.as_str(), *port))
+                .await?
+                .next()
+                .ok_or_else(|| std::io::Error::other("no address"))?;
+            let local: std::net::SocketAddr = if peer.is_ipv4() {
+                ([0, 0, 0, 0], 0).into()
+            } else {
+                (std::net::Ipv6Addr::UNSPECIFIED, 0).into()
+            };
+            Ok((UdpSocket::bind(local).await?, Some(peer)))
+        }
+        _ => Err(std::io::Error::other("not a UDP transport")),
+    }
+}
+
+/// One UDP "connection": lasts until the socket fails or the driver goes. A datagram to send
+/// before any peer is known (udpin, nobody heard yet) is dropped and counted.
+async fn run_udp(
+    sock: tokio::net::UdpSocket,
+    mut peer: Option<std::net::SocketAddr>,
+    cfg: &ByteLinkConfig,
+    io: &IoSender,
+    stats: &Arc<LinkStats>,
+) -> String {
+    let (tx, mut rx) = mpsc::channel::<Vec<u8>>(WRITE_QUEUE);
+    if !io.send(DriverIoEvent::Connected(LineWriter::from_sender(tx))) {
+        return "driver gone".into();
+    }
+    let mut deframer = Deframer::new(cfg.framing);
+    let mut buf = vec![0u8; 65_536];
+    loop {
+        tokio::select! {
+            r = sock.recv_from(&mut buf) => match r {
+                Ok((n, from)) => {
+                    peer = Some(from);
+                    add(&stats.bytes_in, n as u64);
+                    let mut alive = true;
+                    deframer.feed(&buf[..n], &mut |ev| {
+                        match &ev {
+                            DriverIoEvent::BadInput(_) => add(&stats.bad_input, 1),
+                            _ => add(&stats.messages, 1),
+                        }
+                        alive &= io.send(ev);
+                    });
+                    if !alive {
+                        return "driver gone".to_string();
+                    }
+                }
+                Err(e) => return format!("UDP receive failed: {e}"),
+            },
+            b = rx.recv() => match b {
+                Some(b) => match peer {
+                    Some(p) => match sock.send_to(&b, p).await {
+                        Ok(n) => add(&stats.bytes_out, n as u64),
+                        Err(e) => tracing::debug!(error = %e, "UDP send failed"),
+                    },
+                    None => tracing::trace!("no UDP peer heard yet; datagram dropped"),
+                },
+                None => return "closed by driver".to_string(),
+            },
+        }
+    }
 }

@@ -1,5 +1,5 @@
-//! How a byte link cuts its input into messages, with bounded memory: text lines (NMEA) or
-//! Wave Glider SV2 binary frames. Both resynchronise after bad input instead of closing the
+//! How a byte link cuts its input into messages, with bounded memory: text lines (NMEA),
+//! Wave Glider SV2 binary frames or MAVLink frames. Both resynchronise after bad input instead of closing the
 //! link (a serial line cannot be "reconnected" past its noise), and report every problem as a
 //! `BadInput` event the driver counts.
 
@@ -15,12 +15,15 @@ pub enum Framing {
     Lines { max_line_bytes: usize },
     /// SV2 frames: start byte 0x7E, escaping, size field, CRC-16/ARC.
     Sv2Frames,
+    /// MAVLink 1/2 frames of the ardupilotmega dialect, CRC-checked (`frontseat_ardupilot::codec`).
+    Mavlink,
 }
 
 /// Per-connection state of a [`Framing`].
 pub(crate) enum Deframer {
     Lines(LineSplitter),
     Sv2(FrameDecoder),
+    Mavlink(frontseat_ardupilot::codec::Deframer),
 }
 
 impl Deframer {
@@ -28,6 +31,7 @@ impl Deframer {
         match f {
             Framing::Lines { max_line_bytes } => Deframer::Lines(LineSplitter::new(max_line_bytes)),
             Framing::Sv2Frames => Deframer::Sv2(FrameDecoder::new()),
+            Framing::Mavlink => Deframer::Mavlink(frontseat_ardupilot::codec::Deframer::new()),
         }
     }
 
@@ -41,6 +45,10 @@ impl Deframer {
                     Err(e) => out(DriverIoEvent::BadInput(e.to_string())),
                 },
                 Err(e) => out(DriverIoEvent::BadInput(format!("SV2 framing: {e}"))),
+            }),
+            Deframer::Mavlink(d) => d.feed(bytes, &mut |r| match r {
+                Ok(f) => out(DriverIoEvent::Frame(f)),
+                Err(e) => out(DriverIoEvent::BadInput(format!("MAVLink: {e}"))),
             }),
         }
     }

@@ -215,7 +215,7 @@ impl Importer {
         };
         let meta = PublishMeta {
             trace: None,
-            origin: Origin::Imported,
+            origin: Origin::Goby3,
         };
         match interprocess_publish_encoded(&self.bus, group, f.payload, meta) {
             Ok(_) => {

@@ -47,7 +47,9 @@ pub struct WebConfig {
     #[schemars(range(min = 256, max = 1048576))]
     pub max_body_bytes: usize,
     /// A connection that neither sends nor receives for this long is closed (an open scope tab
-    /// receives a keep-alive every 5 s, so only idle or stalled sockets are). Unit: s, 1 to 3600.
+    /// receives a keep-alive every 5 s, so only idle or stalled sockets are); a request not
+    /// answered within this long of its first byte (trickled, slowloris) is closed too. Unit: s,
+    /// 1 to 3600.
     #[schemars(range(min = 1, max = 3600))]
     pub idle_timeout_s: u64,
 }

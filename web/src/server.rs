@@ -48,6 +48,9 @@ pub struct ServerCounters {
     pub requests_refused: AtomicU64,
     pub sends: AtomicU64,
     pub sends_refused: AtomicU64,
+    /// Connections closed because a request was not complete within the idle timeout of its
+    /// first byte (slowloris).
+    pub slow_requests: AtomicU64,
 }
 
 #[derive(Clone)]
@@ -398,13 +401,17 @@ pub struct BoundedListener {
 
 /// One served connection: holds its slot, and ends itself after `idle` without a byte either
 /// way, so sockets that never send a request cannot hold every slot (hyper has no header
-/// timeout of its own here).
+/// timeout of its own here); and after `idle` from the first byte of a request with no byte of
+/// an answer, so a client trickling a request a byte at a time (slowloris), which resets the idle
+/// timer with every byte, still cannot hold its slot longer than that.
 pub struct BoundedStream {
     stream: TcpStream,
     _permit: OwnedSemaphorePermit,
     counters: Arc<ServerCounters>,
     idle: Duration,
     last: tokio::time::Instant,
+    /// Since when the peer has sent bytes that no byte of ours answered yet.
+    unanswered_since: Option<tokio::time::Instant>,
     timer: Pin<Box<tokio::time::Sleep>>,
 }
 
@@ -451,6 +458,7 @@ impl axum::serve::Listener for BoundedListener {
                             counters: self.counters.clone(),
                             idle: self.idle,
                             last: now,
+                            unanswered_since: None,
                             timer: Box::pin(tokio::time::sleep_until(now + self.idle)),
                         },
                         addr,
@@ -486,22 +494,35 @@ impl AsyncRead for BoundedStream {
             Poll::Ready(r) => {
                 if buf.filled().len() > before {
                     self.active();
+                    if self.unanswered_since.is_none() {
+                        self.unanswered_since = Some(self.last);
+                    }
                 }
                 Poll::Ready(r)
             }
             Poll::Pending => {
-                // Waiting for the peer: wake up at the idle deadline and close if nothing moved.
+                // Waiting for the peer: wake up at the idle deadline, or the request's, and close
+                // if it passed.
                 loop {
-                    let deadline = self.last + self.idle;
+                    let idle = self.last + self.idle;
+                    let deadline = self
+                        .unanswered_since
+                        .map_or(idle, |t| idle.min(t + self.idle));
                     if self.timer.deadline() != deadline {
                         self.timer.as_mut().reset(deadline);
                     }
                     match self.timer.as_mut().poll(cx) {
                         Poll::Pending => return Poll::Pending,
-                        Poll::Ready(()) if self.last + self.idle <= tokio::time::Instant::now() => {
+                        Poll::Ready(()) if deadline <= tokio::time::Instant::now() => {
+                            let why = if deadline < idle {
+                                self.counters.slow_requests.fetch_add(1, Ordering::Relaxed);
+                                "request not complete in time"
+                            } else {
+                                "idle connection"
+                            };
                             return Poll::Ready(Err(std::io::Error::new(
                                 std::io::ErrorKind::TimedOut,
-                                "idle connection",
+                                why,
                             )));
                         }
                         Poll::Ready(()) => continue,
@@ -521,6 +542,7 @@ impl AsyncWrite for BoundedStream {
         let r = Pin::new(&mut self.stream).poll_write(cx, buf);
         if matches!(r, Poll::Ready(Ok(n)) if n > 0) {
             self.active();
+            self.unanswered_since = None;
         }
         r
     }

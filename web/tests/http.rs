@@ -522,3 +522,54 @@ async fn an_idle_socket_is_closed_and_frees_its_slot() {
     }
     web.shutdown(Duration::from_secs(2)).await;
 }
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_request_trickled_a_byte_at_a_time_is_cut_at_the_idle_timeout() {
+    use tokio::io::AsyncWriteExt;
+    let (_bus, web) = start(
+        WebConfig {
+            max_connections: 1,
+            idle_timeout_s: 2,
+            ..cfg()
+        },
+        None,
+    )
+    .await;
+    let addr = web.local_addr();
+    // Slowloris: a request line, then one header byte every 300 ms, never the blank line. Every
+    // byte resets the idle timer; the request's own deadline (2 s from its first byte) does not
+    // move. Closed within 3 × that, or never without the bound.
+    let mut slow = tokio::net::TcpStream::connect(addr).await.unwrap();
+    slow.write_all(b"GET /api/info HTTP/1.1\r\nX-Slow: ")
+        .await
+        .unwrap();
+    let first_byte = tokio::time::Instant::now();
+    let mut buf = [0u8; 64];
+    let closed = tokio::time::timeout(Duration::from_secs(6), async {
+        loop {
+            tokio::select! {
+                r = slow.read(&mut buf) => match r {
+                    Ok(0) | Err(_) => return,
+                    Ok(_) => panic!("an answer to an incomplete request"),
+                },
+                () = tokio::time::sleep(Duration::from_millis(300)) => {
+                    if slow.write_all(b"a").await.is_err() {
+                        return;
+                    }
+                }
+            }
+        }
+    })
+    .await;
+    assert!(
+        closed.is_ok(),
+        "the trickling client still holds its slot after 6 s"
+    );
+    assert!(
+        first_byte.elapsed() >= Duration::from_secs(2),
+        "not before its deadline"
+    );
+    // Its slot is free again.
+    assert_eq!(get(addr, "/api/info").await.status, 200);
+    web.shutdown(Duration::from_secs(2)).await;
+}

@@ -641,19 +641,25 @@ impl FsiState {
             .publish_data_from_frontseat_with(Arc::new(data), env.meta());
     }
 
+    /// A vehicle extension's node_status through the navigation gate: completed when fit for a
+    /// helm, removed otherwise (`count`: whether its refusals count, or are counted elsewhere).
+    fn gate_extension_nav(&mut self, ns: &mut Option<NodeStatus>, count: bool) {
+        if let Some(n) = ns.as_mut() {
+            if self.nav_fit_for_helm(n, count) {
+                self.compute_missing(n);
+            } else {
+                *ns = None;
+            }
+        }
+    }
+
     /// The Bluefin driver's extended data: its node_status (none today) crosses the same gate.
     fn handle_bluefin_data(
         &mut self,
         env: Envelope<crate::proto::frontseat::protobuf::bluefin::InterfaceData>,
     ) {
         let mut data = (*env.msg).clone();
-        if let Some(ns) = data.node_status.as_mut() {
-            if self.nav_fit_for_helm(ns, true) {
-                self.compute_missing(ns);
-            } else {
-                data.node_status = None;
-            }
-        }
+        self.gate_extension_nav(&mut data.node_status, true);
         self.ports
             .publish_bluefin_data_from_frontseat_with(Arc::new(data), env.meta());
     }
@@ -665,13 +671,7 @@ impl FsiState {
         env: Envelope<crate::proto::frontseat::protobuf::iver::InterfaceData>,
     ) {
         let mut data = (*env.msg).clone();
-        if let Some(ns) = data.node_status.as_mut() {
-            if self.nav_fit_for_helm(ns, false) {
-                self.compute_missing(ns);
-            } else {
-                data.node_status = None;
-            }
-        }
+        self.gate_extension_nav(&mut data.node_status, false);
         self.ports
             .publish_iver_data_from_frontseat_with(Arc::new(data), env.meta());
     }

@@ -143,7 +143,7 @@ pub async fn interface(config: InterfaceConfig) -> ExitCode {
     });
     tracing::info!(
         driver = %config.driver.name,
-        frontseat = %format!("{}:{}", config.driver.basic_simulator.tcp_address, config.driver.basic_simulator.tcp_port),
+        frontseat = %config.driver.vehicle_link(),
         moos = config.moos.is_some(),
         interprocess = config.interprocess.enabled,
         goby3 = config.goby3.enabled,

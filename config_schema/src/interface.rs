@@ -299,6 +299,42 @@ impl Default for DriverConfig {
 }
 
 impl DriverConfig {
+    /// Where the selected driver talks to its vehicle, for the start-up log line: an operator
+    /// reading the journal must see the link that is actually in use, not the basic
+    /// simulator's default address when another driver runs.
+    pub fn vehicle_link(&self) -> String {
+        fn serial_or_tcp(link: &VehicleLinkConfig, port: &str, baud: u32) -> String {
+            match link.transport {
+                TransportKind::Serial => format!("serial {port} @ {baud} baud"),
+                TransportKind::Tcp => format!("tcp {}:{}", link.tcp_address, link.tcp_port),
+            }
+        }
+        if let Some(lib) = &self.library {
+            return format!("plugin {lib}");
+        }
+        match self.name.as_str() {
+            BLUEFIN => format!(
+                "tcp {}:{}",
+                self.bluefin.huxley_tcp_address, self.bluefin.huxley_tcp_port
+            ),
+            IVER3 => serial_or_tcp(
+                &self.iver3.link,
+                &self.iver3.serial_port,
+                self.iver3.serial_baud,
+            ),
+            WAVEGLIDER_SV2 => serial_or_tcp(
+                &self.waveglider_sv2.link,
+                &self.waveglider_sv2.pm_serial_port,
+                self.waveglider_sv2.pm_serial_baud,
+            ),
+            ARDUPILOT => format!("mavlink {}", self.ardupilot.address),
+            _ => format!(
+                "tcp {}:{}",
+                self.basic_simulator.tcp_address, self.basic_simulator.tcp_port
+            ),
+        }
+    }
+
     fn check(&self, prefix: &str, c: &mut Checker) {
         match &self.library {
             Some(lib) => c.non_empty(&at(prefix, "library"), lib),

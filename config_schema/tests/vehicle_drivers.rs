@@ -75,3 +75,45 @@ fn required_fields_only_for_the_selected_driver() {
     cfg.driver.name = "no_such_driver".into();
     assert_eq!(paths(&cfg), vec!["driver.name"]);
 }
+
+/// The start-up log names the link the selected driver uses; before, it printed the basic
+/// simulator's address whatever the driver was.
+#[test]
+fn vehicle_link_names_the_selected_drivers_link() {
+    let link = |toml: &str| -> String {
+        let cfg: InterfaceConfig = parse(toml, "link.toml").expect("valid test config");
+        cfg.driver.vehicle_link()
+    };
+    assert_eq!(
+        link("[driver.basic_simulator]\ntcp_address = \"127.0.0.1\"\ntcp_port = 54321\n"),
+        "tcp 127.0.0.1:54321"
+    );
+    assert_eq!(
+        link(
+            "[driver]\nname = \"bluefin\"\n[driver.bluefin]\nhuxley_tcp_address = \"10.0.0.9\"\nhuxley_tcp_port = 29500\n"
+        ),
+        "tcp 10.0.0.9:29500"
+    );
+    assert_eq!(
+        link(
+            "[driver]\nname = \"iver3\"\n[driver.iver3]\nserial_port = \"/dev/ttyUSB3\"\nserial_baud = 19200\nremote_helm_version_major = 4\n"
+        ),
+        "serial /dev/ttyUSB3 @ 19200 baud"
+    );
+    assert_eq!(
+        link(
+            "[driver]\nname = \"waveglider_sv2\"\n[driver.waveglider_sv2]\npm_serial_port = \"/dev/ttyS1\"\n[driver.waveglider_sv2.link]\ntransport = \"tcp\"\ntcp_address = \"127.0.0.1\"\ntcp_port = 4001\n"
+        ),
+        "tcp 127.0.0.1:4001"
+    );
+    assert_eq!(
+        link(
+            "[driver]\nname = \"ardupilot\"\n[driver.ardupilot]\naddress = \"udpin:127.0.0.1:14550\"\n"
+        ),
+        "mavlink udpin:127.0.0.1:14550"
+    );
+    assert_eq!(
+        link("[driver]\nlibrary = \"/opt/libmine.so\"\n"),
+        "plugin /opt/libmine.so"
+    );
+}

@@ -95,9 +95,7 @@ pub fn driver_line(data: &[u8]) {
         let raw = raw.strip_suffix(b"\r").unwrap_or(raw);
         match std::str::from_utf8(raw) {
             Ok(line) => {
-                if let Some((_, fields)) = line.split_once(',')
-                    && let Ok(ns) = parse_nav(fields)
-                {
+                if let Ok(ns) = parse_nav(line) {
                     assert!(ns.pose.heading().is_finite() && ns.speed.over_ground.is_finite());
                 }
                 if line.split(',').next() == Some("NAV") {
@@ -238,7 +236,7 @@ pub fn config(data: &[u8]) {
 /// answers a command it was not given.
 pub fn sv2_frame(data: &[u8]) {
     use frontseat_actors::drivers::waveglider_sv2::{Settings as Sv2Settings, WavegliderSv2Driver};
-    use frontseat_sim::waveglider_sv2::codec::{FrameDecoder, MAX_FRAME, Packet};
+    use frontseat_waveglider_sv2::codec::{FrameDecoder, MAX_FRAME, Packet};
 
     let mut cfg = InterfaceConfig::default();
     cfg.driver.waveglider_sv2.pm_serial_port = "/dev/null".into();
@@ -274,7 +272,7 @@ pub fn sv2_frame(data: &[u8]) {
 /// publishes raw_in once per line, never a non-finite fix, and no command response unasked.
 pub fn iver_sentence(data: &[u8]) {
     use frontseat_actors::drivers::iver3::{Iver3Driver, Settings as IverSettings};
-    use frontseat_sim::iver3::codec::Sentence;
+    use frontseat_iver3::codec::Sentence;
 
     let mut cfg = InterfaceConfig::default();
     cfg.driver.iver3.serial_port = "/dev/null".into();
@@ -287,7 +285,7 @@ pub fn iver_sentence(data: &[u8]) {
         if let Ok(s) = Sentence::parse(line)
             // Absurd numbers (1e300 degrees) can format past the length bound; those lines are
             // rejected as too long, which is the bound doing its job.
-            && s.to_line().len() <= frontseat_sim::iver3::codec::MAX_SENTENCE
+            && s.to_line().len() <= frontseat_iver3::codec::MAX_SENTENCE
         {
             let again = Sentence::parse(&s.to_line());
             assert!(

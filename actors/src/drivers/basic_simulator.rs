@@ -12,7 +12,7 @@ use std::time::Duration;
 use frontseat_config::InterfaceConfig;
 use frontseat_sim::codec::{self, FieldError, LineError, Outbound};
 
-use super::kit::{DataWatch, OwnedTask, send_line};
+use super::kit::{DataWatch, OwnedTask, failure, send_line};
 use crate::clock::SimClock;
 use crate::driver::{Driver, DriverContext, DriverIoEvent, SignalSink, raw_ascii};
 use crate::link::{self, LineWriter, LinkConfig};
@@ -330,14 +330,11 @@ impl Driver for BasicSimulatorDriver {
             }
             None => {
                 if req.response_requested() {
-                    sig.command_response(CommandResponse {
-                        request_successful: Some(false),
-                        request_id: req.request_id,
-                        error_code: Some(1),
-                        error_string: Some(
-                            "the basic simulator accepts only desired_course commands".into(),
-                        ),
-                    });
+                    sig.command_response(failure(
+                        req.request_id,
+                        1,
+                        "the basic simulator accepts only desired_course commands",
+                    ));
                 }
             }
         }

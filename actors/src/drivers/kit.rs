@@ -10,6 +10,7 @@ use tokio::task::JoinHandle;
 
 use crate::driver::{SignalSink, raw_ascii};
 use crate::link::{LineWriter, WriteError};
+use crate::proto::goby::middleware::frontseat::protobuf::CommandResponse;
 use crate::ratelog::{LogDecision, RateLimitedLog};
 
 /// A driver's I/O task (link, NTP copy, …), aborted when replaced, cleared or dropped, so a
@@ -91,6 +92,17 @@ pub fn send_line(w: &LineWriter, line: &str, sig: &mut dyn SignalSink) -> Result
     Ok(())
 }
 
+/// The failed answer to a request: Goby3's `CommandResponse` with `request_successful = false`,
+/// an error code of the driver's own and the reason in words.
+pub fn failure(request_id: Option<i32>, code: i32, why: impl Into<String>) -> CommandResponse {
+    CommandResponse {
+        request_successful: Some(false),
+        request_id,
+        error_code: Some(code),
+        error_string: Some(why.into()),
+    }
+}
+
 /// Whether a warning may be logged now (wall clock), and how many were held back before it.
 pub fn log_due(log: &mut RateLimitedLog) -> Option<u64> {
     match log.decide(tokio::time::Instant::now()) {
@@ -105,6 +117,15 @@ mod tests {
     use crate::driver::RecordingSink;
 
     const S: fn(u64) -> Duration = Duration::from_secs;
+
+    #[test]
+    fn a_failure_carries_the_request_its_code_and_its_reason() {
+        let r = failure(Some(7), 3, "no $ACK");
+        assert_eq!(r.request_successful, Some(false));
+        assert_eq!(r.request_id, Some(7));
+        assert_eq!(r.error_code, Some(3));
+        assert_eq!(r.error_string.as_deref(), Some("no $ACK"));
+    }
 
     #[test]
     fn data_watch_expires_once_after_the_timeout_and_recovers() {

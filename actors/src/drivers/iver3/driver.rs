@@ -12,7 +12,7 @@ use frontseat_config::{FrontSeatStateName, InterfaceConfig, IverModeAssignments}
 use super::codec::{self, IverMode, Sentence, ack_type};
 use crate::clock::SimClock;
 use crate::driver::{Driver, DriverContext, DriverIoEvent, SignalSink, raw_ascii};
-use crate::drivers::kit::{DataWatch, OwnedTask, log_due, send_line};
+use crate::drivers::kit::{DataWatch, OwnedTask, failure, log_due, send_line};
 use crate::drivers::vehicle_link;
 use crate::link::LineWriter;
 use crate::link::byte::{self, ByteLinkConfig, LinkStats, Transport};
@@ -305,12 +305,11 @@ impl Iver3Driver {
             && let Some(old) = self.pending.pop_front()
             && old.respond
         {
-            sig.command_response(CommandResponse {
-                request_successful: Some(false),
-                request_id: old.request_id,
-                error_code: Some(2),
-                error_string: Some("too many commands awaiting $ACK".into()),
-            });
+            sig.command_response(failure(
+                old.request_id,
+                2,
+                "too many commands awaiting $ACK",
+            ));
         }
         self.pending.push_back(Pending {
             ack_type: ack,
@@ -322,12 +321,7 @@ impl Iver3Driver {
 
     fn fail(req: &CommandRequest, why: &str, sig: &mut dyn SignalSink) {
         if req.response_requested() {
-            sig.command_response(CommandResponse {
-                request_successful: Some(false),
-                request_id: req.request_id,
-                error_code: Some(1),
-                error_string: Some(why.to_string()),
-            });
+            sig.command_response(failure(req.request_id, 1, why));
         }
     }
 }
@@ -528,15 +522,14 @@ impl Driver for Iver3Driver {
             };
             self.counters.ack_timeouts += 1;
             if p.respond {
-                sig.command_response(CommandResponse {
-                    request_successful: Some(false),
-                    request_id: p.request_id,
-                    error_code: Some(3),
-                    error_string: Some(format!(
+                sig.command_response(failure(
+                    p.request_id,
+                    3,
+                    format!(
                         "no $ACK from the UVC within {:?}",
                         self.settings.ack_timeout
-                    )),
-                });
+                    ),
+                ));
             }
         }
     }

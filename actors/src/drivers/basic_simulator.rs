@@ -437,6 +437,10 @@ mod tests {
                 problem: Problem::NotANumber(_)
             }))
         ));
+        // The simulator's codec reads the fields: white space around names and values is not
+        // part of them (docs/goby3-differences.md, basic-simulator NAV row).
+        let ns = parse_nav("NAV,LAT: 42, LON:-71 ,DEPTH:0,HEADING:90,SPEED:1").unwrap();
+        assert_eq!((ns.global_fix.lat, ns.global_fix.lon), (42.0, -71.0));
         assert_eq!(
             parse_nav("CTRL,STATE:PAYLOAD"),
             Err(NavError::NotNav),

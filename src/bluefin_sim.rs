@@ -5,8 +5,8 @@ use std::net::SocketAddr;
 use std::process::ExitCode;
 
 use clap::ValueEnum;
+use frontseat_bluefin::{HuxleyOptions, HuxleyServer, HuxleyServerOptions, Refusal};
 use frontseat_config::SimConfig;
-use frontseat_sim::bluefin::{HuxleyOptions, HuxleyServer, HuxleyServerOptions, Refusal};
 
 /// How the emulated Huxley answers commands.
 #[derive(ValueEnum, Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -56,7 +56,7 @@ pub async fn serve(
         eprintln!("--warp must be in (0, 1000]");
         return ExitCode::from(2);
     }
-    let port = port.unwrap_or(frontseat_sim::bluefin::DEFAULT_PORT);
+    let port = port.unwrap_or(frontseat_bluefin::DEFAULT_PORT);
     let addr: SocketAddr = match format!("{}:{port}", config.bind)
         .parse()
         .or_else(|_| format!("[{}]:{port}", config.bind).parse())

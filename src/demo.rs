@@ -130,15 +130,15 @@ pub async fn run(args: DemoArgs) -> ExitCode {
                 crate::bluefin_sim::RefusalArg::None,
                 args.warp,
             );
-            let opts = frontseat_sim::bluefin::HuxleyServerOptions {
-                huxley: frontseat_sim::bluefin::HuxleyOptions {
+            let opts = frontseat_bluefin::HuxleyServerOptions {
+                huxley: frontseat_bluefin::HuxleyOptions {
                     lat: cfg.origin.lat,
                     lon: cfg.origin.lon,
                     ..opts.huxley
                 },
                 ..opts
             };
-            let h = match frontseat_sim::bluefin::HuxleyServer::bind(loopback, opts).await {
+            let h = match frontseat_bluefin::HuxleyServer::bind(loopback, opts).await {
                 Ok(s) => s,
                 Err(e) => {
                     eprintln!("cannot start the Huxley emulator: {e}");

@@ -14,9 +14,9 @@ use frontseat_actors::interface::InterfaceService;
 use frontseat_ardupilot::emulator::{RoverOptions, RoverSession};
 use frontseat_config::InterfaceConfig;
 use frontseat_demo_helm::{self as demo_helm, DemoParams};
+use frontseat_iver3::{IverOptions, IverSession};
 use frontseat_sim::emulator::{Emulator, Endpoint};
-use frontseat_sim::iver3::{IverOptions, IverSession};
-use frontseat_sim::waveglider_sv2::{Sv2Options, Sv2Session};
+use frontseat_waveglider_sv2::{Sv2Options, Sv2Session};
 
 use crate::demo::DemoArgs;
 use crate::service::{SHUTDOWN_BOUND, shutdown_signal};

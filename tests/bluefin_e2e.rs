@@ -17,11 +17,9 @@ use frontseat_actors::proto::goby::middleware::frontseat::protobuf::{
     BluefinExtraCommands, CommandRequest, DesiredCourse, FrontSeatError, HelmState, InterfaceState,
     bluefin_extra_commands::BluefinCommand,
 };
+use frontseat_bluefin::{HuxleyHandle, HuxleyOptions, HuxleyServer, HuxleyServerOptions, Refusal};
 use frontseat_config::InterfaceConfig;
 use frontseat_demo_helm::{self as demo_helm, DemoParams};
-use frontseat_sim::bluefin::{
-    HuxleyHandle, HuxleyOptions, HuxleyServer, HuxleyServerOptions, Refusal,
-};
 use tokio::io::{AsyncBufReadExt, AsyncWriteExt, BufReader};
 
 const LONG: Duration = Duration::from_secs(30);

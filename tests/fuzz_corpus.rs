@@ -1,6 +1,7 @@
-//! Replays the checked-in fuzz corpus (`fuzz/corpus/<target>/`) through the same target bodies
-//! the fuzzer runs (`fuzz/src/lib.rs`, included here), so every input that ever found a bug or
-//! a new path stays a regression test under a plain `cargo test`.
+//! Replays the checked-in fuzz corpus (`fuzz/corpus/<target>/`, and a vehicle's own in
+//! `vehicles/<vehicle>/fuzz/corpus/`) through the same target bodies the fuzzer runs
+//! (`fuzz/src/lib.rs`, included here), so every input that ever found a bug or a new path stays a
+//! regression test under a plain `cargo test`.
 
 #[path = "../fuzz/src/lib.rs"]
 mod targets;
@@ -8,9 +9,12 @@ mod targets;
 use std::path::PathBuf;
 
 fn replay(target: &str, body: fn(&[u8])) {
-    let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("fuzz/corpus")
-        .join(target);
+    replay_dir(&format!("fuzz/corpus/{target}"), target, body);
+}
+
+/// Replays the corpus in `dir` (relative to the repository root).
+fn replay_dir(dir: &str, target: &str, body: fn(&[u8])) {
+    let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join(dir);
     let mut files: Vec<PathBuf> = std::fs::read_dir(&dir)
         .unwrap_or_else(|e| panic!("{}: {e}", dir.display()))
         .map(|e| e.unwrap().path())
@@ -52,17 +56,29 @@ fn config_corpus() {
 
 #[test]
 fn sv2_frame_corpus() {
-    replay("sv2_frame", targets::sv2_frame);
+    replay_dir(
+        "vehicles/waveglider_sv2/fuzz/corpus",
+        "sv2_frame",
+        targets::sv2_frame,
+    );
 }
 
 #[test]
 fn iver_sentence_corpus() {
-    replay("iver_sentence", targets::iver_sentence);
+    replay_dir(
+        "vehicles/iver3/fuzz/corpus",
+        "iver_sentence",
+        targets::iver_sentence,
+    );
 }
 
 #[test]
 fn bluefin_codec_corpus() {
-    replay("bluefin_codec", targets::bluefin_codec);
+    replay_dir(
+        "vehicles/bluefin/fuzz/corpus",
+        "bluefin_codec",
+        targets::bluefin_codec,
+    );
 }
 
 #[test]

@@ -18,7 +18,7 @@ use frontseat_actors::interface::{InterfaceService, Snapshot};
 use frontseat_actors::nav_gate::{NavField, NavLimits};
 use frontseat_actors::proto::goby::middleware::frontseat::protobuf::NodeStatus;
 use frontseat_config::TransportKind;
-use frontseat_sim::iver3::codec::{Compass, Osi, Sentence};
+use frontseat_iver3::codec::{Compass, Osi, Sentence};
 use tokio::io::AsyncWriteExt;
 use tokio::sync::mpsc::UnboundedReceiver;
 

@@ -17,10 +17,10 @@ use frontseat_actors::proto::goby::middleware::frontseat::protobuf::{
     InterfaceState,
 };
 use frontseat_config::{InterfaceConfig, TransportKind};
+use frontseat_iver3::{IverOptions, IverSession};
 use frontseat_sim::emulator::{Emulator, Endpoint};
-use frontseat_sim::iver3::{IverOptions, IverSession};
-use frontseat_sim::waveglider_sv2::codec::{Message, Packet};
-use frontseat_sim::waveglider_sv2::{Sv2Options, Sv2Session};
+use frontseat_waveglider_sv2::codec::{Message, Packet};
+use frontseat_waveglider_sv2::{Sv2Options, Sv2Session};
 use tokio::sync::mpsc::UnboundedReceiver;
 
 const LONG: Duration = Duration::from_secs(30);

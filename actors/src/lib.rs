@@ -1,7 +1,9 @@
 //! The frontseat runtime: the in-process bus, the generated wiring (messages, groups, ports), the
-//! FrontSeatInterface and its supervised DriverActor, the drivers, the glue that embeds the
-//! simulator and systemd notification. Pure logic lives in plain modules; actors are thin shells
-//! around it. What only exercises the runtime lives outside it and uses this crate's public API:
+//! FrontSeatInterface and its supervised DriverActor, the drivers (each on its vehicle crate's
+//! codec under `vehicles/`, sharing `drivers::kit`), the glue that embeds the simulator and systemd
+//! notification. `docs/ARCHITECTURE.md` follows the data through these modules. Pure logic lives
+//! in plain modules; actors are thin shells around it. What only exercises the runtime lives
+//! outside it and uses this crate's public API:
 //! the chaos harness (`tools/chaos`), the benchmark (`tools/bench`) and the demo helm
 //! (`examples/demo_helm`); their ports are still generated here with every application's.
 #![forbid(unsafe_code)]

@@ -1,4 +1,4 @@
-//! Replays the constructed Huxley golden session (`fixtures/bluefin/golden_session.txt`) through
+//! Replays the constructed Huxley golden session (`vehicles/bluefin/fixtures/golden_session.txt`) through
 //! the real Bluefin driver, byte for byte: every `<` line is fed at its own timestamp, the 10 Hz
 //! loop runs in between, and the lines the driver writes must be exactly the `>` lines, in
 //! order (heartbeat timestamps aside, see the fixture's README). The signals the transcript's
@@ -95,7 +95,7 @@ impl Replay {
 
 #[test]
 fn golden_session_replays_byte_for_byte() {
-    let text = include_str!("fixtures/bluefin/golden_session.txt");
+    let text = include_str!("../../vehicles/bluefin/fixtures/golden_session.txt");
     let mut r = Replay::new();
     assert_eq!(r.driver.frontseat_state(), FrontSeatState::FrontseatIdle);
     let mut expected: Vec<String> = Vec::new();

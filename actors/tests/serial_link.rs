@@ -10,7 +10,7 @@ use frontseat_actors::link::byte::{self, ByteLinkConfig, LinkStats, Transport};
 use frontseat_actors::link::framing::Framing;
 use frontseat_actors::link::serial::SerialSettings;
 use frontseat_sim::pty::PtyMaster;
-use frontseat_sim::waveglider_sv2::codec::{Frame, Message, Packet};
+use frontseat_waveglider_sv2::codec::{Frame, Message, Packet};
 use tokio::sync::mpsc;
 
 const WITHIN: Duration = Duration::from_secs(10);

@@ -1,6 +1,7 @@
 //! The fuzz target bodies, one function per target, shared by the cargo-fuzz binaries in
 //! `fuzz_targets/` and by the root's `tests/fuzz_corpus.rs` (which includes this file), so the
-//! checked-in corpus replays exactly what the fuzzer ran. Each body asserts properties beyond
+//! checked-in corpus replays exactly what the fuzzer ran. A vehicle's target and corpus live in
+//! its own folder (`vehicles/<vehicle>/fuzz/`) and are compiled in here as modules. Each body asserts properties beyond
 //! "does not panic": what decodes re-encodes, what is accepted is valid.
 //!
 //! No type of the `bytes` crate is named here (the root package does not depend on it): the
@@ -16,6 +17,18 @@ use frontseat_actors::proto::goby::middleware::frontseat::protobuf::{
 };
 use frontseat_config::{InterfaceConfig, ServiceConfig};
 use frontseat_sim::codec::{self, Inbound, Outbound};
+
+// Each vehicle's target lives with the vehicle (`vehicles/<vehicle>/fuzz/`, beside its corpus).
+#[path = "../../vehicles/bluefin/fuzz/target.rs"]
+mod bluefin;
+#[path = "../../vehicles/iver3/fuzz/target.rs"]
+mod iver3;
+#[path = "../../vehicles/waveglider_sv2/fuzz/target.rs"]
+mod waveglider_sv2;
+
+pub use bluefin::bluefin_codec;
+pub use iver3::iver_sentence;
+pub use waveglider_sv2::sv2_frame;
 
 /// The simulator's line codec: backseat lines (START, CMD) and simulator lines (NAV, CTRL, CMD
 /// results). Whatever parses must format back to a line that parses to the same thing.
@@ -95,9 +108,7 @@ pub fn driver_line(data: &[u8]) {
         let raw = raw.strip_suffix(b"\r").unwrap_or(raw);
         match std::str::from_utf8(raw) {
             Ok(line) => {
-                if let Some((_, fields)) = line.split_once(',')
-                    && let Ok(ns) = parse_nav(fields)
-                {
+                if let Ok(ns) = parse_nav(line) {
                     assert!(ns.pose.heading().is_finite() && ns.speed.over_ground.is_finite());
                 }
                 if line.split(',').next() == Some("NAV") {
@@ -117,63 +128,6 @@ pub fn driver_line(data: &[u8]) {
     }
     assert_eq!(sink.raw_in, lines, "every line once on raw_in");
     assert!(sink.data <= navs, "data only from NAV lines");
-    assert_eq!(sink.responses, 0, "no command response without a command");
-}
-
-/// The Bluefin Huxley sentence codec and driver: every line through `Sentence::parse` and the
-/// typed decoders of both directions, and through the Bluefin driver (connected to a channel,
-/// with its loop ticking). What parses formats back to a line that parses to the same thing;
-/// every line reaches raw_in once; no command response without a command; fixes are finite.
-pub fn bluefin_codec(data: &[u8]) {
-    use frontseat_actors::drivers::bluefin::codec::{FromHuxley, FromPayload, Sentence};
-    use frontseat_actors::drivers::bluefin::{BluefinDriver, Settings as BfSettings};
-
-    let mut cfg = InterfaceConfig::default();
-    cfg.driver.name = "bluefin".into();
-    let mut driver = BluefinDriver::with_wall_clock(
-        BfSettings::from_config(&cfg),
-        Box::new(|now: Duration| 1_700_000_000.0 + now.as_secs_f64()),
-    );
-    let (w, mut rx) = frontseat_actors::link::LineWriter::for_test();
-    let mut sink = Count::default();
-    let mut now = Duration::ZERO;
-    driver.handle_io(DriverIoEvent::Connected(w), now, &mut sink);
-    let mut lines = 0;
-    for raw in data.split(|b| *b == b'\n') {
-        now += Duration::from_millis(100);
-        let raw = raw.strip_suffix(b"\r").unwrap_or(raw);
-        let Ok(line) = std::str::from_utf8(raw) else {
-            driver.handle_io(
-                DriverIoEvent::BadInput("invalid UTF-8".into()),
-                now,
-                &mut sink,
-            );
-            continue;
-        };
-        if let Ok(s) = Sentence::parse(line) {
-            let again = Sentence::parse(&s.format());
-            assert_eq!(again.as_ref(), Ok(&s), "sentence {s:?} does not round trip");
-            if let Ok(m) = FromHuxley::from_sentence(&s) {
-                let back = FromHuxley::from_sentence(&m.to_sentence());
-                assert!(
-                    back.is_ok(),
-                    "{m:?} formats to a sentence that does not decode: {back:?}"
-                );
-            }
-            if let Ok(m) = FromPayload::from_sentence(&s) {
-                let back = FromPayload::from_sentence(&m.to_sentence());
-                assert!(
-                    back.is_ok(),
-                    "{m:?} formats to a sentence that does not decode: {back:?}"
-                );
-            }
-        }
-        lines += 1;
-        driver.handle_io(DriverIoEvent::Line(line.to_string()), now, &mut sink);
-        driver.do_loop(now, &mut sink);
-        while rx.try_recv().is_ok() {}
-    }
-    assert_eq!(sink.raw_in, lines, "every line once on raw_in");
     assert_eq!(sink.responses, 0, "no command response without a command");
 }
 
@@ -229,84 +183,6 @@ pub fn config(data: &[u8]) {
             let _ = e.to_string();
         }
     }
-}
-
-/// The SV2 frame decoder over an arbitrary byte stream, then every frame through the message
-/// decoder and the Wave Glider driver. Memory stays bounded (a frame never exceeds 557 bytes);
-/// a frame re-encodes to the bytes it came from; a message that decodes re-encodes to a frame
-/// that decodes to the same message; the driver publishes raw_in once per frame and never
-/// answers a command it was not given.
-pub fn sv2_frame(data: &[u8]) {
-    use frontseat_actors::drivers::waveglider_sv2::{Settings as Sv2Settings, WavegliderSv2Driver};
-    use frontseat_sim::waveglider_sv2::codec::{FrameDecoder, MAX_FRAME, Packet};
-
-    let mut cfg = InterfaceConfig::default();
-    cfg.driver.waveglider_sv2.pm_serial_port = "/dev/null".into();
-    cfg.driver.waveglider_sv2.publish_navigation = true;
-    let mut driver = WavegliderSv2Driver::new(Sv2Settings::from_config(&cfg));
-    let mut sink = Count::default();
-    let mut frames = Vec::new();
-    let mut decoder = FrameDecoder::new();
-    decoder.feed(data, &mut |r| {
-        if let Ok(f) = r {
-            frames.push(f);
-        }
-    });
-    for f in &frames {
-        let bytes = f.unescaped().expect("a decoded frame fits the protocol");
-        assert!(bytes.len() <= MAX_FRAME);
-        let mut again = Vec::new();
-        FrameDecoder::new().feed(&f.encode().unwrap(), &mut |r| again.push(r));
-        assert_eq!(again, vec![Ok(f.clone())], "frame does not round-trip");
-        if let Ok(p) = Packet::from_frame(f) {
-            let back = Packet::from_frame(&p.to_frame()).expect("re-encoded message decodes");
-            assert_eq!(back, p, "message does not round-trip");
-        }
-        driver.handle_io(DriverIoEvent::Frame(bytes), Duration::ZERO, &mut sink);
-    }
-    driver.do_loop(Duration::from_secs(60), &mut sink);
-    assert_eq!(sink.raw_in, frames.len());
-    assert_eq!(sink.responses, 0);
-}
-
-/// Iver Remote Helm sentences: `Sentence::parse` on every line, and every line through the
-/// Iver3 driver. A parsed sentence formats to a line that parses to the same kind; the driver
-/// publishes raw_in once per line, never a non-finite fix, and no command response unasked.
-pub fn iver_sentence(data: &[u8]) {
-    use frontseat_actors::drivers::iver3::{Iver3Driver, Settings as IverSettings};
-    use frontseat_sim::iver3::codec::Sentence;
-
-    let mut cfg = InterfaceConfig::default();
-    cfg.driver.iver3.serial_port = "/dev/null".into();
-    cfg.driver.iver3.remote_helm_version_major = Some(5);
-    let mut driver = Iver3Driver::new(IverSettings::from_config(&cfg));
-    let mut sink = Count::default();
-    let mut lines = 0;
-    let text = String::from_utf8_lossy(data);
-    for line in text.split('\n') {
-        if let Ok(s) = Sentence::parse(line)
-            // Absurd numbers (1e300 degrees) can format past the length bound; those lines are
-            // rejected as too long, which is the bound doing its job.
-            && s.to_line().len() <= frontseat_sim::iver3::codec::MAX_SENTENCE
-        {
-            let again = Sentence::parse(&s.to_line());
-            assert!(
-                again
-                    .as_ref()
-                    .is_ok_and(|a| std::mem::discriminant(a) == std::mem::discriminant(&s)),
-                "{s:?} formats to a line that parses as {again:?}"
-            );
-        }
-        lines += 1;
-        driver.handle_io(
-            DriverIoEvent::Line(line.trim_end_matches('\r').to_string()),
-            Duration::ZERO,
-            &mut sink,
-        );
-        driver.do_loop(Duration::from_millis(100 * lines as u64), &mut sink);
-    }
-    assert_eq!(sink.raw_in, lines);
-    assert_eq!(sink.responses, 0);
 }
 
 /// The Goby3 link's ZMTP length guard (`frontseat_gateway::goby3::guard::Meter`) over the bytes

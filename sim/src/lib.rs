@@ -4,24 +4,23 @@
 //! deadlines, with validated input, fault injection and a ground-truth stream for embedding.
 //! Pure parts: [`vehicle`] (dynamics), [`codec`] (lines), [`schedule`] (tick deadlines); the
 //! server and its connections are tasks that own their state and talk through channels.
-//! The protocol is written down in `PROTOCOL.md`.
+//! The protocol is written down in `PROTOCOL.md`. [`vehicle`] and [`emulator`] (the pty/TCP
+//! runner of a pure vehicle session) are also what the vehicle crates under `vehicles/` build their
+//! emulators on; those crates depend on this one, never the reverse.
 // One audited `unsafe` block: registering the pty master with tokio (see pty.rs).
 #![deny(unsafe_code)]
 
 pub mod bench;
-pub mod bluefin;
 pub mod codec;
 mod connection;
 pub mod emulator;
 pub mod geodesy;
-pub mod iver3;
 pub mod pty;
 mod run;
 pub mod schedule;
 mod server;
 mod shared;
 pub mod vehicle;
-pub mod waveglider_sv2;
 
 pub use bench::{CapacityReport, capacity_bench};
 pub use codec::CtrlState;

@@ -10,7 +10,9 @@
 use std::time::Duration;
 
 use frontseat_config::InterfaceConfig;
+use frontseat_sim::codec::{self, FieldError, LineError, Outbound};
 
+use super::kit::{DataWatch, OwnedTask, failure, send_line};
 use crate::clock::SimClock;
 use crate::driver::{Driver, DriverContext, DriverIoEvent, SignalSink, raw_ascii};
 use crate::link::{self, LineWriter, LinkConfig};
@@ -65,10 +67,9 @@ const MAX_IN_FLIGHT: usize = 256;
 pub struct BasicSimulatorDriver {
     settings: Settings,
     writer: Option<LineWriter>,
-    link_task: Option<tokio::task::JoinHandle<()>>,
+    link_task: OwnedTask,
     state: FrontSeatState,
-    last_nav: Option<Duration>,
-    providing_data: bool,
+    nav: DataWatch,
     /// The requests whose CMD lines are on their way, oldest first: the simulator answers every
     /// CMD in order, so each CMD,RESULT belongs to the oldest (Goby3 answers with its last
     /// request instead, so a burst got one request answered several times and the rest never).
@@ -87,10 +88,9 @@ impl BasicSimulatorDriver {
         Self {
             settings,
             writer: None,
-            link_task: None,
+            link_task: OwnedTask::default(),
             state: FrontSeatState::FrontseatNotConnected,
-            last_nav: None,
-            providing_data: false,
+            nav: DataWatch::default(),
             in_flight: std::collections::VecDeque::new(),
             unmatched_results: 0,
             bad_lines: 0,
@@ -131,11 +131,8 @@ impl BasicSimulatorDriver {
             line = crate::telemetry::truncate(line),
         )
         .entered();
-        match w.write_line(line) {
-            Ok(()) => {
-                sig.raw_to_frontseat(raw_ascii(line, ""));
-                true
-            }
+        match send_line(w, line, sig) {
+            Ok(()) => true,
             Err(e) => {
                 self.write_failures += 1;
                 tracing::warn!(line, error = %e, "line to the frontseat not sent");
@@ -158,10 +155,9 @@ impl BasicSimulatorDriver {
         )
         .entered();
         match kind {
-            "NAV" => match parse_nav(fields) {
+            "NAV" => match parse_nav(line) {
                 Ok(ns) => {
-                    self.last_nav = Some(now);
-                    self.providing_data = true;
+                    self.nav.fresh(now);
                     sig.data_from_frontseat(InterfaceData {
                         node_status: Some(ns),
                         ..Default::default()
@@ -211,14 +207,6 @@ impl BasicSimulatorDriver {
     }
 }
 
-impl Drop for BasicSimulatorDriver {
-    fn drop(&mut self) {
-        if let Some(t) = self.link_task.take() {
-            t.abort();
-        }
-    }
-}
-
 /// The value of `KEY:` in a comma-separated field list.
 fn field<'a>(fields: &'a str, key: &str) -> Option<&'a str> {
     fields.split(',').find_map(|kv| {
@@ -227,44 +215,40 @@ fn field<'a>(fields: &'a str, key: &str) -> Option<&'a str> {
     })
 }
 
+/// Why a NAV line gave no navigation.
 #[derive(Debug, thiserror::Error, PartialEq)]
 pub enum NavError {
-    #[error("missing {0}")]
-    Missing(&'static str),
-    #[error("{0} is not a finite number: `{1}`")]
-    NotANumber(&'static str, String),
+    /// A field is missing, not a number or not finite (the simulator codec's own words).
+    #[error("{0}")]
+    Field(FieldError),
+    #[error("not a NAV line")]
+    NotNav,
 }
 
-fn num(fields: &str, key: &'static str) -> Result<f64, NavError> {
-    let v = field(fields, key).ok_or(NavError::Missing(key))?;
-    match v.trim().parse::<f64>() {
-        Ok(x) if x.is_finite() => Ok(x),
-        _ => Err(NavError::NotANumber(key, v.to_string())),
-    }
-}
-
-/// `LAT:..,LON:..,DEPTH:..,HEADING:..,SPEED:..` → NodeStatus (time and local fix filled later by
-/// compute_missing).
-pub fn parse_nav(fields: &str) -> Result<NodeStatus, NavError> {
-    let lat = num(fields, "LAT")?;
-    let lon = num(fields, "LON")?;
-    let depth = num(fields, "DEPTH")?;
-    let heading = num(fields, "HEADING")?;
-    let speed = num(fields, "SPEED")?;
+/// A whole `NAV,LAT:..,LON:..,DEPTH:..,HEADING:..,SPEED:..` line → NodeStatus (time and local
+/// fix filled later by compute_missing). The fields are read by the simulator's own codec
+/// (`frontseat_sim::codec`), so the driver and the simulator agree on what a NAV line is.
+pub fn parse_nav(line: &str) -> Result<NodeStatus, NavError> {
+    let n = match codec::parse_outbound(line) {
+        Ok(Outbound::Nav(n)) => n,
+        // parse_outbound files a bad NAV field under its CMD variant; only the field matters.
+        Err(LineError::Cmd(e)) => return Err(NavError::Field(e)),
+        _ => return Err(NavError::NotNav),
+    };
     Ok(NodeStatus {
         time: SimClock::unix_now(),
         global_fix: LatLonPoint {
-            lat,
-            lon,
-            depth: Some(depth),
+            lat: n.lat,
+            lon: n.lon,
+            depth: Some(n.depth),
             altitude: None,
         },
         pose: EulerAngles {
-            heading: Some(heading),
+            heading: Some(n.heading),
             ..Default::default()
         },
         speed: Speed {
-            over_ground: speed,
+            over_ground: n.speed,
             over_water: None,
         },
         ..Default::default()
@@ -288,7 +272,8 @@ impl Driver for BasicSimulatorDriver {
     }
 
     fn start(&mut self, ctx: DriverContext) {
-        self.link_task = Some(link::spawn(self.settings.link.clone(), ctx.io));
+        self.link_task
+            .set(link::spawn(self.settings.link.clone(), ctx.io));
     }
 
     fn handle_io(&mut self, ev: DriverIoEvent, now: Duration, sig: &mut dyn SignalSink) {
@@ -319,8 +304,7 @@ impl Driver for BasicSimulatorDriver {
                 tracing::warn!(%reason, "frontseat connection lost; reconnecting");
                 self.writer = None;
                 self.state = FrontSeatState::FrontseatNotConnected;
-                self.providing_data = false;
-                self.last_nav = None;
+                self.nav.lost();
                 // Their answers will not come on a new connection (the interface answers them).
                 self.in_flight.clear();
             }
@@ -346,14 +330,11 @@ impl Driver for BasicSimulatorDriver {
             }
             None => {
                 if req.response_requested() {
-                    sig.command_response(CommandResponse {
-                        request_successful: Some(false),
-                        request_id: req.request_id,
-                        error_code: Some(1),
-                        error_string: Some(
-                            "the basic simulator accepts only desired_course commands".into(),
-                        ),
-                    });
+                    sig.command_response(failure(
+                        req.request_id,
+                        1,
+                        "the basic simulator accepts only desired_course commands",
+                    ));
                 }
             }
         }
@@ -394,15 +375,11 @@ impl Driver for BasicSimulatorDriver {
             let line = summary(n, "unknown lines", self.unknown_log.window());
             tracing::info!(suppressed = n, "{line}");
         }
-        if let Some(t) = self.last_nav
-            && now.saturating_sub(t) > self.settings.nav_timeout
-            && self.providing_data
-        {
+        if self.nav.expired(now, self.settings.nav_timeout) {
             tracing::warn!(
                 "no NAV for {:?} (sim time): frontseat not providing data",
                 self.settings.nav_timeout
             );
-            self.providing_data = false;
         }
     }
 
@@ -411,7 +388,7 @@ impl Driver for BasicSimulatorDriver {
     }
 
     fn frontseat_providing_data(&self) -> bool {
-        self.providing_data
+        self.nav.providing()
     }
 
     fn stop(&mut self) {
@@ -424,6 +401,7 @@ impl Driver for BasicSimulatorDriver {
 mod tests {
     use super::*;
     use crate::proto::goby::middleware::frontseat::protobuf::DesiredCourse;
+    use frontseat_sim::codec::Problem;
 
     type Sink = crate::driver::RecordingSink;
 
@@ -433,19 +411,41 @@ mod tests {
 
     #[test]
     fn nav_parses_with_fields_in_any_order() {
-        let ns = parse_nav("SPEED:1.4,HEADING:223,DEPTH:200,LON:-72.5435,LAT:42.1234").unwrap();
+        let ns = parse_nav("NAV,SPEED:1.4,HEADING:223,DEPTH:200,LON:-72.5435,LAT:42.1234").unwrap();
         let g = ns.global_fix;
         assert_eq!((g.lat, g.lon, g.depth()), (42.1234, -72.5435, 200.0));
         assert_eq!(ns.pose.heading(), 223.0);
         assert_eq!(ns.speed.over_ground, 1.4);
         assert_eq!(
-            parse_nav("LAT:1,LON:2,DEPTH:3,HEADING:4"),
-            Err(NavError::Missing("SPEED"))
+            parse_nav("NAV,LAT:1,LON:2,DEPTH:3,HEADING:4"),
+            Err(NavError::Field(FieldError {
+                field: "SPEED",
+                problem: Problem::Missing
+            }))
         );
         assert!(matches!(
-            parse_nav("LAT:nan,LON:2,DEPTH:3,HEADING:4,SPEED:1"),
-            Err(NavError::NotANumber("LAT", _))
+            parse_nav("NAV,LAT:nan,LON:2,DEPTH:3,HEADING:4,SPEED:1"),
+            Err(NavError::Field(FieldError {
+                field: "LAT",
+                problem: Problem::NotFinite(_)
+            }))
         ));
+        assert!(matches!(
+            parse_nav("NAV,LAT:x,LON:2,DEPTH:3,HEADING:4,SPEED:1"),
+            Err(NavError::Field(FieldError {
+                field: "LAT",
+                problem: Problem::NotANumber(_)
+            }))
+        ));
+        // The simulator's codec reads the fields: white space around names and values is not
+        // part of them (docs/goby3-differences.md, basic-simulator NAV row).
+        let ns = parse_nav("NAV,LAT: 42, LON:-71 ,DEPTH:0,HEADING:90,SPEED:1").unwrap();
+        assert_eq!((ns.global_fix.lat, ns.global_fix.lon), (42.0, -71.0));
+        assert_eq!(
+            parse_nav("CTRL,STATE:PAYLOAD"),
+            Err(NavError::NotNav),
+            "only NAV lines carry navigation"
+        );
     }
 
     #[test]

@@ -1,10 +1,14 @@
-//! Driver selection: a plugin library when FRONTSEAT_DRIVER_LIBRARY or `driver.library` names
-//! one (see plugin.rs), otherwise the built-in driver the config names (`driver.name`).
+//! The built-in drivers and driver selection: a plugin library when FRONTSEAT_DRIVER_LIBRARY or
+//! `driver.library` names one (see plugin.rs), otherwise the built-in driver the config names
+//! (`driver.name`). Each built-in driver speaks through its vehicle crate's pure codec
+//! (`vehicles/<vehicle>/`; the basic simulator's is `frontseat_sim::codec`) and takes the glue
+//! they all need from [`kit`].
 
 pub mod ardupilot;
 pub mod basic_simulator;
 pub mod bluefin;
 pub mod iver3;
+pub mod kit;
 pub mod plugin;
 pub mod waveglider_sv2;
 

@@ -3,7 +3,7 @@
 //! link (a serial line cannot be "reconnected" past its noise), and report every problem as a
 //! `BadInput` event the driver counts.
 
-use frontseat_sim::waveglider_sv2::codec::FrameDecoder;
+use frontseat_waveglider_sv2::codec::FrameDecoder;
 
 use super::DriverIoEvent;
 

@@ -21,6 +21,7 @@ use super::codec::{
 };
 use crate::clock::SimClock;
 use crate::driver::{Driver, DriverContext, DriverIoEvent, IoSender, SignalSink, raw_ascii};
+use crate::drivers::kit::{DataWatch, OwnedTask, send_line};
 use crate::link::{self, LineWriter, LinkConfig};
 use crate::proto::frontseat::protobuf::bluefin as bf;
 use crate::proto::goby::acomms::protobuf::ModemRaw;
@@ -168,10 +169,9 @@ pub struct BluefinDriver {
     wall: WallClock,
     io: Option<IoSender>,
     writer: Option<LineWriter>,
-    link_task: Option<tokio::task::JoinHandle<()>>,
+    link_task: OwnedTask,
     state: FrontSeatState,
-    providing_data: bool,
-    last_nav: Option<Duration>,
+    nav: DataWatch,
     nvg: Option<Nvg>,
     /// Head may be in flight (written, waiting for its ack).
     queue: VecDeque<Outgoing>,
@@ -200,10 +200,9 @@ impl BluefinDriver {
             wall,
             io: None,
             writer: None,
-            link_task: None,
+            link_task: OwnedTask::default(),
             state: FrontSeatState::FrontseatNotConnected,
-            providing_data: false,
-            last_nav: None,
+            nav: DataWatch::default(),
             nvg: None,
             queue: VecDeque::new(),
             pending: VecDeque::new(),
@@ -284,11 +283,8 @@ impl BluefinDriver {
         let Some(w) = &self.writer else {
             return false;
         };
-        match w.write_line(line) {
-            Ok(()) => {
-                sig.raw_to_frontseat(raw_ascii(line, ""));
-                true
-            }
+        match send_line(w, line, sig) {
+            Ok(()) => true,
             Err(e) => {
                 self.stats.write_failures += 1;
                 tracing::warn!(line, error = %e, "line to the Huxley not sent");
@@ -408,8 +404,7 @@ impl BluefinDriver {
         match msg {
             FromHuxley::Nvg(n) => {
                 self.nvg = Some(n);
-                self.last_nav = Some(now);
-                self.providing_data = true;
+                self.nav.fresh(now);
             }
             FromHuxley::Nvr(r) => {
                 if let Some(ns) = self.node_status(&r, now) {
@@ -625,9 +620,11 @@ impl BluefinDriver {
         self.state = FrontSeatState::FrontseatNotConnected;
         self.fail_all("the Huxley stopped acknowledging", sig);
         self.demerits = 0;
-        if let (Some(t), Some(io)) = (self.link_task.take(), self.io.clone()) {
-            t.abort();
-            self.link_task = Some(link::spawn(self.settings.link.clone(), io));
+        if self.link_task.is_running()
+            && let Some(io) = self.io.clone()
+        {
+            self.link_task
+                .set(link::spawn(self.settings.link.clone(), io));
         }
     }
 
@@ -937,14 +934,6 @@ fn trim(t: &AdjustStatus) -> TrimStatus {
     }
 }
 
-impl Drop for BluefinDriver {
-    fn drop(&mut self) {
-        if let Some(t) = self.link_task.take() {
-            t.abort();
-        }
-    }
-}
-
 impl Driver for BluefinDriver {
     fn name(&self) -> &str {
         "bluefin"
@@ -952,7 +941,8 @@ impl Driver for BluefinDriver {
 
     fn start(&mut self, ctx: DriverContext) {
         self.io = Some(ctx.io.clone());
-        self.link_task = Some(link::spawn(self.settings.link.clone(), ctx.io));
+        self.link_task
+            .set(link::spawn(self.settings.link.clone(), ctx.io));
     }
 
     fn handle_io(&mut self, ev: DriverIoEvent, now: Duration, sig: &mut dyn SignalSink) {
@@ -981,8 +971,7 @@ impl Driver for BluefinDriver {
                 tracing::warn!(%reason, "Huxley connection lost; reconnecting");
                 self.writer = None;
                 self.state = FrontSeatState::FrontseatNotConnected;
-                self.providing_data = false;
-                self.last_nav = None;
+                self.nav.lost();
                 self.fail_all("connection to the Huxley lost", sig);
             }
         }
@@ -1087,16 +1076,11 @@ impl Driver for BluefinDriver {
     }
 
     fn do_loop(&mut self, now: Duration, sig: &mut dyn SignalSink) {
-        if self.providing_data
-            && self
-                .last_nav
-                .is_some_and(|t| now.saturating_sub(t) > self.settings.missing_nav)
-        {
+        if self.nav.expired(now, self.settings.missing_nav) {
             tracing::warn!(
                 "no $BFNVG for {:?} (sim time): Huxley not providing data",
                 self.settings.missing_nav
             );
-            self.providing_data = false;
         }
         if self.writer.is_none() {
             return;
@@ -1127,7 +1111,7 @@ impl Driver for BluefinDriver {
     }
 
     fn frontseat_providing_data(&self) -> bool {
-        self.providing_data
+        self.nav.providing()
     }
 
     fn stop(&mut self) {

@@ -1,78 +1,30 @@
-//! The Iver3 driver's edge: the Remote Helm sentences (shared with the emulator, from
-//! `frontseat_sim::iver3::codec`) and the one place where the UVC's units (feet, knots) and
-//! mode letters become Goby's (metres, m/s, FrontSeatState) and back. Pure and table-tested.
+//! The Iver3 driver's edge: the Remote Helm sentences and the UVC's units and mode letters
+//! (pure, in the vehicle's crate `frontseat-iver3`, shared with the emulator) mapped onto Goby's
+//! protobuf types (NodeStatus, DesiredCourse, IverMissionMode) and back. Table-tested.
 
-pub use frontseat_sim::iver3::codec::*;
+pub use frontseat_iver3::codec::*;
+pub use frontseat_iver3::units::*;
 
 use crate::proto::goby::middleware::frontseat::protobuf::{
     DesiredCourse, EulerAngles, NodeStatus, Speed,
 };
 use crate::proto::goby::middleware::protobuf::LatLonPoint;
 
-pub const METRES_PER_FOOT: f64 = 0.3048;
-
-/// The UVC's modes (Goby3's IverState.IverMode).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-pub enum IverMode {
-    Unknown,
-    Normal,
-    Stopped,
-    Parking,
-    ManualOverride,
-    ManualParking,
-    Servo,
-    Mission,
-}
-
-impl IverMode {
-    /// The `$OSI` mode field. Goby3 looks at the first character only, which reads PeRL's
-    /// manual-parking `Mp` as manual override; both `m` and `Mp` are manual parking here.
-    pub fn from_field(f: &str) -> IverMode {
-        if f == "Mp" {
-            return IverMode::ManualParking;
-        }
-        match f.chars().next() {
-            Some('N') => IverMode::Normal,
-            Some('S') => IverMode::Stopped,
-            Some('P') => IverMode::Parking,
-            Some('M') => IverMode::ManualOverride,
-            Some('m') => IverMode::ManualParking,
-            Some('A') => IverMode::Servo,
-            Some('W') => IverMode::Mission,
-            _ => IverMode::Unknown,
-        }
+/// Goby3's IverState.IverMissionMode for a UVC mode.
+pub fn mode_proto(
+    m: IverMode,
+) -> crate::proto::goby::middleware::frontseat::protobuf::iver_state::IverMissionMode {
+    use crate::proto::goby::middleware::frontseat::protobuf::iver_state::IverMissionMode as M;
+    match m {
+        IverMode::Unknown => M::IverModeUnknown,
+        IverMode::Normal => M::IverModeNormal,
+        IverMode::Stopped => M::IverModeStopped,
+        IverMode::Parking => M::IverModeParking,
+        IverMode::ManualOverride => M::IverModeManualOverride,
+        IverMode::ManualParking => M::IverModeManualParking,
+        IverMode::Servo => M::IverModeServoMode,
+        IverMode::Mission => M::IverModeMissionMode,
     }
-}
-
-impl IverMode {
-    /// Goby3's IverState.IverMissionMode for this mode.
-    pub fn proto(
-        self,
-    ) -> crate::proto::goby::middleware::frontseat::protobuf::iver_state::IverMissionMode {
-        use crate::proto::goby::middleware::frontseat::protobuf::iver_state::IverMissionMode as M;
-        match self {
-            IverMode::Unknown => M::IverModeUnknown,
-            IverMode::Normal => M::IverModeNormal,
-            IverMode::Stopped => M::IverModeStopped,
-            IverMode::Parking => M::IverModeParking,
-            IverMode::ManualOverride => M::IverModeManualOverride,
-            IverMode::ManualParking => M::IverModeManualParking,
-            IverMode::Servo => M::IverModeServoMode,
-            IverMode::Mission => M::IverModeMissionMode,
-        }
-    }
-}
-
-/// Longest mission name accepted in `$OMSTART` (a UVC file name).
-pub const MAX_MISSION_NAME: usize = 64;
-
-/// Whether `f` can be one NMEA field as is: printable ASCII without the separators (`,`), the
-/// checksum and start marks (`*`, `$`, `!`) or line ends, so that a mission name from the bus
-/// cannot add fields or sentences to what is written to the vehicle.
-pub fn is_field_safe(f: &str) -> bool {
-    f.len() <= MAX_MISSION_NAME
-        && f.bytes()
-            .all(|b| b.is_ascii_graphic() && !matches!(b, b',' | b'*' | b'$' | b'!') || b == b' ')
 }
 
 /// `$OSI` → NodeStatus: feet → metres, knots → m/s. Time is the backseat clock at reception
@@ -98,13 +50,6 @@ pub fn osi_to_node_status(o: &Osi, now_unix: f64) -> NodeStatus {
     }
 }
 
-/// Heading into [0, 360) as it will be printed (one decimal): 359.96 would print as 360.0,
-/// which Goby3 sends; it is 0.0 here.
-pub fn oms_heading(h: f64) -> f64 {
-    let r = (h.rem_euclid(360.0) * 10.0).round() / 10.0;
-    if r >= 360.0 { 0.0 } else { r }
-}
-
 /// DesiredCourse (metres, m/s) → `$OMS` (feet or metres by Remote Helm version, knots).
 pub fn course_to_oms(
     c: &DesiredCourse,
@@ -112,19 +57,14 @@ pub fn course_to_oms(
     max_pitch_angle_degrees: i32,
     oms_timeout: u32,
 ) -> Oms {
-    let depth_m = c.depth();
-    let depth = if Oms::depth_unit_is_feet(remote_helm_version_major) {
-        depth_m / METRES_PER_FOOT
-    } else {
-        depth_m
-    };
-    Oms {
-        heading: oms_heading(c.heading()),
-        depth,
-        max_pitch: f64::from(max_pitch_angle_degrees),
-        speed_kn: c.speed() / MPS_PER_KNOT,
-        timeout_s: oms_timeout,
-    }
+    oms_for_course(
+        c.heading(),
+        c.depth(),
+        c.speed(),
+        remote_helm_version_major,
+        max_pitch_angle_degrees,
+        oms_timeout,
+    )
 }
 
 #[cfg(test)]
@@ -173,24 +113,5 @@ mod tests {
         assert!((ns.speed.over_ground - 2.9 * 1852.0 / 3600.0).abs() < 1e-12);
         assert_eq!(ns.pose.heading(), 90.0);
         assert_eq!((ns.global_fix.lat, ns.global_fix.lon), (42.3584, -71.0876));
-    }
-
-    #[test]
-    fn mode_letters() {
-        for (f, m) in [
-            ("N", IverMode::Normal),
-            ("S", IverMode::Stopped),
-            ("P", IverMode::Parking),
-            ("M", IverMode::ManualOverride),
-            ("m", IverMode::ManualParking),
-            ("mP", IverMode::ManualParking),
-            ("Mp", IverMode::ManualParking),
-            ("A", IverMode::Servo),
-            ("W", IverMode::Mission),
-            ("", IverMode::Unknown),
-            ("X", IverMode::Unknown),
-        ] {
-            assert_eq!(IverMode::from_field(f), m, "{f:?}");
-        }
     }
 }

@@ -12,6 +12,7 @@ use frontseat_config::{FrontSeatStateName, InterfaceConfig, IverModeAssignments}
 use super::codec::{self, IverMode, Sentence, ack_type};
 use crate::clock::SimClock;
 use crate::driver::{Driver, DriverContext, DriverIoEvent, SignalSink, raw_ascii};
+use crate::drivers::kit::{DataWatch, OwnedTask, failure, log_due, send_line};
 use crate::drivers::vehicle_link;
 use crate::link::LineWriter;
 use crate::link::byte::{self, ByteLinkConfig, LinkStats, Transport};
@@ -25,7 +26,7 @@ use crate::proto::goby::middleware::frontseat::protobuf::iver_extra_commands::Iv
 use crate::proto::goby::middleware::frontseat::protobuf::{
     CommandRequest, CommandResponse, FrontSeatState, InterfaceData, NodeStatus, Raw,
 };
-use crate::ratelog::{LogDecision, RateLimitedLog};
+use crate::ratelog::RateLimitedLog;
 
 /// Goby3's fixed baud of the NTP copy port.
 const NTP_BAUD: u32 = 4800;
@@ -132,15 +133,14 @@ pub struct IverCounters {
 pub struct Iver3Driver {
     settings: Settings,
     writer: Option<LineWriter>,
-    link_task: Option<tokio::task::JoinHandle<()>>,
+    link_task: OwnedTask,
     pub link_stats: Arc<LinkStats>,
     /// The NTP copy port's writer while it is open (filled by its own link task).
     ntp: Arc<std::sync::Mutex<Option<LineWriter>>>,
-    ntp_task: Option<tokio::task::JoinHandle<()>>,
+    ntp_task: OwnedTask,
     state: FrontSeatState,
     mode: IverMode,
-    last_data: Option<Duration>,
-    providing_data: bool,
+    data: DataWatch,
     /// The latest `$OSI` navigation, so `$C` can republish it with new pitch and roll.
     status: Option<NodeStatus>,
     pending: VecDeque<Pending>,
@@ -153,14 +153,13 @@ impl Iver3Driver {
         Self {
             settings,
             writer: None,
-            link_task: None,
+            link_task: OwnedTask::default(),
             link_stats: Arc::new(LinkStats::default()),
             ntp: Arc::new(std::sync::Mutex::new(None)),
-            ntp_task: None,
+            ntp_task: OwnedTask::default(),
             state: FrontSeatState::FrontseatNotConnected,
             mode: IverMode::Unknown,
-            last_data: None,
-            providing_data: false,
+            data: DataWatch::default(),
             status: None,
             pending: VecDeque::new(),
             bad_log: RateLimitedLog::for_bad_input(),
@@ -177,17 +176,11 @@ impl Iver3Driver {
             self.counters.write_failures += 1;
             return false;
         };
-        match w.write_line(line) {
-            Ok(()) => {
-                sig.raw_to_frontseat(raw_ascii(line, ""));
-                true
-            }
+        match send_line(w, line, sig) {
+            Ok(()) => true,
             Err(e) => {
                 self.counters.write_failures += 1;
-                if let LogDecision::Log {
-                    suppressed_before: suppressed,
-                } = self.bad_log.decide(tokio::time::Instant::now())
-                {
+                if let Some(suppressed) = log_due(&mut self.bad_log) {
                     tracing::warn!(line, error = %e, suppressed, "line to the Iver not sent");
                 }
                 false
@@ -198,17 +191,13 @@ impl Iver3Driver {
     fn bad(&mut self, what: &str) {
         self.counters.bad_lines += 1;
         crate::metrics::bad_line();
-        if let LogDecision::Log {
-            suppressed_before: suppressed,
-        } = self.bad_log.decide(tokio::time::Instant::now())
-        {
+        if let Some(suppressed) = log_due(&mut self.bad_log) {
             tracing::warn!(%what, suppressed, "bad input from the Iver");
         }
     }
 
     fn fresh_data(&mut self, now: Duration) {
-        self.last_data = Some(now);
-        self.providing_data = true;
+        self.data.fresh(now);
     }
 
     fn handle_line(&mut self, line: &str, now: Duration, sig: &mut dyn SignalSink) {
@@ -238,7 +227,7 @@ impl Iver3Driver {
                 sig.iver_data_from_frontseat(IverInterfaceData {
                     node_status: Some(ns.clone()),
                     iver_state: Some(IverState {
-                        mode: Some(self.mode.proto() as i32),
+                        mode: Some(codec::mode_proto(self.mode) as i32),
                     }),
                     ..Default::default()
                 });
@@ -316,12 +305,11 @@ impl Iver3Driver {
             && let Some(old) = self.pending.pop_front()
             && old.respond
         {
-            sig.command_response(CommandResponse {
-                request_successful: Some(false),
-                request_id: old.request_id,
-                error_code: Some(2),
-                error_string: Some("too many commands awaiting $ACK".into()),
-            });
+            sig.command_response(failure(
+                old.request_id,
+                2,
+                "too many commands awaiting $ACK",
+            ));
         }
         self.pending.push_back(Pending {
             ack_type: ack,
@@ -333,23 +321,7 @@ impl Iver3Driver {
 
     fn fail(req: &CommandRequest, why: &str, sig: &mut dyn SignalSink) {
         if req.response_requested() {
-            sig.command_response(CommandResponse {
-                request_successful: Some(false),
-                request_id: req.request_id,
-                error_code: Some(1),
-                error_string: Some(why.to_string()),
-            });
-        }
-    }
-}
-
-impl Drop for Iver3Driver {
-    fn drop(&mut self) {
-        for t in [self.link_task.take(), self.ntp_task.take()]
-            .into_iter()
-            .flatten()
-        {
-            t.abort();
+            sig.command_response(failure(req.request_id, 1, why));
         }
     }
 }
@@ -360,7 +332,7 @@ impl Driver for Iver3Driver {
     }
 
     fn start(&mut self, ctx: DriverContext) {
-        self.link_task = Some(byte::spawn(
+        self.link_task.set(byte::spawn(
             self.settings.link.clone(),
             ctx.io,
             self.link_stats.clone(),
@@ -378,7 +350,8 @@ impl Driver for Iver3Driver {
                 }
                 true
             });
-            self.ntp_task = Some(byte::spawn(ntp, io, Arc::new(LinkStats::default())));
+            self.ntp_task
+                .set(byte::spawn(ntp, io, Arc::new(LinkStats::default())));
         }
     }
 
@@ -398,8 +371,7 @@ impl Driver for Iver3Driver {
                 self.writer = None;
                 self.state = FrontSeatState::FrontseatNotConnected;
                 self.mode = IverMode::Unknown;
-                self.providing_data = false;
-                self.last_data = None;
+                self.data.lost();
             }
         }
     }
@@ -536,15 +508,11 @@ impl Driver for Iver3Driver {
             .to_line();
             self.write(&osd, sig);
         }
-        if self.providing_data
-            && let Some(t) = self.last_data
-            && now.saturating_sub(t) > self.settings.providing_data_timeout
-        {
+        if self.data.expired(now, self.settings.providing_data_timeout) {
             tracing::warn!(
                 "no $OSI or $C from the Iver for {:?}: not providing data",
                 self.settings.providing_data_timeout
             );
-            self.providing_data = false;
         }
         while let Some(p) = self.pending.front()
             && p.deadline <= now
@@ -554,15 +522,14 @@ impl Driver for Iver3Driver {
             };
             self.counters.ack_timeouts += 1;
             if p.respond {
-                sig.command_response(CommandResponse {
-                    request_successful: Some(false),
-                    request_id: p.request_id,
-                    error_code: Some(3),
-                    error_string: Some(format!(
+                sig.command_response(failure(
+                    p.request_id,
+                    3,
+                    format!(
                         "no $ACK from the UVC within {:?}",
                         self.settings.ack_timeout
-                    )),
-                });
+                    ),
+                ));
             }
         }
     }
@@ -572,7 +539,7 @@ impl Driver for Iver3Driver {
     }
 
     fn frontseat_providing_data(&self) -> bool {
-        self.providing_data
+        self.data.providing()
     }
 
     fn stop(&mut self) {

@@ -1,21 +1,10 @@
-//! The SV2 driver's edge: the frames and messages (shared with the emulator, from
-//! `frontseat_sim::waveglider_sv2::codec`) and the conversions between Goby's units and the
-//! C&C's (heading as whole degrees 0..=359, position in signed 1/10000 arc minutes). Pure.
+//! The SV2 driver's edge: the frames, messages and unit conversions (pure, in the vehicle's
+//! crate `frontseat-waveglider-sv2`, shared with the emulator) mapped onto Goby's NodeStatus.
 
-pub use frontseat_sim::waveglider_sv2::codec::*;
+pub use frontseat_waveglider_sv2::codec::*;
 
 use crate::proto::goby::middleware::frontseat::protobuf::NodeStatus;
 use crate::proto::goby::middleware::protobuf::LatLonPoint;
-
-/// A heading in degrees → the command's whole degrees in 0..=359 (Goby3 truncates and does
-/// not wrap: -10 or 720 went out as garbage). Non-finite → None.
-pub fn heading_to_wire(h: f64) -> Option<u16> {
-    if !h.is_finite() {
-        return None;
-    }
-    let r = h.rem_euclid(360.0).round();
-    Some(if r >= 360.0 { 0 } else { r as u16 })
-}
 
 /// The position of a status request with a valid fix → NodeStatus (lat/lon only).
 pub fn status_to_node_status(latitude: u32, longitude: u32, now_unix: f64) -> Option<NodeStatus> {
@@ -38,22 +27,6 @@ pub fn status_to_node_status(latitude: u32, longitude: u32, now_unix: f64) -> Op
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn headings_wrap_and_round() {
-        for (h, want) in [
-            (90.0, Some(90)),
-            (90.4, Some(90)),
-            (90.6, Some(91)),
-            (359.7, Some(0)),
-            (-10.0, Some(350)),
-            (720.0 + 45.0, Some(45)),
-            (f64::NAN, None),
-            (f64::INFINITY, None),
-        ] {
-            assert_eq!(heading_to_wire(h), want, "{h}");
-        }
-    }
 
     #[test]
     fn status_positions() {

@@ -14,6 +14,7 @@ use super::codec::{
 };
 use crate::clock::SimClock;
 use crate::driver::{Driver, DriverContext, DriverIoEvent, SignalSink};
+use crate::drivers::kit::{DataWatch, OwnedTask, log_due};
 use crate::drivers::vehicle_link;
 use crate::link::LineWriter;
 use crate::link::byte::{self, ByteLinkConfig, LinkStats};
@@ -21,7 +22,7 @@ use crate::link::framing::Framing;
 use crate::proto::goby::middleware::frontseat::protobuf::{
     CommandRequest, CommandResponse, FrontSeatState, InterfaceData, Raw, raw::RawType,
 };
-use crate::ratelog::{LogDecision, RateLimitedLog};
+use crate::ratelog::RateLimitedLog;
 
 /// C&C main task: where enumerate and status replies go (as in Goby3).
 const CC_MAIN: u16 = 0x0000;
@@ -88,11 +89,10 @@ pub struct Sv2Counters {
 pub struct WavegliderSv2Driver {
     settings: Settings,
     writer: Option<LineWriter>,
-    link_task: Option<tokio::task::JoinHandle<()>>,
+    link_task: OwnedTask,
     pub link_stats: Arc<LinkStats>,
     state: FrontSeatState,
-    last_status: Option<Duration>,
-    providing_data: bool,
+    status: DataWatch,
     queued: Option<Queued>,
     in_flight: Option<InFlight>,
     bad_log: RateLimitedLog,
@@ -104,11 +104,10 @@ impl WavegliderSv2Driver {
         Self {
             settings,
             writer: None,
-            link_task: None,
+            link_task: OwnedTask::default(),
             link_stats: Arc::new(LinkStats::default()),
             state: FrontSeatState::FrontseatNotConnected,
-            last_status: None,
-            providing_data: false,
+            status: DataWatch::default(),
             queued: None,
             in_flight: None,
             bad_log: RateLimitedLog::for_bad_input(),
@@ -118,10 +117,7 @@ impl WavegliderSv2Driver {
 
     fn bad(&mut self, what: &str) {
         self.counters.bad_frames += 1;
-        if let LogDecision::Log {
-            suppressed_before: suppressed,
-        } = self.bad_log.decide(tokio::time::Instant::now())
-        {
+        if let Some(suppressed) = log_due(&mut self.bad_log) {
             tracing::warn!(%what, suppressed, "bad input from the Wave Glider C&C");
         }
     }
@@ -145,10 +141,7 @@ impl WavegliderSv2Driver {
             }
             Err(e) => {
                 self.counters.write_failures += 1;
-                if let LogDecision::Log {
-                    suppressed_before: suppressed,
-                } = self.bad_log.decide(tokio::time::Instant::now())
-                {
+                if let Some(suppressed) = log_due(&mut self.bad_log) {
                     tracing::warn!(error = %e, suppressed, "frame to the C&C not sent");
                 }
                 false
@@ -203,8 +196,7 @@ impl WavegliderSv2Driver {
                 ..
             } => {
                 self.counters.status_requests += 1;
-                self.last_status = Some(now);
-                self.providing_data = true;
+                self.status.fresh(now);
                 let waiting = self.queued.is_some();
                 self.send(
                     Packet {
@@ -303,10 +295,7 @@ impl WavegliderSv2Driver {
             } => {
                 // Goby3 decoded this as the wrong type and stopped reading; we log and go on.
                 self.counters.naks += 1;
-                if let LogDecision::Log {
-                    suppressed_before: s,
-                } = self.bad_log.decide(tokio::time::Instant::now())
-                {
+                if let Some(s) = log_due(&mut self.bad_log) {
                     tracing::warn!(
                         original_msg_type,
                         response_code,
@@ -346,21 +335,13 @@ fn binary(bytes: Vec<u8>) -> Raw {
     r
 }
 
-impl Drop for WavegliderSv2Driver {
-    fn drop(&mut self) {
-        if let Some(t) = self.link_task.take() {
-            t.abort();
-        }
-    }
-}
-
 impl Driver for WavegliderSv2Driver {
     fn name(&self) -> &str {
         "waveglider_sv2"
     }
 
     fn start(&mut self, ctx: DriverContext) {
-        self.link_task = Some(byte::spawn(
+        self.link_task.set(byte::spawn(
             self.settings.link.clone(),
             ctx.io,
             self.link_stats.clone(),
@@ -382,8 +363,7 @@ impl Driver for WavegliderSv2Driver {
                 tracing::warn!(%reason, "Wave Glider link lost; reopening");
                 self.writer = None;
                 self.state = FrontSeatState::FrontseatNotConnected;
-                self.providing_data = false;
-                self.last_status = None;
+                self.status.lost();
             }
         }
     }
@@ -443,15 +423,14 @@ impl Driver for WavegliderSv2Driver {
     }
 
     fn do_loop(&mut self, now: Duration, sig: &mut dyn SignalSink) {
-        if self.providing_data
-            && let Some(t) = self.last_status
-            && now.saturating_sub(t) > self.settings.providing_data_timeout
+        if self
+            .status
+            .expired(now, self.settings.providing_data_timeout)
         {
             tracing::warn!(
                 "no status request from the C&C for {:?}: not providing data",
                 self.settings.providing_data_timeout
             );
-            self.providing_data = false;
         }
         if let Some(f) = self.in_flight
             && f.deadline <= now
@@ -476,7 +455,7 @@ impl Driver for WavegliderSv2Driver {
     }
 
     fn frontseat_providing_data(&self) -> bool {
-        self.providing_data
+        self.status.providing()
     }
 
     fn stop(&mut self) {

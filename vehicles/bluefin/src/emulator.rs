@@ -2,15 +2,15 @@
 //! Huxley sentences out, simulated time advanced by the caller. It owns which sentences the
 //! payload enabled (`$BPLOG`), the mission state it reports (`$BFMIS`, `$BFMSC`, `$BFCTL`), the
 //! acknowledgement of every payload sentence (`$BFACK`, or a refusal), and the vehicle model of
-//! the basic simulator steered by `$BPRMB`. No socket, no clock: [`super::server`] drives it.
+//! the basic simulator steered by `$BPRMB`. No socket, no clock: [`crate::server`] drives it.
 
 use std::collections::HashSet;
 
-use super::codec::{
+use crate::codec::{
     Ack, AckStatus, AdjustStatus, FromHuxley, FromPayload, HorizontalMode, Nvg, Nvr, Sentence,
     SpeedMode, VerticalMode,
 };
-use crate::vehicle::{Limits, Setpoint, Vehicle, short_turn};
+use frontseat_sim::vehicle::{Limits, Setpoint, Vehicle, short_turn};
 
 /// How the emulated Huxley answers commands (a test of the driver's failure paths).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -108,7 +108,7 @@ pub struct Huxley {
     last_heading: f64,
     silent: bool,
     /// The last `$BPRMB` applied, for tests and logs.
-    pub last_rmb: Option<super::codec::Rmb>,
+    pub last_rmb: Option<crate::codec::Rmb>,
 }
 
 impl Huxley {
@@ -167,7 +167,7 @@ impl Huxley {
                 command: msg.id().to_string(),
                 // LOG has no timestamp of its own: echo when it arrived, as Huxley does.
                 command_time: match msg.time_text() {
-                    t if t.is_empty() => super::codec::format_time(tod),
+                    t if t.is_empty() => crate::codec::format_time(tod),
                     t => t,
                 },
                 status,
@@ -265,7 +265,7 @@ impl Huxley {
         LineKind::Known
     }
 
-    fn apply_rmb(&mut self, r: super::codec::Rmb) {
+    fn apply_rmb(&mut self, r: crate::codec::Rmb) {
         let cur = self.vehicle.setpoint();
         let heading = match r.horizontal_mode {
             HorizontalMode::Heading => r.horizontal,

@@ -1,7 +1,7 @@
 //! The Bluefin Huxley "Standard Payload Interface" sentences: `$BF…` from the vehicle, `$BP…`
 //! from the payload, NMEA-framed with an XOR checksum. Pure text in, typed values out (and
-//! back); no I/O, no clock. Both the driver (`frontseat_actors::drivers::bluefin`) and the
-//! Huxley emulator ([`super::emulator`]) speak through this module, so a golden session replays
+//! back); no I/O, no clock. Both the driver (`actors/src/drivers/bluefin/`) and the
+//! Huxley emulator ([`crate::emulator`]) speak through this module, so a golden session replays
 //! against both sides with the same bytes.
 //!
 //! Facts (field order, units, mode codes) are from Goby3's Bluefin driver as recorded in the

@@ -5,12 +5,10 @@
 //! at a fixed cruise speed (the glider has no speed control through this path), and answers
 //! with an ACK/NAK of the queued message.
 
-pub mod codec;
+use crate::codec::{FrameDecoder, HeadingCommand, Message, Packet, WAITING_BIT};
 
-use codec::{FrameDecoder, HeadingCommand, Message, Packet, WAITING_BIT};
-
-use crate::emulator::Session;
-use crate::vehicle::{Limits, Setpoint, Vehicle};
+use frontseat_sim::emulator::Session;
+use frontseat_sim::vehicle::{Limits, Setpoint, Vehicle};
 
 /// The C&C board's own address (board 0x00, main task).
 pub const CC_ADDRESS: u16 = 0x0000;
@@ -123,8 +121,8 @@ impl Sv2Session {
         ];
         Message::RequestStatus {
             time,
-            latitude: codec::degrees_to_wire(lat),
-            longitude: codec::degrees_to_wire(lon),
+            latitude: crate::codec::degrees_to_wire(lat),
+            longitude: crate::codec::degrees_to_wire(lon),
             fix_valid: b'Y',
         }
     }
@@ -225,7 +223,7 @@ pub fn heading_command(heading: u16) -> HeadingCommand {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use codec::{DeviceInfo, PayloadStatus, msg_type};
+    use crate::codec::{DeviceInfo, PayloadStatus, msg_type};
 
     fn packets(out: &[u8]) -> Vec<Packet> {
         let mut d = FrameDecoder::new();

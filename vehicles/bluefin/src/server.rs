@@ -1,5 +1,5 @@
 //! The Huxley payload port: a TCP server where each connection is one emulated Bluefin vehicle
-//! ([`super::emulator::Huxley`]). A connection task reads bounded CRLF lines, feeds them to the
+//! ([`crate::emulator::Huxley`]). A connection task reads bounded CRLF lines, feeds them to the
 //! emulator, and ticks it at its navigation rate in (warped) simulated time; everything a
 //! wake-up produces is written in one `write_all`.
 
@@ -14,9 +14,9 @@ use tokio::sync::watch;
 use tokio::task::JoinSet;
 use tokio::time::Instant;
 
-use super::codec::seconds_of_day;
-use super::emulator::{Huxley, HuxleyOptions, LineKind};
-use crate::SimError;
+use crate::codec::seconds_of_day;
+use crate::emulator::{Huxley, HuxleyOptions, LineKind};
+use frontseat_sim::SimError;
 
 /// Problems logged at warn level per connection before the rest go to debug.
 const LOUD_PROBLEMS: u64 = 20;

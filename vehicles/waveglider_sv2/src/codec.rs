@@ -817,6 +817,16 @@ pub fn wire_to_degrees(v: u32) -> f64 {
     f64::from(v as i32) / 600_000.0
 }
 
+/// A heading in degrees → the command's whole degrees in 0..=359 (Goby3 truncates and does
+/// not wrap: -10 or 720 went out as garbage). Non-finite → None.
+pub fn heading_to_wire(h: f64) -> Option<u16> {
+    if !h.is_finite() {
+        return None;
+    }
+    let r = h.rem_euclid(360.0).round();
+    Some(if r >= 360.0 { 0 } else { r as u16 })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -1012,6 +1022,22 @@ mod tests {
     fn position_unit_round_trips() {
         for d in [0.0, 42.3584, -71.0876, 179.999, -89.5] {
             assert!((wire_to_degrees(degrees_to_wire(d)) - d).abs() < 1e-6);
+        }
+    }
+
+    #[test]
+    fn headings_wrap_and_round() {
+        for (h, want) in [
+            (90.0, Some(90)),
+            (90.4, Some(90)),
+            (90.6, Some(91)),
+            (359.7, Some(0)),
+            (-10.0, Some(350)),
+            (720.0 + 45.0, Some(45)),
+            (f64::NAN, None),
+            (f64::INFINITY, None),
+        ] {
+            assert_eq!(heading_to_wire(h), want, "{h}");
         }
     }
 }

@@ -3,12 +3,10 @@
 //! feet or metres by Remote Helm version, speed in knots), drops a command that is not refreshed
 //! within its timeout, and acknowledges commands with `$ACK`.
 
-pub mod codec;
+use crate::codec::{Ack, Compass, FEET_PER_METRE, MAX_SENTENCE, MPS_PER_KNOT, Oms, Osi, Sentence};
 
-use codec::{Ack, Compass, FEET_PER_METRE, MAX_SENTENCE, MPS_PER_KNOT, Oms, Osi, Sentence};
-
-use crate::emulator::Session;
-use crate::vehicle::{Limits, Setpoint, Vehicle};
+use frontseat_sim::emulator::Session;
+use frontseat_sim::vehicle::{Limits, Setpoint, Vehicle};
 
 /// How the emulated UVC starts.
 #[derive(Debug, Clone, PartialEq)]
@@ -140,7 +138,7 @@ impl IverSession {
                 if gps {
                     Self::send(
                         out,
-                        &codec::rmc(lat, lon, speed_kn, v.heading, self.unix0 + self.t),
+                        &crate::codec::rmc(lat, lon, speed_kn, v.heading, self.unix0 + self.t),
                     );
                 }
                 if state {
@@ -186,7 +184,7 @@ impl IverSession {
                     && o.timeout_s <= 120;
                 if !valid {
                     // Remote Helm error 20: "OMS incorrect values".
-                    self.ack(out, codec::ack_type::OMS, 20);
+                    self.ack(out, crate::codec::ack_type::OMS, 20);
                     return;
                 }
                 let depth_m = if Oms::depth_unit_is_feet(self.opts.remote_helm_version_major) {
@@ -201,18 +199,18 @@ impl IverSession {
                 });
                 self.oms_until = Some(self.t + f64::from(o.timeout_s));
                 self.stats.last_oms = Some(o);
-                self.ack(out, codec::ack_type::OMS, 0);
+                self.ack(out, crate::codec::ack_type::OMS, 0);
             }
             Sentence::OmStart { mission } => {
                 self.stats.omstart += 1;
                 self.mission = mission;
                 self.mode = "W".into();
-                self.ack(out, codec::ack_type::OMSTART, 0);
+                self.ack(out, crate::codec::ack_type::OMSTART, 0);
             }
             Sentence::OmStop => {
                 self.stats.omstop += 1;
                 self.mode = "N".into();
-                self.ack(out, codec::ack_type::OMSTOP, 0);
+                self.ack(out, crate::codec::ack_type::OMSTOP, 0);
             }
             _ => {
                 self.stats.bad_lines += 1;
@@ -293,7 +291,7 @@ mod tests {
             assert!(l[1].starts_with("$OSI,7F7F7F7F80,N,"));
             assert!(l[2].starts_with("$C0.0P"));
             out.clear();
-            let oms = codec::with_checksum(&format!("OMS,180.0,{depth_field},45.0,2.9,5"));
+            let oms = crate::codec::with_checksum(&format!("OMS,180.0,{depth_field},45.0,2.9,5"));
             s.on_bytes(format!("{oms}\r\n").as_bytes(), &mut out);
             assert_eq!(lines(&out), vec!["$ACK,9,0,0*5C"]);
             let sp = s.vehicle().setpoint();

@@ -41,6 +41,19 @@ pub enum LogCommand {
         #[arg(long, short = 'o', value_name = "FILE")]
         output: Option<PathBuf>,
     },
+    /// Converts a goby_logger `.goby` file to MCAP, using the protobuf descriptors the file
+    /// carries (types this binary does not know are kept). PROTOBUF entries are converted; DCCL,
+    /// CSTR and other schemes are counted and skipped; damaged entries (bad CRC) are skipped and
+    /// the rest of the file is still read.
+    Import {
+        file: PathBuf,
+        /// The MCAP file to write (default: FILE with the extension .mcap).
+        #[arg(long, short = 'o', value_name = "FILE")]
+        output: Option<PathBuf>,
+        /// Replace the output file if it exists.
+        #[arg(long)]
+        force: bool,
+    },
     /// Writes DIR/track.svg (the recorded track on the local grid) and DIR/time.svg (speed,
     /// heading and depth against time, actual from node_status, commanded from desired_course).
     Plot {
@@ -58,6 +71,11 @@ pub enum ExportFormat {
 
 pub fn log(args: LogArgs) -> ExitCode {
     match args.command {
+        LogCommand::Import {
+            file,
+            output,
+            force,
+        } => import(&file, output, force),
         LogCommand::Plot { file, out } => {
             let rec = match Recording::open(&file) {
                 Ok(r) => r,
@@ -180,6 +198,57 @@ pub fn log(args: LogArgs) -> ExitCode {
                 }
                 Err(e) => fail(&e),
             }
+        }
+    }
+}
+
+fn import(file: &Path, output: Option<PathBuf>, force: bool) -> ExitCode {
+    let out = output.unwrap_or_else(|| file.with_extension("mcap"));
+    if out == file {
+        eprintln!("{}: the output would replace the input", out.display());
+        return ExitCode::from(2);
+    }
+    if out.exists() && !force {
+        eprintln!("{} exists (--force to replace it)", out.display());
+        return ExitCode::from(2);
+    }
+    let src = match std::fs::File::open(file) {
+        Ok(f) => std::io::BufReader::new(f),
+        Err(e) => {
+            eprintln!("cannot open {}: {e}", file.display());
+            return ExitCode::from(1);
+        }
+    };
+    // Written beside the target and renamed at the end: an interrupted import leaves no
+    // half-written file under the name a user would open.
+    let mut tmp_name = out.as_os_str().to_owned();
+    tmp_name.push(".part");
+    let tmp = PathBuf::from(tmp_name);
+    let dst = match std::fs::File::create(&tmp) {
+        Ok(f) => std::io::BufWriter::new(f),
+        Err(e) => {
+            eprintln!("cannot create {}: {e}", tmp.display());
+            return ExitCode::from(1);
+        }
+    };
+    let name = file
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    match frontseat_record::import::import(src, dst, &name) {
+        Ok(stats) => {
+            if let Err(e) = std::fs::rename(&tmp, &out) {
+                eprintln!("cannot rename {} to {}: {e}", tmp.display(), out.display());
+                return ExitCode::from(1);
+            }
+            eprintln!("{}", stats.render());
+            eprintln!("wrote {}", out.display());
+            ExitCode::SUCCESS
+        }
+        Err(e) => {
+            let _ = std::fs::remove_file(&tmp);
+            eprintln!("{}: {e}", file.display());
+            ExitCode::from(1)
         }
     }
 }

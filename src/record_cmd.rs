@@ -8,8 +8,9 @@ use std::process::ExitCode;
 use clap::{Args, Subcommand, ValueEnum};
 use frontseat_actors::bus::Bus;
 use frontseat_config::InterfaceConfig;
-use frontseat_record::recorder::{RecordMeta, Recorder, RecorderOptions, config_digest};
+use frontseat_record::recorder::{RecordMeta, config_digest};
 use frontseat_record::replay::{ReplayOptions, Speed};
+use frontseat_record::service::RecordService;
 use frontseat_record::{Recording, export, info};
 
 #[derive(Args, Debug)]
@@ -406,12 +407,13 @@ pub async fn replay(args: ReplayArgs) -> ExitCode {
     }
 }
 
-/// The interface's (or demo's) recorder when `[record] enabled`: `Ok(None)` when not.
+/// The interface's (or demo's) `[record]`: the recorder and/or the Foxglove live server;
+/// `Ok(None)` when neither is enabled.
 pub fn start_recorder(
     bus: &Bus,
     cfg: &InterfaceConfig,
     application: &str,
-) -> Result<Option<Recorder>, String> {
+) -> Result<Option<RecordService>, String> {
     start_with(bus, &cfg.record, &cfg.name, run_meta(cfg, application))
 }
 
@@ -419,7 +421,7 @@ pub fn start_recorder(
 pub fn start_gateway_recorder(
     bus: &Bus,
     cfg: &frontseat_config::GatewayConfig,
-) -> Result<Option<Recorder>, String> {
+) -> Result<Option<RecordService>, String> {
     let mut extra = std::collections::BTreeMap::new();
     extra.insert("application".into(), "moos-gateway".to_string());
     let meta = RecordMeta {
@@ -437,15 +439,8 @@ fn start_with(
     record: &frontseat_config::RecordConfig,
     name: &str,
     meta: RecordMeta,
-) -> Result<Option<Recorder>, String> {
-    if !record.enabled {
-        return Ok(None);
-    }
-    let opts = RecorderOptions::from_config(record, name).map_err(|e| e.to_string())?;
-    let rec = Recorder::start(bus, opts, meta).map_err(|e| e.to_string())?;
-    // Ends by itself once the recorder stops.
-    drop(rec.spawn_drop_watch(std::time::Duration::from_secs(10)));
-    Ok(Some(rec))
+) -> Result<Option<RecordService>, String> {
+    RecordService::spawn(bus, record, name, meta).map_err(|e| e.to_string())
 }
 
 /// The run's metadata from the interface config.
@@ -463,20 +458,9 @@ pub fn run_meta(cfg: &InterfaceConfig, application: &str) -> RecordMeta {
     }
 }
 
-/// Stops a recorder off the async threads (it joins its writer) and logs what it counted.
-pub async fn stop_recorder(rec: Option<Recorder>) {
-    let Some(rec) = rec else { return };
-    let file = rec.current_file();
-    match tokio::task::spawn_blocking(move || rec.stop()).await {
-        Ok(s) => tracing::info!(
-            written = s.written,
-            dropped = s.dropped(),
-            files = s.files_opened,
-            removed = s.files_removed,
-            write_errors = s.write_errors,
-            last_file = %file.map(|f| f.display().to_string()).unwrap_or_default(),
-            "recorder stopped"
-        ),
-        Err(e) => tracing::error!(error = %e, "the recorder did not stop cleanly"),
+/// Stops the recorder and the live server of `[record]` (the file is closed with its summary).
+pub async fn stop_recorder(rec: Option<RecordService>) {
+    if let Some(r) = rec {
+        r.stop().await;
     }
 }

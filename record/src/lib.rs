@@ -7,10 +7,13 @@
 //! - [`reader`]: a streaming, bounded reader of possibly truncated files (after a crash).
 //! - [`info`], [`export`]: the summaries and flattened exports of `frontseat log`.
 //! - [`goby_log`], [`import`]: goby_logger `.goby` files read and converted to MCAP.
+//! - [`foxglove`]: the same groups served live over the Foxglove WebSocket protocol (read-only).
+//! - [`service`]: `[record]` (recorder and live server) started for any process in a few lines.
 //! - [`replay`]: a recording published onto a bus with its timing, marked as replayed.
 #![forbid(unsafe_code)]
 
 pub mod export;
+pub mod foxglove;
 pub mod goby_log;
 pub mod import;
 pub mod info;
@@ -19,6 +22,7 @@ pub mod reader;
 pub mod recorder;
 pub mod replay;
 pub mod schema;
+pub mod service;
 mod time;
 
 pub use reader::{ReadError, Recording};

@@ -287,9 +287,57 @@ pub struct ReplayArgs {
     /// Zenoh endpoints to connect to.
     #[arg(long = "connect", value_name = "ENDPOINT")]
     pub connect: Vec<String>,
-    /// Publish onto this process's bus only (for tests and benches): no Zenoh.
+    /// Publish onto this process's bus only (for tests and benches): the same as `--onto bus`.
     #[arg(long)]
     pub no_zenoh: bool,
+    /// Where the replay goes: Zenoh (as a frontseat interface publishes), a Goby3 gobyd (as
+    /// goby_frontseat_interface publishes: Goby3 applications and pHelmIvP through
+    /// goby_moos_gateway see the recorded vehicle), or this process's bus only.
+    #[arg(long, value_enum, default_value_t = ReplayTo::Zenoh)]
+    pub onto: ReplayTo,
+    /// gobyd's IPC socket base (Goby3's socket_name; default /tmp/goby_<platform>).
+    #[arg(long, value_name = "PATH")]
+    pub goby_socket: Option<String>,
+    /// gobyd's manager over TCP instead of IPC, e.g. 127.0.0.1:11144.
+    #[arg(long, value_name = "HOST:PORT")]
+    pub goby_tcp: Option<String>,
+    /// The name given to gobyd's manager.
+    #[arg(long, default_value = "frontseat_replay")]
+    pub goby_client_name: String,
+    /// How long to wait for gobyd before giving up. Unit: s.
+    #[arg(long, default_value_t = 15.0)]
+    pub goby_wait: f64,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum ReplayTo {
+    Zenoh,
+    Gobyd,
+    Bus,
+}
+
+impl ReplayArgs {
+    fn goby3_config(&self) -> Result<frontseat_config::Goby3Config, String> {
+        let mut c = frontseat_config::Goby3Config {
+            enabled: true,
+            platform: self.platform.clone().unwrap_or_default(),
+            client_name: self.goby_client_name.clone(),
+            ..Default::default()
+        };
+        if let Some(s) = &self.goby_socket {
+            c.socket_name = s.clone();
+        }
+        if let Some(t) = &self.goby_tcp {
+            let (host, port) = t
+                .rsplit_once(':')
+                .and_then(|(h, p)| Some((h, p.parse::<u16>().ok()?)))
+                .ok_or_else(|| format!("--goby-tcp {t:?}: HOST:PORT"))?;
+            c.transport = frontseat_config::Goby3Transport::Tcp;
+            c.ip_address = host.to_string();
+            c.tcp_port = port;
+        }
+        Ok(c)
+    }
 }
 
 impl ReplayArgs {
@@ -340,8 +388,66 @@ pub async fn replay(args: ReplayArgs) -> ExitCode {
         }
     };
     let bus = Bus::new();
+    let to = if args.no_zenoh {
+        ReplayTo::Bus
+    } else {
+        args.onto
+    };
     let mut gateway = None;
-    if !args.no_zenoh {
+    let mut goby3 = None;
+    if to == ReplayTo::Gobyd {
+        // Claimed before gobyd is joined: a replay bus never carries a live driver.
+        if let Err(held) = bus.claim(frontseat_actors::bus::BusRole::Replay) {
+            eprintln!("the bus is already claimed by {held:?}");
+            return ExitCode::from(2);
+        }
+        let cfg = match args.goby3_config() {
+            Ok(c) => c,
+            Err(e) => {
+                eprintln!("{e}");
+                return ExitCode::from(2);
+            }
+        };
+        let vehicle = recorded_vehicle(&args.file).unwrap_or_default();
+        let settings = match frontseat_gateway::goby3::Goby3Settings::from_config(&cfg, &vehicle) {
+            Ok(s) => s,
+            Err(e) => {
+                eprintln!("{e}");
+                return ExitCode::from(2);
+            }
+        };
+        let endpoint = settings.transport.manager_endpoint();
+        // Only the vehicle's publications go out; nothing from gobyd comes in.
+        let h = match frontseat_gateway::goby3::start_publisher(
+            &bus,
+            settings,
+            &["FrontSeatInterface"],
+            frontseat_gateway::GatewayOptions::default(),
+        ) {
+            Ok(h) => h,
+            Err(e) => {
+                eprintln!("cannot start the Goby3 link: {e}");
+                return ExitCode::from(1);
+            }
+        };
+        // Messages published before gobyd is joined would be dropped: wait (bounded) for it.
+        let wait = std::time::Duration::try_from_secs_f64(args.goby_wait.clamp(0.1, 3600.0))
+            .unwrap_or(std::time::Duration::from_secs(15));
+        let joined = tokio::time::timeout(wait, async {
+            while !h.link_up() {
+                tokio::time::sleep(std::time::Duration::from_millis(20)).await;
+            }
+        })
+        .await;
+        if joined.is_err() {
+            eprintln!("gobyd did not answer at {endpoint} within {wait:?}");
+            h.close().await;
+            return ExitCode::from(1);
+        }
+        eprintln!("frontseat replay: publishing through gobyd at {endpoint}");
+        goby3 = Some(h);
+    }
+    if to == ReplayTo::Zenoh {
         let mut cfg = frontseat_config::InterprocessConfig {
             enabled: true,
             ..Default::default()
@@ -385,7 +491,36 @@ pub async fn replay(args: ReplayArgs) -> ExitCode {
         _ = crate::shutdown::shutdown_signal() => None,
     };
     if let Some(g) = gateway {
+        // As for gobyd below: the end of the replay leaves the export queue before closing.
+        if let Some(Ok(r)) = &result {
+            let deadline = tokio::time::Instant::now() + std::time::Duration::from_secs(5);
+            while {
+                let st = g.stats();
+                st.exported + st.export_errors < r.published
+            } && tokio::time::Instant::now() < deadline
+            {
+                tokio::time::sleep(std::time::Duration::from_millis(10)).await;
+            }
+        }
         g.close().await;
+    }
+    if let Some(h) = goby3 {
+        // The last messages may still be in the link's queue: let them out (bounded) before
+        // closing, or a replay would lose its end.
+        if let Some(Ok(r)) = &result {
+            let deadline = tokio::time::Instant::now() + std::time::Duration::from_secs(5);
+            loop {
+                let st = h.stats();
+                let out = st.exported + st.dropped_link_down + st.export_errors;
+                if out >= r.published || tokio::time::Instant::now() >= deadline {
+                    break;
+                }
+                tokio::time::sleep(std::time::Duration::from_millis(10)).await;
+            }
+        }
+        let st = h.stats();
+        h.close().await;
+        tracing::info!(?st, "Goby3 link closed");
     }
     match result {
         None => ExitCode::SUCCESS,

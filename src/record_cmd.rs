@@ -278,7 +278,8 @@ pub struct ReplayArgs {
     /// Start over at the end, until Ctrl-C.
     #[arg(long = "loop")]
     pub looped: bool,
-    /// Zenoh platform (key prefix); default: the vehicle name recorded in the file.
+    /// Zenoh platform (key prefix), or the Goby3 platform with `--onto gobyd`; default: the
+    /// vehicle name recorded in the file.
     #[arg(long)]
     pub platform: Option<String>,
     /// Zenoh endpoints to listen on (default tcp/127.0.0.1:7447, as the interface).

@@ -117,10 +117,12 @@ enum Command {
     /// Print the resolved interface (application → layer → publishes/subscribes → group, type,
     /// actor) of every application, as compiled from interface_yaml/.
     Interfaces,
-    /// Look into a recording (MCAP, from `[record]` or `demo --record`): `info`, `export`.
+    /// Look into a recording (MCAP, from `[record]` or `demo --record`): `info`, `export`,
+    /// `plot`; `import` converts a goby_logger `.goby` file to MCAP.
     Log(record_cmd::LogArgs),
-    /// Publish a recording's vehicle side (node_status, status, ...) onto Zenoh as it was
-    /// recorded, so a helm under test meets the recorded vehicle. Never commands a vehicle.
+    /// Publish a recording's vehicle side (node_status, status, ...) onto Zenoh or a Goby3 gobyd
+    /// as it was recorded, so a helm under test meets the recorded vehicle. Never commands a
+    /// vehicle.
     Replay(record_cmd::ReplayArgs),
 }
 

@@ -8,8 +8,9 @@ use std::process::ExitCode;
 use clap::{Args, Subcommand, ValueEnum};
 use frontseat_actors::bus::Bus;
 use frontseat_config::InterfaceConfig;
-use frontseat_record::recorder::{RecordMeta, Recorder, RecorderOptions, config_digest};
+use frontseat_record::recorder::{RecordMeta, config_digest};
 use frontseat_record::replay::{ReplayOptions, Speed};
+use frontseat_record::service::RecordService;
 use frontseat_record::{Recording, export, info};
 
 #[derive(Args, Debug)]
@@ -41,6 +42,19 @@ pub enum LogCommand {
         #[arg(long, short = 'o', value_name = "FILE")]
         output: Option<PathBuf>,
     },
+    /// Converts a goby_logger `.goby` file to MCAP, using the protobuf descriptors the file
+    /// carries (types this binary does not know are kept). PROTOBUF entries are converted; DCCL,
+    /// CSTR and other schemes are counted and skipped; damaged entries (bad CRC) are skipped and
+    /// the rest of the file is still read.
+    Import {
+        file: PathBuf,
+        /// The MCAP file to write (default: FILE with the extension .mcap).
+        #[arg(long, short = 'o', value_name = "FILE")]
+        output: Option<PathBuf>,
+        /// Replace the output file if it exists.
+        #[arg(long)]
+        force: bool,
+    },
     /// Writes DIR/track.svg (the recorded track on the local grid) and DIR/time.svg (speed,
     /// heading and depth against time, actual from node_status, commanded from desired_course).
     Plot {
@@ -58,6 +72,11 @@ pub enum ExportFormat {
 
 pub fn log(args: LogArgs) -> ExitCode {
     match args.command {
+        LogCommand::Import {
+            file,
+            output,
+            force,
+        } => import(&file, output, force),
         LogCommand::Plot { file, out } => {
             let rec = match Recording::open(&file) {
                 Ok(r) => r,
@@ -184,6 +203,57 @@ pub fn log(args: LogArgs) -> ExitCode {
     }
 }
 
+fn import(file: &Path, output: Option<PathBuf>, force: bool) -> ExitCode {
+    let out = output.unwrap_or_else(|| file.with_extension("mcap"));
+    if out == file {
+        eprintln!("{}: the output would replace the input", out.display());
+        return ExitCode::from(2);
+    }
+    if out.exists() && !force {
+        eprintln!("{} exists (--force to replace it)", out.display());
+        return ExitCode::from(2);
+    }
+    let src = match std::fs::File::open(file) {
+        Ok(f) => std::io::BufReader::new(f),
+        Err(e) => {
+            eprintln!("cannot open {}: {e}", file.display());
+            return ExitCode::from(1);
+        }
+    };
+    // Written beside the target and renamed at the end: an interrupted import leaves no
+    // half-written file under the name a user would open.
+    let mut tmp_name = out.as_os_str().to_owned();
+    tmp_name.push(".part");
+    let tmp = PathBuf::from(tmp_name);
+    let dst = match std::fs::File::create(&tmp) {
+        Ok(f) => std::io::BufWriter::new(f),
+        Err(e) => {
+            eprintln!("cannot create {}: {e}", tmp.display());
+            return ExitCode::from(1);
+        }
+    };
+    let name = file
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    match frontseat_record::import::import(src, dst, &name) {
+        Ok(stats) => {
+            if let Err(e) = std::fs::rename(&tmp, &out) {
+                eprintln!("cannot rename {} to {}: {e}", tmp.display(), out.display());
+                return ExitCode::from(1);
+            }
+            eprintln!("{}", stats.render());
+            eprintln!("wrote {}", out.display());
+            ExitCode::SUCCESS
+        }
+        Err(e) => {
+            let _ = std::fs::remove_file(&tmp);
+            eprintln!("{}: {e}", file.display());
+            ExitCode::from(1)
+        }
+    }
+}
+
 fn fail(e: &dyn std::fmt::Display) -> ExitCode {
     eprintln!("{e}");
     ExitCode::from(1)
@@ -208,7 +278,8 @@ pub struct ReplayArgs {
     /// Start over at the end, until Ctrl-C.
     #[arg(long = "loop")]
     pub looped: bool,
-    /// Zenoh platform (key prefix); default: the vehicle name recorded in the file.
+    /// Zenoh platform (key prefix), or the Goby3 platform with `--onto gobyd`; default: the
+    /// vehicle name recorded in the file.
     #[arg(long)]
     pub platform: Option<String>,
     /// Zenoh endpoints to listen on (default tcp/127.0.0.1:7447, as the interface).
@@ -217,9 +288,57 @@ pub struct ReplayArgs {
     /// Zenoh endpoints to connect to.
     #[arg(long = "connect", value_name = "ENDPOINT")]
     pub connect: Vec<String>,
-    /// Publish onto this process's bus only (for tests and benches): no Zenoh.
+    /// Publish onto this process's bus only (for tests and benches): the same as `--onto bus`.
     #[arg(long)]
     pub no_zenoh: bool,
+    /// Where the replay goes: Zenoh (as a frontseat interface publishes), a Goby3 gobyd (as
+    /// goby_frontseat_interface publishes: Goby3 applications and pHelmIvP through
+    /// goby_moos_gateway see the recorded vehicle), or this process's bus only.
+    #[arg(long, value_enum, default_value_t = ReplayTo::Zenoh)]
+    pub onto: ReplayTo,
+    /// gobyd's IPC socket base (Goby3's socket_name; default /tmp/goby_<platform>).
+    #[arg(long, value_name = "PATH")]
+    pub goby_socket: Option<String>,
+    /// gobyd's manager over TCP instead of IPC, e.g. 127.0.0.1:11144.
+    #[arg(long, value_name = "HOST:PORT")]
+    pub goby_tcp: Option<String>,
+    /// The name given to gobyd's manager.
+    #[arg(long, default_value = "frontseat_replay")]
+    pub goby_client_name: String,
+    /// How long to wait for gobyd before giving up. Unit: s.
+    #[arg(long, default_value_t = 15.0)]
+    pub goby_wait: f64,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum ReplayTo {
+    Zenoh,
+    Gobyd,
+    Bus,
+}
+
+impl ReplayArgs {
+    fn goby3_config(&self) -> Result<frontseat_config::Goby3Config, String> {
+        let mut c = frontseat_config::Goby3Config {
+            enabled: true,
+            platform: self.platform.clone().unwrap_or_default(),
+            client_name: self.goby_client_name.clone(),
+            ..Default::default()
+        };
+        if let Some(s) = &self.goby_socket {
+            c.socket_name = s.clone();
+        }
+        if let Some(t) = &self.goby_tcp {
+            let (host, port) = t
+                .rsplit_once(':')
+                .and_then(|(h, p)| Some((h, p.parse::<u16>().ok()?)))
+                .ok_or_else(|| format!("--goby-tcp {t:?}: HOST:PORT"))?;
+            c.transport = frontseat_config::Goby3Transport::Tcp;
+            c.ip_address = host.to_string();
+            c.tcp_port = port;
+        }
+        Ok(c)
+    }
 }
 
 impl ReplayArgs {
@@ -270,8 +389,66 @@ pub async fn replay(args: ReplayArgs) -> ExitCode {
         }
     };
     let bus = Bus::new();
+    let to = if args.no_zenoh {
+        ReplayTo::Bus
+    } else {
+        args.onto
+    };
     let mut gateway = None;
-    if !args.no_zenoh {
+    let mut goby3 = None;
+    if to == ReplayTo::Gobyd {
+        // Claimed before gobyd is joined: a replay bus never carries a live driver.
+        if let Err(held) = bus.claim(frontseat_actors::bus::BusRole::Replay) {
+            eprintln!("the bus is already claimed by {held:?}");
+            return ExitCode::from(2);
+        }
+        let cfg = match args.goby3_config() {
+            Ok(c) => c,
+            Err(e) => {
+                eprintln!("{e}");
+                return ExitCode::from(2);
+            }
+        };
+        let vehicle = recorded_vehicle(&args.file).unwrap_or_default();
+        let settings = match frontseat_gateway::goby3::Goby3Settings::from_config(&cfg, &vehicle) {
+            Ok(s) => s,
+            Err(e) => {
+                eprintln!("{e}");
+                return ExitCode::from(2);
+            }
+        };
+        let endpoint = settings.transport.manager_endpoint();
+        // Only the vehicle's publications go out; nothing from gobyd comes in.
+        let h = match frontseat_gateway::goby3::start_publisher(
+            &bus,
+            settings,
+            &["FrontSeatInterface"],
+            frontseat_gateway::GatewayOptions::default(),
+        ) {
+            Ok(h) => h,
+            Err(e) => {
+                eprintln!("cannot start the Goby3 link: {e}");
+                return ExitCode::from(1);
+            }
+        };
+        // Messages published before gobyd is joined would be dropped: wait (bounded) for it.
+        let wait = std::time::Duration::try_from_secs_f64(args.goby_wait.clamp(0.1, 3600.0))
+            .unwrap_or(std::time::Duration::from_secs(15));
+        let joined = tokio::time::timeout(wait, async {
+            while !h.link_up() {
+                tokio::time::sleep(std::time::Duration::from_millis(20)).await;
+            }
+        })
+        .await;
+        if joined.is_err() {
+            eprintln!("gobyd did not answer at {endpoint} within {wait:?}");
+            h.close().await;
+            return ExitCode::from(1);
+        }
+        eprintln!("frontseat replay: publishing through gobyd at {endpoint}");
+        goby3 = Some(h);
+    }
+    if to == ReplayTo::Zenoh {
         let mut cfg = frontseat_config::InterprocessConfig {
             enabled: true,
             ..Default::default()
@@ -315,7 +492,36 @@ pub async fn replay(args: ReplayArgs) -> ExitCode {
         _ = crate::shutdown::shutdown_signal() => None,
     };
     if let Some(g) = gateway {
+        // As for gobyd below: the end of the replay leaves the export queue before closing.
+        if let Some(Ok(r)) = &result {
+            let deadline = tokio::time::Instant::now() + std::time::Duration::from_secs(5);
+            while {
+                let st = g.stats();
+                st.exported + st.export_errors < r.published
+            } && tokio::time::Instant::now() < deadline
+            {
+                tokio::time::sleep(std::time::Duration::from_millis(10)).await;
+            }
+        }
         g.close().await;
+    }
+    if let Some(h) = goby3 {
+        // The last messages may still be in the link's queue: let them out (bounded) before
+        // closing, or a replay would lose its end.
+        if let Some(Ok(r)) = &result {
+            let deadline = tokio::time::Instant::now() + std::time::Duration::from_secs(5);
+            loop {
+                let st = h.stats();
+                let out = st.exported + st.dropped_link_down + st.export_errors;
+                if out >= r.published || tokio::time::Instant::now() >= deadline {
+                    break;
+                }
+                tokio::time::sleep(std::time::Duration::from_millis(10)).await;
+            }
+        }
+        let st = h.stats();
+        h.close().await;
+        tracing::info!(?st, "Goby3 link closed");
     }
     match result {
         None => ExitCode::SUCCESS,
@@ -337,12 +543,13 @@ pub async fn replay(args: ReplayArgs) -> ExitCode {
     }
 }
 
-/// The interface's (or demo's) recorder when `[record] enabled`: `Ok(None)` when not.
+/// The interface's (or demo's) `[record]`: the recorder and/or the Foxglove live server;
+/// `Ok(None)` when neither is enabled.
 pub fn start_recorder(
     bus: &Bus,
     cfg: &InterfaceConfig,
     application: &str,
-) -> Result<Option<Recorder>, String> {
+) -> Result<Option<RecordService>, String> {
     start_with(bus, &cfg.record, &cfg.name, run_meta(cfg, application))
 }
 
@@ -350,7 +557,7 @@ pub fn start_recorder(
 pub fn start_gateway_recorder(
     bus: &Bus,
     cfg: &frontseat_config::GatewayConfig,
-) -> Result<Option<Recorder>, String> {
+) -> Result<Option<RecordService>, String> {
     let mut extra = std::collections::BTreeMap::new();
     extra.insert("application".into(), "moos-gateway".to_string());
     let meta = RecordMeta {
@@ -368,15 +575,8 @@ fn start_with(
     record: &frontseat_config::RecordConfig,
     name: &str,
     meta: RecordMeta,
-) -> Result<Option<Recorder>, String> {
-    if !record.enabled {
-        return Ok(None);
-    }
-    let opts = RecorderOptions::from_config(record, name).map_err(|e| e.to_string())?;
-    let rec = Recorder::start(bus, opts, meta).map_err(|e| e.to_string())?;
-    // Ends by itself once the recorder stops.
-    drop(rec.spawn_drop_watch(std::time::Duration::from_secs(10)));
-    Ok(Some(rec))
+) -> Result<Option<RecordService>, String> {
+    RecordService::spawn(bus, record, name, meta).map_err(|e| e.to_string())
 }
 
 /// The run's metadata from the interface config.
@@ -394,20 +594,9 @@ pub fn run_meta(cfg: &InterfaceConfig, application: &str) -> RecordMeta {
     }
 }
 
-/// Stops a recorder off the async threads (it joins its writer) and logs what it counted.
-pub async fn stop_recorder(rec: Option<Recorder>) {
-    let Some(rec) = rec else { return };
-    let file = rec.current_file();
-    match tokio::task::spawn_blocking(move || rec.stop()).await {
-        Ok(s) => tracing::info!(
-            written = s.written,
-            dropped = s.dropped(),
-            files = s.files_opened,
-            removed = s.files_removed,
-            write_errors = s.write_errors,
-            last_file = %file.map(|f| f.display().to_string()).unwrap_or_default(),
-            "recorder stopped"
-        ),
-        Err(e) => tracing::error!(error = %e, "the recorder did not stop cleanly"),
+/// Stops the recorder and the live server of `[record]` (the file is closed with its summary).
+pub async fn stop_recorder(rec: Option<RecordService>) {
+    if let Some(r) = rec {
+        r.stop().await;
     }
 }

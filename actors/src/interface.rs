@@ -347,6 +347,7 @@ impl FsiState {
             nav_fields_dropped: Some(self.counters.nav_fields_dropped),
             raw_sent: Some(self.counters.raw_sent),
             raw_refused: Some(self.counters.raw_refused),
+            record_dropped: crate::metrics::recorder_drops_if_recording(),
         };
         let detail = with_telemetry(detail, &self.metrics);
         self.ports.publish_detail(detail);

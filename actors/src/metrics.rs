@@ -85,6 +85,35 @@ pub fn helm_side_downs() -> u64 {
     HELM_SIDE_DOWN.load(Ordering::Relaxed)
 }
 
+/// Messages the MCAP recorders of this process dropped (queue full, no writable file), and how
+/// many recorders run: a recorder falling behind shows in every interface's detail status and in
+/// the metrics, not only in the file's closing metadata.
+static RECORDER_DROPPED: AtomicU64 = AtomicU64::new(0);
+static RECORDERS: AtomicU64 = AtomicU64::new(0);
+
+pub fn recorder_dropped(n: u64) {
+    RECORDER_DROPPED.fetch_add(n, Ordering::Relaxed);
+}
+
+pub fn recorder_drops() -> u64 {
+    RECORDER_DROPPED.load(Ordering::Relaxed)
+}
+
+/// A recorder started (`true`) or stopped (`false`).
+pub fn recorder_running(running: bool) {
+    if running {
+        RECORDERS.fetch_add(1, Ordering::Relaxed);
+    } else {
+        let _ = RECORDERS.fetch_update(Ordering::Relaxed, Ordering::Relaxed, |n| n.checked_sub(1));
+    }
+}
+
+/// The process's recorder drops, `None` when it never recorded.
+pub fn recorder_drops_if_recording() -> Option<u64> {
+    let d = recorder_drops();
+    (RECORDERS.load(Ordering::Relaxed) > 0 || d > 0).then_some(d)
+}
+
 fn each_vehicle(mut f: impl FnMut(&[KeyValue], &VehicleMetrics)) {
     let live: Vec<(String, Arc<VehicleMetrics>)> = {
         let v = VEHICLES.lock().unwrap_or_else(|p| p.into_inner());
@@ -111,6 +140,7 @@ pub mod names {
     pub const DRIVER_RESTARTS: &str = "frontseat.driver.restarts";
     pub const STATE: &str = "frontseat.interface.state";
     pub const BAD_LINES: &str = "frontseat.bad_lines";
+    pub const RECORD_DROPPED: &str = "frontseat.record.dropped";
     pub const HELM_SIDE_DOWN: &str = "frontseat.supervision.helm_side_down";
     pub const SPANS_EXPORTED: &str = "frontseat.spans.exported";
     pub const SPANS_DROPPED: &str = "frontseat.spans.dropped";
@@ -216,6 +246,12 @@ pub(crate) fn install(meter: &Meter, spans: fn() -> (u64, u64)) {
         .with_unit("{line}")
         .with_description("lines from the frontseat no driver could use")
         .with_callback(|obs| obs.observe(bad_lines(), &[]))
+        .build();
+    meter
+        .u64_observable_counter(names::RECORD_DROPPED)
+        .with_unit("{message}")
+        .with_description("messages the MCAP recorder dropped (queue full, no writable file)")
+        .with_callback(|obs| obs.observe(recorder_drops(), &[]))
         .build();
     meter
         .u64_observable_counter(names::HELM_SIDE_DOWN)

@@ -41,7 +41,7 @@ pub use interface::{
     RestartPolicy, RpmTableEntry, SimStartConfig, SimVehicleConfig, SupervisionConfig,
     TransportKind, VehicleLinkConfig, VehicleType, WAVEGLIDER_SV2, WavegliderSv2Config,
 };
-pub use record::{RecordCompression, RecordConfig};
+pub use record::{FOXGLOVE_TOKEN_ENV, FoxgloveConfig, RecordCompression, RecordConfig};
 pub use sections::{
     DEFAULT_MAX_EXPORT_BATCH_SIZE, DEFAULT_MAX_QUEUE_SIZE, DEFAULT_METRICS_INTERVAL_S,
     DEFAULT_ORIGIN_LAT, DEFAULT_ORIGIN_LON, DEFAULT_SCHEDULED_DELAY_MS, InterprocessConfig,

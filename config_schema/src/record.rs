@@ -56,6 +56,92 @@ pub struct RecordConfig {
     /// Messages waiting for the writer; past it new ones are dropped and counted, so a slow disk
     /// never slows a publisher. Unit: messages, 16 to 1048576.
     pub queue: usize,
+    /// The same groups served live over the Foxglove WebSocket protocol (Foxglove, Lichtblick).
+    pub foxglove: FoxgloveConfig,
+}
+
+/// Environment variable that gives the Foxglove live server's token (it wins over
+/// `record.foxglove.token`).
+pub const FOXGLOVE_TOKEN_ENV: &str = "FRONTSEAT_FOXGLOVE_TOKEN";
+
+/// The live view in Foxglove/Lichtblick: `ws://<bind>/` with the `foxglove.websocket.v1`
+/// subprotocol. Read-only: nothing a client sends reaches the bus or a vehicle. Works with or
+/// without `record.enabled` (live only, no files).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields, default)]
+pub struct FoxgloveConfig {
+    /// Serve the groups `include`/`exclude` select, live.
+    pub enabled: bool,
+    /// Address and port to listen on. Loopback by default; any other address requires a token.
+    pub bind: String,
+    /// Shared secret every client must give (`ws://host:port/?token=...`, or
+    /// `Authorization: Bearer`); FRONTSEAT_FOXGLOVE_TOKEN in the environment wins over this.
+    /// At least 16 characters.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    #[schemars(example = &"change-me-to-a-long-random-string")]
+    pub token: Option<String>,
+    /// Clients served at once; more are refused (503) and counted.
+    #[schemars(range(min = 1, max = 256))]
+    pub max_clients: usize,
+    /// Messages queued per client; a slower client misses messages (counted), never slowing a
+    /// publisher. Unit: messages, 16 to 65536.
+    #[schemars(range(min = 16, max = 65536))]
+    pub client_queue: usize,
+}
+
+impl Default for FoxgloveConfig {
+    fn default() -> Self {
+        Self {
+            enabled: false,
+            bind: "127.0.0.1:8765".into(),
+            token: None,
+            max_clients: 8,
+            client_queue: 1024,
+        }
+    }
+}
+
+impl FoxgloveConfig {
+    /// The token in force: the environment's, else the config's.
+    pub fn effective_token(&self) -> Option<String> {
+        std::env::var(FOXGLOVE_TOKEN_ENV)
+            .ok()
+            .filter(|t| !t.is_empty())
+            .or_else(|| self.token.clone())
+    }
+
+    pub(crate) fn check(&self, prefix: &str, c: &mut Checker) {
+        match self.bind.parse::<std::net::SocketAddr>() {
+            Err(_) => c.push(FieldError::new(
+                at(prefix, "bind"),
+                format!("{:?}", self.bind),
+                "not an address and port like \"127.0.0.1:8765\"",
+            )),
+            Ok(a) if self.enabled && !a.ip().is_loopback() && self.effective_token().is_none() => c
+                .push(FieldError::new(
+                    at(prefix, "bind"),
+                    format!("{:?}", self.bind),
+                    format!("not a loopback address: set a token (token or {FOXGLOVE_TOKEN_ENV})"),
+                )),
+            Ok(_) => {}
+        }
+        if let Some(t) = &self.token
+            && t.chars().count() < crate::web::MIN_TOKEN_CHARS
+        {
+            c.push(FieldError::new(
+                at(prefix, "token"),
+                "\"…\"",
+                format!("shorter than {} characters", crate::web::MIN_TOKEN_CHARS),
+            ));
+        }
+        c.count(&at(prefix, "max_clients"), self.max_clients as u64, 1, 256);
+        c.count(
+            &at(prefix, "client_queue"),
+            self.client_queue as u64,
+            16,
+            65536,
+        );
+    }
 }
 
 impl Default for RecordConfig {
@@ -73,6 +159,7 @@ impl Default for RecordConfig {
             flush_s: 1.0,
             compression: RecordCompression::Zstd,
             queue: 65536,
+            foxglove: FoxgloveConfig::default(),
         }
     }
 }
@@ -92,6 +179,7 @@ impl RecordConfig {
         }
         c.within(&at(prefix, "flush_s"), self.flush_s, 0.05, 60.0);
         c.count(&at(prefix, "queue"), self.queue as u64, 16, 1 << 20);
+        self.foxglove.check(&at(prefix, "foxglove"), c);
         if self.path.is_none() && self.dir.trim().is_empty() {
             c.push(FieldError::new(
                 at(prefix, "dir"),
@@ -163,5 +251,19 @@ mod tests {
             ..Default::default()
         };
         assert!(errors(&endless).join("\n").contains("needs rotation"));
+    }
+
+    #[test]
+    fn foxglove_off_loopback_needs_a_token() {
+        let mut r = RecordConfig::default();
+        r.foxglove.enabled = true;
+        r.foxglove.bind = "0.0.0.0:8765".into();
+        if std::env::var_os(FOXGLOVE_TOKEN_ENV).is_none() {
+            assert!(errors(&r).join("\n").contains("record.foxglove.bind"));
+        }
+        r.foxglove.token = Some("short".into());
+        assert!(errors(&r).join("\n").contains("record.foxglove.token"));
+        r.foxglove.token = Some("a-long-enough-random-token".into());
+        assert!(errors(&r).is_empty(), "{:?}", errors(&r));
     }
 }

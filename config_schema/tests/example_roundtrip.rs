@@ -98,6 +98,8 @@ fn interface_example_has_every_setting_and_commented_ones_work() {
     rest.driver.iver3.ntp_serial_port = None;
     assert!(on.record.path.is_some());
     rest.record.path = None;
+    assert!(on.record.foxglove.token.is_some());
+    rest.record.foxglove.token = None;
     assert_eq!(rest, InterfaceConfig::default());
 }
 

@@ -369,6 +369,7 @@ impl Recorder {
                         Ok(()) => Ok(()),
                         Err(TrySendError::Full(_)) => {
                             c.dropped_queue.fetch_add(1, Ordering::Relaxed);
+                            frontseat_actors::metrics::recorder_dropped(1);
                             Ok(())
                         }
                         // The writer thread is gone (stopped, or it failed): stop delivering.
@@ -387,6 +388,7 @@ impl Recorder {
             .name("recorder".into())
             .spawn(move || sink.run(rx, thread_stop))
             .map_err(RecorderError::Thread)?;
+        frontseat_actors::metrics::recorder_running(true);
         tracing::info!(
             groups = recorded.len(),
             file = %current.lock().map(|c| c.as_ref().map(|p| p.display().to_string()).unwrap_or_default()).unwrap_or_default(),
@@ -457,10 +459,11 @@ impl Recorder {
             s.cancel();
         }
         self.stop.store(true, Ordering::Release);
-        if let Some(t) = self.thread.take()
-            && t.join().is_err()
-        {
-            tracing::error!("the recorder thread panicked; the last file may lack its summary");
+        if let Some(t) = self.thread.take() {
+            frontseat_actors::metrics::recorder_running(false);
+            if t.join().is_err() {
+                tracing::error!("the recorder thread panicked; the last file may lack its summary");
+            }
         }
     }
 }
@@ -566,6 +569,7 @@ impl Sink {
             self.counters
                 .dropped_unwritable
                 .fetch_add(1, Ordering::Relaxed);
+            frontseat_actors::metrics::recorder_dropped(1);
             return;
         };
         match write_item(f, self.pool, &item) {
@@ -576,6 +580,7 @@ impl Sink {
                 self.counters
                     .dropped_unwritable
                     .fetch_add(1, Ordering::Relaxed);
+                frontseat_actors::metrics::recorder_dropped(1);
                 let why = format!("writing {}: {e}", f.path.display());
                 // The writer may be half-way through a record: this file is done.
                 self.file = None;

@@ -29,3 +29,19 @@ fn mcap_reader_corpus() {
     }
     assert_eq!(whole, 3, "one intact recording per compression");
 }
+
+/// The `goby_import` target's seeds (`fuzz/corpus/goby_import/`: the fixture whole and cut)
+/// through [`frontseat_record::fuzz_import`].
+#[test]
+fn goby_import_corpus() {
+    let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../fuzz/corpus/goby_import");
+    let mut n = 0;
+    for e in std::fs::read_dir(&dir).unwrap_or_else(|e| panic!("{}: {e}", dir.display())) {
+        let p = e.unwrap().path();
+        let data = std::fs::read(&p).unwrap();
+        let r = std::panic::catch_unwind(|| frontseat_record::fuzz_import(&data));
+        assert!(r.is_ok(), "{} panics", p.display());
+        n += 1;
+    }
+    assert!(n >= 2, "only {n} seeds");
+}

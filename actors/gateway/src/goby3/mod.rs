@@ -136,6 +136,30 @@ pub fn start(
     opts: GatewayOptions,
 ) -> Result<Goby3Handle, GatewayError> {
     let plan = plan::routes(groups::ALL, hosted)?;
+    start_plan(bus, settings, plan, opts)
+}
+
+/// [`start`] for a process that only publishes what `hosted` actors publish and takes nothing
+/// from gobyd: `frontseat replay --onto gobyd`, standing in for a recorded vehicle's interface.
+/// With no imports, nothing another Goby3 application sends (a helm's desired_course) enters
+/// this bus.
+pub fn start_publisher(
+    bus: &Bus,
+    settings: Goby3Settings,
+    hosted: &[&str],
+    opts: GatewayOptions,
+) -> Result<Goby3Handle, GatewayError> {
+    let mut plan = plan::routes(groups::ALL, hosted)?;
+    plan.imports.clear();
+    start_plan(bus, settings, plan, opts)
+}
+
+fn start_plan(
+    bus: &Bus,
+    settings: Goby3Settings,
+    plan: Plan,
+    opts: GatewayOptions,
+) -> Result<Goby3Handle, GatewayError> {
     let counters = Arc::new(Counters::default());
     let me = Origin3::this_process();
 

@@ -1,0 +1,441 @@
+//! The live view: the groups the recorder would record, served over the Foxglove WebSocket
+//! protocol (`foxglove.websocket.v1`) so Foxglove or Lichtblick shows the vehicle as it runs.
+//! One channel per group (topic = the Goby3 group, protobuf with the same self-contained
+//! FileDescriptorSet the MCAP files carry). Read-only: the server advertises no client
+//! capability and answers anything but subscribe/unsubscribe with an error status; nothing a
+//! client sends reaches the bus.
+//!
+//! Bounds: clients at once, subscriptions per client, inbound frame size; each client has its own
+//! bounded queue and a slow one misses messages (counted), never slowing a publisher.
+
+use std::collections::HashMap;
+use std::net::SocketAddr;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::time::{Instant, SystemTime};
+
+use axum::extract::ws::{Message, WebSocket, WebSocketUpgrade};
+use axum::extract::{Query, State};
+use axum::http::{HeaderMap, StatusCode, header};
+use axum::response::{IntoResponse, Response};
+use base64::Engine as _;
+use frontseat_actors::bus::{Bus, Subscription, Undeliverable};
+use frontseat_actors::groups::GroupInfo;
+use serde::Deserialize;
+use tokio::sync::{Semaphore, broadcast};
+
+use crate::time::unix_ns;
+
+/// The one subprotocol spoken.
+pub const SUBPROTOCOL: &str = "foxglove.websocket.v1";
+/// Largest frame a client may send (subscribe lists are small).
+const MAX_INBOUND: usize = 64 * 1024;
+const MAX_SUBSCRIPTIONS: usize = 1024;
+const BUS_IN_FLIGHT: usize = 1024;
+
+#[derive(Debug, thiserror::Error)]
+pub enum FoxgloveError {
+    #[error("record.foxglove.bind {0:?}: not an address and port like \"127.0.0.1:8765\"")]
+    Bind(String),
+    #[error(
+        "record.foxglove.bind {0}: not a loopback address and no token: set record.foxglove.token"
+    )]
+    NeedsToken(SocketAddr),
+    #[error("cannot listen on {addr}: {source}")]
+    Listen {
+        addr: SocketAddr,
+        source: std::io::Error,
+    },
+    #[error("the compiled protobuf descriptors do not decode (a build defect)")]
+    NoDescriptors,
+}
+
+/// Settings of the live server.
+#[derive(Clone, Debug)]
+pub struct FoxgloveOptions {
+    pub bind: String,
+    pub token: Option<String>,
+    pub max_clients: usize,
+    /// Messages queued per client. Unit: messages.
+    pub client_queue: usize,
+}
+
+impl Default for FoxgloveOptions {
+    fn default() -> Self {
+        Self {
+            bind: "127.0.0.1:8765".into(),
+            token: None,
+            max_clients: 8,
+            client_queue: 1024,
+        }
+    }
+}
+
+/// What the server counted.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct FoxgloveStats {
+    pub clients: u64,
+    pub refused: u64,
+    pub sent: u64,
+    /// Messages a client's queue had no room for.
+    pub lagged: u64,
+    /// Client frames that were not a subscribe/unsubscribe the server understood.
+    pub bad_requests: u64,
+}
+
+#[derive(Default)]
+struct Counters {
+    clients: AtomicU64,
+    refused: AtomicU64,
+    sent: AtomicU64,
+    lagged: AtomicU64,
+    bad_requests: AtomicU64,
+}
+
+struct Frame {
+    channel: u32,
+    time_ns: u64,
+    bytes: Vec<u8>,
+}
+
+struct Shared {
+    server_info: String,
+    advertise: String,
+    channels: usize,
+    token: Option<String>,
+    tx: broadcast::Sender<Arc<Frame>>,
+    slots: Arc<Semaphore>,
+    counters: Arc<Counters>,
+}
+
+/// The running server; dropping it (or [`FoxgloveServer::stop`]) closes it.
+pub struct FoxgloveServer {
+    addr: SocketAddr,
+    subs: Vec<Subscription>,
+    task: tokio::task::JoinHandle<()>,
+    counters: Arc<Counters>,
+}
+
+impl std::fmt::Debug for FoxgloveServer {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("FoxgloveServer")
+            .field("addr", &self.addr)
+            .finish()
+    }
+}
+
+impl FoxgloveServer {
+    /// Binds and serves `groups` (those `wants` lets through). Must be called inside a tokio
+    /// runtime. `name` is the server name clients show (the vehicle).
+    pub fn start(
+        bus: &Bus,
+        groups: &[GroupInfo],
+        wants: impl Fn(&str) -> bool,
+        opts: &FoxgloveOptions,
+        name: &str,
+    ) -> Result<Self, FoxgloveError> {
+        let addr: SocketAddr = opts
+            .bind
+            .parse()
+            .map_err(|_| FoxgloveError::Bind(opts.bind.clone()))?;
+        let token = opts.token.clone().filter(|t| !t.is_empty());
+        if !addr.ip().is_loopback() && token.is_none() {
+            return Err(FoxgloveError::NeedsToken(addr));
+        }
+        let pool = crate::schema::compiled_pool().ok_or(FoxgloveError::NoDescriptors)?;
+        let std_listener = std::net::TcpListener::bind(addr)
+            .and_then(|l| l.set_nonblocking(true).map(|()| l))
+            .map_err(|source| FoxgloveError::Listen { addr, source })?;
+        let listener = tokio::net::TcpListener::from_std(std_listener)
+            .map_err(|source| FoxgloveError::Listen { addr, source })?;
+        let local = listener
+            .local_addr()
+            .map_err(|source| FoxgloveError::Listen { addr, source })?;
+
+        let (tx, _) = broadcast::channel::<Arc<Frame>>(opts.client_queue.clamp(16, 1 << 16));
+        let counters = Arc::new(Counters::default());
+        let mut channels = Vec::new();
+        let mut subs = Vec::new();
+        let (t0, wall0) = (Instant::now(), unix_ns(SystemTime::now()));
+        for g in groups.iter().filter(|g| wants(g.name)) {
+            let Some(schema) = crate::schema::descriptor_set(pool, g.type_name) else {
+                continue;
+            };
+            let id = u32::try_from(channels.len() + 1).unwrap_or(u32::MAX);
+            let tx = tx.clone();
+            let sub = frontseat_actors::generated::subscribe_encoded(
+                bus,
+                g.name,
+                "foxglove",
+                BUS_IN_FLIGHT,
+                move |env| {
+                    // Nobody watching: nothing to do (and nothing to copy).
+                    if tx.receiver_count() == 0 {
+                        return Ok(());
+                    }
+                    let since = env
+                        .published_at
+                        .checked_duration_since(t0)
+                        .unwrap_or_default();
+                    let frame = Frame {
+                        channel: id,
+                        time_ns: wall0.saturating_add(u64::try_from(since.as_nanos()).unwrap_or(0)),
+                        bytes: env.bytes,
+                    };
+                    // A send fails only when every client left since the check: fine.
+                    let _ = tx.send(Arc::new(frame));
+                    Ok::<(), Undeliverable>(())
+                },
+            );
+            if let Some(s) = sub {
+                subs.push(s);
+                channels.push(serde_json::json!({
+                    "id": id,
+                    "topic": g.name,
+                    "encoding": "protobuf",
+                    "schemaName": g.type_name,
+                    "schema": base64::engine::general_purpose::STANDARD.encode(&schema),
+                    "schemaEncoding": "protobuf",
+                }));
+            }
+        }
+        let shared = Arc::new(Shared {
+            server_info: serde_json::json!({
+                "op": "serverInfo",
+                "name": format!("frontseat {name}"),
+                "capabilities": [],
+                "supportedEncodings": [],
+                "metadata": {"vehicle": name, "read_only": "true"},
+                "sessionId": format!("{wall0}"),
+            })
+            .to_string(),
+            advertise: serde_json::json!({"op": "advertise", "channels": channels}).to_string(),
+            channels: channels.len(),
+            token,
+            tx,
+            slots: Arc::new(Semaphore::new(opts.max_clients.max(1))),
+            counters: counters.clone(),
+        });
+        let app = axum::Router::new()
+            .route("/", axum::routing::get(upgrade))
+            .with_state(shared);
+        let task = tokio::spawn(async move {
+            if let Err(e) = axum::serve(listener, app).await {
+                tracing::error!(error = %e, "foxglove live server stopped");
+            }
+        });
+        tracing::info!(addr = %local, channels = subs.len(), "foxglove live server (read-only) listening");
+        Ok(Self {
+            addr: local,
+            subs,
+            task,
+            counters,
+        })
+    }
+
+    /// The address bound (the port when 0 was asked).
+    pub fn local_addr(&self) -> SocketAddr {
+        self.addr
+    }
+
+    pub fn stats(&self) -> FoxgloveStats {
+        let g = |c: &AtomicU64| c.load(Ordering::Relaxed);
+        let c = &self.counters;
+        FoxgloveStats {
+            clients: g(&c.clients),
+            refused: g(&c.refused),
+            sent: g(&c.sent),
+            lagged: g(&c.lagged),
+            bad_requests: g(&c.bad_requests),
+        }
+    }
+
+    pub fn stop(mut self) -> FoxgloveStats {
+        self.close();
+        self.stats()
+    }
+
+    fn close(&mut self) {
+        for s in self.subs.drain(..) {
+            s.cancel();
+        }
+        self.task.abort();
+    }
+}
+
+impl Drop for FoxgloveServer {
+    fn drop(&mut self) {
+        self.close();
+    }
+}
+
+#[derive(Deserialize)]
+struct TokenQuery {
+    token: Option<String>,
+}
+
+fn token_ok(expected: &Option<String>, q: &TokenQuery, headers: &HeaderMap) -> bool {
+    use subtle::ConstantTimeEq as _;
+    let Some(want) = expected else {
+        return true;
+    };
+    let bearer = headers
+        .get(header::AUTHORIZATION)
+        .and_then(|v| v.to_str().ok())
+        .and_then(|v| v.strip_prefix("Bearer "));
+    let given = q.token.as_deref().or(bearer).unwrap_or("");
+    given.len() == want.len() && bool::from(given.as_bytes().ct_eq(want.as_bytes()))
+}
+
+async fn upgrade(
+    State(s): State<Arc<Shared>>,
+    Query(q): Query<TokenQuery>,
+    headers: HeaderMap,
+    ws: WebSocketUpgrade,
+) -> Response {
+    if !token_ok(&s.token, &q, &headers) {
+        s.counters.refused.fetch_add(1, Ordering::Relaxed);
+        return (StatusCode::UNAUTHORIZED, "a token is required (?token=)").into_response();
+    }
+    let offered = headers
+        .get_all(header::SEC_WEBSOCKET_PROTOCOL)
+        .iter()
+        .filter_map(|v| v.to_str().ok())
+        .flat_map(|v| v.split(','))
+        .any(|p| p.trim() == SUBPROTOCOL);
+    if !offered {
+        s.counters.refused.fetch_add(1, Ordering::Relaxed);
+        return (
+            StatusCode::BAD_REQUEST,
+            "this server speaks the foxglove.websocket.v1 subprotocol only",
+        )
+            .into_response();
+    }
+    let Ok(permit) = s.slots.clone().try_acquire_owned() else {
+        s.counters.refused.fetch_add(1, Ordering::Relaxed);
+        return (StatusCode::SERVICE_UNAVAILABLE, "too many clients").into_response();
+    };
+    ws.protocols([SUBPROTOCOL])
+        .max_message_size(MAX_INBOUND)
+        .max_frame_size(MAX_INBOUND)
+        .on_upgrade(move |socket| async move {
+            s.counters.clients.fetch_add(1, Ordering::Relaxed);
+            client(socket, &s).await;
+            drop(permit);
+        })
+}
+
+#[derive(Deserialize)]
+#[serde(tag = "op", rename_all = "camelCase")]
+enum ClientOp {
+    Subscribe {
+        subscriptions: Vec<SubscribeItem>,
+    },
+    Unsubscribe {
+        #[serde(rename = "subscriptionIds")]
+        subscription_ids: Vec<u32>,
+    },
+}
+
+#[derive(Deserialize)]
+struct SubscribeItem {
+    id: u32,
+    #[serde(rename = "channelId")]
+    channel_id: u32,
+}
+
+fn status(level: u8, message: &str) -> Message {
+    Message::Text(
+        serde_json::json!({"op": "status", "level": level, "message": message})
+            .to_string()
+            .into(),
+    )
+}
+
+async fn client(mut socket: WebSocket, s: &Shared) {
+    let mut rx = s.tx.subscribe();
+    for text in [&s.server_info, &s.advertise] {
+        if socket
+            .send(Message::Text(text.clone().into()))
+            .await
+            .is_err()
+        {
+            return;
+        }
+    }
+    // channel id -> subscription id
+    let mut subscribed: HashMap<u32, u32> = HashMap::new();
+    loop {
+        tokio::select! {
+            inbound = socket.recv() => {
+                let reply = match inbound {
+                    None | Some(Err(_)) | Some(Ok(Message::Close(_))) => return,
+                    Some(Ok(Message::Text(t))) => handle(&t, &mut subscribed, s),
+                    Some(Ok(Message::Binary(_))) => {
+                        s.counters.bad_requests.fetch_add(1, Ordering::Relaxed);
+                        Some(status(2, "read-only server: client publishing is not offered"))
+                    }
+                    Some(Ok(_)) => None,
+                };
+                if let Some(r) = reply
+                    && socket.send(r).await.is_err()
+                {
+                    return;
+                }
+            }
+            frame = rx.recv() => {
+                let f = match frame {
+                    Ok(f) => f,
+                    Err(broadcast::error::RecvError::Lagged(n)) => {
+                        s.counters.lagged.fetch_add(n, Ordering::Relaxed);
+                        continue;
+                    }
+                    Err(broadcast::error::RecvError::Closed) => return,
+                };
+                let Some(sub) = subscribed.get(&f.channel) else { continue };
+                let mut b = Vec::with_capacity(13 + f.bytes.len());
+                b.push(0x01);
+                b.extend(sub.to_le_bytes());
+                b.extend(f.time_ns.to_le_bytes());
+                b.extend(&f.bytes);
+                if socket.send(Message::Binary(b.into())).await.is_err() {
+                    return;
+                }
+                s.counters.sent.fetch_add(1, Ordering::Relaxed);
+            }
+        }
+    }
+}
+
+fn handle(text: &str, subscribed: &mut HashMap<u32, u32>, s: &Shared) -> Option<Message> {
+    let op: ClientOp = match serde_json::from_str(text) {
+        Ok(op) => op,
+        Err(_) => {
+            s.counters.bad_requests.fetch_add(1, Ordering::Relaxed);
+            return Some(status(
+                2,
+                "unsupported request: this read-only server takes subscribe and unsubscribe only",
+            ));
+        }
+    };
+    match op {
+        ClientOp::Subscribe { subscriptions } => {
+            for it in subscriptions {
+                let known = it.channel_id >= 1 && (it.channel_id as usize) <= s.channels;
+                if !known || subscribed.len() >= MAX_SUBSCRIPTIONS {
+                    s.counters.bad_requests.fetch_add(1, Ordering::Relaxed);
+                    return Some(status(
+                        2,
+                        &format!("cannot subscribe to channel {}", it.channel_id),
+                    ));
+                }
+                subscribed.insert(it.channel_id, it.id);
+            }
+            None
+        }
+        ClientOp::Unsubscribe { subscription_ids } => {
+            subscribed.retain(|_, sub| !subscription_ids.contains(sub));
+            None
+        }
+    }
+}

@@ -1,0 +1,235 @@
+//! The Foxglove live server with a real WebSocket client over loopback, speaking
+//! `foxglove.websocket.v1` as Foxglove does: serverInfo and advertise arrive, a subscription to
+//! node_status yields message-data frames that decode with the advertised schema alone; the
+//! server is read-only, refuses clients without the subprotocol or the token, and binds loopback
+//! only unless a token is set.
+
+use std::time::Duration;
+
+use base64::Engine as _;
+use frontseat_actors::bus::Bus;
+use frontseat_actors::groups::GOBY_MIDDLEWARE_FRONTSEAT_NODE_STATUS as NODE_STATUS;
+use frontseat_actors::proto::goby::middleware::frontseat::protobuf::NodeStatus;
+use frontseat_config::RecordConfig;
+use frontseat_record::recorder::RecordMeta;
+use frontseat_record::service::RecordService;
+use futures_util::{SinkExt, StreamExt};
+use prost_reflect::{DescriptorPool, DynamicMessage};
+use tokio_tungstenite::tungstenite::Message;
+use tokio_tungstenite::tungstenite::client::IntoClientRequest;
+
+const WAIT: Duration = Duration::from_secs(20);
+
+fn live_only(token: Option<&str>) -> RecordConfig {
+    let mut c = RecordConfig::default();
+    c.foxglove.enabled = true;
+    c.foxglove.bind = "127.0.0.1:0".into();
+    c.foxglove.token = token.map(str::to_string);
+    c
+}
+
+type Ws =
+    tokio_tungstenite::WebSocketStream<tokio_tungstenite::MaybeTlsStream<tokio::net::TcpStream>>;
+
+async fn connect(
+    url: &str,
+    subprotocol: bool,
+) -> Result<Ws, tokio_tungstenite::tungstenite::Error> {
+    let mut req = url.into_client_request().unwrap();
+    if subprotocol {
+        req.headers_mut().insert(
+            "Sec-WebSocket-Protocol",
+            "foxglove.websocket.v1".parse().unwrap(),
+        );
+    }
+    let (ws, resp) = tokio_tungstenite::connect_async(req).await?;
+    if subprotocol {
+        assert_eq!(
+            resp.headers()
+                .get("Sec-WebSocket-Protocol")
+                .and_then(|v| v.to_str().ok()),
+            Some("foxglove.websocket.v1"),
+            "the server selects the subprotocol"
+        );
+    }
+    Ok(ws)
+}
+
+async fn next_text(ws: &mut Ws) -> serde_json::Value {
+    loop {
+        let m = tokio::time::timeout(WAIT, ws.next())
+            .await
+            .expect("a message in time")
+            .expect("open")
+            .expect("no error");
+        if let Message::Text(t) = m {
+            return serde_json::from_str(&t).unwrap();
+        }
+    }
+}
+
+fn http_status(e: tokio_tungstenite::tungstenite::Error) -> u16 {
+    match e {
+        tokio_tungstenite::tungstenite::Error::Http(r) => r.status().as_u16(),
+        e => panic!("expected an HTTP refusal, got {e}"),
+    }
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_foxglove_client_decodes_node_status_with_the_advertised_schema() {
+    let bus = Bus::new();
+    let svc = RecordService::spawn(&bus, &live_only(None), "auv1", RecordMeta::default())
+        .unwrap()
+        .expect("live server on");
+    assert!(svc.recorder().is_none(), "live only: no file");
+    let addr = svc.foxglove_addr().unwrap();
+    let url = format!("ws://{addr}/");
+    let mut ws = connect(&url, true).await.unwrap();
+
+    let info = next_text(&mut ws).await;
+    assert_eq!(info["op"], "serverInfo");
+    assert_eq!(
+        info["capabilities"],
+        serde_json::json!([]),
+        "read-only: no client publish"
+    );
+    let adv = next_text(&mut ws).await;
+    assert_eq!(adv["op"], "advertise");
+    let ch = adv["channels"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|c| c["topic"] == NODE_STATUS.name())
+        .expect("node_status advertised")
+        .clone();
+    assert_eq!(ch["encoding"], "protobuf");
+    assert_eq!(ch["schemaEncoding"], "protobuf");
+    let schema = base64::engine::general_purpose::STANDARD
+        .decode(ch["schema"].as_str().unwrap())
+        .unwrap();
+    let pool = DescriptorPool::decode(schema.as_slice()).expect("a FileDescriptorSet");
+    let desc = pool
+        .get_message_by_name(ch["schemaName"].as_str().unwrap())
+        .expect("the advertised schema describes its type");
+
+    ws.send(Message::Text(
+        serde_json::json!({"op": "subscribe", "subscriptions": [{"id": 7, "channelId": ch["id"]}]})
+            .to_string()
+            .into(),
+    ))
+    .await
+    .unwrap();
+    // A write attempt is answered with an error status, and nothing reaches the bus.
+    ws.send(Message::Text(
+        r#"{"op":"advertise","channels":[{"id":1,"topic":"goby::middleware::frontseat::desired_course"}]}"#.into(),
+    ))
+    .await
+    .unwrap();
+    ws.send(Message::Binary(vec![1, 1, 0, 0, 0, 9].into()))
+        .await
+        .unwrap();
+
+    // Publish until the subscription is in place and a frame arrives (bounded by WAIT).
+    let publisher = {
+        let bus = bus.clone();
+        tokio::spawn(async move {
+            let mut iv = tokio::time::interval(Duration::from_millis(20));
+            for i in 0u32.. {
+                iv.tick().await;
+                let mut n = NodeStatus {
+                    time: 1000.0 + f64::from(i),
+                    name: Some("auv1".into()),
+                    ..Default::default()
+                };
+                n.global_fix.lat = 42.5;
+                n.global_fix.lon = -70.25;
+                bus.publish(&NODE_STATUS, n);
+            }
+        })
+    };
+    // Frames and the two refusals may interleave: read until both are in.
+    let mut statuses = 0;
+    let mut first = None;
+    let frame = loop {
+        if statuses == 2
+            && let Some(f) = first.take()
+        {
+            break f;
+        }
+        let m = tokio::time::timeout(WAIT, ws.next())
+            .await
+            .expect("a frame in time")
+            .unwrap()
+            .unwrap();
+        match m {
+            Message::Binary(b) => {
+                first.get_or_insert(b);
+            }
+            Message::Text(t) => {
+                let v: serde_json::Value = serde_json::from_str(&t).unwrap();
+                assert_eq!(v["op"], "status");
+                assert_eq!(v["level"], 2);
+                statuses += 1;
+            }
+            _ => {}
+        }
+    };
+    publisher.abort();
+    assert_eq!(frame[0], 0x01, "message data opcode");
+    assert_eq!(u32::from_le_bytes(frame[1..5].try_into().unwrap()), 7);
+    let ts = u64::from_le_bytes(frame[5..13].try_into().unwrap());
+    assert!(ts > 1_600_000_000_000_000_000, "wall-clock ns: {ts}");
+    let msg = DynamicMessage::decode(desc, &frame[13..]).expect("decodes with the schema");
+    assert_eq!(
+        msg.get_field_by_name("name").unwrap().as_str(),
+        Some("auv1")
+    );
+    let fix = msg.get_field_by_name("global_fix").unwrap();
+    let lat = fix.as_message().unwrap().get_field_by_name("lat").unwrap();
+    assert_eq!(lat.as_f64(), Some(42.5));
+    assert_eq!(statuses, 2, "both write attempts refused with a status");
+
+    // No subprotocol: refused before the upgrade.
+    assert_eq!(http_status(connect(&url, false).await.unwrap_err()), 400);
+    let (_, fox) = svc.stop().await;
+    let fox = fox.unwrap();
+    assert!(
+        fox.sent >= 1 && fox.bad_requests == 2 && fox.refused == 1,
+        "{fox:?}"
+    );
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_token_gates_every_client_and_an_open_bind_needs_one() {
+    let bus = Bus::new();
+    let token = "a-long-enough-random-token";
+    let svc = RecordService::spawn(&bus, &live_only(Some(token)), "auv1", RecordMeta::default())
+        .unwrap()
+        .unwrap();
+    let addr = svc.foxglove_addr().unwrap();
+    assert_eq!(
+        http_status(connect(&format!("ws://{addr}/"), true).await.unwrap_err()),
+        401
+    );
+    assert_eq!(
+        http_status(
+            connect(&format!("ws://{addr}/?token=wrong-token-of-any-len"), true)
+                .await
+                .unwrap_err()
+        ),
+        401
+    );
+    let mut ws = connect(&format!("ws://{addr}/?token={token}"), true)
+        .await
+        .unwrap();
+    assert_eq!(next_text(&mut ws).await["op"], "serverInfo");
+    svc.stop().await;
+
+    // Not loopback, no token: refused at start, never listening.
+    let mut open = live_only(None);
+    open.foxglove.bind = "0.0.0.0:0".into();
+    if std::env::var_os(frontseat_config::FOXGLOVE_TOKEN_ENV).is_none() {
+        let e = RecordService::spawn(&bus, &open, "auv1", RecordMeta::default()).unwrap_err();
+        assert!(e.to_string().contains("token"), "{e}");
+    }
+}

@@ -8,6 +8,7 @@ mod chaos_cmd;
 mod demo;
 mod driver_host;
 mod gateway_cmd;
+mod launch_cmd;
 mod record_cmd;
 mod service;
 mod shutdown;
@@ -117,6 +118,14 @@ enum Command {
     /// Print the resolved interface (application → layer → publishes/subscribes → group, type,
     /// actor) of every application, as compiled from interface_yaml/.
     Interfaces,
+    /// Start and supervise a fleet from one TOML file: simulators, one interface per vehicle,
+    /// helms, a topside, any command — in order, each waited for until ready; Ctrl-C or SIGTERM
+    /// stops all in reverse order; the exit code is 10 + the start position of a process that
+    /// failed past its restart policy.
+    Launch {
+        #[command(flatten)]
+        cfg: ConfigArgs,
+    },
     /// Look into a recording (MCAP, from `[record]` or `demo --record`): `info`, `export`.
     Log(record_cmd::LogArgs),
     /// Publish a recording's vehicle side (node_status, status, ...) onto Zenoh as it was
@@ -386,6 +395,7 @@ fn main() -> ExitCode {
             }
         }
         Command::Bench(args) => run_traced(&Default::default(), "bench", "", bench_cmd::run(args)),
+        Command::Launch { cfg } => launch_cmd::run(&cfg),
         Command::Log(args) => record_cmd::log(args),
         Command::Replay(args) => {
             run_traced(&Default::default(), "replay", "", record_cmd::replay(args))

@@ -7,6 +7,7 @@ mod bluefin_sim;
 mod chaos_cmd;
 mod demo;
 mod driver_host;
+mod fleet_demo;
 mod gateway_cmd;
 mod launch_cmd;
 mod record_cmd;
@@ -379,6 +380,9 @@ fn main() -> ExitCode {
             // A long run would fill the console with every injected fault at info level.
             frontseat_actors::telemetry::set_default_console_level("warn");
             run_traced(&Default::default(), "chaos", "", chaos_cmd::run(args))
+        }
+        Command::Demo(args) if args.fleet.is_some() => {
+            run_traced(&Default::default(), "demo", "", fleet_demo::run(args))
         }
         Command::Demo(args) => {
             match args.vehicle {

@@ -148,12 +148,24 @@ pub async fn run(
     frontseat: PathBuf,
     stop: impl Future<Output = ()>,
 ) -> Outcome {
+    run_with(cfg, file, frontseat, stop, None).await
+}
+
+/// [`run`], telling `up` once every process is up (a program that embeds the launcher, such
+/// as `frontseat demo --fleet`, starts its own part then).
+pub async fn run_with(
+    cfg: LaunchConfig,
+    file: &Path,
+    frontseat: PathBuf,
+    stop: impl Future<Output = ()>,
+    up: Option<tokio::sync::oneshot::Sender<()>>,
+) -> Outcome {
     let base = base_dir(file);
     let (dir, ours) = match run_dir(&cfg, &base) {
         Ok(d) => d,
         Err(e) => return Outcome::Launcher(format!("run_dir: {e}")),
     };
-    let outcome = run_in(&cfg, &base, &dir, frontseat, stop).await;
+    let outcome = run_in(&cfg, &base, &dir, frontseat, stop, up).await;
     if ours {
         let _ = std::fs::remove_dir_all(&dir);
     }
@@ -166,6 +178,7 @@ async fn run_in(
     dir: &Path,
     frontseat: PathBuf,
     stop: impl Future<Output = ()>,
+    up: Option<tokio::sync::oneshot::Sender<()>>,
 ) -> Outcome {
     let plan = match plan::plan(cfg, base, dir, &frontseat, plan::on_path) {
         Ok(p) => p,
@@ -217,6 +230,9 @@ async fn run_in(
         }
     };
     tracing::info!(processes = total, "every process is up");
+    if let Some(up) = up {
+        let _ = up.send(());
+    }
     tokio::pin!(stop);
     let outcome = loop {
         tokio::select! {

@@ -87,7 +87,8 @@ fn launch_config(
         };
         let lat = origin.lat + y / M_PER_DEG;
         let lon = origin.lon + x / (M_PER_DEG * origin.lat.to_radians().cos());
-        let web_listen = args.web.then(|| web_address(&args.web_listen, i));
+        // The topside takes the --web-listen address; the vehicles' own pages the next ports.
+        let web_listen = args.web.then(|| web_address(&args.web_listen, i + 1));
         cfg.vehicle.push(VehicleEntry {
             name,
             sim_port: Some(sim_port),
@@ -102,7 +103,48 @@ fn launch_config(
             ..Default::default()
         });
     }
+    if args.web {
+        cfg.process.push(ProcessEntry {
+            name: "topside".into(),
+            command: vec![
+                "frontseat".into(),
+                "topside".into(),
+                "-c".into(),
+                "topside.toml".into(),
+            ],
+            stage: frontseat_launch::config::Stage::AfterVehicles,
+            ready: ReadyConfig {
+                kind: ReadyKind::Tcp,
+                address: args.web_listen.clone(),
+                ..Default::default()
+            },
+            ..Default::default()
+        });
+    }
     (cfg, slots)
+}
+
+/// The topside of `--web`: every interface's Zenoh endpoint, and a link to each vehicle's page.
+fn topside_config(
+    args: &DemoArgs,
+    n: usize,
+    zenoh_ports: &[u16],
+) -> frontseat_topside::TopsideConfig {
+    let mut t = frontseat_topside::TopsideConfig::default();
+    t.zenoh.connect = zenoh_ports
+        .iter()
+        .map(|p| format!("tcp/127.0.0.1:{p}"))
+        .collect();
+    t.web.listen = args.web_listen.clone();
+    t.vehicle = names(n)
+        .into_iter()
+        .enumerate()
+        .map(|(i, name)| frontseat_topside::config::VehicleLink {
+            name,
+            page: format!("http://{}/", web_address(&args.web_listen, i + 1)),
+        })
+        .collect();
+    t
 }
 
 /// The web address of vehicle `i`: the given one for the leader, the next ports for the others.
@@ -153,6 +195,21 @@ pub async fn run(args: DemoArgs) -> ExitCode {
     };
     let (sim_port, zenoh_ports) = (ports[0], &ports[1..]);
     let (cfg, slots) = launch_config(&args, n, sim_port, zenoh_ports);
+    if args.web {
+        if args.web_listen.parse::<std::net::SocketAddr>().is_err() {
+            eprintln!("--web-listen must be an IP address and port");
+            return ExitCode::from(2);
+        }
+        let t = topside_config(&args, n, zenoh_ports);
+        let path = args.out.join("topside.toml");
+        let written = toml::to_string(&t)
+            .map_err(|e| e.to_string())
+            .and_then(|text| std::fs::write(&path, text).map_err(|e| e.to_string()));
+        if let Err(e) = written {
+            eprintln!("cannot write {}: {e}", path.display());
+            return ExitCode::from(1);
+        }
+    }
     let launch_file = args.out.join("fleet-launch.toml");
     match toml::to_string(&cfg) {
         Ok(text) => {
@@ -209,7 +266,7 @@ pub async fn run(args: DemoArgs) -> ExitCode {
     let flown = fly(&args, n, zenoh_ports, &slots).await;
     if args.web && flown.is_ok() {
         eprintln!(
-            "frontseat demo: fleet done; vehicle pages on http://{}/ (leader) and the next ports — Ctrl-C to stop",
+            "frontseat demo: fleet done; topside on http://{}/ (each vehicle's page on the next ports) — Ctrl-C to stop",
             args.web_listen
         );
         crate::service::shutdown_signal().await;

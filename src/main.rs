@@ -127,6 +127,13 @@ enum Command {
         #[command(flatten)]
         cfg: ConfigArgs,
     },
+    /// Every vehicle of a fleet on one web page, from what their interfaces publish over Zenoh
+    /// (`*/goby/middleware/frontseat/node_status`, `status`, `desired_course`): map, states,
+    /// errors, stale vehicles; links to each vehicle's own scope and commander.
+    Topside {
+        #[command(flatten)]
+        cfg: ConfigArgs,
+    },
     /// Look into a recording (MCAP, from `[record]` or `demo --record`): `info`, `export`.
     Log(record_cmd::LogArgs),
     /// Publish a recording's vehicle side (node_status, status, ...) onto Zenoh as it was
@@ -400,6 +407,20 @@ fn main() -> ExitCode {
         }
         Command::Bench(args) => run_traced(&Default::default(), "bench", "", bench_cmd::run(args)),
         Command::Launch { cfg } => launch_cmd::run(&cfg),
+        Command::Topside { cfg } => {
+            if let Some(code) =
+                config_commands(&cfg, load_plain::<frontseat_topside::TopsideConfig>)
+            {
+                return code;
+            }
+            let config = match load_config::<frontseat_topside::TopsideConfig>(&cfg, false) {
+                Ok(c) => c,
+                Err(code) => return code,
+            };
+            run_traced(&Default::default(), "topside", "", async move {
+                ExitCode::from(frontseat_topside::run(config, service::shutdown_signal()).await)
+            })
+        }
         Command::Log(args) => record_cmd::log(args),
         Command::Replay(args) => {
             run_traced(&Default::default(), "replay", "", record_cmd::replay(args))

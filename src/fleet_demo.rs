@@ -129,6 +129,7 @@ fn topside_config(
     args: &DemoArgs,
     n: usize,
     zenoh_ports: &[u16],
+    topside_port: u16,
 ) -> frontseat_topside::TopsideConfig {
     let mut t = frontseat_topside::TopsideConfig::default();
     t.zenoh.connect = zenoh_ports
@@ -136,6 +137,9 @@ fn topside_config(
         .map(|p| format!("tcp/127.0.0.1:{p}"))
         .collect();
     t.web.listen = args.web_listen.clone();
+    // The helms' session connects here too: peers do not relay, and the topside shows what the
+    // helms command.
+    t.zenoh.listen = vec![format!("tcp/127.0.0.1:{topside_port}")];
     t.vehicle = names(n)
         .into_iter()
         .enumerate()
@@ -188,19 +192,19 @@ pub async fn run(args: DemoArgs) -> ExitCode {
         eprintln!("cannot create {}: {e}", args.out.display());
         return ExitCode::from(1);
     }
-    let ports: std::io::Result<Vec<u16>> = (0..=n).map(|_| free_port()).collect();
+    let ports: std::io::Result<Vec<u16>> = (0..=n + 1).map(|_| free_port()).collect();
     let Ok(ports) = ports else {
         eprintln!("cannot find free loopback ports");
         return ExitCode::from(1);
     };
-    let (sim_port, zenoh_ports) = (ports[0], &ports[1..]);
+    let (sim_port, topside_port, zenoh_ports) = (ports[0], ports[1], &ports[2..]);
     let (cfg, slots) = launch_config(&args, n, sim_port, zenoh_ports);
     if args.web {
         if args.web_listen.parse::<std::net::SocketAddr>().is_err() {
             eprintln!("--web-listen must be an IP address and port");
             return ExitCode::from(2);
         }
-        let t = topside_config(&args, n, zenoh_ports);
+        let t = topside_config(&args, n, zenoh_ports, topside_port);
         let path = args.out.join("topside.toml");
         let written = toml::to_string(&t)
             .map_err(|e| e.to_string())
@@ -263,7 +267,8 @@ pub async fn run(args: DemoArgs) -> ExitCode {
             _ => ExitCode::from(1),
         };
     }
-    let flown = fly(&args, n, zenoh_ports, &slots).await;
+    let topside = args.web.then_some(topside_port);
+    let flown = fly(&args, n, zenoh_ports, topside, &slots).await;
     if args.web && flown.is_ok() {
         eprintln!(
             "frontseat demo: fleet done; topside on http://{}/ (each vehicle's page on the next ports) — Ctrl-C to stop",
@@ -306,6 +311,7 @@ async fn fly(
     args: &DemoArgs,
     n: usize,
     zenoh_ports: &[u16],
+    topside: Option<u16>,
     slots: &[Slot],
 ) -> Result<Flown, String> {
     let ip = InterprocessConfig {
@@ -314,6 +320,7 @@ async fn fly(
         listen: Vec::new(),
         connect: zenoh_ports
             .iter()
+            .chain(topside.iter())
             .map(|p| format!("tcp/127.0.0.1:{p}"))
             .collect(),
         platform: String::new(),

@@ -61,6 +61,11 @@ pub struct DemoArgs {
     /// Unit: m.
     #[arg(long, value_name = "M", default_value_t = 15.0)]
     pub trail_side: f64,
+    /// With --fleet: fly only the helms, against interfaces already running elsewhere (other
+    /// hosts): their Zenoh endpoints, leader first, comma-separated
+    /// (`tcp/10.0.0.11:7447,tcp/10.0.0.12:7447`). Nothing is launched.
+    #[arg(long, value_name = "ENDPOINTS", value_delimiter = ',')]
+    pub fleet_connect: Vec<String>,
 }
 
 /// The basic simulator or the Bluefin emulator over loopback TCP (the serial vehicles' demo is

@@ -99,7 +99,12 @@ fn launch_config(
                 lon: origin.lon,
             }),
             web_listen,
-            set: [("sim_warp_factor".to_string(), serde_json::json!(args.warp))].into(),
+            // A helm cut off (its link, its process) takes its vehicle out of COMMAND.
+            set: [
+                ("sim_warp_factor".to_string(), serde_json::json!(args.warp)),
+                ("helm_state_timeout".to_string(), serde_json::json!(3.0)),
+            ]
+            .into(),
             ..Default::default()
         });
     }
@@ -192,6 +197,9 @@ pub async fn run(args: DemoArgs) -> ExitCode {
         eprintln!("cannot create {}: {e}", args.out.display());
         return ExitCode::from(1);
     }
+    if !args.fleet_connect.is_empty() {
+        return helms_only(&args, n).await;
+    }
     let ports: std::io::Result<Vec<u16>> = (0..=n + 1).map(|_| free_port()).collect();
     let Ok(ports) = ports else {
         eprintln!("cannot find free loopback ports");
@@ -267,8 +275,12 @@ pub async fn run(args: DemoArgs) -> ExitCode {
             _ => ExitCode::from(1),
         };
     }
-    let topside = args.web.then_some(topside_port);
-    let flown = fly(&args, n, zenoh_ports, topside, &slots).await;
+    let endpoints: Vec<String> = zenoh_ports
+        .iter()
+        .chain(args.web.then_some(topside_port).iter())
+        .map(|p| format!("tcp/127.0.0.1:{p}"))
+        .collect();
+    let flown = fly(&args, n, endpoints, &slots).await;
     if args.web && flown.is_ok() {
         eprintln!(
             "frontseat demo: fleet done; topside on http://{}/ (each vehicle's page on the next ports) — Ctrl-C to stop",
@@ -310,19 +322,14 @@ struct Flown {
 async fn fly(
     args: &DemoArgs,
     n: usize,
-    zenoh_ports: &[u16],
-    topside: Option<u16>,
+    endpoints: Vec<String>,
     slots: &[Slot],
 ) -> Result<Flown, String> {
     let ip = InterprocessConfig {
         enabled: true,
         mode: InterprocessMode::Peer,
         listen: Vec::new(),
-        connect: zenoh_ports
-            .iter()
-            .chain(topside.iter())
-            .map(|p| format!("tcp/127.0.0.1:{p}"))
-            .collect(),
+        connect: endpoints,
         platform: String::new(),
     };
     let zcfg = frontseat_gateway::zenoh_config(&ip, frontseat_gateway::DEFAULT_MAX_PAYLOAD)
@@ -431,6 +438,32 @@ async fn fly(
         leader_fixes: feed.received.load(Ordering::Relaxed),
         refused: feed.refused.load(Ordering::Relaxed),
     })
+}
+
+/// `--fleet-connect`: the helms alone, against interfaces someone else started (other hosts).
+async fn helms_only(args: &DemoArgs, n: usize) -> ExitCode {
+    if args.fleet_connect.len() != n {
+        eprintln!(
+            "--fleet-connect names {} endpoints for --fleet {n}: one per vehicle, leader first",
+            args.fleet_connect.len()
+        );
+        return ExitCode::from(2);
+    }
+    let slots: Vec<Slot> = (1..n)
+        .map(|k| Slot::in_v(k, args.trail_behind, args.trail_side))
+        .collect();
+    eprintln!(
+        "frontseat demo --fleet {n}: helms only, for {} at {}",
+        names(n).join(", "),
+        args.fleet_connect.join(", ")
+    );
+    match fly(args, n, args.fleet_connect.clone(), &slots).await {
+        Ok(flown) => write_outputs(&args.out, &flown),
+        Err(e) => {
+            eprintln!("frontseat demo --fleet: {e}");
+            ExitCode::from(1)
+        }
+    }
 }
 
 fn csv_path(out: &Path, name: &str) -> PathBuf {

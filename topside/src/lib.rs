@@ -118,8 +118,18 @@ fn bump(c: &AtomicU64, what: &str, key: &str) {
     }
 }
 
+/// Called with each node_status the fleet model took in (benchmarks measure arrival with it).
+pub type Observer = Arc<dyn Fn(&str, &NodeStatus) + Send + Sync>;
+
 /// Takes one sample into the fleet: the platform from the key, the payload bounded and decoded.
-fn take(fleet: &Mutex<Fleet>, counters: &Counters, kind: Kind, key: &str, payload: &[u8]) {
+fn take(
+    fleet: &Mutex<Fleet>,
+    counters: &Counters,
+    kind: Kind,
+    key: &str,
+    payload: &[u8],
+    observer: Option<&Observer>,
+) {
     let Some(platform) = key
         .split('/')
         .next()
@@ -134,7 +144,13 @@ fn take(fleet: &Mutex<Fleet>, counters: &Counters, kind: Kind, key: &str, payloa
     let mut f = fleet.lock().unwrap_or_else(|p| p.into_inner());
     let r = match kind {
         Kind::NodeStatus => match NodeStatus::decode(payload) {
-            Ok(m) => f.on_node_status(platform, &m, now),
+            Ok(m) => {
+                let r = f.on_node_status(platform, &m, now);
+                if let (Ok(()), Some(o)) = (&r, observer) {
+                    o(platform, &m);
+                }
+                r
+            }
             Err(_) => return bump(&counters.undecodable, "undecodable node_status", key),
         },
         Kind::Status => match InterfaceStatus::decode(payload) {
@@ -171,6 +187,14 @@ pub struct Topside {
 
 impl Topside {
     pub async fn start(cfg: &TopsideConfig) -> Result<Self, TopsideError> {
+        Self::start_observed(cfg, None).await
+    }
+
+    /// [`Topside::start`], calling `observer` with every node_status taken into the model.
+    pub async fn start_observed(
+        cfg: &TopsideConfig,
+        observer: Option<Observer>,
+    ) -> Result<Self, TopsideError> {
         let token = effective_token(cfg)?;
         let listen: SocketAddr = cfg
             .web
@@ -211,12 +235,19 @@ impl Topside {
             ),
         ] {
             let key = frontseat_gateway::key_for("*", group);
-            let (fleet, counters) = (fleet.clone(), counters.clone());
+            let (fleet, counters, observer) = (fleet.clone(), counters.clone(), observer.clone());
             let sub = session
                 .declare_subscriber(key.clone())
                 .callback(move |s| {
                     let payload = s.payload().to_bytes();
-                    take(&fleet, &counters, kind, s.key_expr().as_str(), &payload);
+                    take(
+                        &fleet,
+                        &counters,
+                        kind,
+                        s.key_expr().as_str(),
+                        &payload,
+                        observer.as_ref(),
+                    );
                 })
                 .await
                 .map_err(|e| TopsideError::Zenoh(format!("subscribe {key}: {e}")))?;

@@ -132,7 +132,7 @@ pub async fn run(
     loop {
         tokio::select! {
             _ = tick.tick() => {
-                if n % 2 == 0 {
+                if n.is_multiple_of(2) {
                     ports.publish_helm_state(HelmStateReport { state: HelmState::HelmDrive as i32 });
                 }
                 n += 1;

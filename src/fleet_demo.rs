@@ -180,6 +180,12 @@ pub async fn run(args: DemoArgs) -> ExitCode {
         eprintln!("--fleet must be 2 to {MAX_FLEET} vehicles (a leader and its followers)");
         return ExitCode::from(2);
     }
+    if args.vehicle != crate::vehicle_kind::VehicleKind::Basic || args.record.is_some() {
+        eprintln!(
+            "--fleet flies basic-simulator vehicles and records nothing: drop --vehicle and --record"
+        );
+        return ExitCode::from(2);
+    }
     if !(args.warp.is_finite() && args.warp > 0.0 && args.warp <= 100.0) {
         eprintln!("--warp must be in (0, 100] with --fleet");
         return ExitCode::from(2);

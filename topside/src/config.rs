@@ -8,8 +8,8 @@ use serde::{Deserialize, Serialize};
 
 /// The topside: every vehicle of the fleet on one page, from what their interfaces publish over
 /// Zenoh (`*/goby/middleware/frontseat/node_status`, `status`, and the helms' `desired_course`).
-/// It never publishes anything: commanding a vehicle is done on that vehicle's own page, whose
-/// token its interface checks (each vehicle's link is on the topside page).
+/// It publishes nothing itself: a command for a vehicle is relayed to that vehicle's own page
+/// (`[[vehicle]] page`), which checks that vehicle's token.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields, default)]
 pub struct TopsideConfig {
@@ -27,7 +27,8 @@ pub struct TopsideConfig {
     /// Track points kept per vehicle (one per metre moved at most); older ones are dropped.
     #[schemars(range(min = 2, max = 100000))]
     pub track_points: usize,
-    /// Links from the topside page to each vehicle's own page (scope and commander).
+    /// Each vehicle's own page (scope and commander): linked from the topside page, and where
+    /// commands for that vehicle are relayed.
     #[schemars(example = example_links())]
     pub vehicle: Vec<VehicleLink>,
 }

@@ -4,12 +4,13 @@
 //! a [`fleet`] model (bounded, stale-not-removed); and an HTTP page served with the web crate's
 //! access rules (loopback by default, Host check, optional token) and bounded listener.
 //!
-//! The topside publishes nothing: commanding stays on each vehicle's own page, where that
-//! vehicle's interface checks that vehicle's token; the topside page links to it.
+//! The topside publishes nothing itself: a command for a vehicle is relayed ([`relay`]) to that
+//! vehicle's own page, which checks that vehicle's token, so its interface's gates decide.
 #![forbid(unsafe_code)]
 
 pub mod config;
 pub mod fleet;
+pub mod relay;
 
 use std::collections::BTreeMap;
 use std::net::SocketAddr;
@@ -330,7 +331,74 @@ fn router(st: AppState) -> Router {
         .route("/", get(index))
         .route("/api/fleet", get(fleet_json))
         .route("/api/info", get(info))
+        .route("/api/vehicle/{name}/send", axum::routing::post(send))
+        .layer(axum::extract::DefaultBodyLimit::max(relay::MAX_BODY))
         .with_state(st)
+}
+
+fn refused(status: axum::http::StatusCode, text: impl Into<String>) -> Response {
+    (
+        status,
+        axum::Json(json!({"ok": false, "error": text.into()})),
+    )
+        .into_response()
+}
+
+/// A command for one vehicle: the topside's own write rules (Host, Origin, its token), then
+/// relayed to that vehicle's page with the vehicle's token from `X-Vehicle-Token`.
+async fn send(
+    State(st): State<AppState>,
+    axum::extract::Path(name): axum::extract::Path<String>,
+    headers: HeaderMap,
+    body: axum::body::Bytes,
+) -> Response {
+    use axum::http::StatusCode;
+    if let Err(r) = st.access.check_write(&headers) {
+        return refused(r.status(), r.text());
+    }
+    let json_ct = headers
+        .get(CONTENT_TYPE)
+        .and_then(|v| v.to_str().ok())
+        .is_some_and(|v| v.starts_with("application/json"));
+    if !json_ct {
+        return refused(
+            StatusCode::UNSUPPORTED_MEDIA_TYPE,
+            "Content-Type must be application/json",
+        );
+    }
+    let Some(target) = st.links.get(&name).and_then(|p| relay::parse_page(p)) else {
+        return refused(
+            StatusCode::NOT_FOUND,
+            format!(
+                "no http:// page configured for vehicle `{}`",
+                name.chars().take(64).collect::<String>()
+            ),
+        );
+    };
+    let Some(token) = headers
+        .get("x-vehicle-token")
+        .and_then(|v| v.to_str().ok())
+        .filter(|t| !t.is_empty() && t.chars().all(|c| c.is_ascii_graphic()))
+    else {
+        return refused(
+            StatusCode::UNAUTHORIZED,
+            "the vehicle's token is needed (X-Vehicle-Token)",
+        );
+    };
+    match relay::relay(&target, token, &body).await {
+        Ok((code, answer)) => {
+            tracing::info!(vehicle = %name, status = code, "topside relayed a command");
+            let status = StatusCode::from_u16(code).unwrap_or(StatusCode::BAD_GATEWAY);
+            (
+                status,
+                [(CONTENT_TYPE, HeaderValue::from_static("application/json"))],
+                answer,
+            )
+                .into_response()
+        }
+        Err(e @ relay::RelayError::NoVehicleToken) => refused(StatusCode::FORBIDDEN, e.to_string()),
+        Err(e) => refused(StatusCode::BAD_GATEWAY, e.to_string()),
+    }
 }
 
 async fn index() -> Response {

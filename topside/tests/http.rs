@@ -252,3 +252,132 @@ fn the_config_refuses_a_short_token_and_warns_about_an_open_page() {
     assert!(cfg.validate().is_empty());
     assert!(cfg.warnings()[0].contains("without a token"));
 }
+
+/// POST `body` to `path` with these extra header lines; the status code and the body.
+async fn post(addr: std::net::SocketAddr, path: &str, headers: &str, body: &str) -> (u16, String) {
+    let mut s = tokio::net::TcpStream::connect(addr).await.unwrap();
+    let req = format!(
+        "POST {path} HTTP/1.1\r\nHost: 127.0.0.1:{}\r\nContent-Type: application/json\r\nContent-Length: {}\r\n{headers}Connection: close\r\n\r\n{body}",
+        addr.port(),
+        body.len()
+    );
+    s.write_all(req.as_bytes()).await.unwrap();
+    let mut buf = Vec::new();
+    tokio::time::timeout(BOUND, s.read_to_end(&mut buf))
+        .await
+        .unwrap()
+        .unwrap();
+    let text = String::from_utf8_lossy(&buf).into_owned();
+    let code = text[9..12].parse().unwrap();
+    let body = text
+        .split_once("\r\n\r\n")
+        .map(|(_, b)| b.to_string())
+        .unwrap_or_default();
+    (code, body)
+}
+
+/// A vehicle's own web commander (the real one, on its bus) with or without a token.
+async fn vehicle_page(
+    bus: &frontseat_actors::bus::Bus,
+    token: Option<&str>,
+) -> frontseat_web::WebService {
+    let cfg = frontseat_config::WebConfig {
+        enabled: true,
+        listen: "127.0.0.1:0".into(),
+        ..Default::default()
+    };
+    frontseat_web::WebService::start_with(
+        &cfg,
+        &Default::default(),
+        token.map(str::to_string),
+        bus,
+        "auv1",
+    )
+    .await
+    .unwrap()
+}
+
+#[tokio::test(flavor = "multi_thread")]
+async fn commanding_a_vehicle_from_the_topside_needs_that_vehicles_token() {
+    let vehicle_token = "auv1-vehicle-token-0123456789";
+    let bus = frontseat_actors::bus::Bus::new();
+    let (_sub, mut courses) = bus.subscribe_channel(
+        &groups::GOBY_MIDDLEWARE_FRONTSEAT_DESIRED_COURSE,
+        "test",
+        16,
+    );
+    let page = vehicle_page(&bus, Some(vehicle_token)).await;
+    let open_bus = frontseat_actors::bus::Bus::new();
+    let open_page = vehicle_page(&open_bus, None).await;
+    let mut cfg = topside_config(free_port());
+    cfg.vehicle = vec![
+        frontseat_topside::config::VehicleLink {
+            name: "auv1".into(),
+            page: format!("http://{}/", page.local_addr()),
+        },
+        frontseat_topside::config::VehicleLink {
+            name: "auv2".into(),
+            page: format!("http://{}/", open_page.local_addr()),
+        },
+    ];
+    let top = Topside::start(&cfg).await.unwrap();
+    let addr = top.local_addr();
+    let cmd = r#"{"group":"goby::middleware::frontseat::desired_course","message":{"time":1,"heading":42,"speed":1.5}}"#;
+
+    let (code, _) = post(addr, "/api/vehicle/auv1/send", "", cmd).await;
+    assert_eq!(code, 401, "no vehicle token");
+    let (code, _) = post(
+        addr,
+        "/api/vehicle/auv1/send",
+        "X-Vehicle-Token: wrong-token-wrong-token\r\n",
+        cmd,
+    )
+    .await;
+    assert_eq!(code, 401, "the vehicle's page refuses a wrong token");
+    assert!(
+        courses.try_recv().is_err(),
+        "nothing reached the vehicle's bus"
+    );
+    let (code, body) = post(
+        addr,
+        "/api/vehicle/auv1/send",
+        &format!("X-Vehicle-Token: {vehicle_token}\r\n"),
+        cmd,
+    )
+    .await;
+    assert_eq!(code, 200, "{body}");
+    let env = tokio::time::timeout(BOUND, courses.recv())
+        .await
+        .unwrap()
+        .unwrap();
+    assert_eq!(env.msg.heading, Some(42.0));
+    // A vehicle whose page has no token is never commanded through the topside.
+    let (code, body) = post(
+        addr,
+        "/api/vehicle/auv2/send",
+        "X-Vehicle-Token: anything-at-all-here\r\n",
+        cmd,
+    )
+    .await;
+    assert_eq!(code, 403, "{body}");
+    // Another site's page cannot post through the topside.
+    let (code, _) = post(
+        addr,
+        "/api/vehicle/auv1/send",
+        &format!("Origin: http://evil.example\r\nX-Vehicle-Token: {vehicle_token}\r\n"),
+        cmd,
+    )
+    .await;
+    assert_eq!(code, 403);
+    let (code, _) = post(
+        addr,
+        "/api/vehicle/nobody/send",
+        &format!("X-Vehicle-Token: {vehicle_token}\r\n"),
+        cmd,
+    )
+    .await;
+    assert_eq!(code, 404);
+    top.shutdown().await;
+    page.shutdown(Duration::from_secs(3)).await;
+    open_page.shutdown(Duration::from_secs(3)).await;
+}

@@ -47,6 +47,25 @@ pub struct DemoArgs {
     /// Record every group of the run to this MCAP file (`frontseat log info FILE` reads it).
     #[arg(long, value_name = "FILE")]
     pub record: Option<PathBuf>,
+    /// Fly a fleet of N vehicles (2 to 12; 3 when no number is given): one simulator, one
+    /// `frontseat interface` process per vehicle (each its own Zenoh platform), a leader on the
+    /// homework path and N-1 followers trailing it in a V from the leader's node_status received
+    /// over Zenoh. Writes track-<vehicle>.csv per vehicle (track-leader.csv for the leader),
+    /// fleet.svg and the fleet's launch file.
+    #[arg(long, value_name = "N", num_args = 0..=1, default_missing_value = "3")]
+    pub fleet: Option<usize>,
+    /// With --fleet: how far behind the leader each pair of followers keeps. Unit: m.
+    #[arg(long, value_name = "M", default_value_t = 20.0)]
+    pub trail_behind: f64,
+    /// With --fleet: how far to the side of the leader the followers keep (right, then left).
+    /// Unit: m.
+    #[arg(long, value_name = "M", default_value_t = 15.0)]
+    pub trail_side: f64,
+    /// With --fleet: fly only the helms, against interfaces already running elsewhere (other
+    /// hosts): their Zenoh endpoints, leader first, comma-separated
+    /// (`tcp/10.0.0.11:7447,tcp/10.0.0.12:7447`). Nothing is launched.
+    #[arg(long, value_name = "ENDPOINTS", value_delimiter = ',')]
+    pub fleet_connect: Vec<String>,
 }
 
 /// The basic simulator or the Bluefin emulator over loopback TCP (the serial vehicles' demo is

@@ -7,7 +7,9 @@ mod bluefin_sim;
 mod chaos_cmd;
 mod demo;
 mod driver_host;
+mod fleet_demo;
 mod gateway_cmd;
+mod launch_cmd;
 mod record_cmd;
 mod service;
 mod shutdown;
@@ -117,6 +119,21 @@ enum Command {
     /// Print the resolved interface (application → layer → publishes/subscribes → group, type,
     /// actor) of every application, as compiled from interface_yaml/.
     Interfaces,
+    /// Start and supervise a fleet from one TOML file: simulators, one interface per vehicle,
+    /// helms, a topside, any command — in order, each waited for until ready; Ctrl-C or SIGTERM
+    /// stops all in reverse order; the exit code is 10 + the start position of a process that
+    /// failed past its restart policy.
+    Launch {
+        #[command(flatten)]
+        cfg: ConfigArgs,
+    },
+    /// Every vehicle of a fleet on one web page, from what their interfaces publish over Zenoh
+    /// (`*/goby/middleware/frontseat/node_status`, `status`, `desired_course`): map, states,
+    /// errors, stale vehicles; links to each vehicle's own scope and commander.
+    Topside {
+        #[command(flatten)]
+        cfg: ConfigArgs,
+    },
     /// Look into a recording (MCAP, from `[record]` or `demo --record`): `info`, `export`,
     /// `plot`; `import` converts a goby_logger `.goby` file to MCAP.
     Log(record_cmd::LogArgs),
@@ -373,6 +390,9 @@ fn main() -> ExitCode {
             frontseat_actors::telemetry::set_default_console_level("warn");
             run_traced(&Default::default(), "chaos", "", chaos_cmd::run(args))
         }
+        Command::Demo(args) if args.fleet.is_some() => {
+            run_traced(&Default::default(), "demo", "", fleet_demo::run(args))
+        }
         Command::Demo(args) => {
             match args.vehicle {
                 // The serial vehicles fly over a pseudo-terminal through their own drivers.
@@ -388,6 +408,21 @@ fn main() -> ExitCode {
             }
         }
         Command::Bench(args) => run_traced(&Default::default(), "bench", "", bench_cmd::run(args)),
+        Command::Launch { cfg } => launch_cmd::run(&cfg),
+        Command::Topside { cfg } => {
+            if let Some(code) =
+                config_commands(&cfg, load_plain::<frontseat_topside::TopsideConfig>)
+            {
+                return code;
+            }
+            let config = match load_config::<frontseat_topside::TopsideConfig>(&cfg, false) {
+                Ok(c) => c,
+                Err(code) => return code,
+            };
+            run_traced(&Default::default(), "topside", "", async move {
+                ExitCode::from(frontseat_topside::run(config, service::shutdown_signal()).await)
+            })
+        }
         Command::Log(args) => record_cmd::log(args),
         Command::Replay(args) => {
             run_traced(&Default::default(), "replay", "", record_cmd::replay(args))

@@ -4,9 +4,9 @@
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
-const ROWS: [&str; 18] = [
+const ROWS: [&str; 20] = [
     "L0", "P1", "P2", "P3", "P4", "P5", "P6", "M1", "M2", "G1", "G2", "Z1", "Z2", "Z3", "T1", "W1",
-    "R1", "R2",
+    "R1", "R2", "F1", "F2",
 ];
 
 /// One bench at a time: two at once on a 2-core machine starve each other's children (the

@@ -170,6 +170,79 @@ fn units_pass_systemd_analyze_verify() {
     );
 }
 
+/// The fleet without the launcher: one interface per vehicle, each from /etc/frontseat/<vehicle>.toml,
+/// with the hardening and supervision of the single unit.
+#[test]
+fn template_unit_runs_one_interface_per_vehicle_config() {
+    let template = "frontseat-interface@.service";
+    let text = unit_text(template);
+    let single = unit_text("frontseat-interface.service");
+    let s = settings(&text);
+    let one = |k: &str| -> String {
+        let v: Vec<&String> = s
+            .iter()
+            .filter(|(key, _)| key == k)
+            .map(|(_, v)| v)
+            .collect();
+        assert_eq!(v.len(), 1, "{template}: exactly one {k}=, found {v:?}");
+        v[0].clone()
+    };
+    assert_eq!(
+        one("ExecStart"),
+        "/usr/local/bin/frontseat interface -c /etc/frontseat/%i.toml"
+    );
+    assert_eq!(
+        one("ExecStartPre"),
+        "/usr/local/bin/frontseat interface --check -c /etc/frontseat/%i.toml"
+    );
+    // Everything else is the single unit's: same supervision, same hardening.
+    let rest = |t: &str| -> Vec<(String, String)> {
+        settings(t)
+            .into_iter()
+            .filter(|(k, _)| {
+                ![
+                    "ExecStart",
+                    "ExecStartPre",
+                    "Description",
+                    "SyslogIdentifier",
+                ]
+                .contains(&k.as_str())
+            })
+            .collect()
+    };
+    assert_eq!(rest(&text), rest(&single));
+    assert!(one("SyslogIdentifier").contains("%i"));
+
+    if Command::new("systemd-analyze")
+        .arg("--version")
+        .output()
+        .is_err()
+    {
+        eprintln!("note: systemd-analyze is not installed; template verification skipped");
+        return;
+    }
+    // An instance of the template, as systemd would load it for vehicle auv1.
+    let dir = TempDir::new("verify-template");
+    let path = dir.0.join("frontseat-interface@auv1.service");
+    std::fs::write(&path, text.replace("/usr/local/bin/frontseat", BIN)).unwrap();
+    let out = Command::new("systemd-analyze")
+        .arg("verify")
+        .arg(&path)
+        .env("SYSTEMD_LOG_COLOR", "0")
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    let ours: Vec<&str> = stderr
+        .lines()
+        .filter(|l| l.contains("frontseat-interface@"))
+        .collect();
+    assert!(
+        out.status.success() && ours.is_empty(),
+        "verify: {:?}\n{stderr}",
+        out.status
+    );
+}
+
 #[test]
 fn example_configs_pass_check() {
     let mut checked = 0;
@@ -256,6 +329,7 @@ fn install_places_everything_keeps_existing_config_and_uninstall_removes_it() {
         "/etc/systemd/system/frontseat-interface.service",
         "/etc/systemd/system/frontseat-sim.service",
         "/etc/systemd/system/frontseat-moos-gateway.service",
+        "/etc/systemd/system/frontseat-interface@.service",
         "/usr/lib/sysusers.d/frontseat.conf",
         "/usr/local/share/doc/frontseat/README.md",
         "/etc/frontseat/interface.toml",

@@ -51,6 +51,8 @@ pub struct InterfaceSettings {
     pub vehicle_type: VehicleType,
     pub origin: (f64, f64),
     pub sm: StateMachineConfig,
+    /// helm_state not heard for this long (sim time) = helm not running; zero = never.
+    pub helm_state_timeout: Duration,
     pub status_period: Duration,
     pub exit_on_error: bool,
     pub warp: f64,
@@ -84,6 +86,7 @@ impl InterfaceSettings {
                 frontseat_connected_timeout: secs(cfg.frontseat_connected_timeout),
                 ..Default::default()
             },
+            helm_state_timeout: secs(cfg.helm_state_timeout),
             status_period: secs(cfg.status_period),
             exit_on_error: cfg.exit_on_error,
             warp: cfg.sim_warp_factor,
@@ -258,6 +261,9 @@ pub struct FsiState {
     clock: SimClock,
     sm: StateMachine,
     inputs: Inputs,
+    /// When the last helm_state arrived, and the timeout that makes it stale (zero: never).
+    helm_heard: tokio::time::Instant,
+    helm_state_timeout: Duration,
     frame: Option<LocalGrid>,
     driver: Option<ActorRef<DriverMsg>>,
     driver_heartbeat: Arc<std::sync::atomic::AtomicU64>,
@@ -1008,6 +1014,8 @@ impl Actor for FrontSeatInterface {
             factory: args.factory,
             clock,
             inputs: Inputs::default(),
+            helm_heard: tokio::time::Instant::now(),
+            helm_state_timeout: clock.wall(args.settings.helm_state_timeout),
             frame,
             driver: None,
             driver_heartbeat: Arc::new(std::sync::atomic::AtomicU64::new(heartbeat_now())),
@@ -1129,6 +1137,7 @@ impl FrontSeatInterface {
                         tracing::info!(?helm, "helm state");
                     }
                     st.inputs.helm = helm;
+                    st.helm_heard = tokio::time::Instant::now();
                     st.evaluate(&myself);
                 }
                 I::DatumUpdate(env) => {
@@ -1161,6 +1170,17 @@ impl FrontSeatInterface {
                 }
             },
             FsiMsg::Tick => {
+                if !st.helm_state_timeout.is_zero()
+                    && st.inputs.helm != crate::proto::goby::middleware::frontseat::protobuf::HelmState::HelmNotRunning
+                    && st.helm_heard.elapsed() > st.helm_state_timeout
+                {
+                    tracing::warn!(
+                        timeout = ?st.helm_state_timeout,
+                        "helm_state not heard within helm_state_timeout: helm treated as not running"
+                    );
+                    st.inputs.helm =
+                        crate::proto::goby::middleware::frontseat::protobuf::HelmState::HelmNotRunning;
+                }
                 st.fail_pending(
                     error_code::TIMEOUT,
                     "no answer from the frontseat in time",

@@ -94,6 +94,13 @@ pub struct InterfaceConfig {
     /// state. Unit: s.
     #[schemars(range(min = 0.0))]
     pub helm_running_timeout: f64,
+    /// A driving helm must repeat its helm_state at least this often: not heard for this long,
+    /// the helm counts as not running (with require_helm the interface leaves COMMAND for the
+    /// helm error state by the usual rule, and climbs back once the helm is heard again), so a
+    /// helm cut off by a lost link cannot keep steering with its last setpoint. 0 = never: the
+    /// last helm_state holds until another arrives (Goby3). Unit: s.
+    #[schemars(range(min = 0.0))]
+    pub helm_state_timeout: f64,
     /// How long to wait for the frontseat to be connected before moving to the frontseat error
     /// state. Unit: s.
     #[schemars(range(min = 0.0))]
@@ -149,6 +156,7 @@ impl Default for InterfaceConfig {
             r#type: VehicleType::Auv,
             require_helm: true,
             helm_running_timeout: 10.0,
+            helm_state_timeout: 0.0,
             frontseat_connected_timeout: 10.0,
             status_period: 5.0,
             exit_on_error: false,
@@ -198,6 +206,7 @@ impl ServiceConfig for InterfaceConfig {
         let mut c = Checker::default();
         self.origin.check("origin", &mut c);
         c.non_negative("helm_running_timeout", self.helm_running_timeout);
+        c.non_negative("helm_state_timeout", self.helm_state_timeout);
         c.non_negative(
             "frontseat_connected_timeout",
             self.frontseat_connected_timeout,

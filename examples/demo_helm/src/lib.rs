@@ -8,6 +8,8 @@
 //! actors crate with every other application's), so a helm of your own can start from it.
 #![forbid(unsafe_code)]
 
+pub mod trail;
+
 use std::fmt::Write as _;
 use std::time::Duration;
 
@@ -48,6 +50,8 @@ pub enum Leg {
     South,
     NorthWest,
     Done,
+    /// A follower of `frontseat demo --fleet` keeping its slot ([`trail`]).
+    Trail,
 }
 
 impl Leg {
@@ -66,6 +70,7 @@ impl Leg {
             Leg::South => "south",
             Leg::NorthWest => "northwest",
             Leg::Done => "done",
+            Leg::Trail => "trail",
         }
     }
 }
@@ -427,6 +432,133 @@ pub fn track_svg(track: &[TrackPoint]) -> String {
         s,
         r##"<text x="{lx}" y="{:.1}" font-size="11" fill="#444">grid {step:.0} m</text>"##,
         top + plot
+    );
+    s.push_str("</svg>\n");
+    s
+}
+
+/// One colour per vehicle of a fleet SVG (the leader first), repeating past ten.
+const FLEET_COLOURS: [&str; 10] = [
+    "#d62728", "#1f77b4", "#2ca02c", "#ff7f0e", "#9467bd", "#8c564b", "#e377c2", "#7f7f7f",
+    "#bcbd22", "#17becf",
+];
+
+/// A self-contained SVG of every vehicle's track in the shared local grid, north up: a metre
+/// grid with labels, one colour per vehicle with its name in the legend, a dot where each track
+/// ends, and the datum marked.
+pub fn fleet_svg(title: &str, tracks: &[(String, Vec<TrackPoint>)]) -> String {
+    let pts = || tracks.iter().flat_map(|(_, t)| t.iter());
+    let (mut minx, mut maxx, mut miny, mut maxy) = (0.0f64, 0.0f64, 0.0f64, 0.0f64);
+    for p in pts() {
+        minx = minx.min(p.x);
+        maxx = maxx.max(p.x);
+        miny = miny.min(p.y);
+        maxy = maxy.max(p.y);
+    }
+    let span = (maxx - minx).max(maxy - miny).max(10.0) * 1.05;
+    let (cx, cy) = ((minx + maxx) / 2.0, (miny + maxy) / 2.0);
+    let (minx, miny) = (cx - span / 2.0, cy - span / 2.0);
+    let (left, top, plot) = (70.0, 40.0, 560.0);
+    let scale = plot / span;
+    let px = |x: f64| left + (x - minx) * scale;
+    let py = |y: f64| top + plot - (y - miny) * scale;
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        r#"<svg xmlns="http://www.w3.org/2000/svg" width="820" height="680" viewBox="0 0 820 680" font-family="sans-serif">"#
+    );
+    let _ = writeln!(s, r#"<rect width="100%" height="100%" fill="white"/>"#);
+    let _ = writeln!(
+        s,
+        r#"<text x="{left}" y="24" font-size="15">{title}</text>"#
+    );
+    let step = nice_step(span, 8.0);
+    let first = |lo: f64| (lo / step).ceil() as i64;
+    let last = |lo: f64| ((lo + span) / step).floor() as i64;
+    let _ = writeln!(s, r##"<g stroke="#e4e4e4" stroke-width="1">"##);
+    for i in first(minx)..=last(minx) {
+        let x = px(i as f64 * step);
+        let _ = writeln!(
+            s,
+            r#"<line x1="{x:.1}" y1="{top}" x2="{x:.1}" y2="{:.1}"/>"#,
+            top + plot
+        );
+    }
+    for i in first(miny)..=last(miny) {
+        let y = py(i as f64 * step);
+        let _ = writeln!(
+            s,
+            r#"<line x1="{left}" y1="{y:.1}" x2="{:.1}" y2="{y:.1}"/>"#,
+            left + plot
+        );
+    }
+    let _ = writeln!(s, "</g>");
+    let _ = writeln!(s, r##"<g font-size="11" fill="#444">"##);
+    for i in first(minx)..=last(minx) {
+        let v = i as f64 * step;
+        let _ = writeln!(
+            s,
+            r#"<text x="{:.1}" y="{:.1}" text-anchor="middle">{v:.0}</text>"#,
+            px(v),
+            top + plot + 16.0
+        );
+    }
+    for i in first(miny)..=last(miny) {
+        let v = i as f64 * step;
+        let _ = writeln!(
+            s,
+            r#"<text x="{:.1}" y="{:.1}" text-anchor="end">{v:.0}</text>"#,
+            left - 6.0,
+            py(v) + 4.0
+        );
+    }
+    let _ = writeln!(s, "</g>");
+    let _ = writeln!(
+        s,
+        r##"<rect x="{left}" y="{top}" width="{plot}" height="{plot}" fill="none" stroke="#888"/>"##
+    );
+    let _ = writeln!(
+        s,
+        r#"<text x="{:.1}" y="{:.1}" font-size="13" text-anchor="middle">x — east of the datum (m); grid {step:.0} m</text>"#,
+        left + plot / 2.0,
+        top + plot + 36.0
+    );
+    let lx = left + plot + 20.0;
+    for (i, (name, track)) in tracks.iter().enumerate() {
+        let colour = FLEET_COLOURS[i % FLEET_COLOURS.len()];
+        let line: Vec<String> = track
+            .iter()
+            .map(|p| format!("{:.1},{:.1}", px(p.x), py(p.y)))
+            .collect();
+        if line.len() > 1 {
+            let _ = writeln!(
+                s,
+                r#"<polyline fill="none" stroke="{colour}" stroke-width="2" points="{}"><title>{name}</title></polyline>"#,
+                line.join(" ")
+            );
+        }
+        if let Some(p) = track.last() {
+            let _ = writeln!(
+                s,
+                r#"<circle cx="{:.1}" cy="{:.1}" r="4" fill="{colour}"><title>{name} at the end</title></circle>"#,
+                px(p.x),
+                py(p.y)
+            );
+        }
+        let ly = top + 20.0 + 20.0 * i as f64;
+        let _ = writeln!(
+            s,
+            r#"<line x1="{lx}" y1="{ly:.1}" x2="{:.1}" y2="{ly:.1}" stroke="{colour}" stroke-width="3"/><text x="{:.1}" y="{:.1}" font-size="12">{name}</text>"#,
+            lx + 24.0,
+            lx + 30.0,
+            ly + 4.0
+        );
+    }
+    let _ = writeln!(
+        s,
+        r#"<circle cx="{:.1}" cy="{:.1}" r="5" fill="black"><title>datum</title></circle>"#,
+        px(0.0),
+        py(0.0)
     );
     s.push_str("</svg>\n");
     s

@@ -22,6 +22,7 @@
 #![forbid(unsafe_code)]
 
 mod compare;
+mod fleet;
 mod floor;
 mod frontseat;
 mod goby3;
@@ -60,9 +61,9 @@ pub struct BenchOptions {
 }
 
 /// Every row's id, in the order of the table.
-pub const ROW_IDS: [&str; 18] = [
+pub const ROW_IDS: [&str; 20] = [
     "L0", "P1", "P2", "P3", "P4", "P5", "P6", "M1", "M2", "G1", "G2", "Z1", "Z2", "Z3", "T1", "W1",
-    "R1", "R2",
+    "R1", "R2", "F1", "F2",
 ];
 
 /// Which rows a run measures. Rows measured together (P4/P5, M1/M2, G1/G2, Z1–Z3/T1) share their
@@ -110,6 +111,7 @@ struct Plan {
     xproc: xproc::Plan,
     web: web::Plan,
     record: record::Plan,
+    fleet: fleet::Plan,
     capacity: (usize, f64, f64, Duration),
     start_runs: usize,
     settle: Duration,
@@ -155,6 +157,12 @@ impl Plan {
                 rate_hz: 10_000,
                 window: Duration::from_secs(10),
             },
+            fleet: fleet::Plan {
+                f1_fleets: &[10, 50, 100],
+                f1_window: Duration::from_secs(5),
+                f2_vehicles: 1000,
+                f2_window: Duration::from_secs(5),
+            },
             capacity: (100, 10.0, 100.0, Duration::from_secs(10)),
             start_runs: 20,
             settle: Duration::from_secs(2),
@@ -199,6 +207,12 @@ impl Plan {
             record: record::Plan {
                 rate_hz: 10_000,
                 window: Duration::from_millis(500),
+            },
+            fleet: fleet::Plan {
+                f1_fleets: &[10],
+                f1_window: Duration::from_millis(500),
+                f2_vehicles: 100,
+                f2_window: Duration::from_millis(500),
             },
             capacity: (10, 10.0, 10.0, Duration::from_millis(500)),
             start_runs: 2,
@@ -333,6 +347,9 @@ pub async fn run(args: BenchOptions) -> ExitCode {
     }
     if sel.any(&["R1", "R2"]) {
         rows.extend(record::run(plan.record).await);
+    }
+    if sel.any(&["F1", "F2"]) {
+        rows.extend(fleet::run(plan.fleet, sel.wants("F1"), sel.wants("F2")).await);
     }
     rows.retain(|r| sel.wants(r.id));
     rows.sort_by_key(|r| ROW_IDS.iter().position(|id| *id == r.id));

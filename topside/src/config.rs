@@ -1,0 +1,202 @@
+//! The topside's configuration (`frontseat topside -c FILE`): how it reaches the fleet over
+//! Zenoh, where its page is served and who may read it, when a silent vehicle counts as stale,
+//! and the bounds on what it keeps.
+
+use frontseat_config::{FieldError, ServiceConfig};
+use schemars::JsonSchema;
+use serde::{Deserialize, Serialize};
+
+/// The topside: every vehicle of the fleet on one page, from what their interfaces publish over
+/// Zenoh (`*/goby/middleware/frontseat/node_status`, `status`, and the helms' `desired_course`).
+/// It publishes nothing itself: a command for a vehicle is relayed to that vehicle's own page
+/// (`[[vehicle]] page`), which checks that vehicle's token.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields, default)]
+pub struct TopsideConfig {
+    /// How the topside reaches the fleet.
+    pub zenoh: ZenohConfig,
+    /// The page.
+    pub web: TopsideWebConfig,
+    /// A vehicle not heard from for this long is shown stale (it is never removed). Unit: s,
+    /// greater than 0, at most 3600.
+    #[schemars(range(min = 0.001, max = 3600.0))]
+    pub stale_after_s: f64,
+    /// Most vehicles tracked; publications of further platforms are refused and counted.
+    #[schemars(range(min = 1, max = 10000))]
+    pub max_vehicles: usize,
+    /// Track points kept per vehicle (one per metre moved at most); older ones are dropped.
+    #[schemars(range(min = 2, max = 100000))]
+    pub track_points: usize,
+    /// Each vehicle's own page (scope and commander): linked from the topside page, and where
+    /// commands for that vehicle are relayed.
+    #[schemars(example = example_links())]
+    pub vehicle: Vec<VehicleLink>,
+}
+
+impl Default for TopsideConfig {
+    fn default() -> Self {
+        Self {
+            zenoh: ZenohConfig::default(),
+            web: TopsideWebConfig::default(),
+            stale_after_s: 5.0,
+            max_vehicles: 200,
+            track_points: 5000,
+            vehicle: Vec::new(),
+        }
+    }
+}
+
+/// The Zenoh session of the topside (a peer that listens nowhere by default).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields, default)]
+pub struct ZenohConfig {
+    /// Endpoints to connect to: each vehicle's interface (`[interprocess] listen`) or a router,
+    /// e.g. "tcp/127.0.0.1:7447".
+    pub connect: Vec<String>,
+    /// Endpoints to listen on, for vehicles that connect to the topside. Empty by default.
+    pub listen: Vec<String>,
+}
+
+impl Default for ZenohConfig {
+    fn default() -> Self {
+        Self {
+            connect: vec!["tcp/127.0.0.1:7447".into()],
+            listen: Vec::new(),
+        }
+    }
+}
+
+/// The topside page.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields, default)]
+pub struct TopsideWebConfig {
+    /// Address and port to serve on. Loopback by default.
+    pub listen: String,
+    /// Token every request needs (as `Authorization: Bearer …` or `#token=` in the page's URL);
+    /// at least 16 characters. FRONTSEAT_TOPSIDE_TOKEN in the environment wins.
+    pub token: Option<String>,
+    /// Most open HTTP connections.
+    #[schemars(range(min = 1))]
+    pub max_connections: usize,
+}
+
+impl Default for TopsideWebConfig {
+    fn default() -> Self {
+        Self {
+            listen: "127.0.0.1:50080".into(),
+            token: None,
+            max_connections: 64,
+        }
+    }
+}
+
+/// A link to one vehicle's own page.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct VehicleLink {
+    /// The vehicle's platform name.
+    pub name: String,
+    /// Its page, e.g. "http://127.0.0.1:50001/".
+    pub page: String,
+}
+
+fn example_links() -> Vec<VehicleLink> {
+    vec![VehicleLink {
+        name: "auv1".into(),
+        page: "http://127.0.0.1:50001/".into(),
+    }]
+}
+
+/// The environment variable whose value replaces `web.token`.
+pub const TOKEN_ENV: &str = "FRONTSEAT_TOPSIDE_TOKEN";
+
+impl ServiceConfig for TopsideConfig {
+    const SERVICE: &'static str = "topside";
+
+    fn validate(&self) -> Vec<FieldError> {
+        let mut e = Vec::new();
+        if self.web.listen.parse::<std::net::SocketAddr>().is_err() {
+            e.push(FieldError::new(
+                "web.listen",
+                format!("{:?}", self.web.listen),
+                "not an IP address and port",
+            ));
+        }
+        if let Some(t) = &self.web.token
+            && t.chars().count() < frontseat_config::MIN_TOKEN_CHARS
+        {
+            e.push(FieldError::new(
+                "web.token",
+                "(hidden)",
+                format!(
+                    "shorter than {} characters",
+                    frontseat_config::MIN_TOKEN_CHARS
+                ),
+            ));
+        }
+        if self.web.max_connections == 0 {
+            e.push(FieldError::new("web.max_connections", 0, "at least 1"));
+        }
+        if !(self.stale_after_s.is_finite()
+            && self.stale_after_s > 0.0
+            && self.stale_after_s <= 3600.0)
+        {
+            e.push(FieldError::new(
+                "stale_after_s",
+                self.stale_after_s,
+                "outside (0, 3600]",
+            ));
+        }
+        if !(1..=10_000).contains(&self.max_vehicles) {
+            e.push(FieldError::new(
+                "max_vehicles",
+                self.max_vehicles,
+                "outside [1, 10000]",
+            ));
+        }
+        if !(2..=100_000).contains(&self.track_points) {
+            e.push(FieldError::new(
+                "track_points",
+                self.track_points,
+                "outside [2, 100000]",
+            ));
+        }
+        if self.zenoh.connect.is_empty() && self.zenoh.listen.is_empty() {
+            e.push(FieldError::new(
+                "zenoh.connect",
+                "[]",
+                "with no listen endpoint either, the topside would hear nobody",
+            ));
+        }
+        for (i, v) in self.vehicle.iter().enumerate() {
+            if frontseat_gateway::plan::check_platform(&v.name).is_err() {
+                e.push(FieldError::new(
+                    format!("vehicle[{i}].name"),
+                    format!("{:?}", v.name),
+                    "not a platform name",
+                ));
+            }
+            if !(v.page.starts_with("http://") || v.page.starts_with("https://")) {
+                e.push(FieldError::new(
+                    format!("vehicle[{i}].page"),
+                    format!("{:?}", v.page),
+                    "not an http(s) URL",
+                ));
+            }
+        }
+        e
+    }
+
+    fn warnings(&self) -> Vec<String> {
+        let mut w = Vec::new();
+        if let Ok(a) = self.web.listen.parse::<std::net::SocketAddr>()
+            && !a.ip().is_loopback()
+            && self.web.token.is_none()
+        {
+            w.push(format!(
+                "web.listen {a} is beyond loopback without a token: anyone who reaches it sees the fleet (set web.token or {TOKEN_ENV})"
+            ));
+        }
+        w
+    }
+}

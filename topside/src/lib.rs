@@ -1,0 +1,481 @@
+//! `frontseat topside -c FILE`: every vehicle of a fleet on one page. A Zenoh subscriber of what
+//! the vehicles' interfaces publish (`*/goby/middleware/frontseat/node_status`, `status`) and of
+//! what their helms command (`desired_course`), with the platform taken from the key expression;
+//! a [`fleet`] model (bounded, stale-not-removed); and an HTTP page served with the web crate's
+//! access rules (loopback by default, Host check, optional token) and bounded listener.
+//!
+//! The topside publishes nothing itself: a command for a vehicle is relayed ([`relay`]) to that
+//! vehicle's own page, which checks that vehicle's token, so its interface's gates decide.
+#![forbid(unsafe_code)]
+
+pub mod config;
+pub mod fleet;
+pub mod relay;
+
+use std::collections::BTreeMap;
+use std::net::SocketAddr;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::{Arc, Mutex};
+use std::time::Duration;
+
+use axum::Router;
+use axum::extract::{Query, State};
+use axum::http::header::{CACHE_CONTROL, CONTENT_TYPE};
+use axum::http::{HeaderMap, HeaderValue};
+use axum::response::{IntoResponse, Response};
+use axum::routing::get;
+use frontseat_actors::groups;
+use frontseat_actors::proto::goby::middleware::frontseat::protobuf::{
+    DesiredCourse, InterfaceStatus, NodeStatus,
+};
+use frontseat_actors::service_child::{BoxFuture, Service};
+use frontseat_actors::supervisor::ChildFailure;
+use frontseat_config::{InterprocessConfig, InterprocessMode};
+use frontseat_web::auth::Access;
+use prost::Message;
+use serde::Deserialize;
+use serde_json::json;
+
+pub use config::TopsideConfig;
+use fleet::{Fleet, Refused};
+
+const INDEX_HTML: &str = include_str!("../assets/topside.html");
+
+#[derive(Debug, thiserror::Error)]
+pub enum TopsideError {
+    #[error("web.listen `{0}` is not an address and port")]
+    BadListen(String),
+    #[error("cannot listen on {addr}: {source}")]
+    Bind {
+        addr: SocketAddr,
+        source: std::io::Error,
+    },
+    #[error(
+        "{} is set but shorter than {} characters",
+        config::TOKEN_ENV,
+        frontseat_config::MIN_TOKEN_CHARS
+    )]
+    ShortEnvToken,
+    #[error("Zenoh: {0}")]
+    Zenoh(String),
+}
+
+/// What came in over Zenoh and what was refused; on the page and in the logs.
+#[derive(Debug, Default)]
+pub struct Counters {
+    pub accepted: AtomicU64,
+    pub oversized: AtomicU64,
+    pub undecodable: AtomicU64,
+    pub bad_key: AtomicU64,
+    pub implausible: AtomicU64,
+    pub too_many_vehicles: AtomicU64,
+}
+
+impl Counters {
+    fn json(&self) -> serde_json::Value {
+        let g = |c: &AtomicU64| c.load(Ordering::Relaxed);
+        json!({
+            "accepted": g(&self.accepted),
+            "oversized": g(&self.oversized),
+            "undecodable": g(&self.undecodable),
+            "bad_key": g(&self.bad_key),
+            "implausible": g(&self.implausible),
+            "too_many_vehicles": g(&self.too_many_vehicles),
+        })
+    }
+}
+
+/// The token in force: the environment's when set, else the config's.
+pub fn effective_token(cfg: &TopsideConfig) -> Result<Option<String>, TopsideError> {
+    match std::env::var(config::TOKEN_ENV) {
+        Ok(t) if t.chars().count() < frontseat_config::MIN_TOKEN_CHARS => {
+            Err(TopsideError::ShortEnvToken)
+        }
+        Ok(t) => Ok(Some(t)),
+        Err(_) => Ok(cfg.web.token.clone()),
+    }
+}
+
+#[derive(Clone)]
+struct AppState {
+    fleet: Arc<Mutex<Fleet>>,
+    access: Access,
+    counters: Arc<Counters>,
+    links: Arc<BTreeMap<String, String>>,
+}
+
+/// Which of the three subscribed groups a sample is.
+#[derive(Clone, Copy)]
+enum Kind {
+    NodeStatus,
+    Status,
+    Course,
+}
+
+fn bump(c: &AtomicU64, what: &str, key: &str) {
+    let n = c.fetch_add(1, Ordering::Relaxed) + 1;
+    if frontseat_gateway::wire::worth_logging(n) {
+        tracing::warn!(key = %key.chars().take(120).collect::<String>(), count = n, "topside: {what}");
+    }
+}
+
+/// Called with each node_status the fleet model took in (benchmarks measure arrival with it).
+pub type Observer = Arc<dyn Fn(&str, &NodeStatus) + Send + Sync>;
+
+/// Takes one sample into the fleet: the platform from the key, the payload bounded and decoded.
+fn take(
+    fleet: &Mutex<Fleet>,
+    counters: &Counters,
+    kind: Kind,
+    key: &str,
+    payload: &[u8],
+    observer: Option<&Observer>,
+) {
+    let Some(platform) = key
+        .split('/')
+        .next()
+        .filter(|p| frontseat_gateway::plan::check_platform(p).is_ok())
+    else {
+        return bump(&counters.bad_key, "bad platform in key expression", key);
+    };
+    if payload.len() > frontseat_gateway::DEFAULT_MAX_PAYLOAD {
+        return bump(&counters.oversized, "oversized payload refused", key);
+    }
+    let now = tokio::time::Instant::now();
+    let mut f = fleet.lock().unwrap_or_else(|p| p.into_inner());
+    let r = match kind {
+        Kind::NodeStatus => match NodeStatus::decode(payload) {
+            Ok(m) => {
+                let r = f.on_node_status(platform, &m, now);
+                if let (Ok(()), Some(o)) = (&r, observer) {
+                    o(platform, &m);
+                }
+                r
+            }
+            Err(_) => return bump(&counters.undecodable, "undecodable node_status", key),
+        },
+        Kind::Status => match InterfaceStatus::decode(payload) {
+            Ok(m) => f.on_status(platform, &m, now),
+            Err(_) => return bump(&counters.undecodable, "undecodable status", key),
+        },
+        Kind::Course => match DesiredCourse::decode(payload) {
+            Ok(m) => f.on_course(platform, &m),
+            Err(_) => return bump(&counters.undecodable, "undecodable desired_course", key),
+        },
+    };
+    drop(f);
+    match r {
+        Ok(()) => {
+            counters.accepted.fetch_add(1, Ordering::Relaxed);
+        }
+        Err(Refused::Implausible) => bump(&counters.implausible, "implausible value refused", key),
+        Err(Refused::TooManyVehicles) => bump(
+            &counters.too_many_vehicles,
+            "max_vehicles reached; platform refused",
+            key,
+        ),
+    }
+}
+
+/// The running topside.
+pub struct Topside {
+    addr: SocketAddr,
+    session: frontseat_gateway::zenoh::Session,
+    _subs: Vec<frontseat_gateway::zenoh::pubsub::Subscriber<()>>,
+    server: tokio::task::JoinHandle<()>,
+    pub counters: Arc<Counters>,
+}
+
+impl Topside {
+    pub async fn start(cfg: &TopsideConfig) -> Result<Self, TopsideError> {
+        Self::start_observed(cfg, None).await
+    }
+
+    /// [`Topside::start`], calling `observer` with every node_status taken into the model.
+    pub async fn start_observed(
+        cfg: &TopsideConfig,
+        observer: Option<Observer>,
+    ) -> Result<Self, TopsideError> {
+        let token = effective_token(cfg)?;
+        let listen: SocketAddr = cfg
+            .web
+            .listen
+            .parse()
+            .map_err(|_| TopsideError::BadListen(cfg.web.listen.clone()))?;
+        let ip = InterprocessConfig {
+            enabled: true,
+            mode: InterprocessMode::Peer,
+            listen: cfg.zenoh.listen.clone(),
+            connect: cfg.zenoh.connect.clone(),
+            platform: String::new(),
+        };
+        let zcfg = frontseat_gateway::zenoh_config(&ip, frontseat_gateway::DEFAULT_MAX_PAYLOAD)
+            .map_err(|e| TopsideError::Zenoh(e.to_string()))?;
+        let session = frontseat_gateway::zenoh::open(zcfg)
+            .await
+            .map_err(|e| TopsideError::Zenoh(e.to_string()))?;
+        let fleet = Arc::new(Mutex::new(Fleet::new(
+            cfg.max_vehicles,
+            cfg.track_points,
+            Duration::from_secs_f64(cfg.stale_after_s.clamp(0.001, 3600.0)),
+        )));
+        let counters = Arc::new(Counters::default());
+        let mut subs = Vec::new();
+        for (group, kind) in [
+            (
+                groups::GOBY_MIDDLEWARE_FRONTSEAT_NODE_STATUS.name(),
+                Kind::NodeStatus,
+            ),
+            (
+                groups::GOBY_MIDDLEWARE_FRONTSEAT_STATUS.name(),
+                Kind::Status,
+            ),
+            (
+                groups::GOBY_MIDDLEWARE_FRONTSEAT_DESIRED_COURSE.name(),
+                Kind::Course,
+            ),
+        ] {
+            let key = frontseat_gateway::key_for("*", group);
+            let (fleet, counters, observer) = (fleet.clone(), counters.clone(), observer.clone());
+            let sub = session
+                .declare_subscriber(key.clone())
+                .callback(move |s| {
+                    let payload = s.payload().to_bytes();
+                    take(
+                        &fleet,
+                        &counters,
+                        kind,
+                        s.key_expr().as_str(),
+                        &payload,
+                        observer.as_ref(),
+                    );
+                })
+                .await
+                .map_err(|e| TopsideError::Zenoh(format!("subscribe {key}: {e}")))?;
+            subs.push(sub);
+        }
+        let listener = tokio::net::TcpListener::bind(listen)
+            .await
+            .map_err(|source| TopsideError::Bind {
+                addr: listen,
+                source,
+            })?;
+        let addr = listener.local_addr().map_err(|source| TopsideError::Bind {
+            addr: listen,
+            source,
+        })?;
+        let state = AppState {
+            fleet,
+            access: Access::new(addr, token),
+            counters: counters.clone(),
+            links: Arc::new(
+                cfg.vehicle
+                    .iter()
+                    .map(|v| (v.name.clone(), v.page.clone()))
+                    .collect(),
+            ),
+        };
+        let app = router(state);
+        let bounded = frontseat_web::server::BoundedListener {
+            inner: listener,
+            permits: Arc::new(tokio::sync::Semaphore::new(cfg.web.max_connections.max(1))),
+            counters: Arc::new(frontseat_web::ServerCounters::default()),
+            idle: Duration::from_secs(30),
+        };
+        let server = tokio::spawn(async move {
+            if let Err(e) = axum::serve(bounded, app).await {
+                tracing::error!(error = %e, "topside web server stopped");
+            }
+        });
+        tracing::info!(url = %format!("http://{addr}/"), connect = ?cfg.zenoh.connect, "topside serving");
+        Ok(Self {
+            addr,
+            session,
+            _subs: subs,
+            server,
+            counters,
+        })
+    }
+
+    pub fn local_addr(&self) -> SocketAddr {
+        self.addr
+    }
+
+    /// Stops serving and closes the Zenoh session.
+    pub async fn shutdown(self) {
+        Service::stop(Box::new(self), Duration::from_secs(3)).await;
+    }
+}
+
+impl Service for Topside {
+    fn ended(&mut self) -> BoxFuture<'_, Result<(), ChildFailure>> {
+        Box::pin(async move {
+            let r = (&mut self.server).await;
+            self.server = tokio::spawn(async {});
+            Err(ChildFailure::new(match r {
+                Ok(()) => "the topside web server ended".to_string(),
+                Err(e) => format!("the topside web server failed: {e}"),
+            }))
+        })
+    }
+    fn stop(self: Box<Self>, within: Duration) -> BoxFuture<'static, ()> {
+        Box::pin(async move {
+            self.server.abort();
+            let _ = tokio::time::timeout(within, self.session.close()).await;
+        })
+    }
+}
+
+fn router(st: AppState) -> Router {
+    Router::new()
+        .route("/", get(index))
+        .route("/api/fleet", get(fleet_json))
+        .route("/api/info", get(info))
+        .route("/api/vehicle/{name}/send", axum::routing::post(send))
+        .layer(axum::extract::DefaultBodyLimit::max(relay::MAX_BODY))
+        .with_state(st)
+}
+
+fn refused(status: axum::http::StatusCode, text: impl Into<String>) -> Response {
+    (
+        status,
+        axum::Json(json!({"ok": false, "error": text.into()})),
+    )
+        .into_response()
+}
+
+/// A command for one vehicle: the topside's own write rules (Host, Origin, its token), then
+/// relayed to that vehicle's page with the vehicle's token from `X-Vehicle-Token`.
+async fn send(
+    State(st): State<AppState>,
+    axum::extract::Path(name): axum::extract::Path<String>,
+    headers: HeaderMap,
+    body: axum::body::Bytes,
+) -> Response {
+    use axum::http::StatusCode;
+    if let Err(r) = st.access.check_write(&headers) {
+        return refused(r.status(), r.text());
+    }
+    let json_ct = headers
+        .get(CONTENT_TYPE)
+        .and_then(|v| v.to_str().ok())
+        .is_some_and(|v| v.starts_with("application/json"));
+    if !json_ct {
+        return refused(
+            StatusCode::UNSUPPORTED_MEDIA_TYPE,
+            "Content-Type must be application/json",
+        );
+    }
+    let Some(target) = st.links.get(&name).and_then(|p| relay::parse_page(p)) else {
+        return refused(
+            StatusCode::NOT_FOUND,
+            format!(
+                "no http:// page configured for vehicle `{}`",
+                name.chars().take(64).collect::<String>()
+            ),
+        );
+    };
+    let Some(token) = headers
+        .get("x-vehicle-token")
+        .and_then(|v| v.to_str().ok())
+        .filter(|t| !t.is_empty() && t.chars().all(|c| c.is_ascii_graphic()))
+    else {
+        return refused(
+            StatusCode::UNAUTHORIZED,
+            "the vehicle's token is needed (X-Vehicle-Token)",
+        );
+    };
+    match relay::relay(&target, token, &body).await {
+        Ok((code, answer)) => {
+            tracing::info!(vehicle = %name, status = code, "topside relayed a command");
+            let status = StatusCode::from_u16(code).unwrap_or(StatusCode::BAD_GATEWAY);
+            (
+                status,
+                [(CONTENT_TYPE, HeaderValue::from_static("application/json"))],
+                answer,
+            )
+                .into_response()
+        }
+        Err(e @ relay::RelayError::NoVehicleToken) => refused(StatusCode::FORBIDDEN, e.to_string()),
+        Err(e) => refused(StatusCode::BAD_GATEWAY, e.to_string()),
+    }
+}
+
+async fn index() -> Response {
+    (
+        [
+            (
+                CONTENT_TYPE,
+                HeaderValue::from_static("text/html; charset=utf-8"),
+            ),
+            (CACHE_CONTROL, HeaderValue::from_static("no-cache")),
+        ],
+        INDEX_HTML,
+    )
+        .into_response()
+}
+
+async fn info(State(st): State<AppState>) -> Response {
+    axum::Json(json!({ "token_required": st.access.token_required() })).into_response()
+}
+
+#[derive(Deserialize)]
+struct TokenQuery {
+    token: Option<String>,
+}
+
+async fn fleet_json(
+    State(st): State<AppState>,
+    headers: HeaderMap,
+    Query(q): Query<TokenQuery>,
+) -> Response {
+    if let Err(r) = st.access.check_read(&headers, q.token.as_deref()) {
+        return (
+            r.status(),
+            axum::Json(json!({"ok": false, "error": r.text()})),
+        )
+            .into_response();
+    }
+    let now = tokio::time::Instant::now();
+    let mut snap = st
+        .fleet
+        .lock()
+        .unwrap_or_else(|p| p.into_inner())
+        .snapshot(now, &st.links);
+    snap["counters"] = st.counters.json();
+    let mut r = axum::Json(snap).into_response();
+    r.headers_mut()
+        .insert(CACHE_CONTROL, HeaderValue::from_static("no-store"));
+    r
+}
+
+/// The topside under a supervisor until `stop`: restarted (with backoff) if its server fails.
+pub async fn run(cfg: TopsideConfig, stop: impl std::future::Future<Output = ()>) -> u8 {
+    use frontseat_actors::service_child::service_child_with;
+    use frontseat_actors::supervisor::{Policy, SupervisorHandle};
+    // Fail fast on what a restart cannot fix.
+    if let Err(e) = effective_token(&cfg) {
+        tracing::error!("{e}");
+        return 2;
+    }
+    let policy = Policy::from(&frontseat_config::RestartConfig::default()).helm_side();
+    let child = service_child_with("Topside", policy, Arc::new(cfg), |cfg| async move {
+        Topside::start(&cfg)
+            .await
+            .map(|t| Box::new(t) as Box<dyn Service>)
+            .map_err(|e| e.to_string())
+    });
+    let mut root = match SupervisorHandle::start("topside", vec![child], None).await {
+        Ok(r) => r,
+        Err(e) => {
+            tracing::error!(error = %e, "cannot start the topside");
+            return 1;
+        }
+    };
+    let code = tokio::select! {
+        e = root.wait() => e.code().clamp(1, 255) as u8,
+        _ = stop => 0,
+    };
+    root.shutdown(Duration::from_secs(3)).await;
+    code
+}

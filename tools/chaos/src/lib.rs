@@ -634,6 +634,10 @@ struct Responses {
     /// Requests whose first answer was the interface's own timeout: the driver's answer may
     /// still come, and is forwarded as Goby3 forwards every driver answer.
     timed_out_first: std::collections::HashSet<i32>,
+    /// request_id → error code of its first answer (0: success).
+    first_code: HashMap<i32, i32>,
+    /// (request_id, first code, further code) of the first few requests answered again.
+    dup_examples: Vec<(i32, i32, i32)>,
     without_id: u64,
     ok: u64,
     not_in_command: u64,
@@ -726,8 +730,23 @@ impl Monitor {
                     Some(id) => {
                         let c = r.count.entry(id).or_default();
                         *c += 1;
-                        if *c == 1 && env.msg.error_code == Some(error_code::TIMEOUT) {
+                        let n = *c;
+                        let code = env.msg.error_code.unwrap_or(0);
+                        // The interface's own answer first (its timeout, or the driver failing
+                        // with the request in flight): the driver's answer may still follow.
+                        if n == 1
+                            && matches!(
+                                env.msg.error_code,
+                                Some(error_code::TIMEOUT) | Some(error_code::DRIVER_FAILED)
+                            )
+                        {
                             r.timed_out_first.insert(id);
+                        }
+                        if n == 1 {
+                            r.first_code.insert(id, code);
+                        } else if r.dup_examples.len() < 10 {
+                            let first = r.first_code.get(&id).copied().unwrap_or(-1);
+                            r.dup_examples.push((id, first, code));
                         }
                     }
                     None => r.without_id += 1,
@@ -1125,6 +1144,21 @@ impl Run {
         self.sim_fault(sim_fault::Fault::Ctrl(c as i32));
     }
 
+    fn connections(&self) -> u64 {
+        self.sim.handle.stats().connections
+    }
+
+    /// A fault that closes the frontseat connection takes effect a little later (the driver
+    /// reads the oversized line, the simulator task ends): wait (bounded) until the driver has
+    /// connected again, so the effect cannot land inside the next fault's window and be blamed
+    /// on it. Not reconnecting is caught by the recovery check that follows.
+    async fn until_reconnected(&self, before: u64) {
+        let deadline = Instant::now() + self.opts.recovery_bound;
+        while self.connections() <= before && Instant::now() < deadline {
+            tokio::time::sleep(Duration::from_millis(2)).await;
+        }
+    }
+
     /// Waits until the driver actor is up with `restarts` restarts behind it.
     async fn driver_up(&self, restarts: u32) -> bool {
         let deadline = Instant::now() + self.opts.recovery_bound;
@@ -1183,8 +1217,10 @@ impl Run {
             }
             FaultKind::DropConnection => {
                 let t = Instant::now();
+                let before = self.connections();
                 self.sim_fault(sim_fault::Fault::DropConnection(true));
                 self.monitor.until_left_command(f.hold).await;
+                self.until_reconnected(before).await;
                 one_shot(t)
             }
             FaultKind::Garbage => {
@@ -1195,8 +1231,10 @@ impl Run {
             }
             FaultKind::Oversized => {
                 let t = Instant::now();
+                let before = self.connections();
                 self.sim_fault(sim_fault::Fault::OversizedLine(true));
                 self.monitor.until_left_command(f.hold).await;
+                self.until_reconnected(before).await;
                 one_shot(t)
             }
             FaultKind::CtrlPayload => {
@@ -1210,7 +1248,9 @@ impl Run {
                     self.violations
                         .push(format!("fault #{i}: simulator could not be restarted: {e}"));
                 }
-                Instant::now()
+                let t = Instant::now();
+                self.until_reconnected(0).await;
+                t
             }
             FaultKind::StopNav => {
                 self.sim_fault(sim_fault::Fault::StopNavSeconds(f.amount));
@@ -1229,8 +1269,11 @@ impl Run {
                 // the driver sends on reconnect.
                 self.ctrl(sim_fault::Ctrl::Idle);
                 tokio::time::sleep(f.hold).await;
+                let before = self.connections();
                 self.sim_fault(sim_fault::Fault::DropConnection(true));
-                Instant::now()
+                let t = Instant::now();
+                self.until_reconnected(before).await;
+                t
             }
             FaultKind::HelmPark => {
                 self.helm.state.send_replace(HelmState::HelmPark);
@@ -1252,9 +1295,11 @@ impl Run {
                 one_shot(t)
             }
             FaultKind::VehiclePanic => {
+                let before = self.connections();
                 self.vehicle_panic(i).await;
                 let t = Instant::now();
                 self.monitor.until_left_command(f.hold).await;
+                self.until_reconnected(before).await;
                 one_shot(t)
             }
             FaultKind::MoosCrashLoop => {
@@ -1310,11 +1355,19 @@ impl Run {
         while tasks.join_next().await.is_some() {}
         self.web_flood_requests += sent.load(Ordering::Relaxed);
         let states: Vec<InterfaceState> = {
-            let v = self.monitor.changes.lock().unwrap_or_else(|p| p.into_inner());
-            v.iter().filter(|(t, _)| *t >= t0).map(|(_, s)| *s).collect()
+            let v = self
+                .monitor
+                .changes
+                .lock()
+                .unwrap_or_else(|p| p.into_inner());
+            v.iter()
+                .filter(|(t, _)| *t >= t0)
+                .map(|(_, s)| *s)
+                .collect()
         };
         if !states.is_empty() {
-            self.notes.push(format!("fault #{i} (web flood): states {states:?}"));
+            self.notes
+                .push(format!("fault #{i} (web flood): states {states:?}"));
         }
         let after = self.sim.handle.stats().cmd_errors;
         if after != cmd_errors {
@@ -1982,16 +2035,24 @@ pub async fn run(
         let unknown =
             r.count.keys().filter(|id| **id < 1 || **id > sent).count() as u64 + r.without_id;
         inv.push(Invariant {
-            name: "one CommandResponse per request with response_requested (and the driver's late one after our timeout)",
+            name: "one CommandResponse per request with response_requested (and the driver's late one after our timeout or driver-failed answer)",
             bound: "0 missing, 0 duplicated, 0 unknown".into(),
             measured: format!(
-                "{sent} sent: {} ok, {} not in COMMAND, {} timed out, {} driver failed, {} frontseat error, {} shutting down; {late} late after a timeout; {lost} unanswered across process restarts (in flight or sent while down); {missing} missing, {dup} duplicated, {unknown} unknown",
+                "{sent} sent: {} ok, {} not in COMMAND, {} timed out, {} driver failed, {} frontseat error, {} shutting down; {late} late after a timeout; {lost} unanswered across process restarts (in flight or sent while down); {missing} missing, {dup} duplicated, {unknown} unknown{}",
                 r.ok,
                 r.not_in_command,
                 r.timeout,
                 r.driver_failed,
                 r.frontseat_refused,
-                r.shutting_down
+                r.shutting_down,
+                if dup > 0 {
+                    format!(
+                        " (request, first code, further code: {:?})",
+                        r.dup_examples
+                    )
+                } else {
+                    String::new()
+                }
             ),
             ok: missing == 0 && dup == 0 && unknown == 0 && sent > 0,
         });

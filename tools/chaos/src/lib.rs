@@ -14,7 +14,7 @@
 //! the interface's `FsiMsg::Chaos` and the translation's fault hook.
 #![forbid(unsafe_code)]
 
-use std::collections::{BTreeMap, HashMap};
+use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::net::SocketAddr;
 use std::sync::atomic::{AtomicBool, AtomicI32, AtomicU64, Ordering};
@@ -627,17 +627,27 @@ const FIVE: [InterfaceState; 5] = [
     InterfaceState::InterfaceFsError,
 ];
 
+/// What one request got: answers seen, the code of the first (0: success) and whether that
+/// first one was the interface's own (timeout, driver failed), after which the driver's late
+/// answer is still right. Four bytes per request, so a soak's bookkeeping stays small.
+#[derive(Clone, Copy, Default)]
+struct Answer {
+    count: u8,
+    first: i16,
+    interface_first: bool,
+}
+
+/// Our helm's request ids run 1, 2, 3…: an id this far past the highest seen is not ours.
+const FAR_ID: usize = 1 << 16;
+
 #[derive(Default)]
 struct Responses {
-    /// request_id → number of CommandResponses seen.
-    count: HashMap<i32, u32>,
-    /// Requests whose first answer was the interface's own timeout: the driver's answer may
-    /// still come, and is forwarded as Goby3 forwards every driver answer.
-    timed_out_first: std::collections::HashSet<i32>,
-    /// request_id → error code of its first answer (0: success).
-    first_code: HashMap<i32, i32>,
+    /// Indexed by request_id − 1.
+    answers: Vec<Answer>,
     /// (request_id, first code, further code) of the first few requests answered again.
     dup_examples: Vec<(i32, i32, i32)>,
+    /// Answers with an id that cannot be one of ours (< 1, or far past every id seen).
+    unknown_ids: u64,
     without_id: u64,
     ok: u64,
     not_in_command: u64,
@@ -645,6 +655,54 @@ struct Responses {
     driver_failed: u64,
     shutting_down: u64,
     frontseat_refused: u64,
+}
+
+impl Responses {
+    fn get(&self, id: i32) -> Answer {
+        usize::try_from(id)
+            .ok()
+            .and_then(|i| i.checked_sub(1))
+            .and_then(|i| self.answers.get(i).copied())
+            .unwrap_or_default()
+    }
+
+    fn answered(&self, id: i32) -> bool {
+        self.get(id).count > 0
+    }
+
+    fn record(&mut self, id: i32, code: i32) {
+        let Some(i) = usize::try_from(id).ok().and_then(|i| i.checked_sub(1)) else {
+            self.unknown_ids += 1;
+            return;
+        };
+        if i >= self.answers.len() {
+            if i >= self.answers.len() + FAR_ID {
+                self.unknown_ids += 1;
+                return;
+            }
+            self.answers.resize(i + 1, Answer::default());
+        }
+        let a = &mut self.answers[i];
+        a.count = a.count.saturating_add(1);
+        if a.count == 1 {
+            a.first = i16::try_from(code).unwrap_or(i16::MAX);
+            a.interface_first = code == error_code::TIMEOUT || code == error_code::DRIVER_FAILED;
+        } else if self.dup_examples.len() < 10 {
+            let first = i32::from(a.first);
+            self.dup_examples.push((id, first, code));
+        }
+    }
+}
+
+/// State changes kept for measuring outages: the windows measured are seconds long, so the
+/// older half is dropped past this many (a soak's bookkeeping stays bounded).
+const MAX_CHANGES: usize = 8192;
+
+fn push_change(v: &mut Vec<(Instant, InterfaceState)>, c: (Instant, InterfaceState)) {
+    if v.len() >= MAX_CHANGES {
+        v.drain(..MAX_CHANGES / 2);
+    }
+    v.push(c);
 }
 
 /// Counters fed by bus subscriptions whose delivery functions run on the publisher's thread:
@@ -694,7 +752,7 @@ impl Monitor {
                             c
                         });
                         if changed && let Ok(mut v) = m.changes.lock() {
-                            v.push((Instant::now(), s));
+                            push_change(&mut v, (Instant::now(), s));
                         }
                     }
                     _ => {
@@ -727,28 +785,7 @@ impl Monitor {
             move |env| {
                 let mut r = m.responses.lock().unwrap_or_else(|p| p.into_inner());
                 match env.msg.request_id {
-                    Some(id) => {
-                        let c = r.count.entry(id).or_default();
-                        *c += 1;
-                        let n = *c;
-                        let code = env.msg.error_code.unwrap_or(0);
-                        // The interface's own answer first (its timeout, or the driver failing
-                        // with the request in flight): the driver's answer may still follow.
-                        if n == 1
-                            && matches!(
-                                env.msg.error_code,
-                                Some(error_code::TIMEOUT) | Some(error_code::DRIVER_FAILED)
-                            )
-                        {
-                            r.timed_out_first.insert(id);
-                        }
-                        if n == 1 {
-                            r.first_code.insert(id, code);
-                        } else if r.dup_examples.len() < 10 {
-                            let first = r.first_code.get(&id).copied().unwrap_or(-1);
-                            r.dup_examples.push((id, first, code));
-                        }
-                    }
+                    Some(id) => r.record(id, env.msg.error_code.unwrap_or(0)),
                     None => r.without_id += 1,
                 }
                 if env.msg.request_successful() {
@@ -781,7 +818,7 @@ impl Monitor {
             c
         }) && let Ok(mut v) = self.changes.lock()
         {
-            v.push((Instant::now(), s));
+            push_change(&mut v, (Instant::now(), s));
         }
     }
 
@@ -1105,6 +1142,7 @@ struct Run {
     process_restarts: Vec<Duration>,
     web: Option<frontseat_web::WebService>,
     web_flood_requests: u64,
+    web_floods_left_command: u32,
     notes: Vec<String>,
     /// Helm-side faults after which the driver's connection to the frontseat was found closed
     /// or the driver restarted.
@@ -1366,8 +1404,12 @@ impl Run {
                 .collect()
         };
         if !states.is_empty() {
-            self.notes
-                .push(format!("fault #{i} (web flood): states {states:?}"));
+            self.web_floods_left_command += 1;
+            if self.web_floods_left_command <= 5 {
+                self.notes.push(format!(
+                    "fault #{i} (web flood): the interface went through {states:?} (the link stayed; at a high warp NAV gaps of a loaded machine pass nav_timeout)"
+                ));
+            }
         }
         let after = self.sim.handle.stats().cmd_errors;
         if after != cmd_errors {
@@ -1447,7 +1489,7 @@ impl Run {
             // Only the last timeout's worth can be in flight; older ones are already missing.
             let from = sent_before.saturating_sub(4096).max(1);
             for id in from..=sent_before {
-                if !r.count.contains_key(&id) {
+                if !r.answered(id) {
                     self.lost_to_restart.insert(id);
                 }
             }
@@ -1748,6 +1790,7 @@ pub async fn run(
         vehicle_link_checked: 0,
         web: Some(web),
         web_flood_requests: 0,
+        web_floods_left_command: 0,
         notes: Vec::new(),
         bus,
         service,
@@ -1916,7 +1959,7 @@ pub async fn run(
                 .responses
                 .lock()
                 .unwrap_or_else(|p| p.into_inner());
-            (1..=sent).all(|id| r.count.contains_key(&id))
+            (1..=sent).all(|id| r.answered(id))
         };
         if answered || Instant::now() >= deadline {
             break;
@@ -2019,21 +2062,26 @@ pub async fn run(
             .lock()
             .unwrap_or_else(|p| p.into_inner());
         let missing = (1..=sent)
-            .filter(|id| !r.count.contains_key(id) && !run.lost_to_restart.contains(id))
+            .filter(|id| !r.answered(*id) && !run.lost_to_restart.contains(id))
             .count();
         let lost = (1..=sent)
-            .filter(|id| !r.count.contains_key(id) && run.lost_to_restart.contains(id))
+            .filter(|id| !r.answered(*id) && run.lost_to_restart.contains(id))
             .count();
         // A second answer is right only after our own timeout (the driver's late answer, which
         // Goby3 forwards too); anything else answered twice is a duplicate.
         let late = r
-            .count
+            .answers
             .iter()
-            .filter(|(id, c)| **c == 2 && r.timed_out_first.contains(*id))
+            .filter(|a| a.count == 2 && a.interface_first)
             .count();
-        let dup = r.count.values().filter(|c| **c > 1).count() - late;
-        let unknown =
-            r.count.keys().filter(|id| **id < 1 || **id > sent).count() as u64 + r.without_id;
+        let dup = r.answers.iter().filter(|a| a.count > 1).count() - late;
+        let beyond = r
+            .answers
+            .iter()
+            .skip(usize::try_from(sent).unwrap_or(0))
+            .filter(|a| a.count > 0)
+            .count() as u64;
+        let unknown = r.unknown_ids + beyond + r.without_id;
         inv.push(Invariant {
             name: "one CommandResponse per request with response_requested (and the driver's late one after our timeout or driver-failed answer)",
             bound: "0 missing, 0 duplicated, 0 unknown".into(),
@@ -2228,8 +2276,8 @@ pub async fn run(
             name: "a web client flooding the commander reaches nothing bad and is answered",
             bound: "0 refused CMDs at the vehicle; answers given".into(),
             measured: format!(
-                "{} floods, {} requests (hostile setpoints, no token, foreign origin, broken JSON), {bad} failed",
-                k.injected, run.web_flood_requests
+                "{} floods, {} requests (hostile setpoints, no token, foreign origin, broken JSON), {bad} failed; {} left COMMAND meanwhile",
+                k.injected, run.web_flood_requests, run.web_floods_left_command
             ),
             ok: bad == 0,
         });

@@ -1182,6 +1182,20 @@ impl Run {
         self.sim_fault(sim_fault::Fault::Ctrl(c as i32));
     }
 
+    /// The driver's restart count; a snapshot not answered at once (a starved machine) is asked
+    /// again within the recovery bound before it counts as unknown.
+    async fn driver_restarts(&self) -> Option<u32> {
+        let deadline = Instant::now() + self.opts.recovery_bound;
+        loop {
+            if let Some(s) = self.snapshot().await {
+                return Some(s.driver_restarts);
+            }
+            if Instant::now() >= deadline {
+                return None;
+            }
+        }
+    }
+
     fn connections(&self) -> u64 {
         self.sim.handle.stats().connections
     }
@@ -1865,7 +1879,7 @@ pub async fn run(
         let injected_at = Instant::now();
         // The vehicle link before a helm-side fault that nothing overlaps.
         let link_before = if f.kind.helm_side() && !prev_burst && !f.burst {
-            let restarts = run.snapshot().await.map(|s| s.driver_restarts);
+            let restarts = run.driver_restarts().await;
             Some((run.sim.handle.stats().connections, restarts))
         } else {
             None
@@ -1901,7 +1915,7 @@ pub async fn run(
             }
             if let Some((conns, restarts)) = link_before {
                 let after = run.sim.handle.stats().connections;
-                let restarts_after = run.snapshot().await.map(|s| s.driver_restarts);
+                let restarts_after = run.driver_restarts().await;
                 run.vehicle_link_checked += 1;
                 if after != conns || restarts_after != restarts {
                     run.violations.push(format!(

@@ -35,6 +35,14 @@ pub struct ChaosArgs {
     /// Leave out the MOOS bridge and the broker-restart fault.
     #[arg(long)]
     pub no_moos: bool,
+    /// Soak: inject faults for this long (wall time, e.g. `20m`, `2h`) instead of `--faults`,
+    /// reporting RSS, open fds, threads and tasks every `--sample-every`; the report adds a
+    /// table of the samples and fails on a drift.
+    #[arg(long, value_name = "DURATION", value_parser = humantime::parse_duration)]
+    pub soak: Option<Duration>,
+    /// How often a soak samples and prints the process's resources (e.g. `1m`, `30s`).
+    #[arg(long, value_name = "DURATION", value_parser = humantime::parse_duration, default_value = "1m")]
+    pub sample_every: Duration,
     /// Print the embedded default config and exit.
     #[arg(long)]
     pub print_config: bool,
@@ -72,11 +80,24 @@ pub async fn run(args: ChaosArgs) -> ExitCode {
         recovery_bound: Duration::from_secs_f64(args.recovery_bound),
         rss_growth_limit_kib: args.rss_growth_mib.saturating_mul(1024),
         moos: !args.no_moos,
+        soak: args.soak,
+        sample_every: args.sample_every,
     };
+    if args.sample_every < Duration::from_secs(1) {
+        eprintln!("--sample-every must be at least 1 s");
+        return ExitCode::from(2);
+    }
     eprintln!(
-        "frontseat chaos: seed {}, {} faults{}",
+        "frontseat chaos: seed {}, {}{}",
         opts.seed,
-        opts.faults,
+        match opts.soak {
+            Some(d) => format!(
+                "soak for {}, resources every {}",
+                humantime::format_duration(d),
+                humantime::format_duration(opts.sample_every)
+            ),
+            None => format!("{} faults", opts.faults),
+        },
         args.config
             .as_ref()
             .map(|p| format!(", config {}", p.display()))

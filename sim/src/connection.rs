@@ -7,12 +7,12 @@
 
 use std::net::SocketAddr;
 use std::sync::Arc;
-use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
 use std::time::Duration;
 
 use tokio::io::{AsyncReadExt, AsyncWriteExt};
 use tokio::net::TcpStream;
-use tokio::sync::mpsc;
+use tokio::sync::{mpsc, oneshot};
 use tokio::time::Instant;
 
 use crate::codec::{self, CtrlState, Inbound, LineError, Nav};
@@ -34,9 +34,44 @@ enum Flow {
     Close,
 }
 
+/// Whether a connection has sent its first valid START, and the server-wide count of those that
+/// have (what `max_vehicles` limits; the waiting ones are limited by `max_pending`).
+pub(crate) struct StartMark {
+    started: AtomicBool,
+    running: Arc<AtomicUsize>,
+}
+
+impl StartMark {
+    pub fn new(running: Arc<AtomicUsize>) -> Self {
+        Self {
+            started: AtomicBool::new(false),
+            running,
+        }
+    }
+
+    fn mark(&self) {
+        if !self.started.swap(true, Ordering::Relaxed) {
+            self.running.fetch_add(1, Ordering::Relaxed);
+        }
+    }
+
+    pub fn is_started(&self) -> bool {
+        self.started.load(Ordering::Relaxed)
+    }
+
+    /// The connection is gone: it no longer holds a vehicle slot.
+    pub fn release(&self) {
+        if self.started.swap(false, Ordering::Relaxed) {
+            self.running.fetch_sub(1, Ordering::Relaxed);
+        }
+    }
+}
+
 pub(crate) struct Connection {
     stream: TcpStream,
     faults: mpsc::Receiver<Fault>,
+    /// Fires when the server needs this connection's slot while it has sent no START yet.
+    evict: Option<oneshot::Receiver<()>>,
     session: Session,
 }
 
@@ -54,6 +89,9 @@ struct Session {
     scratch: String,
     problems: u32,
     fired: Vec<Fault>,
+    /// Set at the first valid START; from then on neither `start_timeout` nor eviction apply
+    /// (a run ended by IDLE or DURATION keeps its connection, as before).
+    started: Arc<StartMark>,
 }
 
 macro_rules! problem {
@@ -82,6 +120,7 @@ impl Connection {
         Self {
             stream,
             faults,
+            evict: None,
             session: Session {
                 id: id_cell.load(Ordering::Relaxed),
                 id_cell,
@@ -93,16 +132,35 @@ impl Connection {
                 scratch: String::new(),
                 problems: 0,
                 fired: Vec::new(),
+                started: Arc::new(StartMark::new(Arc::default())),
             },
         }
+    }
+
+    /// The server's view of whether this connection has started, and its eviction signal.
+    pub fn awaiting_start(mut self, started: Arc<StartMark>, evict: oneshot::Receiver<()>) -> Self {
+        self.session.started = started;
+        self.evict = Some(evict);
+        self
     }
 
     pub async fn run(self) {
         let Connection {
             stream,
             mut faults,
+            evict,
             session: mut s,
         } = self;
+        let start_timeout = s.shared.opts.start_timeout;
+        let start_deadline = tokio::time::sleep(if start_timeout.is_zero() {
+            Duration::from_secs(86_400 * 365)
+        } else {
+            start_timeout
+        });
+        tokio::pin!(start_deadline);
+        // A connection the server never queued cannot be evicted: a receiver that never fires.
+        let (_keep, never) = oneshot::channel::<()>();
+        let mut evict = evict.unwrap_or(never);
         if let Err(e) = stream.set_nodelay(true) {
             tracing::debug!(vehicle = s.id, error = %e, "cannot set TCP_NODELAY");
         }
@@ -128,6 +186,21 @@ impl Connection {
                     s.tick(Instant::now())
                 }
                 Some(fault) = faults.recv() => s.apply_fault(fault),
+                () = &mut start_deadline, if !s.started.is_started() => {
+                    let n = s.shared.counters.start_timeouts.fetch_add(1, Ordering::Relaxed) + 1;
+                    // Counted server-wide and logged rate-limited: a flood of silent clients
+                    // must not flood the log.
+                    if n == 1 || n.is_multiple_of(100) {
+                        tracing::warn!(vehicle = s.id, peer = %s.peer, timeout = ?start_timeout,
+                            start_timeouts = n, "no START within the start timeout; closing this connection");
+                    }
+                    Flow::Close
+                }
+                _ = &mut evict, if !s.started.is_started() => {
+                    tracing::debug!(vehicle = s.id, peer = %s.peer,
+                        "no START yet and a new client needs the slot; closing this connection");
+                    Flow::Close
+                }
                 read = rd.read(&mut buf) => match read {
                     Ok(0) => {
                         tracing::info!(vehicle = s.id, peer = %s.peer, "vehicle disconnected");
@@ -264,6 +337,7 @@ impl Session {
                     self.id_cell.store(d.id, Ordering::Relaxed);
                     let ctrl = d.run.ctrl;
                     self.run = Some(d.run);
+                    self.started.mark();
                     self.push_line(&codec::format_ctrl(ctrl));
                     // Where the vehicle is now, at once, as a fresh START's tick 0 gives it: the
                     // client need not wait up to a NAV period (a whole second at FREQ 1) to
@@ -274,6 +348,7 @@ impl Session {
                 } else {
                     tracing::info!(vehicle = self.id, peer = %self.peer, line = text, "START");
                     self.run = Some(Run::new(p, &self.shared.opts, now));
+                    self.started.mark();
                     self.push_line(&codec::format_ctrl(CtrlState::Payload));
                 }
             }

@@ -46,6 +46,14 @@ pub struct SimOptions {
     /// and repeats the same START gets the same vehicle back (position, heading, speed,
     /// setpoint). Zero: every START makes a new vehicle, as Goby3's simulator does.
     pub resume_grace: Duration,
+    /// A connection that has not sent a valid START within this long after it was accepted is
+    /// closed (counted in [`SimStats::start_timeouts`]): a silent client must not hold a
+    /// vehicle slot for ever. Zero: never (Goby3's simulator waits for ever).
+    pub start_timeout: Duration,
+    /// Most connections waiting for their first START at once. A new connection past it closes
+    /// the oldest waiting one (counted in [`SimStats::evicted`]), so however many silent
+    /// connections are held open, a client that connects and sends START gets in. At least 1.
+    pub max_pending: usize,
 }
 
 impl Default for SimOptions {
@@ -57,6 +65,8 @@ impl Default for SimOptions {
             scheduled_faults: Vec::new(),
             max_vehicles: 1024,
             resume_grace: Duration::from_secs(10),
+            start_timeout: Duration::from_secs(10),
+            max_pending: 64,
         }
     }
 }
@@ -134,6 +144,10 @@ pub struct SimStats {
     pub faults: u64,
     /// Vehicle tasks that panicked (each closed only its own connection).
     pub vehicle_panics: u64,
+    /// Connections closed because no START came within `start_timeout`.
+    pub start_timeouts: u64,
+    /// Connections without a START closed to make room for a new one (`max_pending`).
+    pub evicted: u64,
 }
 
 /// Everything that can go wrong in this crate.

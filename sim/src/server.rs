@@ -7,16 +7,17 @@
 //! reads; as a ractor actor every tick would be a mailbox message from a timer task
 //! (100 000 a second at the capacity target) and the socket would still need a reader task.
 
+use std::collections::VecDeque;
 use std::net::SocketAddr;
 use std::sync::Arc;
-use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
 use std::time::Duration;
 
 use tokio::net::TcpListener;
-use tokio::sync::{broadcast, mpsc, watch};
+use tokio::sync::{broadcast, mpsc, oneshot, watch};
 use tokio::task::JoinSet;
 
-use crate::connection::Connection;
+use crate::connection::{Connection, StartMark};
 use crate::shared::{Counters, Shared};
 use crate::{Fault, SimError, SimOptions, SimStats, Truth};
 
@@ -145,6 +146,8 @@ impl SimHandle {
             worst_lateness: Duration::from_nanos(g(&c.worst_lateness_ns)),
             faults: g(&c.faults),
             vehicle_panics: g(&c.vehicle_panics),
+            start_timeouts: g(&c.start_timeouts),
+            evicted: g(&c.evicted),
         }
     }
 
@@ -171,9 +174,23 @@ impl SimHandle {
     }
 }
 
+/// A connection that has not sent its first START yet, oldest first in the accept loop's queue.
+struct Pending {
+    id: u64,
+    started: Arc<StartMark>,
+    evict: oneshot::Sender<()>,
+}
+
 async fn accept_loop(listener: TcpListener, shared: Arc<Shared>, mut stop: watch::Receiver<bool>) {
     let mut tasks = JoinSet::new();
     let mut next_id: u64 = 1;
+    // Why a queue and not just a timeout: a timeout frees slots only after it, and 10 000 silent
+    // connections opened within it would still keep a new vehicle out (and exhaust descriptors,
+    // so accept itself fails). Bounding the not-yet-started connections and closing the oldest
+    // keeps the descriptors bounded and always lets the newest client in.
+    let mut pending: VecDeque<Pending> = VecDeque::new();
+    let max_pending = shared.opts.max_pending.max(1);
+    let running = Arc::new(AtomicUsize::new(0));
     let stop_for_tasks = stop.clone();
     loop {
         tokio::select! {
@@ -193,23 +210,41 @@ async fn accept_loop(listener: TcpListener, shared: Arc<Shared>, mut stop: watch
                     Counters::add(&shared.counters.connections, 1);
                     let id = next_id;
                     next_id += 1;
-                    if shared.vehicles().len() >= shared.opts.max_vehicles {
+                    pending.retain(|p| !p.started.is_started() && !p.evict.is_closed());
+                    // Only vehicles that started count against max_vehicles: the waiting ones
+                    // are bounded by max_pending.
+                    if running.load(Ordering::Relaxed) >= shared.opts.max_vehicles {
                         Counters::add(&shared.counters.refused, 1);
                         tracing::warn!(vehicle = id, %peer, max = shared.opts.max_vehicles,
                             "refusing connection: too many vehicles");
                         tasks.spawn(crate::connection::refuse(stream, shared.opts.max_vehicles));
                         continue;
                     }
+                    while pending.len() >= max_pending {
+                        let Some(old) = pending.pop_front() else { break };
+                        if old.evict.send(()).is_ok() {
+                            let n = shared.counters.evicted.fetch_add(1, Ordering::Relaxed) + 1;
+                            // Rate-limited: a flood of silent connections must not flood the log.
+                            if n == 1 || n.is_multiple_of(1000) {
+                                tracing::warn!(vehicle = old.id, evicted = n, max_pending,
+                                    "closing the oldest connection that sent no START: a new client needs the slot");
+                            }
+                        }
+                    }
                     let (tx, rx) = mpsc::channel(FAULT_MAILBOX);
                     shared.vehicles().insert(id, tx);
                     let current_id = Arc::new(AtomicU64::new(id));
-                    let conn = Connection::new(current_id.clone(), peer, stream, shared.clone(), rx);
+                    let started = Arc::new(StartMark::new(running.clone()));
+                    let (evict_tx, evict_rx) = oneshot::channel();
+                    pending.push_back(Pending { id, started: started.clone(), evict: evict_tx });
+                    let conn = Connection::new(current_id.clone(), peer, stream, shared.clone(), rx)
+                        .awaiting_start(started.clone(), evict_rx);
                     let shared2 = shared.clone();
                     let mut stop2 = stop_for_tasks.clone();
                     tasks.spawn(async move {
                         // Deregisters however the task ends, panic included (under the id the
                         // connection has then: a resumed vehicle takes its old id back).
-                        let _registered = Registered(shared2, current_id);
+                        let _registered = Registered(shared2, current_id, started);
                         tokio::select! {
                             _ = conn.run() => {}
                             () = async { let _ = stop2.wait_for(|s| *s).await; } => {}
@@ -232,10 +267,11 @@ async fn accept_loop(listener: TcpListener, shared: Arc<Shared>, mut stop: watch
     shared.vehicles().clear();
 }
 
-struct Registered(Arc<Shared>, Arc<AtomicU64>);
+struct Registered(Arc<Shared>, Arc<AtomicU64>, Arc<StartMark>);
 
 impl Drop for Registered {
     fn drop(&mut self) {
+        self.2.release();
         self.0.vehicles().remove(&self.1.load(Ordering::Relaxed));
     }
 }

@@ -28,6 +28,8 @@ pub(crate) struct Counters {
     pub worst_lateness_ns: AtomicU64,
     pub faults: AtomicU64,
     pub vehicle_panics: AtomicU64,
+    pub start_timeouts: AtomicU64,
+    pub evicted: AtomicU64,
 }
 
 impl Counters {

@@ -334,16 +334,14 @@ async fn connections_over_max_vehicles_are_told_and_closed() {
         ..SimOptions::default()
     })
     .await;
-    let _a = Client::connect(&h).await;
-    let _b = Client::connect(&h).await;
-    new_vehicle(&h, &[]).await;
-    tokio::time::timeout(WAIT, async {
-        while h.vehicles().len() < 2 {
-            tokio::task::yield_now().await;
-        }
-    })
-    .await
-    .unwrap();
+    // Vehicles are connections that sent START; silent ones are bounded by max_pending instead
+    // (tests/hostile_idle.rs).
+    let mut a = Client::connect(&h).await;
+    a.send(&format!("START,{POS}")).await;
+    a.expect("CTRL,STATE:PAYLOAD").await;
+    let mut b = Client::connect(&h).await;
+    b.send(&format!("START,{POS}")).await;
+    b.expect("CTRL,STATE:PAYLOAD").await;
     let mut c = Client::connect(&h).await;
     let l = c.must_line().await;
     assert!(l.starts_with("ERROR,REASON:too many vehicles"), "{l}");

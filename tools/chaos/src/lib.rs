@@ -14,7 +14,7 @@
 //! the interface's `FsiMsg::Chaos` and the translation's fault hook.
 #![forbid(unsafe_code)]
 
-use std::collections::{BTreeMap, HashMap};
+use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::net::SocketAddr;
 use std::sync::atomic::{AtomicBool, AtomicI32, AtomicU64, Ordering};
@@ -82,6 +82,10 @@ pub struct ChaosOptions {
     pub rss_growth_limit_kib: u64,
     /// Run the MOOS bridge against a broker of ours and restart that broker as a fault.
     pub moos: bool,
+    /// A soak: inject faults for this long (wall) instead of `faults` of them.
+    pub soak: Option<Duration>,
+    /// How often the resources (RSS, open fds, threads, tasks) are sampled and reported.
+    pub sample_every: Duration,
 }
 
 impl Default for ChaosOptions {
@@ -93,6 +97,8 @@ impl Default for ChaosOptions {
             recovery_bound: Duration::from_secs(5),
             rss_growth_limit_kib: 64 * 1024,
             moos: true,
+            soak: None,
+            sample_every: Duration::from_secs(60),
         }
     }
 }
@@ -113,6 +119,8 @@ pub enum ChaosHarnessError {
     Moos(#[from] frontseat_moos::MoosError),
     #[error("MOOS bridge: {0}")]
     Translation(String),
+    #[error("web commander: {0}")]
+    Web(String),
     #[error("the interface did not reach COMMAND within {0:?} at start")]
     NoStart(Duration),
 }
@@ -135,10 +143,13 @@ pub enum FaultKind {
     MoosRestart,
     TranslationPanic,
     VehiclePanic,
+    MoosCrashLoop,
+    WebFlood,
+    ProcessRestart,
 }
 
 impl FaultKind {
-    pub const ALL: [FaultKind; 15] = [
+    pub const ALL: [FaultKind; 18] = [
         FaultKind::DriverPanic,
         FaultKind::DriverKill,
         FaultKind::DropConnection,
@@ -154,7 +165,39 @@ impl FaultKind {
         FaultKind::MoosRestart,
         FaultKind::TranslationPanic,
         FaultKind::VehiclePanic,
+        FaultKind::MoosCrashLoop,
+        FaultKind::WebFlood,
+        FaultKind::ProcessRestart,
     ];
+
+    /// Faults that need the MOOS bridge (left out with `--no-moos`).
+    pub fn needs_moos(self) -> bool {
+        matches!(
+            self,
+            FaultKind::MoosRestart | FaultKind::TranslationPanic | FaultKind::MoosCrashLoop
+        )
+    }
+
+    /// Faults on the helm side only: the driver's connection to the frontseat must survive them.
+    pub fn helm_side(self) -> bool {
+        matches!(
+            self,
+            FaultKind::MoosRestart
+                | FaultKind::TranslationPanic
+                | FaultKind::MoosCrashLoop
+                | FaultKind::WebFlood
+                | FaultKind::StalledSubscriber
+                | FaultKind::HelmPark
+        )
+    }
+
+    /// Faults never overlapped with the next one.
+    fn alone(self) -> bool {
+        matches!(
+            self,
+            FaultKind::MoosCrashLoop | FaultKind::WebFlood | FaultKind::ProcessRestart
+        )
+    }
 
     pub fn name(self) -> &'static str {
         match self {
@@ -173,6 +216,9 @@ impl FaultKind {
             FaultKind::MoosRestart => "MOOS broker restarted",
             FaultKind::TranslationPanic => "FrontSeatTranslation panic",
             FaultKind::VehiclePanic => "simulated vehicle panic",
+            FaultKind::MoosCrashLoop => "MOOSDB crash-looping (60 s sim)",
+            FaultKind::WebFlood => "web client flooding the commander (60 s sim)",
+            FaultKind::ProcessRestart => "process ended, restarted by the service manager",
         }
     }
 
@@ -186,6 +232,7 @@ impl FaultKind {
             FaultKind::StalledSubscriber | FaultKind::MoosRestart => 2,
             FaultKind::TranslationPanic | FaultKind::VehiclePanic => 2,
             FaultKind::CtrlPayload => 1,
+            FaultKind::MoosCrashLoop | FaultKind::WebFlood | FaultKind::ProcessRestart => 1,
         }
     }
 }
@@ -234,41 +281,67 @@ pub struct PlannedFault {
 
 /// The schedule a seed gives: the same seed, options and warp give the same faults.
 pub fn plan(seed: u64, faults: u32, moos: bool, nav_timeout_s: f64) -> Vec<PlannedFault> {
-    let mut rng = Rng::new(seed);
-    let kinds: Vec<FaultKind> = FaultKind::ALL
-        .into_iter()
-        .filter(|k| moos || !matches!(k, FaultKind::MoosRestart | FaultKind::TranslationPanic))
-        .collect();
-    let total: u64 = kinds.iter().map(|k| k.weight()).sum();
-    let ms = |rng: &mut Rng, lo: f64, hi: f64| Duration::from_secs_f64(rng.range(lo, hi) / 1000.0);
-    (0..faults)
-        .map(|_| {
-            let mut pick = rng.below(total);
-            let mut kind = kinds[0];
-            for k in &kinds {
-                if pick < k.weight() {
-                    kind = *k;
-                    break;
-                }
-                pick -= k.weight();
+    let mut p = Planner::new(seed, moos, nav_timeout_s);
+    (0..faults).map(|_| p.next_fault()).collect()
+}
+
+/// An endless seeded schedule: `plan` takes its first N faults, a soak takes as many as its
+/// duration allows.
+pub struct Planner {
+    rng: Rng,
+    kinds: Vec<FaultKind>,
+    total: u64,
+    nav_timeout_s: f64,
+}
+
+impl Planner {
+    pub fn new(seed: u64, moos: bool, nav_timeout_s: f64) -> Self {
+        let kinds: Vec<FaultKind> = FaultKind::ALL
+            .into_iter()
+            .filter(|k| moos || !k.needs_moos())
+            .collect();
+        let total = kinds.iter().map(|k| k.weight()).sum();
+        Self {
+            rng: Rng::new(seed),
+            kinds,
+            total,
+            nav_timeout_s,
+        }
+    }
+
+    pub fn next_fault(&mut self) -> PlannedFault {
+        let rng = &mut self.rng;
+        let ms =
+            |rng: &mut Rng, lo: f64, hi: f64| Duration::from_secs_f64(rng.range(lo, hi) / 1000.0);
+        let mut pick = rng.below(self.total);
+        let mut kind = self.kinds[0];
+        for k in &self.kinds {
+            if pick < k.weight() {
+                kind = *k;
+                break;
             }
-            let (hold, amount) = match kind {
-                // Sometimes shorter than nav_timeout (no error expected), sometimes longer.
-                FaultKind::StopNav => (Duration::ZERO, rng.range(0.5, 2.5 * nav_timeout_s)),
-                FaultKind::Garbage => (ms(&mut rng, 5.0, 50.0), (1 + rng.below(200)) as f64),
-                FaultKind::StalledSubscriber => (ms(&mut rng, 100.0, 400.0), 0.0),
-                FaultKind::SimRestart | FaultKind::MoosRestart => (ms(&mut rng, 10.0, 300.0), 0.0),
-                _ => (ms(&mut rng, 10.0, 200.0), 0.0),
-            };
-            PlannedFault {
-                kind,
-                hold,
-                amount,
-                burst: rng.chance(0.2),
-                gap: ms(&mut rng, 0.0, 50.0),
-            }
-        })
-        .collect()
+            pick -= k.weight();
+        }
+        let (hold, amount) = match kind {
+            // Sometimes shorter than nav_timeout (no error expected), sometimes longer.
+            FaultKind::StopNav => (Duration::ZERO, rng.range(0.5, 2.5 * self.nav_timeout_s)),
+            FaultKind::Garbage => (ms(rng, 5.0, 50.0), (1 + rng.below(200)) as f64),
+            FaultKind::StalledSubscriber => (ms(rng, 100.0, 400.0), 0.0),
+            FaultKind::SimRestart | FaultKind::MoosRestart => (ms(rng, 10.0, 300.0), 0.0),
+            // The long helm-side faults: `amount` is their length in simulated seconds.
+            FaultKind::MoosCrashLoop | FaultKind::WebFlood => (ms(rng, 10.0, 100.0), 60.0),
+            _ => (ms(rng, 10.0, 200.0), 0.0),
+        };
+        PlannedFault {
+            kind,
+            hold,
+            amount,
+            // The long helm-side faults and process restarts are never overlapped: what they
+            // prove (the vehicle link untouched, the time back after a restart) needs them alone.
+            burst: !kind.alone() && rng.chance(0.2),
+            gap: ms(rng, 0.0, 50.0),
+        }
+    }
 }
 
 /// One row of the invariants table.
@@ -301,6 +374,59 @@ pub struct ChaosReport {
     /// Every violation, with the fault number and kind where it happened.
     pub violations: Vec<String>,
     pub notes: Vec<String>,
+    /// Resource samples, one per `sample_every` (and one at the start and the end).
+    pub samples: Vec<Sample>,
+}
+
+/// The process's resources at one moment of the run.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Sample {
+    pub at: Duration,
+    pub faults: u32,
+    pub rss_kib: Option<u64>,
+    pub fds: Option<u64>,
+    pub threads: Option<u64>,
+    pub tasks: usize,
+}
+
+impl Sample {
+    pub fn take(at: Duration, faults: u32) -> Self {
+        Self {
+            at,
+            faults,
+            rss_kib: rss_kib(),
+            fds: open_fds(),
+            threads: threads(),
+            tasks: tokio::runtime::Handle::try_current()
+                .map_or(0, |h| h.metrics().num_alive_tasks()),
+        }
+    }
+
+    pub fn line(&self) -> String {
+        let o = |v: Option<u64>| v.map_or("?".to_string(), |v| v.to_string());
+        format!(
+            "t {:>6.0} s, {:>6} faults: RSS {} MiB, fds {}, threads {}, tasks {}",
+            self.at.as_secs_f64(),
+            self.faults,
+            self.rss_kib
+                .map_or("?".into(), |k| format!("{:.1}", k as f64 / 1024.0)),
+            o(self.fds),
+            o(self.threads),
+            self.tasks
+        )
+    }
+}
+
+/// Open file descriptors of this process (Linux); None elsewhere.
+pub fn open_fds() -> Option<u64> {
+    Some(std::fs::read_dir("/proc/self/fd").ok()?.count() as u64)
+}
+
+/// Threads of this process (Linux); None elsewhere.
+pub fn threads() -> Option<u64> {
+    let text = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = text.lines().find(|l| l.starts_with("Threads:"))?;
+    line.split_whitespace().nth(1)?.parse().ok()
 }
 
 impl ChaosReport {
@@ -359,6 +485,27 @@ impl ChaosReport {
                 i.measured,
                 if i.ok { "PASS" } else { "FAIL" }
             );
+        }
+        if !self.samples.is_empty() {
+            let _ = writeln!(
+                s,
+                "\n| t (wall) | faults | RSS MiB | open fds | threads | tasks |"
+            );
+            let _ = writeln!(s, "|---:|---:|---:|---:|---:|---:|");
+            let o = |v: Option<u64>| v.map_or("?".to_string(), |v| v.to_string());
+            for x in &self.samples {
+                let _ = writeln!(
+                    s,
+                    "| {:.0} s | {} | {} | {} | {} | {} |",
+                    x.at.as_secs_f64(),
+                    x.faults,
+                    x.rss_kib
+                        .map_or("?".into(), |k| format!("{:.1}", k as f64 / 1024.0)),
+                    o(x.fds),
+                    o(x.threads),
+                    x.tasks
+                );
+            }
         }
         for n in &self.notes {
             let _ = writeln!(s, "\nnote: {n}");
@@ -480,13 +627,27 @@ const FIVE: [InterfaceState; 5] = [
     InterfaceState::InterfaceFsError,
 ];
 
+/// What one request got: answers seen, the code of the first (0: success) and whether that
+/// first one was the interface's own (timeout, driver failed), after which the driver's late
+/// answer is still right. Four bytes per request, so a soak's bookkeeping stays small.
+#[derive(Clone, Copy, Default)]
+struct Answer {
+    count: u8,
+    first: i16,
+    interface_first: bool,
+}
+
+/// Our helm's request ids run 1, 2, 3…: an id this far past the highest seen is not ours.
+const FAR_ID: usize = 1 << 16;
+
 #[derive(Default)]
 struct Responses {
-    /// request_id → number of CommandResponses seen.
-    count: HashMap<i32, u32>,
-    /// Requests whose first answer was the interface's own timeout: the driver's answer may
-    /// still come, and is forwarded as Goby3 forwards every driver answer.
-    timed_out_first: std::collections::HashSet<i32>,
+    /// Indexed by request_id − 1.
+    answers: Vec<Answer>,
+    /// (request_id, first code, further code) of the first few requests answered again.
+    dup_examples: Vec<(i32, i32, i32)>,
+    /// Answers with an id that cannot be one of ours (< 1, or far past every id seen).
+    unknown_ids: u64,
     without_id: u64,
     ok: u64,
     not_in_command: u64,
@@ -494,6 +655,54 @@ struct Responses {
     driver_failed: u64,
     shutting_down: u64,
     frontseat_refused: u64,
+}
+
+impl Responses {
+    fn get(&self, id: i32) -> Answer {
+        usize::try_from(id)
+            .ok()
+            .and_then(|i| i.checked_sub(1))
+            .and_then(|i| self.answers.get(i).copied())
+            .unwrap_or_default()
+    }
+
+    fn answered(&self, id: i32) -> bool {
+        self.get(id).count > 0
+    }
+
+    fn record(&mut self, id: i32, code: i32) {
+        let Some(i) = usize::try_from(id).ok().and_then(|i| i.checked_sub(1)) else {
+            self.unknown_ids += 1;
+            return;
+        };
+        if i >= self.answers.len() {
+            if i >= self.answers.len() + FAR_ID {
+                self.unknown_ids += 1;
+                return;
+            }
+            self.answers.resize(i + 1, Answer::default());
+        }
+        let a = &mut self.answers[i];
+        a.count = a.count.saturating_add(1);
+        if a.count == 1 {
+            a.first = i16::try_from(code).unwrap_or(i16::MAX);
+            a.interface_first = code == error_code::TIMEOUT || code == error_code::DRIVER_FAILED;
+        } else if self.dup_examples.len() < 10 {
+            let first = i32::from(a.first);
+            self.dup_examples.push((id, first, code));
+        }
+    }
+}
+
+/// State changes kept for measuring outages: the windows measured are seconds long, so the
+/// older half is dropped past this many (a soak's bookkeeping stays bounded).
+const MAX_CHANGES: usize = 8192;
+
+fn push_change(v: &mut Vec<(Instant, InterfaceState)>, c: (Instant, InterfaceState)) {
+    if v.len() >= MAX_CHANGES {
+        v.drain(..MAX_CHANGES / 2);
+    }
+    v.push(c);
 }
 
 /// Counters fed by bus subscriptions whose delivery functions run on the publisher's thread:
@@ -543,7 +752,7 @@ impl Monitor {
                             c
                         });
                         if changed && let Ok(mut v) = m.changes.lock() {
-                            v.push((Instant::now(), s));
+                            push_change(&mut v, (Instant::now(), s));
                         }
                     }
                     _ => {
@@ -576,13 +785,7 @@ impl Monitor {
             move |env| {
                 let mut r = m.responses.lock().unwrap_or_else(|p| p.into_inner());
                 match env.msg.request_id {
-                    Some(id) => {
-                        let c = r.count.entry(id).or_default();
-                        *c += 1;
-                        if *c == 1 && env.msg.error_code == Some(error_code::TIMEOUT) {
-                            r.timed_out_first.insert(id);
-                        }
-                    }
+                    Some(id) => r.record(id, env.msg.error_code.unwrap_or(0)),
                     None => r.without_id += 1,
                 }
                 if env.msg.request_successful() {
@@ -604,6 +807,19 @@ impl Monitor {
 
     fn state(&self) -> InterfaceState {
         *self.state.borrow()
+    }
+
+    /// The process ended: no state until the new one publishes (it starts in STANDBY).
+    fn process_gone(&self) {
+        let s = InterfaceState::InterfaceStandby;
+        if self.state.send_if_modified(|cur| {
+            let c = *cur != s;
+            *cur = s;
+            c
+        }) && let Ok(mut v) = self.changes.lock()
+        {
+            push_change(&mut v, (Instant::now(), s));
+        }
     }
 
     /// Time spent outside COMMAND between `from` and `to`.
@@ -787,6 +1003,67 @@ impl Sim {
     }
 }
 
+/// Concurrent clients of the web flood.
+const WEB_FLOODERS: u64 = 8;
+/// The token the harness's web commander requires.
+const WEB_TOKEN: &str = "chaos-web-token-0123456789";
+/// systemd's RestartSec in the service-manager model.
+const SERVICE_RESTART_SEC: Duration = Duration::from_millis(100);
+
+/// The `n`th request of the flood: mostly hostile setpoints with the right token, and sends a
+/// browser of another site, a client without the token, or a broken client would make.
+fn web_flood_request(addr: SocketAddr, n: u64) -> String {
+    let course = |h: &str, s: &str| {
+        format!(
+            r#"{{"group":"goby::middleware::frontseat::desired_course","message":{{"heading":{h},"speed":{s},"depth":0}}}}"#
+        )
+    };
+    let (auth, origin, body) = match n % 6 {
+        0 => (true, None, course("1e308", "1.5")),
+        1 => (true, None, course("90", "1e308")),
+        2 => (true, None, course("-5.1e307", "-1e20")),
+        3 => (false, None, course("90", "1.5")),
+        4 => (true, Some("http://evil.example"), course("90", "1.5")),
+        _ => (true, None, "{\"group\": [1, 2, {".to_string()),
+    };
+    let mut req = format!(
+        "POST /api/send HTTP/1.1\r\nHost: {addr}\r\nContent-Type: application/json\r\nConnection: close\r\nContent-Length: {}\r\n",
+        body.len()
+    );
+    if auth {
+        req.push_str(&format!("Authorization: Bearer {WEB_TOKEN}\r\n"));
+    }
+    if let Some(o) = origin {
+        req.push_str(&format!("Origin: {o}\r\n"));
+    }
+    req.push_str("\r\n");
+    req.push_str(&body);
+    req
+}
+
+/// One request on its own connection; true when an HTTP answer came within a second.
+async fn web_exchange(addr: SocketAddr, req: &str) -> bool {
+    use tokio::io::{AsyncReadExt, AsyncWriteExt};
+    let go = async {
+        let mut s = tokio::net::TcpStream::connect(addr).await.ok()?;
+        s.write_all(req.as_bytes()).await.ok()?;
+        let mut buf = Vec::new();
+        let mut chunk = [0u8; 1024];
+        // Bounded: an answer is a status line and a short JSON error.
+        while buf.len() < 64 * 1024 {
+            match s.read(&mut chunk).await {
+                Ok(0) | Err(_) => break,
+                Ok(n) => buf.extend_from_slice(&chunk[..n]),
+            }
+        }
+        Some(buf.starts_with(b"HTTP/1.1 "))
+    };
+    matches!(
+        tokio::time::timeout(Duration::from_secs(1), go).await,
+        Ok(Some(true))
+    )
+}
+
 /// Binds again on the same port; a few tries, since the old listener's socket may linger.
 async fn rebind<T, E, F, Fut>(mut bind: F) -> Result<T, E>
 where
@@ -850,9 +1127,26 @@ impl Moos {
 
 struct Run {
     opts: ChaosOptions,
+    config: InterfaceConfig,
     bus: Bus,
     monkey: ChaosMonkeyPorts,
     service: InterfaceService,
+    /// The fault gate of the current service instance (a process restart starts a new one).
+    agent: Option<ChaosAgent>,
+    /// Driver crashes injected before the current service instance started: its restart count
+    /// starts from zero.
+    crash_base: u64,
+    /// Request ids a process restart may leave unanswered: in flight when the process ended,
+    /// or sent while no process ran (a helm sees the same from a real restart).
+    lost_to_restart: std::collections::HashSet<i32>,
+    process_restarts: Vec<Duration>,
+    web: Option<frontseat_web::WebService>,
+    web_flood_requests: u64,
+    web_floods_left_command: u32,
+    notes: Vec<String>,
+    /// Helm-side faults after which the driver's connection to the frontseat was found closed
+    /// or the driver restarted.
+    vehicle_link_checked: u32,
     sim: Sim,
     moos: Option<Moos>,
     helm: Helm,
@@ -888,6 +1182,35 @@ impl Run {
         self.sim_fault(sim_fault::Fault::Ctrl(c as i32));
     }
 
+    /// The driver's restart count; a snapshot not answered at once (a starved machine) is asked
+    /// again within the recovery bound before it counts as unknown.
+    async fn driver_restarts(&self) -> Option<u32> {
+        let deadline = Instant::now() + self.opts.recovery_bound;
+        loop {
+            if let Some(s) = self.snapshot().await {
+                return Some(s.driver_restarts);
+            }
+            if Instant::now() >= deadline {
+                return None;
+            }
+        }
+    }
+
+    fn connections(&self) -> u64 {
+        self.sim.handle.stats().connections
+    }
+
+    /// A fault that closes the frontseat connection takes effect a little later (the driver
+    /// reads the oversized line, the simulator task ends): wait (bounded) until the driver has
+    /// connected again, so the effect cannot land inside the next fault's window and be blamed
+    /// on it. Not reconnecting is caught by the recovery check that follows.
+    async fn until_reconnected(&self, before: u64) {
+        let deadline = Instant::now() + self.opts.recovery_bound;
+        while self.connections() <= before && Instant::now() < deadline {
+            tokio::time::sleep(Duration::from_millis(2)).await;
+        }
+    }
+
     /// Waits until the driver actor is up with `restarts` restarts behind it.
     async fn driver_up(&self, restarts: u32) -> bool {
         let deadline = Instant::now() + self.opts.recovery_bound;
@@ -902,7 +1225,7 @@ impl Run {
     }
 
     async fn driver_crash(&mut self, i: u32, kind: FaultKind) {
-        let expected = (self.injected_panics + self.injected_kills) as u32;
+        let expected = (self.injected_panics + self.injected_kills - self.crash_base) as u32;
         if !self.driver_up(expected).await {
             self.violations.push(format!(
                 "fault #{i} ({}): driver not up with {expected} restarts within {:?} before injecting",
@@ -946,8 +1269,10 @@ impl Run {
             }
             FaultKind::DropConnection => {
                 let t = Instant::now();
+                let before = self.connections();
                 self.sim_fault(sim_fault::Fault::DropConnection(true));
                 self.monitor.until_left_command(f.hold).await;
+                self.until_reconnected(before).await;
                 one_shot(t)
             }
             FaultKind::Garbage => {
@@ -958,8 +1283,10 @@ impl Run {
             }
             FaultKind::Oversized => {
                 let t = Instant::now();
+                let before = self.connections();
                 self.sim_fault(sim_fault::Fault::OversizedLine(true));
                 self.monitor.until_left_command(f.hold).await;
+                self.until_reconnected(before).await;
                 one_shot(t)
             }
             FaultKind::CtrlPayload => {
@@ -973,7 +1300,9 @@ impl Run {
                     self.violations
                         .push(format!("fault #{i}: simulator could not be restarted: {e}"));
                 }
-                Instant::now()
+                let t = Instant::now();
+                self.until_reconnected(0).await;
+                t
             }
             FaultKind::StopNav => {
                 self.sim_fault(sim_fault::Fault::StopNavSeconds(f.amount));
@@ -992,8 +1321,11 @@ impl Run {
                 // the driver sends on reconnect.
                 self.ctrl(sim_fault::Ctrl::Idle);
                 tokio::time::sleep(f.hold).await;
+                let before = self.connections();
                 self.sim_fault(sim_fault::Fault::DropConnection(true));
-                Instant::now()
+                let t = Instant::now();
+                self.until_reconnected(before).await;
+                t
             }
             FaultKind::HelmPark => {
                 self.helm.state.send_replace(HelmState::HelmPark);
@@ -1015,12 +1347,206 @@ impl Run {
                 one_shot(t)
             }
             FaultKind::VehiclePanic => {
+                let before = self.connections();
                 self.vehicle_panic(i).await;
                 let t = Instant::now();
                 self.monitor.until_left_command(f.hold).await;
+                self.until_reconnected(before).await;
                 one_shot(t)
             }
+            FaultKind::MoosCrashLoop => {
+                self.moos_crash_loop(i, f).await;
+                Instant::now()
+            }
+            FaultKind::WebFlood => {
+                self.web_flood(i, f).await;
+                Instant::now()
+            }
+            FaultKind::ProcessRestart => self.process_restart(i).await,
         }
+    }
+
+    /// A long helm-side fault lasts `amount` simulated seconds: at the run's warp that is
+    /// `amount / warp` wall seconds, so a 60 s fault costs 0.6 s of CI at warp 100 (at least
+    /// 0.5 s, so that even at a high warp it spans several reconnect attempts).
+    fn warped(&self, sim_s: f64) -> Duration {
+        Duration::from_secs_f64((sim_s / self.warp).max(0.5))
+    }
+
+    /// The MOOSDB crash-loops: up for a moment, killed, down a moment, again, for the whole
+    /// fault; then it stays up and the bridge must reconnect within the bound. The interface
+    /// must not leave COMMAND (its helm is on the bus) and its frontseat link must not move.
+    /// Clients flood the web commander for the whole fault: hostile setpoints with the token
+    /// (NaN, 1e308, headings past any turn), sends without the token or with garbage bodies,
+    /// each on a new connection. Nothing of it may reach the vehicle (the simulator refuses
+    /// nothing new: its CMD error count stays), and the frontseat link must not move.
+    async fn web_flood(&mut self, i: u32, f: &PlannedFault) {
+        let Some(addr) = self.web.as_ref().map(|w| w.local_addr()) else {
+            return;
+        };
+        let t0 = Instant::now();
+        let until = t0 + self.warped(f.amount);
+        let cmd_errors = self.sim.handle.stats().cmd_errors;
+        let sent = Arc::new(AtomicU64::new(0));
+        let answered = Arc::new(AtomicU64::new(0));
+        let mut tasks = tokio::task::JoinSet::new();
+        for k in 0..WEB_FLOODERS {
+            let (sent, answered) = (sent.clone(), answered.clone());
+            tasks.spawn(async move {
+                let mut n = k;
+                while Instant::now() < until {
+                    let req = web_flood_request(addr, n);
+                    n += WEB_FLOODERS;
+                    sent.fetch_add(1, Ordering::Relaxed);
+                    if web_exchange(addr, &req).await {
+                        answered.fetch_add(1, Ordering::Relaxed);
+                    }
+                }
+            });
+        }
+        while tasks.join_next().await.is_some() {}
+        self.web_flood_requests += sent.load(Ordering::Relaxed);
+        let states: Vec<InterfaceState> = {
+            let v = self
+                .monitor
+                .changes
+                .lock()
+                .unwrap_or_else(|p| p.into_inner());
+            v.iter()
+                .filter(|(t, _)| *t >= t0)
+                .map(|(_, s)| *s)
+                .collect()
+        };
+        if !states.is_empty() {
+            self.web_floods_left_command += 1;
+            if self.web_floods_left_command <= 5 {
+                self.notes.push(format!(
+                    "fault #{i} (web flood): the interface went through {states:?} (the link stayed; at a high warp NAV gaps of a loaded machine pass nav_timeout)"
+                ));
+            }
+        }
+        let after = self.sim.handle.stats().cmd_errors;
+        if after != cmd_errors {
+            self.violations.push(format!(
+                "fault #{i} (web flood): {} CMDs the simulator refused reached it during the flood",
+                after - cmd_errors
+            ));
+        }
+        if answered.load(Ordering::Relaxed) == 0 {
+            self.violations.push(format!(
+                "fault #{i} (web flood): the web server answered none of {} requests",
+                sent.load(Ordering::Relaxed)
+            ));
+        }
+    }
+
+    async fn moos_crash_loop(&mut self, i: u32, f: &PlannedFault) {
+        let bound = self.opts.recovery_bound;
+        let until = Instant::now() + self.warped(f.amount);
+        let Some(m) = self.moos.as_mut() else { return };
+        let addr = m.addr;
+        let mut cycles = 0u32;
+        while Instant::now() < until {
+            if let Some(b) = m.broker.take() {
+                b.shutdown().await;
+            }
+            tokio::time::sleep(f.hold).await;
+            match rebind(|| Broker::bind(addr)).await {
+                Ok(b) => m.broker = Some(b),
+                Err(e) => {
+                    self.violations.push(format!(
+                        "fault #{i}: MOOS broker could not be restarted in its crash loop: {e}"
+                    ));
+                    return;
+                }
+            }
+            // Up just long enough for a client to get half-way in, or not at all.
+            tokio::time::sleep(f.hold / 2).await;
+            cycles += 1;
+        }
+        let t0 = Instant::now();
+        loop {
+            let registered = m
+                .broker
+                .as_ref()
+                .is_some_and(|b| b.client_names().contains(&m.app_name));
+            if registered && m.connected() {
+                self.moos_reconnects.push(t0.elapsed());
+                break;
+            }
+            if t0.elapsed() >= bound {
+                self.violations.push(format!(
+                    "fault #{i} (MOOS crash loop, {cycles} crashes): bridge not reconnected within {bound:?} after it ended"
+                ));
+                break;
+            }
+            tokio::time::sleep(Duration::from_millis(5)).await;
+        }
+    }
+
+    /// The process ends and the service manager starts it again. What ends the process is the
+    /// vehicle side failing past its limit; here the FrontSeatInterface panics, and with no root
+    /// supervisor in the harness the service ends at once, as `frontseat interface` does when
+    /// [supervision.interface] gives up. The harness then does what systemd's
+    /// `Restart=on-failure` with `RestartSec` does: waits, starts a new instance. Returns when the
+    /// old process ended; the run then measures the time back in COMMAND.
+    async fn process_restart(&mut self, i: u32) -> Instant {
+        let bound = self.opts.recovery_bound;
+        // What a real restart loses: every request not answered yet.
+        let sent_before = self.helm.last_id.load(Ordering::SeqCst);
+        {
+            let r = self
+                .monitor
+                .responses
+                .lock()
+                .unwrap_or_else(|p| p.into_inner());
+            // Only the last timeout's worth can be in flight; older ones are already missing.
+            let from = sent_before.saturating_sub(4096).max(1);
+            for id in from..=sent_before {
+                if !r.answered(id) {
+                    self.lost_to_restart.insert(id);
+                }
+            }
+        }
+        self.monkey.publish_fault(ChaosFault {
+            fault: Some(chaos_fault::Fault::InterfacePanic(true)),
+        });
+        let exit = tokio::time::timeout(bound, self.service.wait()).await;
+        let ended = Instant::now();
+        if exit.is_err() {
+            self.violations.push(format!(
+                "fault #{i} (process restart): the service did not end within {bound:?} of its vehicle side failing"
+            ));
+        }
+        if let Some(a) = self.agent.take() {
+            a.stop();
+        }
+        // The old driver (and with it the frontseat connection) goes with the process.
+        self.service
+            .actor()
+            .stop_children_and_wait(Some("process ended".into()), Some(bound))
+            .await;
+        self.monitor.process_gone();
+        tokio::time::sleep(SERVICE_RESTART_SEC).await;
+        match InterfaceService::start(&self.config, &self.bus).await {
+            Ok(new) => {
+                let old = std::mem::replace(&mut self.service, new);
+                let _ = old.shutdown(Duration::from_millis(100)).await;
+                match ChaosAgent::start(&self.config, &self.bus, self.service.actor().clone()) {
+                    Ok(a) => self.agent = Some(a),
+                    Err(e) => self
+                        .violations
+                        .push(format!("fault #{i}: chaos agent not restarted: {e}")),
+                }
+            }
+            Err(e) => self.violations.push(format!(
+                "fault #{i} (process restart): the service could not be started again: {e}"
+            )),
+        }
+        self.crash_base = self.injected_panics + self.injected_kills;
+        let sent_after = self.helm.last_id.load(Ordering::SeqCst);
+        self.lost_to_restart.extend(sent_before + 1..=sent_after);
+        ended
     }
 
     /// A subscriber to raw_in and node_status that never reads. The publishers (driver,
@@ -1251,9 +1777,35 @@ pub async fn run(
     let service = InterfaceService::start(&config, &bus).await?;
     // The gate: refuses unless the config enables chaos.
     let agent = ChaosAgent::start(&config, &bus, service.actor().clone())?;
+    // The web commander, for the flood: loopback, with a token (without one it refuses sends).
+    let web_cfg = frontseat_config::WebConfig {
+        enabled: true,
+        listen: "127.0.0.1:0".into(),
+        token: Some(WEB_TOKEN.into()),
+        ..Default::default()
+    };
+    let web = frontseat_web::WebService::start_with(
+        &web_cfg,
+        &config.limits,
+        Some(WEB_TOKEN.into()),
+        &bus,
+        &config.name,
+    )
+    .await
+    .map_err(|e| ChaosHarnessError::Web(e.to_string()))?;
 
     let mut run = Run {
         monkey: ChaosMonkeyPorts::new(&bus),
+        config: config.clone(),
+        agent: Some(agent),
+        crash_base: 0,
+        lost_to_restart: Default::default(),
+        process_restarts: Vec::new(),
+        vehicle_link_checked: 0,
+        web: Some(web),
+        web_flood_requests: 0,
+        web_floods_left_command: 0,
+        notes: Vec::new(),
         bus,
         service,
         sim,
@@ -1303,17 +1855,35 @@ pub async fn run(
         })
     };
 
-    let schedule = plan(
+    let mut planner = Planner::new(
         opts.seed,
-        opts.faults,
         opts.moos,
         config.driver.basic_simulator.nav_timeout,
     );
+    let mut samples = vec![Sample::take(started.elapsed(), 0)];
+    let mut next_sample = Instant::now() + opts.sample_every;
+    let soak_until = opts.soak.map(|d| Instant::now() + d);
     let mut last_report = Instant::now();
     let mut last_cleared = Instant::now();
-    for (n, f) in schedule.iter().enumerate() {
-        let i = n as u32 + 1;
+    let mut prev_burst = false;
+    let mut i: u32 = 0;
+    loop {
+        match soak_until {
+            Some(until) if Instant::now() >= until => break,
+            None if i >= opts.faults => break,
+            _ => {}
+        }
+        i += 1;
+        let f = planner.next_fault();
+        let f = &f;
         let injected_at = Instant::now();
+        // The vehicle link before a helm-side fault that nothing overlaps.
+        let link_before = if f.kind.helm_side() && !prev_burst && !f.burst {
+            let restarts = run.driver_restarts().await;
+            Some((run.sim.handle.stats().connections, restarts))
+        } else {
+            None
+        };
         let cleared = run.inject(i, f).await;
         last_cleared = cleared;
         run.by_kind.entry(f.kind).or_default().injected += 1;
@@ -1332,6 +1902,9 @@ pub async fn run(
                     };
                     st.recoveries.push(back);
                     st.outages.push(outage);
+                    if f.kind == FaultKind::ProcessRestart {
+                        run.process_restarts.push(back);
+                    }
                 }
                 None => run.violations.push(format!(
                     "fault #{i} ({}): not back in COMMAND within {:?} after it cleared (state {:?})",
@@ -1340,19 +1913,44 @@ pub async fn run(
                     run.monitor.state()
                 )),
             }
+            if let Some((conns, restarts)) = link_before {
+                let after = run.sim.handle.stats().connections;
+                let restarts_after = run.driver_restarts().await;
+                run.vehicle_link_checked += 1;
+                if after != conns || restarts_after != restarts {
+                    run.violations.push(format!(
+                        "fault #{i} ({}): a helm-side fault touched the vehicle link: {} new frontseat connection(s), driver restarts {restarts:?} -> {restarts_after:?}",
+                        f.kind.name(),
+                        after.saturating_sub(conns)
+                    ));
+                }
+            }
         }
+        prev_burst = f.burst;
         tokio::time::sleep(f.gap).await;
-        if last_report.elapsed() >= Duration::from_secs(2) || i == opts.faults {
+        if Instant::now() >= next_sample {
+            next_sample += opts.sample_every;
+            let x = Sample::take(started.elapsed(), i);
+            progress(&format!("resources: {}", x.line()));
+            samples.push(x);
+        }
+        let last = soak_until.is_none() && i == opts.faults;
+        if last_report.elapsed() >= Duration::from_secs(2) || last {
             last_report = Instant::now();
             progress(&format!(
-                "{i}/{} faults, state {}, driver restarts {}, violations {}",
-                opts.faults,
+                "{i}{} faults, state {}, driver restarts {}, violations {}",
+                if soak_until.is_some() {
+                    String::new()
+                } else {
+                    format!("/{}", opts.faults)
+                },
                 frontseat_actors::state_machine::state_words(run.monitor.state()),
                 run.injected_panics + run.injected_kills,
                 run.violations.len()
             ));
         }
     }
+    let faults_injected = i;
 
     // After the last fault: back in COMMAND, and staying there.
     let stable = Duration::from_millis(300);
@@ -1375,7 +1973,7 @@ pub async fn run(
                 .responses
                 .lock()
                 .unwrap_or_else(|p| p.into_inner());
-            (1..=sent).all(|id| r.count.contains_key(&id))
+            (1..=sent).all(|id| r.answered(id))
         };
         if answered || Instant::now() >= deadline {
             break;
@@ -1386,10 +1984,16 @@ pub async fn run(
     tokio::time::sleep(Duration::from_millis(200)).await;
 
     let snapshot = run.snapshot().await;
+    samples.push(Sample::take(started.elapsed(), faults_injected));
     rss_task.abort();
     let rss_max = run.monitor.rss_max_kib.load(Ordering::Relaxed);
 
-    agent.stop();
+    if let Some(a) = run.agent.take() {
+        a.stop();
+    }
+    if let Some(w) = run.web.take() {
+        w.shutdown(Duration::from_secs(2)).await;
+    }
     let moos_bridge = run.moos.take();
     if let Some(m) = moos_bridge {
         m.root.shutdown(Duration::from_secs(4)).await;
@@ -1471,28 +2075,46 @@ pub async fn run(
             .responses
             .lock()
             .unwrap_or_else(|p| p.into_inner());
-        let missing = (1..=sent).filter(|id| !r.count.contains_key(id)).count();
+        let missing = (1..=sent)
+            .filter(|id| !r.answered(*id) && !run.lost_to_restart.contains(id))
+            .count();
+        let lost = (1..=sent)
+            .filter(|id| !r.answered(*id) && run.lost_to_restart.contains(id))
+            .count();
         // A second answer is right only after our own timeout (the driver's late answer, which
         // Goby3 forwards too); anything else answered twice is a duplicate.
         let late = r
-            .count
+            .answers
             .iter()
-            .filter(|(id, c)| **c == 2 && r.timed_out_first.contains(*id))
+            .filter(|a| a.count == 2 && a.interface_first)
             .count();
-        let dup = r.count.values().filter(|c| **c > 1).count() - late;
-        let unknown =
-            r.count.keys().filter(|id| **id < 1 || **id > sent).count() as u64 + r.without_id;
+        let dup = r.answers.iter().filter(|a| a.count > 1).count() - late;
+        let beyond = r
+            .answers
+            .iter()
+            .skip(usize::try_from(sent).unwrap_or(0))
+            .filter(|a| a.count > 0)
+            .count() as u64;
+        let unknown = r.unknown_ids + beyond + r.without_id;
         inv.push(Invariant {
-            name: "one CommandResponse per request with response_requested (and the driver's late one after our timeout)",
+            name: "one CommandResponse per request with response_requested (and the driver's late one after our timeout or driver-failed answer)",
             bound: "0 missing, 0 duplicated, 0 unknown".into(),
             measured: format!(
-                "{sent} sent: {} ok, {} not in COMMAND, {} timed out, {} driver failed, {} frontseat error, {} shutting down; {late} late after a timeout; {missing} missing, {dup} duplicated, {unknown} unknown",
+                "{sent} sent: {} ok, {} not in COMMAND, {} timed out, {} driver failed, {} frontseat error, {} shutting down; {late} late after a timeout; {lost} unanswered across process restarts (in flight or sent while down); {missing} missing, {dup} duplicated, {unknown} unknown{}",
                 r.ok,
                 r.not_in_command,
                 r.timeout,
                 r.driver_failed,
                 r.frontseat_refused,
-                r.shutting_down
+                r.shutting_down,
+                if dup > 0 {
+                    format!(
+                        " (request, first code, further code: {:?})",
+                        r.dup_examples
+                    )
+                } else {
+                    String::new()
+                }
             ),
             ok: missing == 0 && dup == 0 && unknown == 0 && sent > 0,
         });
@@ -1518,10 +2140,14 @@ pub async fn run(
     let other = OTHER_PANICS.load(Ordering::SeqCst);
     let seen = INJECTED_PANICS_SEEN.load(Ordering::SeqCst);
     let seen_other = INJECTED_OTHER_SEEN.load(Ordering::SeqCst);
-    let other_injected: u64 = [FaultKind::TranslationPanic, FaultKind::VehiclePanic]
-        .iter()
-        .map(|k| run.by_kind.get(k).map_or(0, |s| s.injected as u64))
-        .sum();
+    let other_injected: u64 = [
+        FaultKind::TranslationPanic,
+        FaultKind::VehiclePanic,
+        FaultKind::ProcessRestart,
+    ]
+    .iter()
+    .map(|k| run.by_kind.get(k).map_or(0, |s| s.injected as u64))
+    .sum();
     let texts = OTHER_PANIC_TEXT
         .lock()
         .map(|v| v.clone())
@@ -1539,7 +2165,8 @@ pub async fn run(
         ),
         ok: other == 0 && seen == run.injected_panics && seen_other == other_injected,
     });
-    let crashes = run.injected_panics + run.injected_kills;
+    // The current process's restarts: the counter starts again with each process.
+    let crashes = run.injected_panics + run.injected_kills - run.crash_base;
     let restarts = snapshot.as_ref().map(|s| u64::from(s.driver_restarts));
     let mut rw = run.restart_waits.clone();
     rw.sort();
@@ -1547,7 +2174,7 @@ pub async fn run(
         name: "driver restarts equal injected driver crashes",
         bound: "equal".into(),
         measured: format!(
-            "{} restarts, {crashes} crashes ({} panics + {} kills); restart p50 {}, max {}",
+            "{} restarts, {crashes} crashes since the last process start ({} panics + {} kills in all); restart p50 {}, max {}",
             restarts.map_or("?".into(), |r| r.to_string()),
             run.injected_panics,
             run.injected_kills,
@@ -1578,12 +2205,12 @@ pub async fn run(
     if opts.moos {
         let mut mr = run.moos_reconnects.clone();
         mr.sort();
-        let restarts = run
-            .by_kind
-            .get(&FaultKind::MoosRestart)
-            .map_or(0, |k| k.injected) as usize;
+        let restarts = [FaultKind::MoosRestart, FaultKind::MoosCrashLoop]
+            .iter()
+            .map(|k| run.by_kind.get(k).map_or(0, |s| s.injected) as usize)
+            .sum::<usize>();
         inv.push(Invariant {
-            name: "MOOS bridge reconnects after every broker restart",
+            name: "MOOS bridge reconnects after every broker restart and crash loop",
             bound: format!("≤ {} wall each", fmt_ms(bound)),
             measured: format!(
                 "{}/{} reconnected; p50 {}, max {}",
@@ -1617,17 +2244,122 @@ pub async fn run(
         });
     }
 
+    {
+        let mut pr = run.process_restarts.clone();
+        pr.sort();
+        let ended = run
+            .by_kind
+            .get(&FaultKind::ProcessRestart)
+            .map_or(0, |k| k.injected) as usize;
+        inv.push(Invariant {
+            name: "back in COMMAND after a process restart (service manager: RestartSec 100 ms)",
+            bound: format!("≤ {} wall each", fmt_ms(bound)),
+            measured: format!(
+                "{}/{} back; p50 {}, max {}",
+                pr.len(),
+                ended,
+                fmt_ms(percentile(&pr, 50.0)),
+                fmt_ms(pr.last().copied().unwrap_or_default())
+            ),
+            ok: pr.len() == ended && pr.iter().all(|d| *d <= bound),
+        });
+    }
+    {
+        let touched = run
+            .violations
+            .iter()
+            .filter(|v| v.contains("touched the vehicle link"))
+            .count();
+        inv.push(Invariant {
+            name: "the driver's connection to the frontseat is never closed by a helm-side fault",
+            bound: "0 new connections, 0 driver restarts across a helm-side fault".into(),
+            measured: format!(
+                "{} helm-side faults checked (MOOS restarts and crash loops, translation panics, web floods, stalls, PARK), {touched} touched it",
+                run.vehicle_link_checked
+            ),
+            ok: touched == 0,
+        });
+    }
+    if let Some(k) = run.by_kind.get(&FaultKind::WebFlood) {
+        let bad = run
+            .violations
+            .iter()
+            .filter(|v| v.contains("(web flood)"))
+            .count();
+        inv.push(Invariant {
+            name: "a web client flooding the commander reaches nothing bad and is answered",
+            bound: "0 refused CMDs at the vehicle; answers given".into(),
+            measured: format!(
+                "{} floods, {} requests (hostile setpoints, no token, foreign origin, broken JSON), {bad} failed; {} left COMMAND meanwhile",
+                k.injected, run.web_flood_requests, run.web_floods_left_command
+            ),
+            ok: bad == 0,
+        });
+    }
+    if opts.soak.is_some() {
+        inv.push(soak_invariant(&samples, opts.rss_growth_limit_kib));
+    }
+
     Ok(ChaosReport {
         seed: opts.seed,
         warp,
-        faults: opts.faults,
+        faults: faults_injected,
         moos: opts.moos,
         wall: started.elapsed(),
         by_kind: run.by_kind,
         invariants: inv,
         violations: run.violations,
-        notes,
+        notes: notes.into_iter().chain(run.notes).collect(),
+        samples,
     })
+}
+
+/// Fds, threads and tasks may move while faults come and go, but not drift: over the second
+/// half of the soak none may exceed its first-half peak by more than the slack, and RSS stays
+/// within the growth limit over the first sample after warm-up.
+pub fn soak_invariant(samples: &[Sample], rss_limit_kib: u64) -> Invariant {
+    const FD_SLACK: u64 = 32;
+    const THREAD_SLACK: u64 = 4;
+    const TASK_SLACK: usize = 64;
+    let half = samples.len() / 2;
+    let (first, second) = samples.split_at(half.max(1).min(samples.len()));
+    let peak = |v: &[Sample], f: &dyn Fn(&Sample) -> Option<u64>| v.iter().filter_map(f).max();
+    let mut problems = Vec::new();
+    let fd = |x: &Sample| x.fds;
+    let th = |x: &Sample| x.threads;
+    let tk = |x: &Sample| Some(x.tasks as u64);
+    for (name, f, slack) in [
+        ("open fds", &fd as &dyn Fn(&Sample) -> Option<u64>, FD_SLACK),
+        ("threads", &th, THREAD_SLACK),
+        ("tasks", &tk, TASK_SLACK as u64),
+    ] {
+        if let (Some(a), Some(b)) = (peak(first, f), peak(second, f))
+            && b > a + slack
+        {
+            problems.push(format!("{name} {a} -> {b}"));
+        }
+    }
+    let base = samples.get(1).or(samples.first()).and_then(|x| x.rss_kib);
+    let rss_max = samples.iter().filter_map(|x| x.rss_kib).max();
+    if let (Some(b), Some(m)) = (base, rss_max)
+        && m.saturating_sub(b) > rss_limit_kib
+    {
+        problems.push(format!("RSS {} -> {} KiB", b, m));
+    }
+    let last = samples.last().map(Sample::line).unwrap_or_default();
+    Invariant {
+        name: "soak: RSS, open fds, threads and tasks stay flat",
+        bound: format!(
+            "second-half peak ≤ first-half peak + {FD_SLACK} fds / {THREAD_SLACK} threads / {TASK_SLACK} tasks; RSS growth ≤ {} MiB",
+            rss_limit_kib / 1024
+        ),
+        measured: if problems.is_empty() {
+            format!("{} samples; last: {last}", samples.len())
+        } else {
+            format!("{} samples; drift: {}", samples.len(), problems.join(", "))
+        },
+        ok: problems.is_empty() && samples.len() >= 2,
+    }
 }
 
 #[cfg(test)]
@@ -1655,6 +2387,42 @@ mod tests {
                 .iter()
                 .all(|f| f.kind != FaultKind::MoosRestart)
         );
+    }
+
+    #[test]
+    fn soak_invariant_sees_a_drift_and_passes_a_flat_run() {
+        let at = |i: u64, fds: u64, rss: u64| Sample {
+            at: Duration::from_secs(i),
+            faults: i as u32,
+            rss_kib: Some(rss),
+            fds: Some(fds),
+            threads: Some(8),
+            tasks: 40,
+        };
+        let flat: Vec<Sample> = (0..10).map(|i| at(i, 30 + i % 3, 10_000)).collect();
+        assert!(soak_invariant(&flat, 1024).ok);
+        let leak: Vec<Sample> = (0..10).map(|i| at(i, 30 + 10 * i, 10_000)).collect();
+        let inv = soak_invariant(&leak, 1024);
+        assert!(
+            !inv.ok && inv.measured.contains("open fds"),
+            "{}",
+            inv.measured
+        );
+        let grow: Vec<Sample> = (0..10).map(|i| at(i, 30, 10_000 + 500 * i)).collect();
+        assert!(!soak_invariant(&grow, 1024).ok);
+    }
+
+    #[test]
+    fn long_helm_side_faults_and_restarts_are_never_overlapped() {
+        let p = plan(3, 2000, true, 5.0);
+        for k in [
+            FaultKind::MoosCrashLoop,
+            FaultKind::WebFlood,
+            FaultKind::ProcessRestart,
+        ] {
+            assert!(p.iter().any(|f| f.kind == k), "{k:?}");
+        }
+        assert!(p.iter().filter(|f| f.kind.alone()).all(|f| !f.burst));
     }
 
     #[test]

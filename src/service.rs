@@ -198,8 +198,10 @@ pub fn sim_options(config: &SimConfig) -> SimOptions {
         scheduled_faults,
         max_vehicles: config.max_vehicles,
         resume_grace: std::time::Duration::from_secs_f64(config.resume_grace_s.clamp(0.0, 3600.0)),
-        // start_timeout and max_pending keep their defaults (10 s, 64): no [sim] keys yet.
-        ..SimOptions::default()
+        start_timeout: std::time::Duration::from_secs_f64(
+            config.start_timeout_s.clamp(0.0, 3600.0),
+        ),
+        max_pending: config.max_pending.max(1),
     }
 }
 

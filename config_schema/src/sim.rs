@@ -24,9 +24,20 @@ pub struct SimConfig {
     /// and counted. Unit: bytes, 16 to 1048576.
     #[schemars(range(min = 16, max = 1048576))]
     pub max_line_bytes: usize,
-    /// Most vehicles (client connections) simulated at once; more are refused. Unit: connections.
+    /// Most vehicles simulated at once (connections that have sent START); more are told why
+    /// and closed. Unit: vehicles.
     #[schemars(range(min = 1))]
     pub max_vehicles: usize,
+    /// A connection that sends no valid START within this long after it was accepted is closed,
+    /// so silent clients cannot hold the simulator's slots. 0 = wait for ever (Goby3's
+    /// simulator). Unit: s (wall time), 0 to 3600.
+    #[schemars(range(min = 0.0, max = 3600.0))]
+    pub start_timeout_s: f64,
+    /// Most connections waiting for their first START at once; a new connection past it closes
+    /// the oldest waiting one, so a vehicle that connects and sends START always gets in.
+    /// Unit: connections, at least 1.
+    #[schemars(range(min = 1))]
+    pub max_pending: usize,
     /// A vehicle whose client disconnected is kept this long: a client that reconnects within it
     /// and repeats the same START gets the same vehicle back (position, heading, speed), so a
     /// network blip does not teleport the vehicle to its start point. 0 = every START makes a new
@@ -56,6 +67,8 @@ impl Default for SimConfig {
             port: 54321,
             max_line_bytes: 1024,
             max_vehicles: 1000,
+            start_timeout_s: 10.0,
+            max_pending: 64,
             resume_grace_s: 10.0,
             current: CurrentConfig::default(),
             faults: Vec::new(),
@@ -108,6 +121,8 @@ impl ServiceConfig for SimConfig {
             MAX_LINE_BYTES_LIMIT as u64,
         );
         c.at_least("max_vehicles", self.max_vehicles as u64, 1);
+        c.at_least("max_pending", self.max_pending as u64, 1);
+        c.within("start_timeout_s", self.start_timeout_s, 0.0, 3600.0);
         c.within("resume_grace_s", self.resume_grace_s, 0.0, 3600.0);
         c.finite("current.east", self.current.east);
         c.finite("current.north", self.current.north);

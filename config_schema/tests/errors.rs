@@ -368,6 +368,12 @@ fn sim_ranges_name_the_field() {
         "outside [16, 1048576]",
     );
     rejects::<S>("max_vehicles = 0\n", "max_vehicles", "at least 1");
+    rejects::<S>("max_pending = 0\n", "max_pending", "at least 1");
+    rejects::<S>(
+        "start_timeout_s = -1\n",
+        "start_timeout_s",
+        "outside [0, 3600]",
+    );
     rejects::<S>(
         "[current]\neast = nan\n",
         "current.east",

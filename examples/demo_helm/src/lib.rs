@@ -305,51 +305,15 @@ pub fn track_svg(track: &[TrackPoint]) -> String {
         r#"<text x="{left}" y="24" font-size="15">frontseat demo track — local grid (x east, y north of the datum)</text>"#
     );
     // Grid and tick labels.
-    let step = nice_step(span, 8.0);
-    let _ = writeln!(s, r##"<g stroke="#e4e4e4" stroke-width="1">"##);
-    let first = |lo: f64| (lo / step).ceil() as i64;
-    let last = |lo: f64| ((lo + span) / step).floor() as i64;
-    for i in first(minx)..=last(minx) {
-        let x = px(i as f64 * step);
-        let _ = writeln!(
-            s,
-            r#"<line x1="{x:.1}" y1="{top}" x2="{x:.1}" y2="{:.1}"/>"#,
-            top + plot
-        );
-    }
-    for i in first(miny)..=last(miny) {
-        let y = py(i as f64 * step);
-        let _ = writeln!(
-            s,
-            r#"<line x1="{left}" y1="{y:.1}" x2="{:.1}" y2="{y:.1}"/>"#,
-            left + plot
-        );
-    }
-    let _ = writeln!(s, "</g>");
-    let _ = writeln!(s, r##"<g font-size="11" fill="#444">"##);
-    for i in first(minx)..=last(minx) {
-        let v = i as f64 * step;
-        let _ = writeln!(
-            s,
-            r#"<text x="{:.1}" y="{:.1}" text-anchor="middle">{v:.0}</text>"#,
-            px(v),
-            top + plot + 16.0
-        );
-    }
-    for i in first(miny)..=last(miny) {
-        let v = i as f64 * step;
-        let _ = writeln!(
-            s,
-            r#"<text x="{:.1}" y="{:.1}" text-anchor="end">{v:.0}</text>"#,
-            left - 6.0,
-            py(v) + 4.0
-        );
-    }
-    let _ = writeln!(s, "</g>");
-    let _ = writeln!(
-        s,
-        r##"<rect x="{left}" y="{top}" width="{plot}" height="{plot}" fill="none" stroke="#888"/>"##
-    );
+    let plot_frame = PlotFrame {
+        left,
+        top,
+        plot,
+        span,
+        minx,
+        miny,
+    };
+    let step = grid_and_ticks(&mut s, &plot_frame, px, py);
     // Axes titles.
     let _ = writeln!(
         s,
@@ -472,51 +436,16 @@ pub fn fleet_svg(title: &str, tracks: &[(String, Vec<TrackPoint>)]) -> String {
         s,
         r#"<text x="{left}" y="24" font-size="15">{title}</text>"#
     );
-    let step = nice_step(span, 8.0);
-    let first = |lo: f64| (lo / step).ceil() as i64;
-    let last = |lo: f64| ((lo + span) / step).floor() as i64;
-    let _ = writeln!(s, r##"<g stroke="#e4e4e4" stroke-width="1">"##);
-    for i in first(minx)..=last(minx) {
-        let x = px(i as f64 * step);
-        let _ = writeln!(
-            s,
-            r#"<line x1="{x:.1}" y1="{top}" x2="{x:.1}" y2="{:.1}"/>"#,
-            top + plot
-        );
-    }
-    for i in first(miny)..=last(miny) {
-        let y = py(i as f64 * step);
-        let _ = writeln!(
-            s,
-            r#"<line x1="{left}" y1="{y:.1}" x2="{:.1}" y2="{y:.1}"/>"#,
-            left + plot
-        );
-    }
-    let _ = writeln!(s, "</g>");
-    let _ = writeln!(s, r##"<g font-size="11" fill="#444">"##);
-    for i in first(minx)..=last(minx) {
-        let v = i as f64 * step;
-        let _ = writeln!(
-            s,
-            r#"<text x="{:.1}" y="{:.1}" text-anchor="middle">{v:.0}</text>"#,
-            px(v),
-            top + plot + 16.0
-        );
-    }
-    for i in first(miny)..=last(miny) {
-        let v = i as f64 * step;
-        let _ = writeln!(
-            s,
-            r#"<text x="{:.1}" y="{:.1}" text-anchor="end">{v:.0}</text>"#,
-            left - 6.0,
-            py(v) + 4.0
-        );
-    }
-    let _ = writeln!(s, "</g>");
-    let _ = writeln!(
-        s,
-        r##"<rect x="{left}" y="{top}" width="{plot}" height="{plot}" fill="none" stroke="#888"/>"##
-    );
+    // Grid and tick labels.
+    let plot_frame = PlotFrame {
+        left,
+        top,
+        plot,
+        span,
+        minx,
+        miny,
+    };
+    let step = grid_and_ticks(&mut s, &plot_frame, px, py);
     let _ = writeln!(
         s,
         r#"<text x="{:.1}" y="{:.1}" font-size="13" text-anchor="middle">x — east of the datum (m); grid {step:.0} m</text>"#,
@@ -562,4 +491,79 @@ pub fn fleet_svg(title: &str, tracks: &[(String, Vec<TrackPoint>)]) -> String {
     );
     s.push_str("</svg>\n");
     s
+}
+
+/// Square plot area of an SVG track plot: its origin and side in pixels, and the span and lower
+/// corner in metres.
+struct PlotFrame {
+    left: f64,
+    top: f64,
+    plot: f64,
+    span: f64,
+    minx: f64,
+    miny: f64,
+}
+
+/// Writes the grid, the tick labels and the frame of a track plot; returns the grid step (m).
+/// One writer for the single-vehicle and the fleet plots, so both draw the same axes.
+fn grid_and_ticks(
+    s: &mut String,
+    f: &PlotFrame,
+    px: impl Fn(f64) -> f64,
+    py: impl Fn(f64) -> f64,
+) -> f64 {
+    let PlotFrame {
+        left,
+        top,
+        plot,
+        span,
+        minx,
+        miny,
+    } = *f;
+    let step = nice_step(span, 8.0);
+    let first = |lo: f64| (lo / step).ceil() as i64;
+    let last = |lo: f64| ((lo + span) / step).floor() as i64;
+    let _ = writeln!(s, r##"<g stroke="#e4e4e4" stroke-width="1">"##);
+    for i in first(minx)..=last(minx) {
+        let x = px(i as f64 * step);
+        let _ = writeln!(
+            s,
+            r#"<line x1="{x:.1}" y1="{top}" x2="{x:.1}" y2="{:.1}"/>"#,
+            top + plot
+        );
+    }
+    for i in first(miny)..=last(miny) {
+        let y = py(i as f64 * step);
+        let _ = writeln!(
+            s,
+            r#"<line x1="{left}" y1="{y:.1}" x2="{:.1}" y2="{y:.1}"/>"#,
+            left + plot
+        );
+    }
+    let _ = writeln!(s, "</g>");
+    let _ = writeln!(s, r##"<g font-size="11" fill="#444">"##);
+    for i in first(minx)..=last(minx) {
+        let v = i as f64 * step;
+        let _ = writeln!(
+            s,
+            r#"<text x="{:.1}" y="{:.1}" text-anchor="middle">{v:.0}</text>"#,
+            px(v),
+            top + plot + 16.0
+        );
+    }
+    for i in first(miny)..=last(miny) {
+        let v = i as f64 * step;
+        let _ = writeln!(
+            s,
+            r#"<text x="{:.1}" y="{:.1}" text-anchor="end">{v:.0}</text>"#,
+            left - 6.0,
+            py(v) + 4.0
+        );
+    }
+    let _ = writeln!(s, "</g>");
+    let _ = writeln!(
+        s,
+        r##"<rect x="{left}" y="{top}" width="{plot}" height="{plot}" fill="none" stroke="#888"/>"##
+    );
+    step
 }

@@ -278,22 +278,17 @@ const LEG_COLOURS: [(Leg, &str); 5] = [
 /// metres), north up: a labelled metre grid, axes titles, a scale bar, one colour per leg with a
 /// legend, and the start marked.
 pub fn track_svg(track: &[TrackPoint]) -> String {
-    let (mut minx, mut maxx, mut miny, mut maxy) = (0.0f64, 0.0f64, 0.0f64, 0.0f64);
-    for p in track {
-        minx = minx.min(p.x);
-        maxx = maxx.max(p.x);
-        miny = miny.min(p.y);
-        maxy = maxy.max(p.y);
-    }
-    let span = (maxx - minx).max(maxy - miny).max(10.0);
-    // Centre the square view on the track.
-    let (cx, cy) = ((minx + maxx) / 2.0, (miny + maxy) / 2.0);
-    let (minx, miny) = (cx - span / 2.0, cy - span / 2.0);
+    let frame = PlotFrame::fit(track.iter(), 1.0);
     let (w, h) = (760.0, 680.0);
-    let (left, top, plot) = (70.0, 40.0, 560.0);
-    let scale = plot / span;
-    let px = |x: f64| left + (x - minx) * scale;
-    let py = |y: f64| top + plot - (y - miny) * scale;
+    let PlotFrame {
+        left,
+        top,
+        plot,
+        scale,
+        ..
+    } = frame;
+    let px = |x: f64| frame.px(x);
+    let py = |y: f64| frame.py(y);
     let mut s = String::new();
     let _ = writeln!(
         s,
@@ -305,15 +300,7 @@ pub fn track_svg(track: &[TrackPoint]) -> String {
         r#"<text x="{left}" y="24" font-size="15">frontseat demo track — local grid (x east, y north of the datum)</text>"#
     );
     // Grid and tick labels.
-    let plot_frame = PlotFrame {
-        left,
-        top,
-        plot,
-        span,
-        minx,
-        miny,
-    };
-    let step = grid_and_ticks(&mut s, &plot_frame, px, py);
+    let step = grid_and_ticks(&mut s, &frame);
     // Axes titles.
     let _ = writeln!(
         s,
@@ -412,20 +399,12 @@ const FLEET_COLOURS: [&str; 10] = [
 /// ends, and the datum marked.
 pub fn fleet_svg(title: &str, tracks: &[(String, Vec<TrackPoint>)]) -> String {
     let pts = || tracks.iter().flat_map(|(_, t)| t.iter());
-    let (mut minx, mut maxx, mut miny, mut maxy) = (0.0f64, 0.0f64, 0.0f64, 0.0f64);
-    for p in pts() {
-        minx = minx.min(p.x);
-        maxx = maxx.max(p.x);
-        miny = miny.min(p.y);
-        maxy = maxy.max(p.y);
-    }
-    let span = (maxx - minx).max(maxy - miny).max(10.0) * 1.05;
-    let (cx, cy) = ((minx + maxx) / 2.0, (miny + maxy) / 2.0);
-    let (minx, miny) = (cx - span / 2.0, cy - span / 2.0);
-    let (left, top, plot) = (70.0, 40.0, 560.0);
-    let scale = plot / span;
-    let px = |x: f64| left + (x - minx) * scale;
-    let py = |y: f64| top + plot - (y - miny) * scale;
+    let frame = PlotFrame::fit(pts(), 1.05);
+    let PlotFrame {
+        left, top, plot, ..
+    } = frame;
+    let px = |x: f64| frame.px(x);
+    let py = |y: f64| frame.py(y);
     let mut s = String::new();
     let _ = writeln!(
         s,
@@ -437,15 +416,7 @@ pub fn fleet_svg(title: &str, tracks: &[(String, Vec<TrackPoint>)]) -> String {
         r#"<text x="{left}" y="24" font-size="15">{title}</text>"#
     );
     // Grid and tick labels.
-    let plot_frame = PlotFrame {
-        left,
-        top,
-        plot,
-        span,
-        minx,
-        miny,
-    };
-    let step = grid_and_ticks(&mut s, &plot_frame, px, py);
+    let step = grid_and_ticks(&mut s, &frame);
     let _ = writeln!(
         s,
         r#"<text x="{:.1}" y="{:.1}" font-size="13" text-anchor="middle">x — east of the datum (m); grid {step:.0} m</text>"#,
@@ -493,8 +464,9 @@ pub fn fleet_svg(title: &str, tracks: &[(String, Vec<TrackPoint>)]) -> String {
     s
 }
 
-/// Square plot area of an SVG track plot: its origin and side in pixels, and the span and lower
-/// corner in metres.
+/// Square plot area of an SVG track plot: its origin and side in pixels, the span and lower
+/// corner in metres, and the pixels per metre. One fit for the single-vehicle and fleet plots.
+#[derive(Clone, Copy)]
 struct PlotFrame {
     left: f64,
     top: f64,
@@ -502,16 +474,45 @@ struct PlotFrame {
     span: f64,
     minx: f64,
     miny: f64,
+    scale: f64,
+}
+
+impl PlotFrame {
+    /// A square view centred on `points` (and the datum), at least 10 m across, widened by `pad`.
+    fn fit<'a>(points: impl Iterator<Item = &'a TrackPoint>, pad: f64) -> Self {
+        let (mut minx, mut maxx, mut miny, mut maxy) = (0.0f64, 0.0f64, 0.0f64, 0.0f64);
+        for p in points {
+            minx = minx.min(p.x);
+            maxx = maxx.max(p.x);
+            miny = miny.min(p.y);
+            maxy = maxy.max(p.y);
+        }
+        let span = (maxx - minx).max(maxy - miny).max(10.0) * pad;
+        let (cx, cy) = ((minx + maxx) / 2.0, (miny + maxy) / 2.0);
+        let (left, top, plot) = (70.0, 40.0, 560.0);
+        Self {
+            left,
+            top,
+            plot,
+            span,
+            minx: cx - span / 2.0,
+            miny: cy - span / 2.0,
+            scale: plot / span,
+        }
+    }
+
+    fn px(&self, x: f64) -> f64 {
+        self.left + (x - self.minx) * self.scale
+    }
+
+    fn py(&self, y: f64) -> f64 {
+        self.top + self.plot - (y - self.miny) * self.scale
+    }
 }
 
 /// Writes the grid, the tick labels and the frame of a track plot; returns the grid step (m).
 /// One writer for the single-vehicle and the fleet plots, so both draw the same axes.
-fn grid_and_ticks(
-    s: &mut String,
-    f: &PlotFrame,
-    px: impl Fn(f64) -> f64,
-    py: impl Fn(f64) -> f64,
-) -> f64 {
+fn grid_and_ticks(s: &mut String, f: &PlotFrame) -> f64 {
     let PlotFrame {
         left,
         top,
@@ -519,7 +520,10 @@ fn grid_and_ticks(
         span,
         minx,
         miny,
+        ..
     } = *f;
+    let px = |x: f64| f.px(x);
+    let py = |y: f64| f.py(y);
     let step = nice_step(span, 8.0);
     let first = |lo: f64| (lo / step).ceil() as i64;
     let last = |lo: f64| ((lo + span) / step).floor() as i64;

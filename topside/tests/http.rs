@@ -118,17 +118,21 @@ async fn every_vehicle_appears_a_silent_one_turns_stale_and_garbage_is_counted()
     let put = |p: &str, x: f64| {
         put_message(&z, &ns_key(p), ns_type, &node_status(x, 2.0 * x), None).unwrap();
     };
-    put_message(
-        &z,
-        &key_for("auv1", groups::GOBY_MIDDLEWARE_FRONTSEAT_STATUS.name()),
-        groups::GOBY_MIDDLEWARE_FRONTSEAT_STATUS.type_name(),
-        &InterfaceStatus {
-            state: Some(InterfaceState::InterfaceCommand as i32),
-            ..Default::default()
-        },
-        None,
-    )
-    .unwrap();
+    // Zenoh drops a put made before the topside's subscription has matched, so every message
+    // the first wait needs is re-sent on each poll rather than once up front.
+    let put_status = || {
+        put_message(
+            &z,
+            &key_for("auv1", groups::GOBY_MIDDLEWARE_FRONTSEAT_STATUS.name()),
+            groups::GOBY_MIDDLEWARE_FRONTSEAT_STATUS.type_name(),
+            &InterfaceStatus {
+                state: Some(InterfaceState::InterfaceCommand as i32),
+                ..Default::default()
+            },
+            None,
+        )
+        .unwrap();
+    };
     let mut x = 0.0;
     let f = until(
         addr,
@@ -139,6 +143,7 @@ async fn every_vehicle_appears_a_silent_one_turns_stale_and_garbage_is_counted()
         },
         || {
             x += 1.0;
+            put_status();
             put("auv1", x);
             put("auv2", x);
             put_message(

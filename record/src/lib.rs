@@ -26,7 +26,7 @@ pub mod service;
 mod time;
 
 pub use reader::{ReadError, Recording};
-pub use recorder::{RecordMeta, Recorder, RecorderError, RecorderStats};
+pub use recorder::{RecordInput, RecordMeta, Recorder, RecorderError, RecorderStats};
 
 /// The MCAP `profile` field: none of the well-known profiles (ros1, ros2) fits a Goby3 bus.
 pub const PROFILE: &str = "frontseat";
@@ -36,6 +36,9 @@ pub const META_RUN: &str = "frontseat.run";
 pub const META_RECORDER: &str = "frontseat.recorder";
 /// Channel metadata key telling where the channel's messages came from (local, imported, replayed).
 pub const CHANNEL_ORIGIN: &str = "origin";
+/// Channel metadata key naming the vehicle of a channel in a file that holds several (the
+/// topside's, whose topics are `<platform>/<group>`).
+pub const CHANNEL_PLATFORM: &str = "platform";
 
 /// The fuzz target body (`fuzz/fuzz_targets/mcap_reader.rs`, and the corpus replay in
 /// `record/tests/fuzz_corpus.rs`): any bytes go through the reader, `info` and `export` without a

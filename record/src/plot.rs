@@ -15,10 +15,18 @@ pub const NODE_STATUS: &str = "goby::middleware::frontseat::node_status";
 pub const DESIRED_COURSE: &str = "goby::middleware::frontseat::desired_course";
 /// Samples kept per series: a day at 10 Hz is 864 000; beyond this every n-th is kept.
 const MAX_SAMPLES: usize = 20_000;
+/// Vehicles drawn apart in one file (a topside's); samples of further ones are skipped.
+const MAX_VEHICLES: usize = 64;
+/// One colour per vehicle, cycled.
+const PALETTE: [&str; 8] = [
+    "#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#8c564b", "#e377c2", "#17becf", "#bcbd22",
+];
 
 /// One sample; `None` where the message lacks the field.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Sample {
+    /// Index in [`Series::vehicles`] of the vehicle this sample is of.
+    pub vehicle: u16,
     /// Seconds since the first message of the file.
     pub t: f64,
     pub x: Option<f64>,
@@ -32,6 +40,39 @@ pub struct Sample {
 pub struct Series {
     pub actual: Vec<Sample>,
     pub commanded: Vec<Sample>,
+    /// The vehicles, in order of first appearance: `""` for a vehicle's own recording (topic =
+    /// the group), the platform for a topside's (topic = `<platform>/<group>`).
+    pub vehicles: Vec<String>,
+}
+
+impl Series {
+    /// The samples of vehicle `v`, in file order.
+    fn of(v: usize, samples: &[Sample]) -> impl Iterator<Item = &Sample> {
+        samples.iter().filter(move |s| usize::from(s.vehicle) == v)
+    }
+
+    /// The vehicle count, at least one (an empty series draws empty panels).
+    fn vehicle_count(&self) -> usize {
+        self.vehicles.len().max(1)
+    }
+}
+
+/// Which of the two plotted groups `topic` is, and of which platform: the group itself in a
+/// vehicle's recording, `<platform>/<group>` in a topside's.
+fn classify(topic: &str) -> Option<(usize, &str)> {
+    for (which, group) in [(0, NODE_STATUS), (1, DESIRED_COURSE)] {
+        if topic == group {
+            return Some((which, ""));
+        }
+        if let Some(p) = topic
+            .strip_suffix(group)
+            .and_then(|p| p.strip_suffix('/'))
+            .filter(|p| !p.is_empty() && !p.contains('/'))
+        {
+            return Some((which, p));
+        }
+    }
+    None
 }
 
 fn get(msg: &DynamicMessage, path: &[&str]) -> Option<f64> {
@@ -68,11 +109,18 @@ pub fn series<R: Read>(mut rec: Recording<R>) -> Result<Series, ReadError> {
         let Some(ch) = rec.channel(m.channel_id) else {
             continue;
         };
-        let which = match &*ch.topic {
-            NODE_STATUS => 0,
-            DESIRED_COURSE => 1,
-            _ => continue,
+        let Some((which, platform)) = classify(&ch.topic) else {
+            continue;
         };
+        let vehicle = match out.vehicles.iter().position(|v| v == platform) {
+            Some(i) => i,
+            None if out.vehicles.len() < MAX_VEHICLES => {
+                out.vehicles.push(platform.to_string());
+                out.vehicles.len() - 1
+            }
+            None => continue,
+        };
+        let vehicle = u16::try_from(vehicle).unwrap_or(u16::MAX);
         seen[which] += 1;
         // Decimate evenly once past the bound: keep every k-th, k growing with the count.
         let k = seen[which].div_ceil(MAX_SAMPLES).max(1);
@@ -98,6 +146,7 @@ pub fn series<R: Read>(mut rec: Recording<R>) -> Result<Series, ReadError> {
         let t = m.log_time.saturating_sub(t0) as f64 / 1e9;
         let s = if which == 0 {
             Sample {
+                vehicle,
                 t,
                 x: get(&msg, &["local_fix", "x"]),
                 y: get(&msg, &["local_fix", "y"]),
@@ -107,6 +156,7 @@ pub fn series<R: Read>(mut rec: Recording<R>) -> Result<Series, ReadError> {
             }
         } else {
             Sample {
+                vehicle,
                 t,
                 speed: get(&msg, &["speed"]),
                 heading: get(&msg, &["heading"]),
@@ -185,22 +235,63 @@ pub fn time_svg(s: &Series) -> String {
             left - 6.0,
             y0 + ph
         );
-        for (series, colour) in [(&s.actual, "#1f77b4"), (&s.commanded, "#ff7f0e")] {
-            let pts: Vec<String> = series
-                .iter()
-                .filter_map(|p| f(p).map(|v| format!("{:.1},{:.1}", px(p.t), py(v))))
-                .collect();
-            if !pts.is_empty() {
-                let _ = writeln!(
-                    out,
-                    r#"<polyline fill="none" stroke="{colour}" stroke-width="1.5" points="{}"/>"#,
-                    pts.join(" ")
-                );
+        // One vehicle: actual blue, commanded orange. Several: a colour per vehicle, its
+        // commanded dashed; each vehicle its own line, never one zig-zagging between them.
+        let many = s.vehicle_count() > 1;
+        for v in 0..s.vehicle_count() {
+            for (series, commanded) in [(&s.actual, false), (&s.commanded, true)] {
+                let colour = match (many, commanded) {
+                    (true, _) => PALETTE[v % PALETTE.len()],
+                    (false, false) => "#1f77b4",
+                    (false, true) => "#ff7f0e",
+                };
+                let dash = if many && commanded {
+                    r#" stroke-dasharray="5,3""#
+                } else {
+                    ""
+                };
+                let pts: Vec<String> = Series::of(v, series)
+                    .filter_map(|p| f(p).map(|val| format!("{:.1},{:.1}", px(p.t), py(val))))
+                    .collect();
+                if !pts.is_empty() {
+                    let _ = writeln!(
+                        out,
+                        r#"<polyline fill="none" stroke="{colour}" stroke-width="1.5"{dash} points="{}"/>"#,
+                        pts.join(" ")
+                    );
+                }
             }
         }
     }
+    legend(&mut out, s, left, h - 10.0);
     let _ = writeln!(out, "</svg>");
     out
+}
+
+/// The vehicles' names in their colours, when a file holds several.
+fn legend(out: &mut String, s: &Series, left: f64, y: f64) {
+    if s.vehicle_count() < 2 {
+        return;
+    }
+    let mut x = left;
+    for (i, name) in s.vehicles.iter().enumerate() {
+        let _ = write!(
+            out,
+            r#"<text x="{x:.0}" y="{y:.0}" font-size="12" fill="{}">{}</text>"#,
+            PALETTE[i % PALETTE.len()],
+            xml_escape(name)
+        );
+        x += 12.0 + 8.0 * name.chars().count() as f64;
+    }
+    let _ = writeln!(out);
+}
+
+/// Platform names come from the file: escaped before they go into the SVG.
+fn xml_escape(s: &str) -> String {
+    s.replace('&', "&amp;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;")
+        .replace('"', "&quot;")
 }
 
 /// The actual track on the local grid (x east, y north of the datum), equal scales, start marked.
@@ -235,14 +326,25 @@ pub fn track_svg(s: &Series) -> String {
         out,
         r##"<rect x="{left}" y="{top}" width="{plot}" height="{plot}" fill="none" stroke="#bbb"/>"##
     );
-    if let Some((x0, y0)) = pts.first() {
+    for v in 0..s.vehicle_count() {
+        let colour = if s.vehicle_count() > 1 {
+            PALETTE[v % PALETTE.len()]
+        } else {
+            "#1f77b4"
+        };
+        let pts: Vec<(f64, f64)> = Series::of(v, &s.actual)
+            .filter_map(|p| Some((p.x?, p.y?)))
+            .collect();
+        let Some((x0, y0)) = pts.first() else {
+            continue;
+        };
         let line: Vec<String> = pts
             .iter()
             .map(|(x, y)| format!("{:.1},{:.1}", px(*x), py(*y)))
             .collect();
         let _ = writeln!(
             out,
-            r##"<polyline fill="none" stroke="#1f77b4" stroke-width="2" points="{}"/>"##,
+            r##"<polyline fill="none" stroke="{colour}" stroke-width="2" points="{}"/>"##,
             line.join(" ")
         );
         let _ = writeln!(
@@ -252,6 +354,7 @@ pub fn track_svg(s: &Series) -> String {
             py(*y0)
         );
     }
+    legend(&mut out, s, left, h - 10.0);
     let _ = writeln!(out, "</svg>");
     out
 }
@@ -270,6 +373,7 @@ mod tests {
         let flat = Series {
             actual: vec![
                 Sample {
+                    vehicle: 0,
                     t: 0.0,
                     x: Some(1.0),
                     y: Some(1.0),
@@ -278,6 +382,7 @@ mod tests {
                     depth: Some(0.0),
                 },
                 Sample {
+                    vehicle: 0,
                     t: 1.0,
                     x: Some(1.0),
                     y: Some(1.0),
@@ -291,10 +396,48 @@ mod tests {
                 speed: Some(1.5),
                 ..Default::default()
             }],
+            vehicles: Vec::new(),
         };
         let t = time_svg(&flat);
         assert_eq!(t.matches("<polyline").count(), 4, "3 actual + 1 commanded");
         assert!(!t.contains("NaN"));
         assert!(track_svg(&flat).contains("<circle"));
+    }
+
+    #[test]
+    fn a_topside_topic_names_its_platform_and_others_are_not_plotted() {
+        assert_eq!(classify(NODE_STATUS), Some((0, "")));
+        assert_eq!(classify(DESIRED_COURSE), Some((1, "")));
+        assert_eq!(
+            classify(&format!("auv1/{NODE_STATUS}")),
+            Some((0, "auv1"))
+        );
+        assert_eq!(classify(&format!("a/b/{NODE_STATUS}")), None);
+        assert_eq!(classify(&format!("/{NODE_STATUS}")), None);
+        assert_eq!(classify("goby::middleware::frontseat::status"), None);
+        assert_eq!(classify(&format!("auv1{NODE_STATUS}")), None);
+    }
+
+    #[test]
+    fn two_vehicles_are_two_tracks_with_a_legend() {
+        let at = |vehicle, x| Sample {
+            vehicle,
+            t: x,
+            x: Some(x),
+            y: Some(-x),
+            ..Default::default()
+        };
+        let s = Series {
+            actual: vec![at(0, 0.0), at(1, 5.0), at(0, 1.0), at(1, 6.0)],
+            commanded: Vec::new(),
+            vehicles: vec!["auv1".into(), "<auv2>".into()],
+        };
+        let t = track_svg(&s);
+        assert_eq!(t.matches("<polyline").count(), 2, "{t}");
+        assert_eq!(t.matches("<circle").count(), 2);
+        assert!(t.contains(">auv1<") && t.contains("&lt;auv2&gt;"), "{t}");
+        // Each vehicle's line holds only its own points.
+        let first = t.lines().find(|l| l.contains("<polyline")).unwrap();
+        assert_eq!(first.matches(',').count(), 2, "{first}");
     }
 }

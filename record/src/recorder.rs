@@ -13,6 +13,7 @@
 //! - Failures stay here: an I/O error closes the file, counts, logs (rate-limited) and retries a
 //!   new file later; the thread never takes the process with it.
 
+use std::borrow::Cow;
 use std::collections::{BTreeMap, HashMap};
 use std::fs::File;
 use std::io::{BufWriter, Seek, SeekFrom, Write};
@@ -28,7 +29,7 @@ use frontseat_config::{RecordCompression, RecordConfig};
 use regex::Regex;
 
 use crate::time::{compact_utc, iso_utc, unix_ns};
-use crate::{CHANNEL_ORIGIN, META_RECORDER, META_RUN, PROFILE};
+use crate::{CHANNEL_ORIGIN, CHANNEL_PLATFORM, META_RECORDER, META_RUN, PROFILE};
 
 /// Uncompressed bytes per chunk before it is closed regardless of `flush_s`.
 const CHUNK_BYTES: u64 = 512 * 1024;
@@ -262,11 +263,63 @@ fn worth_logging(n: u64) -> bool {
 
 /// One message on its way to the file.
 struct Item {
-    group: &'static str,
+    /// The channel topic: the bus group, or `<platform>/<group>` from a [`RecordInput`].
+    topic: Cow<'static, str>,
     type_name: &'static str,
     origin: Origin,
+    /// Where the message came from when the process hears several vehicles (channel metadata).
+    platform: Option<Box<str>>,
     log_time: u64,
     bytes: Vec<u8>,
+}
+
+/// A way in for messages that do not come from a bus (the topside's Zenoh samples): the same
+/// bounded queue as the bus path, so the caller never waits; a full queue drops and counts.
+#[derive(Clone)]
+pub struct RecordInput {
+    tx: SyncSender<Item>,
+    counters: Arc<Counters>,
+}
+
+impl std::fmt::Debug for RecordInput {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("RecordInput").finish_non_exhaustive()
+    }
+}
+
+impl RecordInput {
+    /// Queues one encoded message of `type_name` (a message type of the compiled protobufs: its
+    /// FileDescriptorSet becomes the channel's schema) on channel `topic`, stamped `time` (its
+    /// receive time). `platform`, when given, is written in the channel's metadata. Never blocks:
+    /// returns false when the message was dropped (queue full: counted; recorder stopped).
+    /// The caller bounds the number of distinct topics (each is a channel of the file).
+    pub fn record_encoded(
+        &self,
+        topic: impl Into<Cow<'static, str>>,
+        type_name: &'static str,
+        platform: Option<&str>,
+        bytes: Vec<u8>,
+        time: SystemTime,
+    ) -> bool {
+        self.counters.received.fetch_add(1, Ordering::Relaxed);
+        let item = Item {
+            topic: topic.into(),
+            type_name,
+            origin: Origin::Imported,
+            platform: platform.map(Into::into),
+            log_time: unix_ns(time),
+            bytes,
+        };
+        match self.tx.try_send(item) {
+            Ok(()) => true,
+            Err(TrySendError::Full(_)) => {
+                self.counters.dropped_queue.fetch_add(1, Ordering::Relaxed);
+                frontseat_actors::metrics::recorder_dropped(1);
+                false
+            }
+            Err(TrySendError::Disconnected(_)) => false,
+        }
+    }
 }
 
 /// The running recorder. Dropping it stops it (and waits for the file to be closed).
@@ -312,6 +365,79 @@ impl Recorder {
         opts: RecorderOptions,
         meta: RecordMeta,
     ) -> Result<Self, RecorderError> {
+        let (mut rec, tx) = Self::spawn_writer(&opts, meta)?;
+        // The bus gives Instants; the file wants wall time. One pairing at start keeps every
+        // message's time monotonic with the bus even if the wall clock is stepped later.
+        let (t0, wall0) = (Instant::now(), unix_ns(SystemTime::now()));
+        let counters = rec.counters.clone();
+        for g in groups.iter().filter(|g| opts.wants(g.name)) {
+            let (tx, c): (SyncSender<Item>, _) = (tx.clone(), counters.clone());
+            let type_name = g.type_name;
+            // The envelope is released as soon as its bytes are queued here, so it is in flight
+            // on the bus only during this call: the bus bound only has to cover publishers on
+            // several threads at once; the bound that matters is this recorder's own queue.
+            let sub = frontseat_actors::generated::subscribe_encoded(
+                bus,
+                g.name,
+                "recorder",
+                BUS_IN_FLIGHT,
+                move |env| {
+                    c.received.fetch_add(1, Ordering::Relaxed);
+                    let since = env
+                        .published_at
+                        .checked_duration_since(t0)
+                        .unwrap_or_default();
+                    let item = Item {
+                        topic: Cow::Borrowed(env.group),
+                        type_name,
+                        origin: env.meta.origin,
+                        platform: None,
+                        log_time: wall0
+                            .saturating_add(u64::try_from(since.as_nanos()).unwrap_or(0)),
+                        bytes: env.bytes,
+                    };
+                    match tx.try_send(item) {
+                        Ok(()) => Ok(()),
+                        Err(TrySendError::Full(_)) => {
+                            c.dropped_queue.fetch_add(1, Ordering::Relaxed);
+                            frontseat_actors::metrics::recorder_dropped(1);
+                            Ok(())
+                        }
+                        // The writer thread is gone (stopped, or it failed): stop delivering.
+                        Err(TrySendError::Disconnected(_)) => Err(Undeliverable),
+                    }
+                },
+            );
+            if let Some(s) = sub {
+                rec.subs.push(s);
+                rec.groups.push(g.name);
+            }
+        }
+        drop(tx);
+        rec.log_started();
+        Ok(rec)
+    }
+
+    /// A recorder fed by the caller instead of a bus (the topside records what it hears over
+    /// Zenoh): the same files, queue, drop counts and stop as [`Recorder::start`].
+    pub fn start_detached(
+        opts: RecorderOptions,
+        meta: RecordMeta,
+    ) -> Result<(Self, RecordInput), RecorderError> {
+        let (rec, tx) = Self::spawn_writer(&opts, meta)?;
+        rec.log_started();
+        let input = RecordInput {
+            tx,
+            counters: rec.counters.clone(),
+        };
+        Ok((rec, input))
+    }
+
+    /// Opens the first file and starts the writer thread; messages go in through the sender.
+    fn spawn_writer(
+        opts: &RecorderOptions,
+        meta: RecordMeta,
+    ) -> Result<(Self, SyncSender<Item>), RecorderError> {
         let pool = crate::schema::compiled_pool().ok_or(RecorderError::NoDescriptors)?;
         let counters = Arc::new(Counters::default());
         let current = Arc::new(Mutex::new(None));
@@ -334,74 +460,32 @@ impl Recorder {
         sink.enforce_disk();
 
         let (tx, rx) = sync_channel::<Item>(opts.queue);
-        // The bus gives Instants; the file wants wall time. One pairing at start keeps every
-        // message's time monotonic with the bus even if the wall clock is stepped later.
-        let (t0, wall0) = (Instant::now(), unix_ns(SystemTime::now()));
         let stop = Arc::new(AtomicBool::new(false));
-        let mut recorded = Vec::new();
-        let mut subs = Vec::new();
-        for g in groups.iter().filter(|g| opts.wants(g.name)) {
-            let (tx, c): (SyncSender<Item>, _) = (tx.clone(), counters.clone());
-            let type_name = g.type_name;
-            // The envelope is released as soon as its bytes are queued here, so it is in flight
-            // on the bus only during this call: the bus bound only has to cover publishers on
-            // several threads at once; the bound that matters is this recorder's own queue.
-            let sub = frontseat_actors::generated::subscribe_encoded(
-                bus,
-                g.name,
-                "recorder",
-                BUS_IN_FLIGHT,
-                move |env| {
-                    c.received.fetch_add(1, Ordering::Relaxed);
-                    let since = env
-                        .published_at
-                        .checked_duration_since(t0)
-                        .unwrap_or_default();
-                    let item = Item {
-                        group: env.group,
-                        type_name,
-                        origin: env.meta.origin,
-                        log_time: wall0
-                            .saturating_add(u64::try_from(since.as_nanos()).unwrap_or(0)),
-                        bytes: env.bytes,
-                    };
-                    match tx.try_send(item) {
-                        Ok(()) => Ok(()),
-                        Err(TrySendError::Full(_)) => {
-                            c.dropped_queue.fetch_add(1, Ordering::Relaxed);
-                            frontseat_actors::metrics::recorder_dropped(1);
-                            Ok(())
-                        }
-                        // The writer thread is gone (stopped, or it failed): stop delivering.
-                        Err(TrySendError::Disconnected(_)) => Err(Undeliverable),
-                    }
-                },
-            );
-            if let Some(s) = sub {
-                subs.push(s);
-                recorded.push(g.name);
-            }
-        }
-        drop(tx);
         let thread_stop = stop.clone();
         let thread = std::thread::Builder::new()
             .name("recorder".into())
             .spawn(move || sink.run(rx, thread_stop))
             .map_err(RecorderError::Thread)?;
         frontseat_actors::metrics::recorder_running(true);
+        Ok((
+            Self {
+                subs: Vec::new(),
+                stop,
+                thread: Some(thread),
+                counters,
+                groups: Vec::new(),
+                current,
+            },
+            tx,
+        ))
+    }
+
+    fn log_started(&self) {
         tracing::info!(
-            groups = recorded.len(),
-            file = %current.lock().map(|c| c.as_ref().map(|p| p.display().to_string()).unwrap_or_default()).unwrap_or_default(),
+            groups = self.groups.len(),
+            file = %self.current_file().map(|p| p.display().to_string()).unwrap_or_default(),
             "recording"
         );
-        Ok(Self {
-            subs,
-            stop,
-            thread: Some(thread),
-            counters,
-            groups: recorded,
-            current,
-        })
     }
 
     pub fn stats(&self) -> RecorderStats {
@@ -504,7 +588,8 @@ struct OpenFile {
     path: PathBuf,
     opened: Instant,
     schemas: HashMap<&'static str, u16>,
-    channels: HashMap<(&'static str, &'static str), u16>,
+    /// origin -> topic -> channel id (looked up without allocating).
+    channels: HashMap<&'static str, HashMap<Cow<'static, str>, u16>>,
     seq: u32,
     first_counts: RecorderStats,
     len: Arc<AtomicU64>,
@@ -823,8 +908,13 @@ fn write_item(
     item: &Item,
 ) -> Result<(), mcap::McapError> {
     let origin = origin_name(item.origin);
-    let channel = match f.channels.get(&(item.group, origin)) {
-        Some(c) => *c,
+    let known = f
+        .channels
+        .get(origin)
+        .and_then(|by_topic| by_topic.get(&*item.topic))
+        .copied();
+    let channel = match known {
+        Some(c) => c,
         None => {
             let schema = match f.schemas.get(item.type_name) {
                 Some(s) => *s,
@@ -838,10 +928,16 @@ fn write_item(
             };
             let mut meta = BTreeMap::new();
             meta.insert(CHANNEL_ORIGIN.to_string(), origin.to_string());
+            if let Some(p) = &item.platform {
+                meta.insert(CHANNEL_PLATFORM.to_string(), p.to_string());
+            }
             let c = f
                 .writer
-                .add_channel(schema, item.group, "protobuf", &meta)?;
-            f.channels.insert((item.group, origin), c);
+                .add_channel(schema, &item.topic, "protobuf", &meta)?;
+            f.channels
+                .entry(origin)
+                .or_default()
+                .insert(item.topic.clone(), c);
             c
         }
     };

@@ -165,6 +165,14 @@ impl Default for RecordConfig {
 }
 
 impl RecordConfig {
+    /// The errors of this section at `prefix` (e.g. "record"), for services whose config lives
+    /// outside this crate (the topside, the launcher).
+    pub fn errors_at(&self, prefix: &str) -> Vec<FieldError> {
+        let mut c = Checker::default();
+        self.check(prefix, &mut c);
+        c.errors
+    }
+
     pub(crate) fn check(&self, prefix: &str, c: &mut Checker) {
         for (name, list) in [("include", &self.include), ("exclude", &self.exclude)] {
             for (i, r) in list.iter().enumerate() {

@@ -31,6 +31,10 @@ pub struct TopsideConfig {
     /// commands for that vehicle are relayed.
     #[schemars(example = example_links())]
     pub vehicle: Vec<VehicleLink>,
+    /// Recording what the topside hears (every vehicle's node_status, status and desired_course)
+    /// to MCAP files named `topside_<UTC>_<seq>.mcap`, one channel per vehicle and group (topic
+    /// `<platform>/<group>`). The live Foxglove server (`record.foxglove`) is not offered here.
+    pub record: frontseat_config::RecordConfig,
 }
 
 impl Default for TopsideConfig {
@@ -42,6 +46,7 @@ impl Default for TopsideConfig {
             max_vehicles: 200,
             track_points: 5000,
             vehicle: Vec::new(),
+            record: frontseat_config::RecordConfig::default(),
         }
     }
 }
@@ -166,6 +171,14 @@ impl ServiceConfig for TopsideConfig {
                 "zenoh.connect",
                 "[]",
                 "with no listen endpoint either, the topside would hear nobody",
+            ));
+        }
+        e.extend(self.record.errors_at("record"));
+        if self.record.foxglove.enabled {
+            e.push(FieldError::new(
+                "record.foxglove.enabled",
+                true,
+                "the topside records to files only: serve Foxglove from each vehicle's interface",
             ));
         }
         for (i, v) in self.vehicle.iter().enumerate() {

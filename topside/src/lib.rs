@@ -6,6 +6,10 @@
 //!
 //! The topside publishes nothing itself: a command for a vehicle is relayed ([`relay`]) to that
 //! vehicle's own page, which checks that vehicle's token, so its interface's gates decide.
+//!
+//! `[record]` writes every sample the fleet model took in (decoded, of a platform it tracks) to
+//! MCAP, channel `<platform>/<group>`, stamped with its receive time, through the recorder's
+//! bounded queue: the Zenoh callback never waits for the disk.
 #![forbid(unsafe_code)]
 
 pub mod config;
@@ -31,6 +35,8 @@ use frontseat_actors::proto::goby::middleware::frontseat::protobuf::{
 use frontseat_actors::service_child::{BoxFuture, Service};
 use frontseat_actors::supervisor::ChildFailure;
 use frontseat_config::{InterprocessConfig, InterprocessMode};
+use frontseat_record::recorder::{RecordMeta, RecorderOptions};
+use frontseat_record::{RecordInput, Recorder};
 use frontseat_web::auth::Access;
 use prost::Message;
 use serde::Deserialize;
@@ -58,6 +64,8 @@ pub enum TopsideError {
     ShortEnvToken,
     #[error("Zenoh: {0}")]
     Zenoh(String),
+    #[error("record: {0}")]
+    Record(#[from] frontseat_record::RecorderError),
 }
 
 /// What came in over Zenoh and what was refused; on the page and in the logs.
@@ -112,6 +120,59 @@ enum Kind {
     Course,
 }
 
+/// Where a sample the model took in is recorded: its group and protobuf type.
+#[derive(Clone)]
+struct RecordTo {
+    input: RecordInput,
+    group: &'static str,
+    type_name: &'static str,
+}
+
+impl RecordTo {
+    fn new(input: &RecordInput, group: &'static str) -> Option<Self> {
+        let type_name = groups::ALL.iter().find(|g| g.name == group)?.type_name;
+        Some(Self {
+            input: input.clone(),
+            group,
+            type_name,
+        })
+    }
+
+    fn record(&self, platform: &str, payload: &[u8]) {
+        // The queue is bounded and try_send: a full queue drops (counted by the recorder).
+        self.input.record_encoded(
+            format!("{platform}/{}", self.group),
+            self.type_name,
+            Some(platform),
+            payload.to_vec(),
+            std::time::SystemTime::now(),
+        );
+    }
+}
+
+/// Starts the recorder of `[record]` when enabled: files named `topside_<UTC>_<seq>.mcap`.
+pub fn start_recorder(cfg: &TopsideConfig) -> Result<Option<(Recorder, RecordInput)>, TopsideError> {
+    if !cfg.record.enabled {
+        return Ok(None);
+    }
+    let opts = RecorderOptions::from_config(&cfg.record, "topside")?;
+    let mut extra = BTreeMap::new();
+    extra.insert("process".to_string(), "topside".to_string());
+    let meta = RecordMeta {
+        vehicle: "topside".into(),
+        version: env!("CARGO_PKG_VERSION").into(),
+        config_digest: frontseat_record::recorder::config_digest(
+            &serde_json::to_string(cfg).unwrap_or_default(),
+        ),
+        extra,
+        ..Default::default()
+    };
+    let (rec, input) = Recorder::start_detached(opts, meta)?;
+    // Ends by itself once the recorder stops.
+    drop(rec.spawn_drop_watch(Duration::from_secs(10)));
+    Ok(Some((rec, input)))
+}
+
 fn bump(c: &AtomicU64, what: &str, key: &str) {
     let n = c.fetch_add(1, Ordering::Relaxed) + 1;
     if frontseat_gateway::wire::worth_logging(n) {
@@ -130,6 +191,7 @@ fn take(
     key: &str,
     payload: &[u8],
     observer: Option<&Observer>,
+    record: Option<&RecordTo>,
 ) {
     let Some(platform) = key
         .split('/')
@@ -164,6 +226,11 @@ fn take(
         },
     };
     drop(f);
+    // Recorded as heard, implausible values too (the record is of what came in); a platform the
+    // model refused is not, so the file's channels are bounded by max_vehicles.
+    if let (Some(rec), Ok(()) | Err(Refused::Implausible)) = (record, &r) {
+        rec.record(platform, payload);
+    }
     match r {
         Ok(()) => {
             counters.accepted.fetch_add(1, Ordering::Relaxed);
@@ -184,9 +251,12 @@ pub struct Topside {
     _subs: Vec<frontseat_gateway::zenoh::pubsub::Subscriber<()>>,
     server: tokio::task::JoinHandle<()>,
     pub counters: Arc<Counters>,
+    /// The recorder this topside started itself (not one handed in by [`run`]).
+    recorder: Option<Recorder>,
 }
 
 impl Topside {
+    /// Starts the topside, and its recorder when `[record]` is enabled.
     pub async fn start(cfg: &TopsideConfig) -> Result<Self, TopsideError> {
         Self::start_observed(cfg, None).await
     }
@@ -195,6 +265,19 @@ impl Topside {
     pub async fn start_observed(
         cfg: &TopsideConfig,
         observer: Option<Observer>,
+    ) -> Result<Self, TopsideError> {
+        let own = start_recorder(cfg)?;
+        let input = own.as_ref().map(|(_, i)| i.clone());
+        let mut t = Self::start_with(cfg, observer, input).await?;
+        t.recorder = own.map(|(r, _)| r);
+        Ok(t)
+    }
+
+    /// The topside recording into `record` (a recorder that outlives restarts), if given.
+    pub async fn start_with(
+        cfg: &TopsideConfig,
+        observer: Option<Observer>,
+        record: Option<RecordInput>,
     ) -> Result<Self, TopsideError> {
         let token = effective_token(cfg)?;
         let listen: SocketAddr = cfg
@@ -237,6 +320,7 @@ impl Topside {
         ] {
             let key = frontseat_gateway::key_for("*", group);
             let (fleet, counters, observer) = (fleet.clone(), counters.clone(), observer.clone());
+            let record = record.as_ref().and_then(|i| RecordTo::new(i, group));
             let sub = session
                 .declare_subscriber(key.clone())
                 .callback(move |s| {
@@ -248,6 +332,7 @@ impl Topside {
                         s.key_expr().as_str(),
                         &payload,
                         observer.as_ref(),
+                        record.as_ref(),
                     );
                 })
                 .await
@@ -294,7 +379,13 @@ impl Topside {
             _subs: subs,
             server,
             counters,
+            recorder: None,
         })
+    }
+
+    /// The file the topside's own recorder writes now.
+    pub fn record_file(&self) -> Option<std::path::PathBuf> {
+        self.recorder.as_ref().and_then(Recorder::current_file)
     }
 
     pub fn local_addr(&self) -> SocketAddr {
@@ -322,6 +413,11 @@ impl Service for Topside {
         Box::pin(async move {
             self.server.abort();
             let _ = tokio::time::timeout(within, self.session.close()).await;
+            // After the session: no callback feeds the recorder any more; closing the file
+            // (its summary) blocks, so off the async threads.
+            if let Some(r) = self.recorder {
+                stop_recorder(r).await;
+            }
         })
     }
 }
@@ -449,7 +545,22 @@ async fn fleet_json(
     r
 }
 
+/// Stops a recorder off the async threads and logs what it counted.
+async fn stop_recorder(r: Recorder) {
+    match tokio::task::spawn_blocking(move || r.stop()).await {
+        Ok(s) => tracing::info!(
+            written = s.written,
+            dropped = s.dropped(),
+            files = s.files_opened,
+            write_errors = s.write_errors,
+            "topside recorder stopped"
+        ),
+        Err(e) => tracing::error!(error = %e, "the topside recorder did not stop cleanly"),
+    }
+}
+
 /// The topside under a supervisor until `stop`: restarted (with backoff) if its server fails.
+/// The recorder is started once, outside the restarts, so a restart continues its file.
 pub async fn run(cfg: TopsideConfig, stop: impl std::future::Future<Output = ()>) -> u8 {
     use frontseat_actors::service_child::service_child_with;
     use frontseat_actors::supervisor::{Policy, SupervisorHandle};
@@ -458,9 +569,18 @@ pub async fn run(cfg: TopsideConfig, stop: impl std::future::Future<Output = ()>
         tracing::error!("{e}");
         return 2;
     }
+    let (recorder, input) = match start_recorder(&cfg) {
+        Ok(Some((r, i))) => (Some(r), Some(i)),
+        Ok(None) => (None, None),
+        Err(e) => {
+            tracing::error!("{e}");
+            return 2;
+        }
+    };
     let policy = Policy::from(&frontseat_config::RestartConfig::default()).helm_side();
-    let child = service_child_with("Topside", policy, Arc::new(cfg), |cfg| async move {
-        Topside::start(&cfg)
+    let ctx = (Arc::new(cfg), input);
+    let child = service_child_with("Topside", policy, ctx, |(cfg, input)| async move {
+        Topside::start_with(&cfg, None, input)
             .await
             .map(|t| Box::new(t) as Box<dyn Service>)
             .map_err(|e| e.to_string())
@@ -469,6 +589,9 @@ pub async fn run(cfg: TopsideConfig, stop: impl std::future::Future<Output = ()>
         Ok(r) => r,
         Err(e) => {
             tracing::error!(error = %e, "cannot start the topside");
+            if let Some(r) = recorder {
+                stop_recorder(r).await;
+            }
             return 1;
         }
     };
@@ -477,5 +600,8 @@ pub async fn run(cfg: TopsideConfig, stop: impl std::future::Future<Output = ()>
         _ = stop => 0,
     };
     root.shutdown(Duration::from_secs(3)).await;
+    if let Some(r) = recorder {
+        stop_recorder(r).await;
+    }
     code
 }

@@ -6,13 +6,19 @@
 //! client sends reaches the bus.
 //!
 //! Bounds: clients at once, subscriptions per client, inbound frame size; each client has its own
-//! bounded queue and a slow one misses messages (counted), never slowing a publisher.
+//! bounded queue and a slow one misses messages (counted), never slowing a publisher. Before the
+//! upgrade, connections go through the web crate's bounded listener (`frontseat_web::server`,
+//! shared with the web scope and the topside): a limited number at once, and a request not
+//! complete within `request_timeout` of its first byte (slowloris) or a silent socket is closed
+//! (counted). After it, the server pings every third of that time, which keeps a quiet but live
+//! client open, and a send that cannot complete within it (a client that stopped reading) ends
+//! the client.
 
 use std::collections::HashMap;
 use std::net::SocketAddr;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicU64, Ordering};
-use std::time::{Instant, SystemTime};
+use std::time::{Duration, Instant, SystemTime};
 
 use axum::extract::ws::{Message, WebSocket, WebSocketUpgrade};
 use axum::extract::{Query, State};
@@ -32,6 +38,8 @@ pub const SUBPROTOCOL: &str = "foxglove.websocket.v1";
 const MAX_INBOUND: usize = 64 * 1024;
 const MAX_SUBSCRIPTIONS: usize = 1024;
 const BUS_IN_FLIGHT: usize = 1024;
+/// Connections beyond `max_clients` let in to be answered 503 (rather than reset) when full.
+const HANDSHAKE_HEADROOM: usize = 8;
 
 #[derive(Debug, thiserror::Error)]
 pub enum FoxgloveError {
@@ -58,7 +66,13 @@ pub struct FoxgloveOptions {
     pub max_clients: usize,
     /// Messages queued per client. Unit: messages.
     pub client_queue: usize,
+    /// Longest a connection may take to send its whole upgrade request (from its first byte),
+    /// or stay silent; also the ping period × 3 and the longest a send may block after it.
+    pub request_timeout: Duration,
 }
+
+/// Default of [`FoxgloveOptions::request_timeout`].
+pub const REQUEST_TIMEOUT: Duration = Duration::from_secs(10);
 
 impl Default for FoxgloveOptions {
     fn default() -> Self {
@@ -67,6 +81,7 @@ impl Default for FoxgloveOptions {
             token: None,
             max_clients: 8,
             client_queue: 1024,
+            request_timeout: REQUEST_TIMEOUT,
         }
     }
 }
@@ -81,6 +96,10 @@ pub struct FoxgloveStats {
     pub lagged: u64,
     /// Client frames that were not a subscribe/unsubscribe the server understood.
     pub bad_requests: u64,
+    /// Connections closed before their upgrade request was complete in time (slowloris).
+    pub slow_requests: u64,
+    /// Connections closed at accept: every slot was held.
+    pub connections_refused: u64,
 }
 
 #[derive(Default)]
@@ -106,6 +125,8 @@ struct Shared {
     tx: broadcast::Sender<Arc<Frame>>,
     slots: Arc<Semaphore>,
     counters: Arc<Counters>,
+    /// Ping period; a send blocked for three of them ends the client.
+    ping: Duration,
 }
 
 /// The running server; dropping it (or [`FoxgloveServer::stop`]) closes it.
@@ -114,6 +135,7 @@ pub struct FoxgloveServer {
     subs: Vec<Subscription>,
     task: tokio::task::JoinHandle<()>,
     counters: Arc<Counters>,
+    conns: Arc<frontseat_web::ServerCounters>,
 }
 
 impl std::fmt::Debug for FoxgloveServer {
@@ -215,12 +237,22 @@ impl FoxgloveServer {
             tx,
             slots: Arc::new(Semaphore::new(opts.max_clients.max(1))),
             counters: counters.clone(),
+            ping: (opts.request_timeout / 3).max(Duration::from_millis(10)),
         });
         let app = axum::Router::new()
             .route("/", axum::routing::get(upgrade))
             .with_state(shared);
+        let conns = Arc::new(frontseat_web::ServerCounters::default());
+        let bounded = frontseat_web::server::BoundedListener {
+            inner: listener,
+            permits: Arc::new(Semaphore::new(
+                opts.max_clients.max(1).saturating_add(HANDSHAKE_HEADROOM),
+            )),
+            counters: conns.clone(),
+            idle: opts.request_timeout.max(Duration::from_millis(10)),
+        };
         let task = tokio::spawn(async move {
-            if let Err(e) = axum::serve(listener, app).await {
+            if let Err(e) = axum::serve(bounded, app).await {
                 tracing::error!(error = %e, "foxglove live server stopped");
             }
         });
@@ -230,6 +262,7 @@ impl FoxgloveServer {
             subs,
             task,
             counters,
+            conns,
         })
     }
 
@@ -247,6 +280,8 @@ impl FoxgloveServer {
             sent: g(&c.sent),
             lagged: g(&c.lagged),
             bad_requests: g(&c.bad_requests),
+            slow_requests: g(&self.conns.slow_requests),
+            connections_refused: g(&self.conns.connections_refused),
         }
     }
 
@@ -352,21 +387,32 @@ fn status(level: u8, message: &str) -> Message {
     )
 }
 
+/// Sends `m`, false when the client is gone or did not take it within three ping periods.
+async fn send(socket: &mut WebSocket, m: Message, s: &Shared) -> bool {
+    matches!(
+        tokio::time::timeout(s.ping * 3, socket.send(m)).await,
+        Ok(Ok(()))
+    )
+}
+
 async fn client(mut socket: WebSocket, s: &Shared) {
     let mut rx = s.tx.subscribe();
     for text in [&s.server_info, &s.advertise] {
-        if socket
-            .send(Message::Text(text.clone().into()))
-            .await
-            .is_err()
-        {
+        if !send(&mut socket, Message::Text(text.clone().into()), s).await {
             return;
         }
     }
     // channel id -> subscription id
     let mut subscribed: HashMap<u32, u32> = HashMap::new();
+    let mut ping = tokio::time::interval(s.ping);
+    ping.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
     loop {
         tokio::select! {
+            _ = ping.tick() => {
+                if !send(&mut socket, Message::Ping(Default::default()), s).await {
+                    return;
+                }
+            }
             inbound = socket.recv() => {
                 let reply = match inbound {
                     None | Some(Err(_)) | Some(Ok(Message::Close(_))) => return,
@@ -378,7 +424,7 @@ async fn client(mut socket: WebSocket, s: &Shared) {
                     Some(Ok(_)) => None,
                 };
                 if let Some(r) = reply
-                    && socket.send(r).await.is_err()
+                    && !send(&mut socket, r, s).await
                 {
                     return;
                 }
@@ -398,7 +444,7 @@ async fn client(mut socket: WebSocket, s: &Shared) {
                 b.extend(sub.to_le_bytes());
                 b.extend(f.time_ns.to_le_bytes());
                 b.extend(&f.bytes);
-                if socket.send(Message::Binary(b.into())).await.is_err() {
+                if !send(&mut socket, Message::Binary(b.into()), s).await {
                     return;
                 }
                 s.counters.sent.fetch_add(1, Ordering::Relaxed);

@@ -64,6 +64,7 @@ impl RecordService {
                 token: cfg.foxglove.effective_token(),
                 max_clients: cfg.foxglove.max_clients,
                 client_queue: cfg.foxglove.client_queue,
+                ..Default::default()
             };
             let shown = if name.is_empty() { "frontseat" } else { name };
             Some(FoxgloveServer::start(

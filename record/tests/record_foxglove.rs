@@ -233,3 +233,93 @@ async fn a_token_gates_every_client_and_an_open_bind_needs_one() {
         assert!(e.to_string().contains("token"), "{e}");
     }
 }
+
+/// A client that sends its upgrade request a byte every 50 ms (never completing it in time);
+/// returns how long the server let it trickle before it closed the connection.
+async fn trickle(addr: std::net::SocketAddr) -> Duration {
+    use tokio::io::{AsyncReadExt, AsyncWriteExt};
+    let req = format!(
+        "GET / HTTP/1.1\r\nHost: {addr}\r\nUpgrade: websocket\r\nConnection: Upgrade\r\n\
+         Sec-WebSocket-Version: 13\r\nSec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\n\
+         Sec-WebSocket-Protocol: foxglove.websocket.v1\r\n\r\n"
+    );
+    let mut s = tokio::net::TcpStream::connect(addr).await.unwrap();
+    let t0 = tokio::time::Instant::now();
+    let mut buf = [0u8; 256];
+    let mut bytes = req.bytes();
+    loop {
+        tokio::select! {
+            // End of stream or a reset: the server closed it. (No answer comes before that: the
+            // request is never complete.)
+            r = s.read(&mut buf) => {
+                assert!(!matches!(r, Ok(n) if n > 0), "an answer to an incomplete request");
+                return t0.elapsed();
+            }
+            _ = tokio::time::sleep(Duration::from_millis(50)) => {
+                let b = bytes.next().expect("the request outlasted the bound");
+                if s.write_all(&[b]).await.is_err() {
+                    return t0.elapsed();
+                }
+            }
+        }
+    }
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn trickling_clients_are_closed_within_the_bound_and_a_real_client_still_connects() {
+    use frontseat_record::foxglove::{FoxgloveOptions, FoxgloveServer};
+    let bound = Duration::from_millis(600);
+    let bus = Bus::new();
+    let opts = FoxgloveOptions {
+        bind: "127.0.0.1:0".into(),
+        max_clients: 1,
+        request_timeout: bound,
+        ..Default::default()
+    };
+    let server = FoxgloveServer::start(
+        &bus,
+        frontseat_actors::groups::ALL,
+        |_| true,
+        &opts,
+        "auv1",
+    )
+    .unwrap();
+    let addr = server.local_addr();
+    // More tricklers than the server has connection slots (max_clients + 8): before the bound
+    // they held every one, so nobody else could connect.
+    let tricklers: Vec<_> = (0..12).map(|_| tokio::spawn(trickle(addr))).collect();
+    for t in tricklers {
+        let held = tokio::time::timeout(WAIT, t).await.unwrap().unwrap();
+        // Those past the slots are closed at accept at once; the others at the bound.
+        assert!(
+            held < bound + Duration::from_secs(2),
+            "a trickling client held its connection {held:?}"
+        );
+    }
+    let st = server.stats();
+    assert!(
+        st.slow_requests >= 1 && st.slow_requests + st.connections_refused >= 12,
+        "{st:?}"
+    );
+
+    // A real client connects now and stays connected past the bound while quiet: the server's
+    // pings keep it open (the bound is on the request, not on the websocket).
+    let mut ws = connect(&format!("ws://{addr}/"), true).await.unwrap();
+    assert_eq!(next_text(&mut ws).await["op"], "serverInfo");
+    assert_eq!(next_text(&mut ws).await["op"], "advertise");
+    let t0 = tokio::time::Instant::now();
+    let mut pings = 0;
+    while t0.elapsed() < bound * 3 {
+        let m = tokio::time::timeout(WAIT, ws.next())
+            .await
+            .expect("a ping in time")
+            .expect("still open")
+            .expect("no error");
+        if matches!(m, Message::Ping(_)) {
+            pings += 1;
+        }
+    }
+    assert!(pings >= 3, "{pings} pings in {:?}", t0.elapsed());
+    ws.close(None).await.unwrap();
+    server.stop();
+}

@@ -38,6 +38,15 @@ pub struct LaunchConfig {
     /// Any other process: simulators, helms, a MOOS community, a topside.
     #[schemars(example = example_processes())]
     pub process: Vec<ProcessEntry>,
+    /// Record every vehicle: with `enabled = true` this `[record]` goes into each templated
+    /// vehicle's interface config, its files apart per vehicle — `dir` gets `/<vehicle>` added
+    /// (or `{vehicle}` in it is replaced), `path` gets `-<vehicle>` before its extension (or
+    /// `{vehicle}` replaced); budget and rotation apply per vehicle. A vehicle whose template or
+    /// `set` has its own `[record]` keeps it (a warning says so), as does a vehicle with its own
+    /// `config`. `foxglove` is refused here (every vehicle would bind the same address): set it
+    /// per vehicle. A topside process records by its own config. Relative paths are relative to
+    /// the launch file.
+    pub record: frontseat_config::RecordConfig,
 }
 
 impl Default for LaunchConfig {
@@ -48,6 +57,7 @@ impl Default for LaunchConfig {
             vehicles: VehiclesConfig::default(),
             vehicle: Vec::new(),
             process: Vec::new(),
+            record: frontseat_config::RecordConfig::default(),
         }
     }
 }
@@ -330,6 +340,14 @@ impl ServiceConfig for LaunchConfig {
                 "stop_timeout_s",
                 self.stop_timeout_s,
                 "outside [0.1, 60]",
+            ));
+        }
+        e.extend(self.record.errors_at("record"));
+        if self.record.foxglove.enabled {
+            e.push(FieldError::new(
+                "record.foxglove.enabled",
+                true,
+                "every vehicle would serve on the same address: enable it per vehicle (set = { \"record.foxglove.enabled\" = true, \"record.foxglove.bind\" = ... })",
             ));
         }
         check_ready("vehicles.ready", &self.vehicles.ready, &mut e);

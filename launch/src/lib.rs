@@ -88,6 +88,10 @@ pub fn check(cfg: &LaunchConfig, file: &Path, frontseat: &Path) -> Result<Vec<St
         })
         .collect();
     lines.extend(p.skipped);
+    for (vehicle, target) in p.records {
+        lines.push(format!("     record: {vehicle} -> {target}"));
+    }
+    lines.extend(p.warnings.into_iter().map(|w| format!("warning: {w}")));
     Ok(lines)
 }
 
@@ -184,8 +188,11 @@ async fn run_in(
         Ok(p) => p,
         Err(e) => return Outcome::BadConfig(e.to_string()),
     };
-    for s in &plan.skipped {
+    for s in plan.skipped.iter().chain(&plan.warnings) {
         tracing::warn!("{s}");
+    }
+    for (vehicle, target) in &plan.records {
+        tracing::info!(vehicle = %vehicle, to = %target, "recording");
     }
     for c in &plan.configs {
         if let Err(e) = std::fs::write(&c.path, &c.text) {

@@ -2,10 +2,12 @@
 //! per vehicle (its config generated from the template and the vehicle's values, and validated
 //! as `frontseat interface --check` would), per-vehicle processes expanded, and processes whose
 //! programs are missing from PATH skipped. No process is started here; `--check` runs all of it.
+//! The launch file's `[record]` is written into each templated vehicle's config here, its files
+//! set apart by the vehicle's name.
 
 use std::path::{Path, PathBuf};
 
-use frontseat_config::{InterfaceConfig, RestartConfig};
+use frontseat_config::{InterfaceConfig, RecordConfig, RestartConfig};
 
 use crate::config::{LaunchConfig, ProcessEntry, ReadyConfig, Stage, VehicleEntry};
 
@@ -36,6 +38,10 @@ pub struct Plan {
     pub configs: Vec<GeneratedConfig>,
     /// Why a listed process is not started (a program it needs is not on PATH).
     pub skipped: Vec<String>,
+    /// Where each recording vehicle writes: `(vehicle, where)`.
+    pub records: Vec<(String, String)>,
+    /// What the user should know (a vehicle's own `[record]` winning over the launch file's).
+    pub warnings: Vec<String>,
 }
 
 #[derive(Debug, thiserror::Error)]
@@ -86,6 +92,54 @@ fn set_path(table: &mut toml::Table, path: &str, value: toml::Value) -> Result<(
         };
     }
     Err("an empty path".into())
+}
+
+/// The launch file's `[record]` for `vehicle`: its files apart from every other vehicle's, and
+/// relative paths taken from the launch file's directory.
+pub fn vehicle_record(r: &RecordConfig, base: &Path, vehicle: &str) -> RecordConfig {
+    let mut r = r.clone();
+    let dir = if r.dir.contains("{vehicle}") {
+        PathBuf::from(r.dir.replace("{vehicle}", vehicle))
+    } else {
+        Path::new(&r.dir).join(vehicle)
+    };
+    r.dir = resolve(base, &dir.to_string_lossy()).display().to_string();
+    if let Some(p) = &r.path {
+        let p = if p.contains("{vehicle}") {
+            PathBuf::from(p.replace("{vehicle}", vehicle))
+        } else {
+            let p = Path::new(p);
+            let stem = p.file_stem().map(|s| s.to_string_lossy()).unwrap_or_default();
+            let name = match p.extension() {
+                Some(ext) => format!("{stem}-{vehicle}.{}", ext.to_string_lossy()),
+                None => format!("{stem}-{vehicle}"),
+            };
+            p.with_file_name(name)
+        };
+        r.path = Some(resolve(base, &p.to_string_lossy()).display().to_string());
+    }
+    r
+}
+
+/// Where a vehicle's `[record]` writes, as `--check` shows it.
+fn record_target(r: &RecordConfig, vehicle: &str) -> String {
+    match &r.path {
+        Some(p) => p.clone(),
+        None => {
+            // As the recorder names its files (frontseat-record, RecorderOptions::from_config).
+            let prefix: String = vehicle
+                .chars()
+                .map(|c| if c.is_ascii_alphanumeric() || c == '-' { c } else { '-' })
+                .collect();
+            format!(
+                "{}/{prefix}_<UTC start>_<seq>.mcap (rotated: {} MiB / {} s; budget {} MiB)",
+                r.dir.trim_end_matches('/'),
+                r.rotate_mb,
+                r.rotate_s,
+                r.budget_mb
+            )
+        }
+    }
 }
 
 fn json_to_toml(v: &serde_json::Value) -> Result<toml::Value, String> {
@@ -242,26 +296,57 @@ pub fn plan(
     {
         push_process(&mut out, p, None);
     }
+    let launch_records = cfg.record.enabled;
     for (i, v) in cfg.vehicle.iter().enumerate() {
-        let config_path = if v.config.is_empty() {
+        let interface_err = |source| PlanError::Interface {
+            vehicle: v.name.clone(),
+            source,
+        };
+        let (config_path, ic) = if v.config.is_empty() {
             let path = run_dir.join(format!("interface-{}.toml", v.name));
             let label = format!("vehicle {} (template + its values)", v.name);
-            let text = vehicle_config(&template, v, &label)?;
+            // The vehicle's own [record] (template or `set`) is the more specific: it wins.
+            let own = template.contains_key("record")
+                || v.set.keys().any(|k| k == "record" || k.starts_with("record."));
+            let mut t = template.clone();
+            if launch_records && own {
+                out.warnings.push(format!(
+                    "vehicle {}: its own [record] (template or set) wins; the launch file's [record] is not applied to it",
+                    v.name
+                ));
+            } else if launch_records {
+                let r = vehicle_record(&cfg.record, base, &v.name);
+                let value = toml::Value::try_from(&r).map_err(|e| PlanError::Set {
+                    vehicle: v.name.clone(),
+                    key: "record".into(),
+                    why: e.to_string(),
+                })?;
+                t.insert("record".into(), value);
+            }
+            let text = vehicle_config(&t, v, &label)?;
+            let ic = frontseat_config::parse::<InterfaceConfig>(&text, &label)
+                .map_err(interface_err)?;
             out.configs.push(GeneratedConfig {
                 path: path.clone(),
                 text,
             });
-            path
+            (path, ic)
         } else {
             let path = resolve(base, &v.config);
-            frontseat_config::load::<InterfaceConfig>(&path).map_err(|source| {
-                PlanError::Interface {
-                    vehicle: v.name.clone(),
-                    source,
-                }
-            })?;
-            path
+            let ic = frontseat_config::load::<InterfaceConfig>(&path).map_err(interface_err)?;
+            if launch_records {
+                out.warnings.push(format!(
+                    "vehicle {}: it has its own config ({}); its [record] is used, the launch file's is not applied to it",
+                    v.name,
+                    path.display()
+                ));
+            }
+            (path, ic)
         };
+        if ic.record.enabled {
+            out.records
+                .push((v.name.clone(), record_target(&ic.record, &v.name)));
+        }
         out.processes.push(ProcSpec {
             index: out.processes.len(),
             name: format!("interface-{}", v.name),
@@ -417,5 +502,86 @@ mod tests {
         };
         let e = vehicle_config(&t, &typo, "x").unwrap_err().to_string();
         assert!(e.contains("requre_helm"), "{e}");
+    }
+
+    #[test]
+    fn the_launch_record_goes_to_every_templated_vehicle_apart_unless_it_has_its_own() {
+        let cfg = parse(
+            r#"
+            [record]
+            enabled = true
+            dir = "rec"
+            flush_s = 0.2
+            [[vehicle]]
+            name = "a"
+            [[vehicle]]
+            name = "b.1"
+            [[vehicle]]
+            name = "own"
+            set = { "record.enabled" = true, "record.path" = "/x/own.mcap" }
+            "#,
+        );
+        let p = plan(
+            &cfg,
+            Path::new("/base"),
+            Path::new("/run"),
+            Path::new("/f"),
+            |_| true,
+        )
+        .unwrap();
+        let ic = |i: usize| {
+            frontseat_config::parse::<InterfaceConfig>(&p.configs[i].text, "t").unwrap()
+        };
+        assert!(ic(0).record.enabled);
+        assert_eq!(ic(0).record.dir, "/base/rec/a");
+        assert_eq!(ic(0).record.flush_s, 0.2);
+        assert_eq!(ic(1).record.dir, "/base/rec/b.1");
+        // The vehicle's own `set` wins, said in a warning.
+        assert_eq!(ic(2).record.path.as_deref(), Some("/x/own.mcap"));
+        assert_eq!(ic(2).record.flush_s, 1.0, "nothing of the launch's [record]");
+        assert_eq!(p.warnings.len(), 1, "{:?}", p.warnings);
+        assert!(p.warnings[0].contains("own"), "{:?}", p.warnings);
+        let names: Vec<&str> = p.records.iter().map(|(v, _)| v.as_str()).collect();
+        assert_eq!(names, ["a", "b.1", "own"]);
+        assert!(p.records[0].1.starts_with("/base/rec/a/a_<UTC start>"), "{:?}", p.records);
+        assert!(p.records[1].1.starts_with("/base/rec/b.1/b-1_"), "{:?}", p.records);
+        assert_eq!(p.records[2].1, "/x/own.mcap");
+
+        // Without [record] in the launch file nothing records.
+        let quiet = parse("[[vehicle]]\nname = \"a\"\n");
+        let p = plan(&quiet, Path::new("/"), Path::new("/r"), Path::new("/f"), |_| true).unwrap();
+        assert!(p.records.is_empty() && p.warnings.is_empty());
+    }
+
+    #[test]
+    fn a_single_record_path_gets_the_vehicle_name() {
+        let r = RecordConfig {
+            path: Some("logs/run.mcap".into()),
+            ..Default::default()
+        };
+        let at = |r: &RecordConfig, v| vehicle_record(r, Path::new("/b"), v).path.unwrap();
+        assert_eq!(at(&r, "auv1"), "/b/logs/run-auv1.mcap");
+        let placed = RecordConfig {
+            path: Some("/abs/{vehicle}/x".into()),
+            dir: "/d/{vehicle}/files".into(),
+            ..Default::default()
+        };
+        assert_eq!(at(&placed, "auv2"), "/abs/auv2/x");
+        assert_eq!(
+            vehicle_record(&placed, Path::new("/b"), "auv2").dir,
+            "/d/auv2/files"
+        );
+    }
+
+    #[test]
+    fn a_launch_record_serving_foxglove_is_refused() {
+        let e = frontseat_config::parse::<LaunchConfig>(
+            "[record]\nenabled = true\nflush_s = 100\n[record.foxglove]\nenabled = true\n",
+            "t.toml",
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(e.contains("record.foxglove.enabled"), "{e}");
+        assert!(e.contains("record.flush_s"), "{e}");
     }
 }

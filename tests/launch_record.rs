@@ -49,7 +49,10 @@ fn node_statuses(file: &Path) -> Vec<NodeStatus> {
     };
     let mut out = Vec::new();
     while let Ok(Some(m)) = rec.next_message() {
-        if rec.channel(m.channel_id).is_some_and(|c| &*c.topic == NODE_STATUS) {
+        if rec
+            .channel(m.channel_id)
+            .is_some_and(|c| &*c.topic == NODE_STATUS)
+        {
             out.push(NodeStatus::decode(m.data.as_slice()).unwrap());
         }
     }
@@ -58,10 +61,8 @@ fn node_statuses(file: &Path) -> Vec<NodeStatus> {
 
 #[test]
 fn a_launch_record_leaves_one_readable_file_per_vehicle_with_its_node_status() {
-    let dir = Dir(std::env::temp_dir().join(format!(
-        "frontseat-launch-record-{}",
-        std::process::id()
-    )));
+    let dir =
+        Dir(std::env::temp_dir().join(format!("frontseat-launch-record-{}", std::process::id())));
     let _ = std::fs::remove_dir_all(&dir.0);
     std::fs::create_dir_all(&dir.0).unwrap();
     let file = dir.0.join("fleet.toml");
@@ -178,11 +179,17 @@ start = {{ lat = 42.36, lon = -71.08 }}
     // Each file is closed (its summary written), says whose it is, and holds only that vehicle.
     for (v, f) in ["auv1", "auv2"].iter().zip(&recording) {
         assert!(
-            f.file_name().unwrap().to_string_lossy().starts_with(&format!("{v}_")),
+            f.file_name()
+                .unwrap()
+                .to_string_lossy()
+                .starts_with(&format!("{v}_")),
             "{f:?}"
         );
         let i = info::info(Recording::open(f).unwrap()).unwrap();
-        assert_eq!(i.truncated, None, "{v}: the interface closed its file on SIGTERM");
+        assert_eq!(
+            i.truncated, None,
+            "{v}: the interface closed its file on SIGTERM"
+        );
         assert_eq!(i.run.get("vehicle").map(String::as_str), Some(*v));
         let ns = node_statuses(f);
         assert!(ns.len() >= 3, "{v}: {} node_status", ns.len());

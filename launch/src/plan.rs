@@ -109,7 +109,10 @@ pub fn vehicle_record(r: &RecordConfig, base: &Path, vehicle: &str) -> RecordCon
             PathBuf::from(p.replace("{vehicle}", vehicle))
         } else {
             let p = Path::new(p);
-            let stem = p.file_stem().map(|s| s.to_string_lossy()).unwrap_or_default();
+            let stem = p
+                .file_stem()
+                .map(|s| s.to_string_lossy())
+                .unwrap_or_default();
             let name = match p.extension() {
                 Some(ext) => format!("{stem}-{vehicle}.{}", ext.to_string_lossy()),
                 None => format!("{stem}-{vehicle}"),
@@ -129,7 +132,13 @@ fn record_target(r: &RecordConfig, vehicle: &str) -> String {
             // As the recorder names its files (frontseat-record, RecorderOptions::from_config).
             let prefix: String = vehicle
                 .chars()
-                .map(|c| if c.is_ascii_alphanumeric() || c == '-' { c } else { '-' })
+                .map(|c| {
+                    if c.is_ascii_alphanumeric() || c == '-' {
+                        c
+                    } else {
+                        '-'
+                    }
+                })
                 .collect();
             format!(
                 "{}/{prefix}_<UTC start>_<seq>.mcap (rotated: {} MiB / {} s; budget {} MiB)",
@@ -307,7 +316,9 @@ pub fn plan(
             let label = format!("vehicle {} (template + its values)", v.name);
             // The vehicle's own [record] (template or `set`) is the more specific: it wins.
             let own = template.contains_key("record")
-                || v.set.keys().any(|k| k == "record" || k.starts_with("record."));
+                || v.set
+                    .keys()
+                    .any(|k| k == "record" || k.starts_with("record."));
             let mut t = template.clone();
             if launch_records && own {
                 out.warnings.push(format!(
@@ -324,8 +335,8 @@ pub fn plan(
                 t.insert("record".into(), value);
             }
             let text = vehicle_config(&t, v, &label)?;
-            let ic = frontseat_config::parse::<InterfaceConfig>(&text, &label)
-                .map_err(interface_err)?;
+            let ic =
+                frontseat_config::parse::<InterfaceConfig>(&text, &label).map_err(interface_err)?;
             out.configs.push(GeneratedConfig {
                 path: path.clone(),
                 text,
@@ -529,27 +540,45 @@ mod tests {
             |_| true,
         )
         .unwrap();
-        let ic = |i: usize| {
-            frontseat_config::parse::<InterfaceConfig>(&p.configs[i].text, "t").unwrap()
-        };
+        let ic =
+            |i: usize| frontseat_config::parse::<InterfaceConfig>(&p.configs[i].text, "t").unwrap();
         assert!(ic(0).record.enabled);
         assert_eq!(ic(0).record.dir, "/base/rec/a");
         assert_eq!(ic(0).record.flush_s, 0.2);
         assert_eq!(ic(1).record.dir, "/base/rec/b.1");
         // The vehicle's own `set` wins, said in a warning.
         assert_eq!(ic(2).record.path.as_deref(), Some("/x/own.mcap"));
-        assert_eq!(ic(2).record.flush_s, 1.0, "nothing of the launch's [record]");
+        assert_eq!(
+            ic(2).record.flush_s,
+            1.0,
+            "nothing of the launch's [record]"
+        );
         assert_eq!(p.warnings.len(), 1, "{:?}", p.warnings);
         assert!(p.warnings[0].contains("own"), "{:?}", p.warnings);
         let names: Vec<&str> = p.records.iter().map(|(v, _)| v.as_str()).collect();
         assert_eq!(names, ["a", "b.1", "own"]);
-        assert!(p.records[0].1.starts_with("/base/rec/a/a_<UTC start>"), "{:?}", p.records);
-        assert!(p.records[1].1.starts_with("/base/rec/b.1/b-1_"), "{:?}", p.records);
+        assert!(
+            p.records[0].1.starts_with("/base/rec/a/a_<UTC start>"),
+            "{:?}",
+            p.records
+        );
+        assert!(
+            p.records[1].1.starts_with("/base/rec/b.1/b-1_"),
+            "{:?}",
+            p.records
+        );
         assert_eq!(p.records[2].1, "/x/own.mcap");
 
         // Without [record] in the launch file nothing records.
         let quiet = parse("[[vehicle]]\nname = \"a\"\n");
-        let p = plan(&quiet, Path::new("/"), Path::new("/r"), Path::new("/f"), |_| true).unwrap();
+        let p = plan(
+            &quiet,
+            Path::new("/"),
+            Path::new("/r"),
+            Path::new("/f"),
+            |_| true,
+        )
+        .unwrap();
         assert!(p.records.is_empty() && p.warnings.is_empty());
     }
 

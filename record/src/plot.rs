@@ -408,10 +408,7 @@ mod tests {
     fn a_topside_topic_names_its_platform_and_others_are_not_plotted() {
         assert_eq!(classify(NODE_STATUS), Some((0, "")));
         assert_eq!(classify(DESIRED_COURSE), Some((1, "")));
-        assert_eq!(
-            classify(&format!("auv1/{NODE_STATUS}")),
-            Some((0, "auv1"))
-        );
+        assert_eq!(classify(&format!("auv1/{NODE_STATUS}")), Some((0, "auv1")));
         assert_eq!(classify(&format!("a/b/{NODE_STATUS}")), None);
         assert_eq!(classify(&format!("/{NODE_STATUS}")), None);
         assert_eq!(classify("goby::middleware::frontseat::status"), None);

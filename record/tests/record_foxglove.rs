@@ -276,14 +276,9 @@ async fn trickling_clients_are_closed_within_the_bound_and_a_real_client_still_c
         request_timeout: bound,
         ..Default::default()
     };
-    let server = FoxgloveServer::start(
-        &bus,
-        frontseat_actors::groups::ALL,
-        |_| true,
-        &opts,
-        "auv1",
-    )
-    .unwrap();
+    let server =
+        FoxgloveServer::start(&bus, frontseat_actors::groups::ALL, |_| true, &opts, "auv1")
+            .unwrap();
     let addr = server.local_addr();
     // More tricklers than the server has connection slots (max_clients + 8): before the bound
     // they held every one, so nobody else could connect.

@@ -151,7 +151,9 @@ impl RecordTo {
 }
 
 /// Starts the recorder of `[record]` when enabled: files named `topside_<UTC>_<seq>.mcap`.
-pub fn start_recorder(cfg: &TopsideConfig) -> Result<Option<(Recorder, RecordInput)>, TopsideError> {
+pub fn start_recorder(
+    cfg: &TopsideConfig,
+) -> Result<Option<(Recorder, RecordInput)>, TopsideError> {
     if !cfg.record.enabled {
         return Ok(None);
     }

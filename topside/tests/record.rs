@@ -142,7 +142,9 @@ async fn the_topside_records_each_vehicle_on_its_own_channel_and_both_readers_de
             put_message(&z, &key_for(p, group), ns_type, &node_status(p, x), None).unwrap();
         }
         // Not a node_status: counted by the topside, never a channel of the file.
-        z.put(key_for("auv3", group), vec![0xff_u8; 7]).await.unwrap();
+        z.put(key_for("auv3", group), vec![0xff_u8; 7])
+            .await
+            .unwrap();
         let both = seen.lock().unwrap().len() == 2;
         let garbage = top
             .counters
@@ -164,9 +166,7 @@ async fn the_topside_records_each_vehicle_on_its_own_channel_and_both_readers_de
     let counters = top.counters.clone();
     top.shutdown().await;
     z.close().await.unwrap();
-    let accepted = counters
-        .accepted
-        .load(std::sync::atomic::Ordering::Relaxed);
+    let accepted = counters.accepted.load(std::sync::atomic::Ordering::Relaxed);
 
     // This crate's reader: every message on a `<platform>/<group>` channel with the platform in
     // its metadata, decoded as the NodeStatus its schema names.

@@ -2,12 +2,15 @@
 //! and a real launch of a simulator and two interfaces leaves one closed, readable MCAP file per
 //! vehicle (its own directory) holding that vehicle's node_status.
 
+mod common;
+
 use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::sync::mpsc;
 use std::time::{Duration, Instant};
 
+use common::procs::{Kill, free_port, scratch};
 use frontseat_actors::proto::goby::middleware::frontseat::protobuf::NodeStatus;
 use frontseat_record::{Recording, info};
 use prost::Message as _;
@@ -15,21 +18,6 @@ use prost::Message as _;
 const BIN: &str = env!("CARGO_BIN_EXE_frontseat");
 const BOUND: Duration = Duration::from_secs(40);
 const NODE_STATUS: &str = "goby::middleware::frontseat::node_status";
-
-struct Dir(PathBuf);
-impl Drop for Dir {
-    fn drop(&mut self) {
-        let _ = std::fs::remove_dir_all(&self.0);
-    }
-}
-
-fn free_port() -> u16 {
-    std::net::TcpListener::bind("127.0.0.1:0")
-        .unwrap()
-        .local_addr()
-        .unwrap()
-        .port()
-}
 
 /// The one `.mcap` file in `dir`, if there is exactly one.
 fn only_file(dir: &Path) -> Option<PathBuf> {
@@ -61,11 +49,9 @@ fn node_statuses(file: &Path) -> Vec<NodeStatus> {
 
 #[test]
 fn a_launch_record_leaves_one_readable_file_per_vehicle_with_its_node_status() {
-    let dir =
-        Dir(std::env::temp_dir().join(format!("frontseat-launch-record-{}", std::process::id())));
-    let _ = std::fs::remove_dir_all(&dir.0);
-    std::fs::create_dir_all(&dir.0).unwrap();
-    let file = dir.0.join("fleet.toml");
+    let dir = scratch("launch", "record");
+    let _ = std::fs::remove_dir_all(dir.join("rec"));
+    let file = dir.join("fleet.toml");
     let sim = free_port();
     std::fs::write(
         &file,
@@ -96,7 +82,7 @@ start = {{ lat = 42.36, lon = -71.08 }}
         ),
     )
     .unwrap();
-    let rec_dir = |v: &str| dir.0.join("rec").join(v);
+    let rec_dir = |v: &str| dir.join("rec").join(v);
 
     // --check: each vehicle's own directory, named after it.
     let check = Command::new(BIN)
@@ -114,17 +100,19 @@ start = {{ lat = 42.36, lon = -71.08 }}
         assert!(out.contains(&want), "{want:?} not in:\n{out}");
     }
 
-    let mut child = Command::new(BIN)
-        .args(["launch", "-c"])
-        .arg(&file)
-        .env("RUST_LOG", "info")
-        .stdin(Stdio::null())
-        .stdout(Stdio::null())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
+    let mut child = Kill(
+        Command::new(BIN)
+            .args(["launch", "-c"])
+            .arg(&file)
+            .env("RUST_LOG", "info")
+            .stdin(Stdio::null())
+            .stdout(Stdio::null())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap(),
+    );
     let (tx, lines) = mpsc::channel();
-    let stderr = child.stderr.take().unwrap();
+    let stderr = child.0.stderr.take().unwrap();
     std::thread::spawn(move || {
         for l in BufReader::new(stderr).lines().map_while(Result::ok) {
             let _ = tx.send(l);
@@ -147,8 +135,7 @@ start = {{ lat = 42.36, lon = -71.08 }}
         {
             break files.into_iter().flatten().collect::<Vec<_>>();
         }
-        if Instant::now() > deadline || child.try_wait().unwrap().is_some() {
-            let _ = child.kill();
+        if Instant::now() > deadline || child.0.try_wait().unwrap().is_some() {
             panic!(
                 "no node_status recorded by both vehicles; files {files:?}; saw:\n{}",
                 seen.join("\n")
@@ -157,18 +144,18 @@ start = {{ lat = 42.36, lon = -71.08 }}
         std::thread::sleep(Duration::from_millis(100));
     };
     let ok = Command::new("kill")
-        .args(["-TERM", &child.id().to_string()])
+        .args(["-TERM", &child.0.id().to_string()])
         .status()
         .unwrap();
     assert!(ok.success());
     let status = loop {
-        if let Some(s) = child.try_wait().unwrap() {
+        if let Some(s) = child.0.try_wait().unwrap() {
             break s;
         }
-        if Instant::now() > deadline + Duration::from_secs(15) {
-            let _ = child.kill();
-            panic!("launch did not end");
-        }
+        assert!(
+            Instant::now() < deadline + Duration::from_secs(15),
+            "launch did not end"
+        );
         std::thread::sleep(Duration::from_millis(20));
     };
     while let Ok(l) = lines.recv_timeout(Duration::from_millis(200)) {
@@ -198,4 +185,5 @@ start = {{ lat = 42.36, lon = -71.08 }}
             "{v}: another vehicle's node_status in its file"
         );
     }
+    let _ = std::fs::remove_dir_all(&dir);
 }

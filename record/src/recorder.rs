@@ -1,6 +1,7 @@
 //! The recorder: subscribes every group of the generated interface that the include/exclude
 //! regexes let through (both layers, the same generic way the gateway subscribes its exports),
-//! and writes each message on a dedicated thread to MCAP.
+//! and writes each message on a dedicated thread to MCAP. A process without a bus (the topside)
+//! feeds the same writer through a [`RecordInput`] ([`Recorder::start_detached`]).
 //!
 //! What it guarantees, and how:
 //! - A publisher never waits: the bus hands the encoded message to a bounded queue with

@@ -2,6 +2,7 @@
 //! exactly their subscriptions, and the gateway helpers move encoded bytes in and out of
 //! interprocess groups (and refuse the rest).
 
+use frontseat_actors::bus::test_util::UntypedBus as _;
 use std::sync::{Arc, Mutex};
 
 use frontseat_actors::bus::{Bus, Layer, Origin, PublishMeta, TraceContext};

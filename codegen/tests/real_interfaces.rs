@@ -69,16 +69,32 @@ fn real_interface_yaml_compiles() {
     assert_eq!(
         actors,
         [
-            "ChaosAgent",
+            "ArdupilotPilot",
+            "BenchHelm",
+            "BenchNavWatch",
+            "BenchRawWatch",
+            "BenchStatusWatch",
+            "BenchVehicle",
+            "ChaosHelm",
+            "ChaosMonitor",
             "ChaosMonkey",
+            "ChaosSimMonkey",
+            "ChaosStalled",
             "Coroner",
             "DemoHelm",
             "DriverActor",
+            "DriverFaults",
             "FrontSeatInterface",
             "FrontSeatTranslation",
+            "HealthInterfaceWatch",
             "HealthReporter",
+            "HealthSupervisionWatch",
+            "InterfaceFaults",
             "RootSupervisor",
             "Simulator",
+            "SystemdInterfaceWatch",
+            "SystemdTranslationWatch",
+            "TranslationFaults",
             "WebCommander"
         ]
     );

@@ -1,50 +1,12 @@
-//! `frontseat bench`: the flags, then frontseat_bench does the measuring. The cross-process rows
-//! start this very executable as their children, so its path is handed over here.
+//! `frontseat bench`: runs the sibling executable `frontseat-bench` (src/bin/frontseat_bench.rs)
+//! with the same arguments, so this binary does not link the benchmark; its output and exit
+//! code are the sibling's.
 
 use std::process::ExitCode;
 
-use clap::Args;
-use frontseat_bench::BenchOptions;
+pub use crate::bench_args::BenchArgs;
 
-#[derive(Args, Debug, Clone)]
-pub struct BenchArgs {
-    /// Run in seconds, to prove the benchmark runs (CI); figures are rough.
-    #[arg(long)]
-    pub quick: bool,
-    /// Print the results as JSON instead of the Markdown table.
-    #[arg(long)]
-    pub json: bool,
-    /// Only these rows, comma-separated (e.g. `--rows P1,P2,M1,M2` for an A/B of two builds);
-    /// L0 always runs, every ratio is over it. Rows that share a setup run together (M1/M2,
-    /// P4/P5, Z1–Z3/T1); the table shows only the rows asked for.
-    #[arg(long, value_delimiter = ',', value_name = "ROWS")]
-    pub rows: Vec<String>,
-    /// A/B against another build: runs this build's bench and that `frontseat` executable's
-    /// alternately, `--pairs` times each, and prints mean and median p50/p99 of every latency
-    /// row with the change (e.g. `--against /tmp/frontseat-old --rows P1,P2,M1,M2`). A build
-    /// without `--rows` runs its whole table.
-    #[arg(long, value_name = "EXE")]
-    pub against: Option<std::path::PathBuf>,
-    /// How many runs of each build `--against` makes.
-    #[arg(long, default_value_t = 6, requires = "against")]
-    pub pairs: usize,
-}
-
-pub async fn run(args: BenchArgs) -> ExitCode {
-    let exe = match std::env::current_exe() {
-        Ok(p) => p,
-        Err(e) => {
-            eprintln!("frontseat bench: cannot find its own executable: {e}");
-            return ExitCode::from(1);
-        }
-    };
-    frontseat_bench::run(BenchOptions {
-        quick: args.quick,
-        json: args.json,
-        exe,
-        rows: args.rows,
-        against: args.against,
-        pairs: args.pairs,
-    })
-    .await
+/// `args` were parsed here only to check them (and for `--help`); the sibling parses them again.
+pub fn run(_args: BenchArgs) -> ExitCode {
+    crate::sibling::exec("bench", "frontseat-bench")
 }

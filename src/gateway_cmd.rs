@@ -158,7 +158,7 @@ fn gateway_children(cfg: &GatewayConfig, platform: &str, bus: &Bus) -> Vec<Child
             cfg: cfg.moos.with_warp(1.0),
             vehicle,
             bus: bus.clone(),
-            chaos: None,
+            faults: None,
             observer: Default::default(),
         },
         (&sup.translation).into(),

@@ -2,8 +2,14 @@
 //! crates, waits for a shutdown signal and drains. Everything with logic lives in the crates.
 #![forbid(unsafe_code)]
 
+// The flags are parsed here and read by the sibling executables (src/bin/): no field is read in
+// this binary.
+#[allow(dead_code)]
+mod bench_args;
 mod bench_cmd;
 mod bluefin_sim;
+#[allow(dead_code)]
+mod chaos_args;
 mod chaos_cmd;
 mod demo;
 mod driver_host;
@@ -13,6 +19,7 @@ mod launch_cmd;
 mod record_cmd;
 mod service;
 mod shutdown;
+mod sibling;
 mod vehicle_kind;
 mod vehicle_sim;
 
@@ -385,11 +392,7 @@ fn main() -> ExitCode {
         }
         // No logging set-up: stdout carries the frames to the interface.
         Command::DriverHost(args) => driver_host::run(args),
-        Command::Chaos(args) => {
-            // A long run would fill the console with every injected fault at info level.
-            frontseat_actors::telemetry::set_default_console_level("warn");
-            run_traced(&Default::default(), "chaos", "", chaos_cmd::run(args))
-        }
+        Command::Chaos(args) => chaos_cmd::run(args),
         Command::Demo(args) if args.fleet.is_some() => {
             run_traced(&Default::default(), "demo", "", fleet_demo::run(args))
         }
@@ -407,7 +410,7 @@ fn main() -> ExitCode {
                 _ => run_traced(&Default::default(), "demo", "", demo::run(args)),
             }
         }
-        Command::Bench(args) => run_traced(&Default::default(), "bench", "", bench_cmd::run(args)),
+        Command::Bench(args) => bench_cmd::run(args),
         Command::Launch { cfg } => launch_cmd::run(&cfg),
         Command::Topside { cfg } => {
             if let Some(code) =

@@ -81,7 +81,7 @@ pub fn interface_children(
                 cfg: moos.with_warp(config.sim_warp_factor),
                 vehicle: config.name.clone(),
                 bus: bus.clone(),
-                chaos: None,
+                faults: None,
                 observer: Default::default(),
             },
             Policy::from(&sup.translation).helm_side(),

@@ -273,30 +273,29 @@ pub async fn run_demo(args: DemoArgs, kind: VehicleKind) -> ExitCode {
 /// ready, arm and select GUIDED through the ArduPilot CommandRequest extension (the interface
 /// never does either by itself). Retries until both are accepted; bounded by the demo.
 pub async fn ardupilot_pilot(bus: &Bus) {
-    use frontseat_actors::groups;
+    use frontseat_actors::bus::Undeliverable;
+    use frontseat_actors::ports::{ArdupilotPilotInbox, ArdupilotPilotPorts};
     use frontseat_actors::proto::frontseat::protobuf::ardupilot::{
         ArdupilotCommand, CommandRequest, ardupilot_command::Action,
     };
-    let (_sub, mut responses) = bus.subscribe_channel(
-        &groups::GOBY_MIDDLEWARE_FRONTSEAT_COMMAND_RESPONSE,
-        "ardupilot_pilot",
-        64,
-    );
+    let (tx, mut responses) = tokio::sync::mpsc::unbounded_channel();
+    let _subs = ArdupilotPilotInbox::subscribe_all(bus, "ardupilot_pilot", 64, move |m| {
+        let ArdupilotPilotInbox::CommandResponse(env) = m;
+        tx.send(env).map_err(|_| Undeliverable)
+    });
+    let ports = ArdupilotPilotPorts::new(bus);
     let mut id = 90_000;
     for action in [Action::Arm, Action::Guided] {
         loop {
             id += 1;
-            bus.publish(
-                &groups::FRONTSEAT_ARDUPILOT_ARDUPILOT_COMMAND_REQUEST,
-                CommandRequest {
-                    response_requested: Some(true),
-                    request_id: Some(id),
-                    ardupilot_command: Some(ArdupilotCommand {
-                        action: Some(action as i32),
-                    }),
-                    ..Default::default()
-                },
-            );
+            ports.publish_ardupilot_command_request(CommandRequest {
+                response_requested: Some(true),
+                request_id: Some(id),
+                ardupilot_command: Some(ArdupilotCommand {
+                    action: Some(action as i32),
+                }),
+                ..Default::default()
+            });
             let answer = tokio::time::timeout(std::time::Duration::from_secs(5), async {
                 while let Some(env) = responses.recv().await {
                     if env.msg.request_id == Some(id) {

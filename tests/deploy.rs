@@ -5,6 +5,7 @@
 
 mod common;
 
+use frontseat_actors::bus::test_util::UntypedBus as _;
 use std::collections::BTreeSet;
 use std::io::{BufRead, BufReader};
 use std::os::unix::net::UnixDatagram;

@@ -11,6 +11,7 @@
 mod common;
 
 use common::procs::{Kill, free_port, scratch, wait_for_tcp};
+use frontseat_actors::bus::test_util::UntypedBus as _;
 
 use std::path::Path;
 use std::process::{Command, Stdio};

@@ -4,6 +4,7 @@
 
 mod common;
 
+use frontseat_actors::bus::test_util::UntypedBus as _;
 use std::collections::HashMap;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
@@ -769,6 +770,8 @@ async fn a_hostile_helm_over_moos_never_reaches_the_frontseat() {
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_panic_in_the_translation_is_restarted_and_the_bridge_flows_again() {
+    use frontseat_actors::chaos::{FaultPort, FaultTarget};
+    use frontseat_actors::proto::frontseat::protobuf::{ChaosFault, chaos_fault};
     use frontseat_actors::proto::goby::middleware::frontseat::protobuf::Raw;
     use frontseat_actors::supervisor::SupervisorHandle;
     let broker = Broker::bind("127.0.0.1:0").await.unwrap();
@@ -783,8 +786,11 @@ async fn a_panic_in_the_translation_is_restarted_and_the_bridge_flows_again() {
     );
     let (_s2, mut supervision) =
         bus.subscribe_channel(&groups::FRONTSEAT_SUPERVISION_STATUS, "test", 10_000);
-    let chaos = Arc::new(tokio::sync::Notify::new());
     let cfg = config_for(&sim, WARP);
+    // The translation's fault port opens only for a config that enables chaos.
+    let mut chaos_cfg = cfg.clone();
+    chaos_cfg.chaos.enabled = true;
+    let faults = FaultPort::open(&chaos_cfg, &bus, FaultTarget::Translation).unwrap();
     let root = SupervisorHandle::start(
         "root",
         vec![translation::child_spec(
@@ -792,7 +798,7 @@ async fn a_panic_in_the_translation_is_restarted_and_the_bridge_flows_again() {
                 cfg: moos_config(port, 5.0),
                 vehicle: "test-auv".into(),
                 bus: bus.clone(),
-                chaos: Some(chaos.clone()),
+                faults: Some(faults),
                 observer: Default::default(),
             },
             (&cfg.supervision.translation).into(),
@@ -812,7 +818,12 @@ async fn a_panic_in_the_translation_is_restarted_and_the_bridge_flows_again() {
         .await;
 
     // The translation's data path panics: its supervisor restarts it.
-    chaos.notify_one();
+    bus.publish(
+        &groups::FRONTSEAT_CHAOS_FAULT,
+        ChaosFault {
+            fault: Some(chaos_fault::Fault::TranslationPanic(true)),
+        },
+    );
     let deadline = Instant::now() + LONG;
     let restarted_at = loop {
         let snap = root.snapshot(LONG).await.expect("supervisor answers");

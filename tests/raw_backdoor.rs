@@ -7,6 +7,7 @@
 
 mod common;
 
+use frontseat_actors::bus::test_util::UntypedBus as _;
 use std::sync::Arc;
 use std::time::Duration;
 

@@ -6,6 +6,7 @@
 
 mod common;
 
+use frontseat_actors::bus::test_util::UntypedBus as _;
 use std::path::Path;
 use std::process::Stdio;
 use std::time::Duration;

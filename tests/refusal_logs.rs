@@ -8,6 +8,7 @@
 
 mod common;
 
+use frontseat_actors::bus::test_util::UntypedBus as _;
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 

@@ -4,6 +4,7 @@
 
 mod common;
 
+use frontseat_actors::bus::test_util::UntypedBus as _;
 use std::collections::HashMap;
 use std::time::Duration;
 

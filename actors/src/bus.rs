@@ -5,6 +5,13 @@
 //! that bound the publisher does not wait — the envelope is dropped for that subscriber and counted.
 //! The bound is kept with a ticket inside the envelope, so it works with any delivery mechanism
 //! (a ractor mailbox, a channel) without an extra hop.
+//!
+//! Publishing and subscribing are private to this crate: outside it, an actor reaches the bus
+//! only through the ports generated for it from `interface_yaml/` (`generated::ports`), and a
+//! process-wide observer or bridge only through the generated, declared-groups-only doors
+//! (`subscribe_encoded` for the recorder and the web scope, `interprocess_publish_encoded` for
+//! the gateways and the replay). Tests reach the raw API through [`test_util::UntypedBus`], which
+//! exists only with the `test-util` feature (a dev-dependency feature; no binary enables it).
 
 use std::any::Any;
 use std::collections::HashMap;
@@ -325,13 +332,13 @@ impl Bus {
             .clone()
     }
 
-    pub fn publish<T: BusMessage>(&self, group: &Group<T>, msg: T) -> PublishReport {
+    pub(crate) fn publish<T: BusMessage>(&self, group: &Group<T>, msg: T) -> PublishReport {
         self.publish_with(group, Arc::new(msg), PublishMeta::default())
     }
 
     /// Publishes to every subscriber of `group` without ever waiting: a subscriber with
     /// `capacity` envelopes in flight misses this one, and the miss is counted.
-    pub fn publish_with<T: BusMessage>(
+    pub(crate) fn publish_with<T: BusMessage>(
         &self,
         group: &Group<T>,
         msg: Arc<T>,
@@ -424,7 +431,7 @@ impl Bus {
 
     /// Subscribes `deliver` to `group`. `deliver` runs on the publisher's thread and must not
     /// block: hand the envelope to a mailbox or channel.
-    pub fn subscribe<T: BusMessage>(
+    pub(crate) fn subscribe<T: BusMessage>(
         &self,
         group: &Group<T>,
         subscriber: &str,
@@ -457,9 +464,10 @@ impl Bus {
         }
     }
 
-    /// Subscribes with a channel: convenient for tests, helms and bridges. At most `capacity`
-    /// envelopes are held unread; more are dropped and counted.
-    pub fn subscribe_channel<T: BusMessage>(
+    /// Subscribes with a channel. At most `capacity` envelopes are held unread; more are dropped
+    /// and counted. Only the runtime's tests and [`test_util`] use it.
+    #[cfg(any(test, feature = "test-util"))]
+    pub(crate) fn subscribe_channel<T: BusMessage>(
         &self,
         group: &Group<T>,
         subscriber: &str,
@@ -516,6 +524,80 @@ impl Bus {
     pub fn link_up(&self, name: &str) -> Option<bool> {
         let links = self.inner.links.read().unwrap_or_else(|p| p.into_inner());
         links.iter().find(|(n, _)| *n == name).map(|l| l.1)
+    }
+}
+
+/// The untyped bus for tests and test helms: any group, any subscriber name, a channel per
+/// subscription. Compiled only with `cfg(test)` or the `test-util` feature, which the workspace
+/// enables for dev-dependencies only, so no production binary can use it.
+#[cfg(any(test, feature = "test-util"))]
+pub mod test_util {
+    use std::sync::Arc;
+
+    use super::Undeliverable;
+    use super::{Bus, BusMessage, Envelope, Group, PublishMeta, PublishReport, Subscription};
+
+    /// `use frontseat_actors::bus::test_util::UntypedBus as _;` and a test publishes or
+    /// subscribes any group by hand, as the generated ports do.
+    pub trait UntypedBus {
+        fn publish<T: BusMessage>(&self, group: &Group<T>, msg: T) -> PublishReport;
+        fn publish_with<T: BusMessage>(
+            &self,
+            group: &Group<T>,
+            msg: Arc<T>,
+            meta: PublishMeta,
+        ) -> PublishReport;
+        fn subscribe<T: BusMessage>(
+            &self,
+            group: &Group<T>,
+            subscriber: &str,
+            capacity: usize,
+            deliver: impl Fn(Envelope<T>) -> Result<(), Undeliverable> + Send + Sync + 'static,
+        ) -> Subscription;
+        #[allow(clippy::type_complexity)]
+        fn subscribe_channel<T: BusMessage>(
+            &self,
+            group: &Group<T>,
+            subscriber: &str,
+            capacity: usize,
+        ) -> (
+            Subscription,
+            tokio::sync::mpsc::UnboundedReceiver<Envelope<T>>,
+        );
+    }
+
+    impl UntypedBus for Bus {
+        fn publish<T: BusMessage>(&self, group: &Group<T>, msg: T) -> PublishReport {
+            Bus::publish(self, group, msg)
+        }
+        fn publish_with<T: BusMessage>(
+            &self,
+            group: &Group<T>,
+            msg: Arc<T>,
+            meta: PublishMeta,
+        ) -> PublishReport {
+            Bus::publish_with(self, group, msg, meta)
+        }
+        fn subscribe<T: BusMessage>(
+            &self,
+            group: &Group<T>,
+            subscriber: &str,
+            capacity: usize,
+            deliver: impl Fn(Envelope<T>) -> Result<(), Undeliverable> + Send + Sync + 'static,
+        ) -> Subscription {
+            Bus::subscribe(self, group, subscriber, capacity, deliver)
+        }
+        fn subscribe_channel<T: BusMessage>(
+            &self,
+            group: &Group<T>,
+            subscriber: &str,
+            capacity: usize,
+        ) -> (
+            Subscription,
+            tokio::sync::mpsc::UnboundedReceiver<Envelope<T>>,
+        ) {
+            Bus::subscribe_channel(self, group, subscriber, capacity)
+        }
     }
 }
 

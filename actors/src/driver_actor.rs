@@ -13,6 +13,7 @@ use std::time::Duration;
 use ractor::{Actor, ActorProcessingErr, ActorRef};
 
 use crate::bus::{Bus, Subscription, Undeliverable};
+use crate::chaos::{Fault, FaultPort};
 use crate::clock::SimClock;
 use crate::driver::{Driver, DriverContext, DriverFactory, DriverIoEvent, IoSender, SignalSink};
 use crate::ports::{DriverActorInbox, DriverActorPorts};
@@ -27,8 +28,6 @@ pub enum DriverMsg {
     Tick,
     /// Orderly stop: close the frontseat connection, then stop.
     Stop,
-    /// Chaos testing only: panic in the handler, as a buggy driver would.
-    ChaosPanic,
 }
 
 impl DriverMsg {
@@ -39,7 +38,6 @@ impl DriverMsg {
             DriverMsg::Io(_) => "io.event",
             DriverMsg::Tick => "tick",
             DriverMsg::Stop => "stop",
-            DriverMsg::ChaosPanic => "chaos_panic",
         }
     }
 }
@@ -53,6 +51,8 @@ pub struct DriverArgs {
     pub clock: SimClock,
     pub restarts: u32,
     pub queue_capacity: usize,
+    /// Only with `[chaos] enabled` (crate::chaos).
+    pub faults: Option<FaultPort>,
 }
 
 pub struct DriverActor;
@@ -66,6 +66,7 @@ pub struct DriverActorState {
     last: Option<(FrontSeatState, bool)>,
     subs: Vec<Subscription>,
     ticker: Option<tokio::task::JoinHandle<()>>,
+    faults: Option<FaultPort>,
 }
 
 struct PortSink<'a>(&'a DriverActorPorts);
@@ -157,6 +158,7 @@ impl Actor for DriverActor {
             last: None,
             subs,
             ticker: Some(ticker),
+            faults: args.faults,
         };
         state.publish_status_if_changed(true);
         Ok(state)
@@ -177,6 +179,15 @@ impl Actor for DriverActor {
             message = msg.kind(),
         )
         .entered();
+        match crate::chaos::take(&state.faults) {
+            Some(Fault::Panic) => panic!("chaos: injected driver panic"),
+            Some(Fault::Kill) => {
+                tracing::warn!("chaos: killing the driver actor");
+                myself.kill();
+                return Ok(());
+            }
+            None => {}
+        }
         match msg {
             DriverMsg::Bus(inbox) => match inbox {
                 DriverActorInbox::CommandRequest(env) => state
@@ -213,7 +224,6 @@ impl Actor for DriverActor {
                 state.driver.stop();
                 myself.stop(Some("orderly shutdown".into()));
             }
-            DriverMsg::ChaosPanic => panic!("chaos: injected driver panic"),
         }
         state.publish_status_if_changed(false);
         Ok(())

@@ -14,8 +14,10 @@ use std::sync::Arc;
 use tokio::sync::mpsc;
 
 use crate::bus::{Bus, Subscription, Undeliverable};
-use crate::groups;
-use crate::ports::{HealthReporterInbox, HealthReporterPorts};
+use crate::ports::{
+    HealthInterfaceWatchInbox, HealthReporterInbox, HealthReporterPorts,
+    HealthSupervisionWatchInbox,
+};
 use crate::proto::frontseat::protobuf::SupervisionStatus;
 use crate::proto::goby::middleware::frontseat::protobuf::{InterfaceState, InterfaceStatus};
 use crate::proto::goby::middleware::protobuf::{HealthState, ProcessHealth, ThreadHealth};
@@ -121,18 +123,22 @@ impl HealthReporter {
             }
         });
         let t = tx.clone();
-        subs.push(bus.subscribe(
-            &groups::FRONTSEAT_SUPERVISION_STATUS,
+        subs.extend(HealthSupervisionWatchInbox::subscribe_all(
+            bus,
             "HealthReporter",
             64,
-            move |env| send(&t, Event::Supervision(env.msg)),
+            move |m| match m {
+                HealthSupervisionWatchInbox::Status(env) => send(&t, Event::Supervision(env.msg)),
+            },
         ));
         let t = tx;
-        subs.push(bus.subscribe(
-            &groups::GOBY_MIDDLEWARE_FRONTSEAT_STATUS,
+        subs.extend(HealthInterfaceWatchInbox::subscribe_all(
+            bus,
             "HealthReporter",
             64,
-            move |env| send(&t, Event::Interface(env.msg)),
+            move |m| match m {
+                HealthInterfaceWatchInbox::Status(env) => send(&t, Event::Interface(env.msg)),
+            },
         ));
         let ports = HealthReporterPorts::new(bus);
         let name = name.to_string();
@@ -181,6 +187,7 @@ impl Drop for HealthReporter {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::groups;
     use crate::proto::frontseat::protobuf::SupervisedActor;
 
     fn child(name: &str, up: bool, failure: Option<&str>) -> SupervisedActor {

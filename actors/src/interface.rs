@@ -16,6 +16,7 @@ use ractor::{Actor, ActorProcessingErr, ActorRef, RpcReplyPort, SupervisionEvent
 use tokio::sync::watch;
 
 use crate::bus::{Bus, Envelope, Subscription, Undeliverable};
+use crate::chaos::{FaultPort, FaultTarget};
 use crate::clock::SimClock;
 use crate::command_gate::{GateContext, Limits, check_course};
 use crate::driver::DriverFactory;
@@ -70,6 +71,8 @@ pub struct InterfaceSettings {
     pub nav_limits: NavLimits,
     /// Who may use raw_send_request and what one may carry (`[raw_send]`).
     pub raw: RawPolicy,
+    /// `[chaos] enabled`: the interface and each driver open a fault port (crate::chaos).
+    pub fault_ports: bool,
 }
 
 impl InterfaceSettings {
@@ -100,6 +103,7 @@ impl InterfaceSettings {
             limits: Limits::from(&cfg.limits),
             nav_limits: NavLimits::from(&cfg.limits.navigation),
             raw: RawPolicy::from_config(cfg),
+            fault_ports: cfg.chaos.enabled,
         }
     }
 }
@@ -194,8 +198,6 @@ pub enum FsiMsg {
     Shutdown(RpcReplyPort<()>),
     /// A snapshot for tests and the systemd watchdog: answering proves the actor is alive.
     Snapshot(RpcReplyPort<Snapshot>),
-    /// From the ChaosAgent only (never constructed unless `[chaos] enabled = true`).
-    Chaos(crate::proto::frontseat::protobuf::ChaosFault),
 }
 
 impl FsiMsg {
@@ -207,7 +209,6 @@ impl FsiMsg {
             FsiMsg::RestartDriver => "restart_driver",
             FsiMsg::Shutdown(_) => "shutdown",
             FsiMsg::Snapshot(_) => "snapshot",
-            FsiMsg::Chaos(_) => "chaos",
         }
     }
 }
@@ -286,6 +287,8 @@ pub struct FsiState {
     exit: watch::Sender<Option<ServiceExit>>,
     subs: Vec<Subscription>,
     timers: Vec<tokio::task::JoinHandle<()>>,
+    /// Only with `[chaos] enabled`.
+    faults: Option<FaultPort>,
 }
 
 pub struct FrontSeatInterface;
@@ -832,6 +835,7 @@ impl FsiState {
                 clock: self.clock,
                 restarts: self.restarts,
                 queue_capacity: self.s.queue_capacity,
+                faults: FaultPort::open_if(self.s.fault_ports, &self.bus, FaultTarget::Driver),
             },
             myself.get_cell(),
         )
@@ -1007,7 +1011,10 @@ impl Actor for FrontSeatInterface {
                 }),
             );
         }
+        let faults =
+            FaultPort::open_if(args.settings.fault_ports, &args.bus, FaultTarget::Interface);
         let mut state = FsiState {
+            faults,
             sm: StateMachine::new(args.settings.sm.clone()),
             ports: FrontSeatInterfacePorts::new(&args.bus),
             bus: args.bus,
@@ -1084,6 +1091,10 @@ impl FrontSeatInterface {
         st: &mut FsiState,
     ) -> Result<(), ActorProcessingErr> {
         use FrontSeatInterfaceInbox as I;
+        if crate::chaos::take(&st.faults).is_some() {
+            tracing::warn!("chaos: making the FrontSeatInterface panic");
+            panic!("chaos: FrontSeatInterface panic injected");
+        }
         match msg {
             FsiMsg::Bus(inbox) => match inbox {
                 I::CommandRequest(env) => st.handle_command(env),
@@ -1212,26 +1223,6 @@ impl FrontSeatInterface {
                 st.exit.send_replace(Some(ServiceExit::Clean));
                 let _ = reply.send(());
                 myself.stop(Some("orderly shutdown".into()));
-            }
-            FsiMsg::Chaos(fault) => {
-                use crate::proto::frontseat::protobuf::chaos_fault::Fault;
-                if let Some(Fault::InterfacePanic(_)) = fault.fault {
-                    tracing::warn!("chaos: making the FrontSeatInterface panic");
-                    panic!("chaos: FrontSeatInterface panic injected");
-                }
-                match (fault.fault, &st.driver) {
-                    (Some(Fault::DriverPanic(_)), Some(d)) => {
-                        tracing::warn!("chaos: making the driver panic");
-                        let _ = d.cast(DriverMsg::ChaosPanic);
-                    }
-                    (Some(Fault::KillDriver(_)), Some(d)) => {
-                        tracing::warn!("chaos: killing the driver actor");
-                        d.kill();
-                    }
-                    (_, None) => tracing::info!("chaos: no driver running; fault ignored"),
-                    (None, _) => tracing::warn!("chaos: empty fault ignored"),
-                    (Some(Fault::InterfacePanic(_)), _) => {}
-                }
             }
             FsiMsg::Snapshot(reply) => {
                 let _ = reply.send(Snapshot {

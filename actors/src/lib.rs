@@ -5,7 +5,11 @@
 //! in plain modules; actors are thin shells around it. What only exercises the runtime lives
 //! outside it and uses this crate's public API:
 //! the chaos harness (`tools/chaos`), the benchmark (`tools/bench`) and the demo helm
-//! (`examples/demo_helm`); their ports are still generated here with every application's.
+//! (`examples/demo_helm`); their ports are still generated here with every application's, and
+//! generated ports are the only way any other crate publishes or subscribes (the bus's own
+//! publish/subscribe are `pub(crate)`; tests use `bus::test_util` behind the `test-util`
+//! feature). Fault injection reaches the interface, driver and translation only through their
+//! fault ports (`chaos`), opened only with `[chaos] enabled`.
 #![forbid(unsafe_code)]
 
 pub mod bus;

@@ -9,9 +9,9 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Duration;
 
-use crate::bus::Bus;
-use crate::groups;
+use crate::bus::{Bus, Undeliverable};
 use crate::interface::FsiMsg;
+use crate::ports::{SystemdInterfaceWatchInbox, SystemdTranslationWatchInbox};
 use crate::proto::frontseat::protobuf::TranslationStatus;
 use crate::proto::goby::middleware::frontseat::protobuf::{
     FrontSeatError, HelmError, HelmState, InterfaceStatus,
@@ -170,12 +170,14 @@ pub fn status_text(s: &InterfaceStatus) -> String {
 /// returns, so call it before starting the interface to report the first `standby` too. Ends when
 /// the bus is gone.
 pub fn spawn_status_reporter(n: Arc<Notifier>, bus: &Bus) -> JoinHandle<()> {
-    let (sub, mut rx) =
-        bus.subscribe_channel(&groups::GOBY_MIDDLEWARE_FRONTSEAT_STATUS, "systemd", 64);
+    let (tx, mut rx) = tokio::sync::mpsc::unbounded_channel();
+    let sub = SystemdInterfaceWatchInbox::subscribe_all(bus, "systemd", 64, move |m| {
+        tx.send(m).map_err(|_| Undeliverable)
+    });
     tokio::spawn(async move {
         let _sub = sub;
         let mut last = String::new();
-        while let Some(env) = rx.recv().await {
+        while let Some(SystemdInterfaceWatchInbox::Status(env)) = rx.recv().await {
             let text = status_text(&env.msg);
             drop(env);
             // The periodic status repeats itself; systemd only needs the changes.
@@ -216,11 +218,14 @@ pub fn translation_status_text(s: &TranslationStatus) -> String {
 /// STATUS= for the MOOS gateway at every change of its TranslationStatus; like
 /// `spawn_status_reporter`, it subscribes before it returns and ends with the bus.
 pub fn spawn_translation_reporter(n: Arc<Notifier>, bus: &Bus) -> JoinHandle<()> {
-    let (sub, mut rx) = bus.subscribe_channel(&groups::FRONTSEAT_TRANSLATION_STATUS, "systemd", 64);
+    let (tx, mut rx) = tokio::sync::mpsc::unbounded_channel();
+    let sub = SystemdTranslationWatchInbox::subscribe_all(bus, "systemd", 64, move |m| {
+        tx.send(m).map_err(|_| Undeliverable)
+    });
     tokio::spawn(async move {
         let _sub = sub;
         let mut last = String::new();
-        while let Some(env) = rx.recv().await {
+        while let Some(SystemdTranslationWatchInbox::Status(env)) = rx.recv().await {
             let text = translation_status_text(&env.msg);
             drop(env);
             if text != last {

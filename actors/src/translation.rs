@@ -17,10 +17,11 @@ use frontseat_moos::{DataType, MoosClient, MoosClientConfig, MoosError, MoosEven
 use std::sync::Arc;
 
 use ractor::{Actor, ActorProcessingErr, ActorRef};
-use tokio::sync::{Notify, mpsc, watch};
+use tokio::sync::{mpsc, watch};
 use tokio::time::Instant;
 
 use crate::bus::{Bus, Subscription, Undeliverable};
+use crate::chaos::FaultPort;
 use crate::ports::{FrontSeatTranslationInbox, FrontSeatTranslationPorts};
 use crate::proto::frontseat::protobuf::TranslationStatus;
 use crate::proto::goby::middleware::frontseat::protobuf::{
@@ -422,16 +423,16 @@ pub async fn spawn(
     vehicle_name: &str,
     bus: &Bus,
 ) -> Result<TranslationHandle, TranslationError> {
-    spawn_with_chaos(cfg, vehicle_name, bus, None).await
+    spawn_with_faults(cfg, vehicle_name, bus, None).await
 }
 
-/// [`spawn`], with a switch that makes the translation panic on its data path (chaos tests and
-/// `[chaos]` only): `chaos.notify_one()` panics the running translation once.
-pub async fn spawn_with_chaos(
+/// [`spawn`] with a fault port (`[chaos] enabled` only, crate::chaos): a `translation_panic`
+/// fault panics the running translation on its data path.
+pub async fn spawn_with_faults(
     cfg: &MoosConfig,
     vehicle_name: &str,
     bus: &Bus,
-    chaos: Option<Arc<Notify>>,
+    faults: Option<FaultPort>,
 ) -> Result<TranslationHandle, TranslationError> {
     if cfg.app_name.is_empty() {
         return Err(TranslationError::Config(
@@ -483,7 +484,7 @@ pub async fn spawn_with_chaos(
         time_warp = cfg.time_warp,
         "FrontSeatTranslation starting"
     );
-    let task = tokio::spawn(task.run(events, inbox, subs, stop_rx, chaos));
+    let task = tokio::spawn(task.run(events, inbox, subs, stop_rx, faults));
     Ok(TranslationHandle {
         stop: stop_tx,
         status: status_rx,
@@ -516,17 +517,22 @@ impl Task {
         mut inbox: mpsc::UnboundedReceiver<FrontSeatTranslationInbox>,
         subs: Vec<Subscription>,
         mut stop: watch::Receiver<bool>,
-        chaos: Option<Arc<Notify>>,
+        faults: Option<FaultPort>,
     ) {
-        let chaos_armed = chaos.is_some();
-        let chaos = chaos.unwrap_or_default();
+        let fault = async {
+            match &faults {
+                Some(port) => port.fired().await,
+                None => std::future::pending().await,
+            }
+        };
+        tokio::pin!(fault);
         let mut tick = tokio::time::interval(STATUS_PERIOD);
         tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
         loop {
             tokio::select! {
                 biased;
                 r = stop.changed() => if r.is_err() || *stop.borrow() { break },
-                () = chaos.notified(), if chaos_armed => {
+                _ = &mut fault => {
                     panic!("chaos: FrontSeatTranslation panic injected");
                 }
                 m = inbox.recv() => match m {
@@ -775,8 +781,9 @@ pub struct TranslationArgs {
     pub cfg: MoosConfig,
     pub vehicle: String,
     pub bus: Bus,
-    /// Survives restarts: a chaos test can panic whichever translation runs now.
-    pub chaos: Option<Arc<Notify>>,
+    /// Only with `[chaos] enabled`; survives restarts: a fault panics whichever translation
+    /// runs now.
+    pub faults: Option<FaultPort>,
     /// Survives restarts: sees the status and counters of whichever translation runs now.
     pub observer: TranslationObserver,
 }
@@ -800,7 +807,8 @@ impl Actor for TranslationActor {
         myself: ActorRef<Self::Msg>,
         args: TranslationArgs,
     ) -> Result<Self::State, ActorProcessingErr> {
-        let mut handle = spawn_with_chaos(&args.cfg, &args.vehicle, &args.bus, args.chaos).await?;
+        let mut handle =
+            spawn_with_faults(&args.cfg, &args.vehicle, &args.bus, args.faults).await?;
         args.observer.set(handle.watch());
         if let Some(task) = handle.task.take() {
             tokio::spawn(async move {

@@ -10,6 +10,7 @@
 //!
 //! Every wait has a deadline.
 
+use frontseat_actors::bus::test_util::UntypedBus as _;
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
@@ -55,6 +56,8 @@ async fn tree(max_driver_restarts: u32) -> (Bus, SupervisorHandle, Current) {
     };
     cfg.driver.basic_simulator.tcp_port = sim.local_addr().port();
     cfg.supervision.max_restarts = max_driver_restarts;
+    // The faults below reach the interface and its driver through their fault ports.
+    cfg.chaos.enabled = true;
     cfg.supervision.interface = RestartConfig {
         backoff_initial_ms: 10,
         ..cfg.supervision.interface.clone()
@@ -105,11 +108,13 @@ async fn a_panicked_interface_is_restarted_and_nav_flows_again() {
         "the interface supervises its DriverActor"
     );
     // A panic, as a bug in the interface would cause one.
-    first
-        .cast(FsiMsg::Chaos(ChaosFault {
+    let reached = bus.publish(
+        &groups::FRONTSEAT_CHAOS_FAULT,
+        ChaosFault {
             fault: Some(chaos_fault::Fault::InterfacePanic(true)),
-        }))
-        .unwrap();
+        },
+    );
+    assert!(reached.delivered >= 1, "the interface's fault port is open");
     // The root restarts it: a new actor, and the restart on the status group.
     let restarted = async {
         loop {
@@ -154,10 +159,12 @@ async fn the_drivers_exhausted_limit_ends_the_process_with_exit_3() {
     let (bus, mut root, current) = tree(0).await;
     nav_flows(&bus).await;
     let fsi = current.lock().unwrap().clone().unwrap();
-    fsi.cast(FsiMsg::Chaos(ChaosFault {
-        fault: Some(chaos_fault::Fault::DriverPanic(true)),
-    }))
-    .unwrap();
+    bus.publish(
+        &groups::FRONTSEAT_CHAOS_FAULT,
+        ChaosFault {
+            fault: Some(chaos_fault::Fault::DriverPanic(true)),
+        },
+    );
     let exit = tokio::time::timeout(DEADLINE, root.wait())
         .await
         .expect("the root gives up within the deadline");

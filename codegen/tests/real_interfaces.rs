@@ -47,7 +47,11 @@ fn real_interface_yaml_compiles() {
         "GOBY_MIDDLEWARE_FRONTSEAT_NODE_STATUS"
     );
     assert_eq!(node_status.layer, Layer::Interprocess);
-    assert_eq!(node_status.publishers, ["FrontSeatInterface"]);
+    // The bench's stand-in vehicle publishes node_status with no interface behind it.
+    assert_eq!(
+        node_status.publishers,
+        ["BenchVehicle", "FrontSeatInterface"]
+    );
     // helm_state is interthread in demo_helm and interprocess in frontseat_interface: widest wins.
     let helm = m
         .groups
@@ -57,7 +61,13 @@ fn real_interface_yaml_compiles() {
     assert_eq!(helm.layer, Layer::Interprocess);
     assert_eq!(
         helm.publishers,
-        ["DemoHelm", "FrontSeatTranslation", "WebCommander"]
+        [
+            "BenchHelm",
+            "ChaosHelm",
+            "DemoHelm",
+            "FrontSeatTranslation",
+            "WebCommander"
+        ]
     );
     let ground_truth = m
         .groups
@@ -69,16 +79,32 @@ fn real_interface_yaml_compiles() {
     assert_eq!(
         actors,
         [
-            "ChaosAgent",
+            "ArdupilotPilot",
+            "BenchHelm",
+            "BenchNavWatch",
+            "BenchRawWatch",
+            "BenchStatusWatch",
+            "BenchVehicle",
+            "ChaosHelm",
+            "ChaosMonitor",
             "ChaosMonkey",
+            "ChaosSimMonkey",
+            "ChaosStalled",
             "Coroner",
             "DemoHelm",
             "DriverActor",
+            "DriverFaults",
             "FrontSeatInterface",
             "FrontSeatTranslation",
+            "HealthInterfaceWatch",
             "HealthReporter",
+            "HealthSupervisionWatch",
+            "InterfaceFaults",
             "RootSupervisor",
             "Simulator",
+            "SystemdInterfaceWatch",
+            "SystemdTranslationWatch",
+            "TranslationFaults",
             "WebCommander"
         ]
     );

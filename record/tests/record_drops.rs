@@ -4,6 +4,7 @@
 //! closing metadata of its file, and the two agree. One test in this binary: the metrics are
 //! process-wide.
 
+use frontseat_actors::bus::test_util::UntypedBus as _;
 use std::time::Duration;
 
 use frontseat_actors::bus::Bus;

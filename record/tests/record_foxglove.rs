@@ -4,6 +4,7 @@
 //! server is read-only, refuses clients without the subprotocol or the token, and binds loopback
 //! only unless a token is set.
 
+use frontseat_actors::bus::test_util::UntypedBus as _;
 use std::time::Duration;
 
 use base64::Engine as _;

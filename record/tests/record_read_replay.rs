@@ -2,6 +2,7 @@
 //! recorded reads back (self-described), the budget removes old files, a torn file reads to
 //! its last chunk, and a replay keeps order and timing.
 
+use frontseat_actors::bus::test_util::UntypedBus as _;
 use std::time::Duration;
 
 use frontseat_actors::bus::{Bus, Origin};

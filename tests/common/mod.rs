@@ -7,6 +7,7 @@ pub mod otlp;
 pub mod phelm;
 pub mod procs;
 
+use frontseat_actors::bus::test_util::UntypedBus as _;
 use std::time::Duration;
 
 use frontseat_actors::bus::{Bus, Envelope};

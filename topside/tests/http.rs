@@ -2,6 +2,7 @@
 //! appear from their publications under their platform's key, a silent one turns stale and stays,
 //! garbage is counted not fatal, and the token and Host rules hold.
 
+use frontseat_actors::bus::test_util::UntypedBus as _;
 use std::time::Duration;
 
 use frontseat_actors::groups;

@@ -3,6 +3,7 @@
 
 mod common;
 
+use frontseat_actors::bus::test_util::UntypedBus as _;
 use std::sync::Arc;
 use std::sync::atomic::Ordering;
 use std::time::Duration;

@@ -6,6 +6,7 @@
 
 mod common;
 
+use frontseat_actors::bus::test_util::UntypedBus as _;
 use std::time::Duration;
 
 use common::*;

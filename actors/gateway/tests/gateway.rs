@@ -2,6 +2,7 @@
 //! with its own bus, as separate processes would have): routing driven by the generated
 //! interface, trace context in the attachment, no echo, and bad payloads counted and survived.
 
+use frontseat_actors::bus::test_util::UntypedBus as _;
 use std::time::Duration;
 
 use frontseat_actors::bus::{Bus, Origin, PublishMeta, TraceContext};

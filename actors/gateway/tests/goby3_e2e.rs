@@ -4,6 +4,7 @@
 //! nothing is echoed, malformed frames are counted and dropped, a hold is honoured, and gobyd
 //! absent, stopped and restarted (on new ports) is survived. Every wait has a deadline.
 
+use frontseat_actors::bus::test_util::UntypedBus as _;
 use std::path::PathBuf;
 use std::time::Duration;
 

@@ -8,7 +8,6 @@
 use std::time::{Duration, Instant};
 
 use frontseat_actors::bus::Bus;
-use frontseat_actors::groups;
 use frontseat_actors::interface::InterfaceService;
 use frontseat_config::{Goby3Config, Goby3Transport, InterfaceConfig};
 use frontseat_gateway::GatewayOptions;
@@ -16,7 +15,9 @@ use frontseat_gateway::goby3::standin::{StandinGobyd, StandinTransport};
 use frontseat_gateway::goby3::{self, Goby3Handle, Goby3Settings};
 
 use super::frontseat::{ScriptedFrontseat, Stamps};
-use super::inproc::{course_row, helm_drive, nav_burst_row, reached_command, stamp_node_status};
+use super::inproc::{
+    course_row, helm_drive, nav_burst_row, reached_command, stamp_node_status, status_channel,
+};
 use super::report::Row;
 
 /// How much each row measures.
@@ -100,8 +101,7 @@ async fn run_inner(plan: Plan) -> Result<Vec<Row>, String> {
     let mut tasks = Vec::new();
     let (_ns_sub, ns_task) = stamp_node_status(&bus_helm, &node_status_at, capacity);
     tasks.push(ns_task);
-    let (_st_sub, mut st_rx) =
-        bus_if.subscribe_channel(&groups::GOBY_MIDDLEWARE_FRONTSEAT_STATUS, "bench", capacity);
+    let (_st_sub, mut st_rx) = status_channel(&bus_if, capacity);
     // The helm's DRIVE goes through gobyd, as a Goby3 helm's would.
     tasks.push(helm_drive(&bus_helm));
 

@@ -5,16 +5,19 @@
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use frontseat_actors::bus::{Bus, Envelope, Subscription};
-use frontseat_actors::groups;
+use frontseat_actors::bus::{Bus, Envelope, Subscription, Undeliverable};
 use frontseat_actors::interface::InterfaceService;
+use frontseat_actors::ports::{
+    BenchHelmPorts, BenchNavWatchInbox, BenchRawWatchInbox, BenchStatusWatchInbox,
+};
 use frontseat_actors::proto::goby::middleware::frontseat::protobuf::{
-    DesiredCourse, HelmState, HelmStateReport, InterfaceState, InterfaceStatus,
+    DesiredCourse, HelmState, HelmStateReport, InterfaceState, InterfaceStatus, NodeStatus, Raw,
 };
 use frontseat_actors::translation;
 use frontseat_config::{InterfaceConfig, MoosConfig};
 use frontseat_moos::{Broker, MoosClient, MoosClientConfig, MoosEvent};
 use serde_json::json;
+use tokio::sync::mpsc::UnboundedReceiver;
 
 use super::frontseat::{ScriptedFrontseat, Stamps, seq_of};
 use super::report::{Figures, Hist, Row, fmt_count};
@@ -97,8 +100,7 @@ async fn run_inner(plan: Plan, sel: &super::Selection) -> Result<Vec<Row>, Strin
     let mut tasks = Vec::new();
     let (_ns_sub, ns_task) = stamp_node_status(&bus, &node_status_at, capacity);
     tasks.push(ns_task);
-    let (_raw_sub, mut raw_rx) =
-        bus.subscribe_channel(&groups::GOBY_MIDDLEWARE_FRONTSEAT_RAW_IN, "bench", capacity);
+    let (_raw_sub, mut raw_rx) = raw_in_channel(&bus, capacity);
     let at = raw_in_at.clone();
     tasks.push(tokio::spawn(async move {
         while let Some(env) = raw_rx.recv().await {
@@ -108,8 +110,7 @@ async fn run_inner(plan: Plan, sel: &super::Selection) -> Result<Vec<Row>, Strin
             }
         }
     }));
-    let (_st_sub, mut st_rx) =
-        bus.subscribe_channel(&groups::GOBY_MIDDLEWARE_FRONTSEAT_STATUS, "bench", capacity);
+    let (_st_sub, mut st_rx) = status_channel(&bus, capacity);
     tasks.push(helm_drive(&bus));
 
     let service = InterfaceService::start(&cfg, &bus)
@@ -150,12 +151,8 @@ pub(super) fn stamp_node_status(
     bus: &Bus,
     at: &Arc<Stamps>,
     capacity: usize,
-) -> (Subscription, tokio::task::JoinHandle<()>) {
-    let (sub, mut rx) = bus.subscribe_channel(
-        &groups::GOBY_MIDDLEWARE_FRONTSEAT_NODE_STATUS,
-        "bench",
-        capacity,
-    );
+) -> (Vec<Subscription>, tokio::task::JoinHandle<()>) {
+    let (sub, mut rx) = node_status_channel(bus, "bench", capacity);
     let at = at.clone();
     let task = tokio::spawn(async move {
         while let Some(env) = rx.recv().await {
@@ -169,17 +166,58 @@ pub(super) fn stamp_node_status(
     (sub, task)
 }
 
+/// Every node_status on `bus`, as the bench's watcher (`BenchNavWatch` in
+/// `interface_yaml/bench.yaml`) gets it, unread ones bounded by `capacity`.
+pub(super) fn node_status_channel(
+    bus: &Bus,
+    name: &str,
+    capacity: usize,
+) -> (Vec<Subscription>, UnboundedReceiver<Envelope<NodeStatus>>) {
+    let (tx, rx) = tokio::sync::mpsc::unbounded_channel();
+    let subs = BenchNavWatchInbox::subscribe_all(bus, name, capacity, move |m| {
+        let BenchNavWatchInbox::NodeStatus(env) = m;
+        tx.send(env).map_err(|_| Undeliverable)
+    });
+    (subs, rx)
+}
+
+/// Every interface status on `bus` (`BenchStatusWatch`).
+pub(super) fn status_channel(
+    bus: &Bus,
+    capacity: usize,
+) -> (
+    Vec<Subscription>,
+    UnboundedReceiver<Envelope<InterfaceStatus>>,
+) {
+    let (tx, rx) = tokio::sync::mpsc::unbounded_channel();
+    let subs = BenchStatusWatchInbox::subscribe_all(bus, "bench", capacity, move |m| {
+        let BenchStatusWatchInbox::Status(env) = m;
+        tx.send(env).map_err(|_| Undeliverable)
+    });
+    (subs, rx)
+}
+
+/// Every raw_in on `bus` (`BenchRawWatch`).
+fn raw_in_channel(
+    bus: &Bus,
+    capacity: usize,
+) -> (Vec<Subscription>, UnboundedReceiver<Envelope<Raw>>) {
+    let (tx, rx) = tokio::sync::mpsc::unbounded_channel();
+    let subs = BenchRawWatchInbox::subscribe_all(bus, "bench", capacity, move |m| {
+        let BenchRawWatchInbox::RawIn(env) = m;
+        tx.send(env).map_err(|_| Undeliverable)
+    });
+    (subs, rx)
+}
+
 /// A helm heartbeat on `bus`: HelmStateReport DRIVE every 100 ms.
 pub(super) fn helm_drive(bus: &Bus) -> tokio::task::JoinHandle<()> {
-    let bus = bus.clone();
+    let ports = BenchHelmPorts::new(bus);
     tokio::spawn(async move {
         loop {
-            bus.publish(
-                &groups::GOBY_MIDDLEWARE_FRONTSEAT_HELM_STATE,
-                HelmStateReport {
-                    state: HelmState::HelmDrive as i32,
-                },
-            );
+            ports.publish_helm_state(HelmStateReport {
+                state: HelmState::HelmDrive as i32,
+            });
             tokio::time::sleep(Duration::from_millis(100)).await;
         }
     })
@@ -187,7 +225,7 @@ pub(super) fn helm_drive(bus: &Bus) -> tokio::task::JoinHandle<()> {
 
 /// True once the interface's status says running:command, within 10 s.
 pub(super) async fn reached_command(
-    status: &mut tokio::sync::mpsc::UnboundedReceiver<Envelope<InterfaceStatus>>,
+    status: &mut UnboundedReceiver<Envelope<InterfaceStatus>>,
 ) -> bool {
     let reached = tokio::time::timeout(Duration::from_secs(10), async {
         while let Some(env) = status.recv().await {
@@ -211,6 +249,7 @@ pub(super) async fn publish_courses(
     count: usize,
     rate_hz: f64,
 ) {
+    let helm = BenchHelmPorts::new(bus);
     let before = fs.cmds_read();
     let start = tokio::time::Instant::now();
     let period = Duration::from_secs_f64(1.0 / rate_hz.max(1e-3));
@@ -224,7 +263,7 @@ pub(super) async fn publish_courses(
             ..Default::default()
         };
         sent.set(off + i, Instant::now());
-        bus.publish(&groups::GOBY_MIDDLEWARE_FRONTSEAT_DESIRED_COURSE, course);
+        helm.publish_desired_course(course);
     }
     let deadline = tokio::time::Instant::now() + GRACE;
     while fs.cmds_read() < before + count as u64 && tokio::time::Instant::now() < deadline {

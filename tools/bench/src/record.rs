@@ -6,12 +6,13 @@
 use std::time::{Duration, Instant};
 
 use frontseat_actors::bus::Bus;
-use frontseat_actors::groups::GOBY_MIDDLEWARE_FRONTSEAT_NODE_STATUS as NODE_STATUS;
+use frontseat_actors::ports::BenchVehiclePorts;
 use frontseat_actors::proto::goby::middleware::frontseat::protobuf::NodeStatus;
 use frontseat_record::recorder::{RecordMeta, Recorder, RecorderOptions};
 use frontseat_record::replay::{ReplayOptions, Speed, replay};
 use serde_json::json;
 
+use crate::inproc::node_status_channel;
 use crate::report::{Figures, Row, fmt_count};
 
 #[derive(Clone, Copy, Debug)]
@@ -31,6 +32,7 @@ async fn publish_paced(bus: &Bus, plan: Plan) -> (Option<Duration>, Duration) {
     let mut iv = tokio::time::interval(Duration::from_millis(10));
     iv.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Burst);
     let pid = std::process::id();
+    let vehicle = BenchVehiclePorts::new(bus);
     let cpu0 = crate::procs::cpu_time(pid);
     let t0 = Instant::now();
     let mut n = 0u32;
@@ -46,7 +48,7 @@ async fn publish_paced(bus: &Bus, plan: Plan) -> (Option<Duration>, Duration) {
             m.global_fix.lat = 42.0 + f64::from(n % 1000) * 1e-6;
             m.global_fix.lon = -71.0;
             m.pose.heading = Some(f64::from(n % 360));
-            bus.publish(&NODE_STATUS, m);
+            vehicle.publish_node_status(m);
         }
     }
     let wall = t0.elapsed();
@@ -62,7 +64,7 @@ pub async fn run(plan: Plan) -> Vec<Row> {
     // Without the recorder: what publishing alone costs (a subscriber keeps the bus busy the
     // same way the recorder's subscription does, minus the recording).
     let base_bus = Bus::new();
-    let (_s, mut rx) = base_bus.subscribe_channel(&NODE_STATUS, "bench", 1 << 20);
+    let (_s, mut rx) = node_status_channel(&base_bus, "bench", 1 << 20);
     let drain = tokio::spawn(async move { while rx.recv().await.is_some() {} });
     let (base_cpu, base_wall) = publish_paced(&base_bus, plan).await;
     drop(base_bus);
@@ -123,7 +125,7 @@ pub async fn run(plan: Plan) -> Vec<Row> {
     };
 
     let bus = Bus::new();
-    let (_s, mut rx) = bus.subscribe_channel(&NODE_STATUS, "helm", 1 << 22);
+    let (_s, mut rx) = node_status_channel(&bus, "helm", 1 << 22);
     let opts = ReplayOptions {
         speed: Speed::Max,
         ..Default::default()

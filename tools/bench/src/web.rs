@@ -8,6 +8,7 @@ use std::time::{Duration, Instant};
 
 use frontseat_actors::bus::Bus;
 use frontseat_actors::groups;
+use frontseat_actors::ports::BenchVehiclePorts;
 use frontseat_actors::proto::goby::middleware::frontseat::protobuf::{
     CartesianCoordinate, EulerAngles, NodeStatus, Speed,
 };
@@ -37,6 +38,7 @@ pub async fn run(plan: Plan) -> Row {
 
 async fn run_inner(plan: Plan) -> Result<Row, String> {
     let bus = Bus::new();
+    let vehicle = BenchVehiclePorts::new(&bus);
     let cfg = WebConfig {
         enabled: true,
         listen: "127.0.0.1:0".into(),
@@ -103,7 +105,7 @@ async fn run_inner(plan: Plan) -> Result<Row, String> {
             ..Default::default()
         };
         sent.insert(i, Instant::now());
-        bus.publish(&groups::GOBY_MIDDLEWARE_FRONTSEAT_NODE_STATUS, ns);
+        vehicle.publish_node_status(ns);
     }
     let mut h = Hist::new();
     let mut got = 0usize;

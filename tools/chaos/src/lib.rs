@@ -4,14 +4,14 @@
 //! throughout and reported at the end as a table.
 //!
 //! The seed fixes the sequence of faults, their parameters and hold times; how the system
-//! reacts is timing and is what is measured. Driver faults go through the chaos group and the
-//! ChaosAgent, so a config without `[chaos] enabled = true` is refused before anything starts.
+//! reacts is timing and is what is measured. Runtime faults go through the chaos group to the
+//! fault ports, so a config without `[chaos] enabled = true` is refused before anything starts.
 //! Only one run per process at a time: counting panics needs the process-wide panic hook.
 //!
 //! A tool, not part of the runtime: it composes frontseat-actors, -sim and -moos from outside,
 //! through their public API, as a deployment would. The runtime keeps only the hooks it must own
-//! itself — the ChaosAgent (`frontseat_actors::chaos`, refusing unless `[chaos] enabled = true`),
-//! the interface's `FsiMsg::Chaos` and the translation's fault hook.
+//! itself — the fault ports (`frontseat_actors::chaos`, opened only with `[chaos] enabled = true`)
+//! of the interface, the driver and the translation; no production message carries a fault.
 #![forbid(unsafe_code)]
 
 use std::collections::BTreeMap;
@@ -27,11 +27,12 @@ use frontseat_sim::{SimHandle, SimOptions, SimServer};
 use tokio::sync::watch;
 use tokio::time::Instant;
 
-use frontseat_actors::bus::{Bus, Subscription};
-use frontseat_actors::chaos::{ChaosAgent, ChaosError};
-use frontseat_actors::groups;
+use frontseat_actors::bus::{Bus, Subscription, Undeliverable};
+use frontseat_actors::chaos::{ChaosError, FaultPort, FaultTarget};
 use frontseat_actors::interface::{InterfaceService, ServiceExit, Snapshot, error_code};
-use frontseat_actors::ports::ChaosMonkeyPorts;
+use frontseat_actors::ports::{
+    ChaosHelmPorts, ChaosMonitorInbox, ChaosMonkeyPorts, ChaosSimMonkeyPorts, ChaosStalledInbox,
+};
 use frontseat_actors::proto::frontseat::protobuf::{ChaosFault, SimFault, chaos_fault, sim_fault};
 use frontseat_actors::proto::goby::middleware::frontseat::protobuf::{
     CommandRequest, DesiredCourse, HelmState, HelmStateReport, InterfaceState,
@@ -737,72 +738,56 @@ impl Monitor {
 
     fn subscribe(self: &Arc<Self>, bus: &Bus) -> Vec<Subscription> {
         let m = self.clone();
-        let status = bus.subscribe(
-            &groups::GOBY_MIDDLEWARE_FRONTSEAT_STATUS,
-            "chaos-monitor",
-            1 << 20,
-            move |env| {
-                m.statuses.fetch_add(1, Ordering::Relaxed);
-                let raw = env.msg.state.unwrap_or(0);
-                match InterfaceState::try_from(raw) {
-                    Ok(s) if FIVE.contains(&s) => {
-                        let changed = m.state.send_if_modified(|cur| {
-                            let c = *cur != s;
-                            *cur = s;
-                            c
-                        });
-                        if changed && let Ok(mut v) = m.changes.lock() {
-                            push_change(&mut v, (Instant::now(), s));
+        ChaosMonitorInbox::subscribe_all(bus, "chaos-monitor", 1 << 20, move |msg| {
+            match msg {
+                ChaosMonitorInbox::Status(env) => {
+                    m.statuses.fetch_add(1, Ordering::Relaxed);
+                    let raw = env.msg.state.unwrap_or(0);
+                    match InterfaceState::try_from(raw) {
+                        Ok(s) if FIVE.contains(&s) => {
+                            let changed = m.state.send_if_modified(|cur| {
+                                let c = *cur != s;
+                                *cur = s;
+                                c
+                            });
+                            if changed && let Ok(mut v) = m.changes.lock() {
+                                push_change(&mut v, (Instant::now(), s));
+                            }
+                        }
+                        _ => {
+                            m.invalid_states.fetch_add(1, Ordering::Relaxed);
+                            if let Ok(mut v) = m.invalid_examples.lock()
+                                && v.len() < 10
+                            {
+                                v.push(raw);
+                            }
                         }
                     }
-                    _ => {
-                        m.invalid_states.fetch_add(1, Ordering::Relaxed);
-                        if let Ok(mut v) = m.invalid_examples.lock()
-                            && v.len() < 10
-                        {
-                            v.push(raw);
+                }
+                ChaosMonitorInbox::NodeStatus(_) => {
+                    m.node_status.fetch_add(1, Ordering::Relaxed);
+                }
+                ChaosMonitorInbox::CommandResponse(env) => {
+                    let mut r = m.responses.lock().unwrap_or_else(|p| p.into_inner());
+                    match env.msg.request_id {
+                        Some(id) => r.record(id, env.msg.error_code.unwrap_or(0)),
+                        None => r.without_id += 1,
+                    }
+                    if env.msg.request_successful() {
+                        r.ok += 1;
+                    } else {
+                        match env.msg.error_code {
+                            Some(error_code::NOT_IN_COMMAND) => r.not_in_command += 1,
+                            Some(error_code::TIMEOUT) => r.timeout += 1,
+                            Some(error_code::DRIVER_FAILED) => r.driver_failed += 1,
+                            Some(error_code::SHUTTING_DOWN) => r.shutting_down += 1,
+                            _ => r.frontseat_refused += 1,
                         }
                     }
                 }
-                Ok(())
-            },
-        );
-        let m = self.clone();
-        let node = bus.subscribe(
-            &groups::GOBY_MIDDLEWARE_FRONTSEAT_NODE_STATUS,
-            "chaos-monitor",
-            1 << 20,
-            move |_| {
-                m.node_status.fetch_add(1, Ordering::Relaxed);
-                Ok(())
-            },
-        );
-        let m = self.clone();
-        let resp = bus.subscribe(
-            &groups::GOBY_MIDDLEWARE_FRONTSEAT_COMMAND_RESPONSE,
-            "chaos-monitor",
-            1 << 20,
-            move |env| {
-                let mut r = m.responses.lock().unwrap_or_else(|p| p.into_inner());
-                match env.msg.request_id {
-                    Some(id) => r.record(id, env.msg.error_code.unwrap_or(0)),
-                    None => r.without_id += 1,
-                }
-                if env.msg.request_successful() {
-                    r.ok += 1;
-                } else {
-                    match env.msg.error_code {
-                        Some(error_code::NOT_IN_COMMAND) => r.not_in_command += 1,
-                        Some(error_code::TIMEOUT) => r.timeout += 1,
-                        Some(error_code::DRIVER_FAILED) => r.driver_failed += 1,
-                        Some(error_code::SHUTTING_DOWN) => r.shutting_down += 1,
-                        _ => r.frontseat_refused += 1,
-                    }
-                }
-                Ok(())
-            },
-        );
-        vec![status, node, resp]
+            }
+            Ok(())
+        })
     }
 
     fn state(&self) -> InterfaceState {
@@ -919,7 +904,7 @@ impl Helm {
         let (state, mut rx) = watch::channel(HelmState::HelmDrive);
         let commanding = Arc::new(AtomicBool::new(true));
         let last_id = Arc::new(AtomicI32::new(0));
-        let bus = bus.clone();
+        let ports = ChaosHelmPorts::new(bus);
         let (c, ids) = (commanding.clone(), last_id.clone());
         let task = tokio::spawn(async move {
             let mut tick = tokio::time::interval(Duration::from_millis(20));
@@ -932,10 +917,7 @@ impl Helm {
                 };
                 if publish_state {
                     let s = *rx.borrow_and_update();
-                    bus.publish(
-                        &groups::GOBY_MIDDLEWARE_FRONTSEAT_HELM_STATE,
-                        HelmStateReport { state: s as i32 },
-                    );
+                    ports.publish_helm_state(HelmStateReport { state: s as i32 });
                 }
                 if c.load(Ordering::SeqCst) {
                     let heading = ((n * 37) % 360) as f64;
@@ -945,17 +927,14 @@ impl Helm {
                         depth: Some(0.0),
                         ..Default::default()
                     };
-                    bus.publish(&groups::GOBY_MIDDLEWARE_FRONTSEAT_DESIRED_COURSE, course);
+                    ports.publish_desired_course(course);
                     let id = ids.fetch_add(1, Ordering::SeqCst) + 1;
-                    bus.publish(
-                        &groups::GOBY_MIDDLEWARE_FRONTSEAT_COMMAND_REQUEST,
-                        CommandRequest {
-                            desired_course: Some(course),
-                            response_requested: Some(true),
-                            request_id: Some(id),
-                            ..Default::default()
-                        },
-                    );
+                    ports.publish_command_request(CommandRequest {
+                        desired_course: Some(course),
+                        response_requested: Some(true),
+                        request_id: Some(id),
+                        ..Default::default()
+                    });
                 }
             }
         });
@@ -1089,7 +1068,6 @@ struct Moos {
     /// The translation runs under a supervisor, as in `frontseat interface`.
     root: SupervisorHandle,
     bridge: translation::TranslationObserver,
-    panic: Arc<tokio::sync::Notify>,
     app_name: String,
 }
 
@@ -1130,9 +1108,8 @@ struct Run {
     config: InterfaceConfig,
     bus: Bus,
     monkey: ChaosMonkeyPorts,
+    sim_monkey: ChaosSimMonkeyPorts,
     service: InterfaceService,
-    /// The fault gate of the current service instance (a process restart starts a new one).
-    agent: Option<ChaosAgent>,
     /// Driver crashes injected before the current service instance started: its restart count
     /// starts from zero.
     crash_base: u64,
@@ -1169,13 +1146,10 @@ impl Run {
     }
 
     fn sim_fault(&self, f: sim_fault::Fault) {
-        self.bus.publish(
-            &groups::FRONTSEAT_SIM_FAULT,
-            SimFault {
-                vehicle: None,
-                fault: Some(f),
-            },
-        );
+        self.sim_monkey.publish_fault(SimFault {
+            vehicle: None,
+            fault: Some(f),
+        });
     }
 
     fn ctrl(&self, c: sim_fault::Ctrl) {
@@ -1518,9 +1492,6 @@ impl Run {
                 "fault #{i} (process restart): the service did not end within {bound:?} of its vehicle side failing"
             ));
         }
-        if let Some(a) = self.agent.take() {
-            a.stop();
-        }
         // The old driver (and with it the frontseat connection) goes with the process.
         self.service
             .actor()
@@ -1532,12 +1503,6 @@ impl Run {
             Ok(new) => {
                 let old = std::mem::replace(&mut self.service, new);
                 let _ = old.shutdown(Duration::from_millis(100)).await;
-                match ChaosAgent::start(&self.config, &self.bus, self.service.actor().clone()) {
-                    Ok(a) => self.agent = Some(a),
-                    Err(e) => self
-                        .violations
-                        .push(format!("fault #{i}: chaos agent not restarted: {e}")),
-                }
             }
             Err(e) => self.violations.push(format!(
                 "fault #{i} (process restart): the service could not be started again: {e}"
@@ -1564,24 +1529,20 @@ impl Run {
                 self.opts.recovery_bound
             ));
         }
-        let (s1, rx1) = self.bus.subscribe_channel(
-            &groups::GOBY_MIDDLEWARE_FRONTSEAT_RAW_IN,
-            "chaos-stalled",
-            8,
-        );
-        let (s2, rx2) = self.bus.subscribe_channel(
-            &groups::GOBY_MIDDLEWARE_FRONTSEAT_NODE_STATUS,
-            "chaos-stalled",
-            8,
-        );
+        // Never read: every delivery keeps its slot until the stall ends.
+        let (tx, rx) = tokio::sync::mpsc::unbounded_channel();
+        let stalled = ChaosStalledInbox::subscribe_all(&self.bus, "chaos-stalled", 8, move |m| {
+            tx.send(m).map_err(|_| Undeliverable)
+        });
         let before_drops = self.bus.total_dropped();
         let before = self.monitor.node_status.load(Ordering::Relaxed);
         tokio::time::sleep(hold).await;
         let delivered = self.monitor.node_status.load(Ordering::Relaxed) - before;
         let dropped = self.bus.total_dropped() - before_drops;
-        s1.cancel();
-        s2.cancel();
-        drop((rx1, rx2));
+        for s in stalled {
+            s.cancel();
+        }
+        drop(rx);
         self.stall_deliveries.push(delivered);
         self.stall_drops += dropped;
         if delivered == 0 {
@@ -1598,7 +1559,9 @@ impl Run {
         let Some(m) = self.moos.as_mut() else { return };
         let before = m.restarts(bound).await;
         let t0 = Instant::now();
-        m.panic.notify_one();
+        self.monkey.publish_fault(ChaosFault {
+            fault: Some(chaos_fault::Fault::TranslationPanic(true)),
+        });
         let deadline = t0 + bound;
         loop {
             let restarted = m.restarts(bound).await > before;
@@ -1732,6 +1695,9 @@ pub async fn run(
     config.driver.basic_simulator.tcp_address = "127.0.0.1".into();
     config.driver.basic_simulator.tcp_port = sim.addr.port();
 
+    // The gate: a fault port refuses unless the config enables chaos (the interface and the
+    // driver open theirs themselves, from the same config).
+    let translation_faults = FaultPort::open(&config, &bus, FaultTarget::Translation)?;
     let moos = if opts.moos {
         let broker = Broker::bind("127.0.0.1:0").await?;
         let addr = broker.local_addr();
@@ -1741,7 +1707,6 @@ pub async fn run(
         mc.time_warp = 1.0;
         config.moos = Some(mc.clone());
         let bridge = translation::TranslationObserver::default();
-        let panic = Arc::new(tokio::sync::Notify::new());
         let root = SupervisorHandle::start(
             "root",
             vec![translation::child_spec(
@@ -1749,7 +1714,7 @@ pub async fn run(
                     cfg: mc.clone(),
                     vehicle: config.name.clone(),
                     bus: bus.clone(),
-                    chaos: Some(panic.clone()),
+                    faults: Some(translation_faults.clone()),
                     observer: bridge.clone(),
                 },
                 // The helm side, as in `frontseat interface`: restarted without end.
@@ -1765,7 +1730,6 @@ pub async fn run(
             broker: Some(broker),
             root,
             bridge,
-            panic,
             app_name: mc.app_name.clone(),
         })
     } else {
@@ -1775,8 +1739,6 @@ pub async fn run(
 
     let helm = Helm::start(&bus);
     let service = InterfaceService::start(&config, &bus).await?;
-    // The gate: refuses unless the config enables chaos.
-    let agent = ChaosAgent::start(&config, &bus, service.actor().clone())?;
     // The web commander, for the flood: loopback, with a token (without one it refuses sends).
     let web_cfg = frontseat_config::WebConfig {
         enabled: true,
@@ -1796,8 +1758,8 @@ pub async fn run(
 
     let mut run = Run {
         monkey: ChaosMonkeyPorts::new(&bus),
+        sim_monkey: ChaosSimMonkeyPorts::new(&bus),
         config: config.clone(),
-        agent: Some(agent),
         crash_base: 0,
         lost_to_restart: Default::default(),
         process_restarts: Vec::new(),
@@ -1988,9 +1950,6 @@ pub async fn run(
     rss_task.abort();
     let rss_max = run.monitor.rss_max_kib.load(Ordering::Relaxed);
 
-    if let Some(a) = run.agent.take() {
-        a.stop();
-    }
     if let Some(w) = run.web.take() {
         w.shutdown(Duration::from_secs(2)).await;
     }

@@ -3,6 +3,7 @@
 //! interface statuses with a deadline.
 #![allow(dead_code)]
 
+use frontseat_actors::bus::test_util::UntypedBus as _;
 use std::path::{Path, PathBuf};
 use std::time::Duration;
 

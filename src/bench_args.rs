@@ -1,0 +1,28 @@
+//! The flags of `frontseat bench`, shared by the service binary (which parses them, so `--help`
+//! and a bad flag read as ever) and the sibling executable `frontseat-bench` that runs them.
+
+use clap::Args;
+
+#[derive(Args, Debug, Clone)]
+pub struct BenchArgs {
+    /// Run in seconds, to prove the benchmark runs (CI); figures are rough.
+    #[arg(long)]
+    pub quick: bool,
+    /// Print the results as JSON instead of the Markdown table.
+    #[arg(long)]
+    pub json: bool,
+    /// Only these rows, comma-separated (e.g. `--rows P1,P2,M1,M2` for an A/B of two builds);
+    /// L0 always runs, every ratio is over it. Rows that share a setup run together (M1/M2,
+    /// P4/P5, Z1–Z3/T1); the table shows only the rows asked for.
+    #[arg(long, value_delimiter = ',', value_name = "ROWS")]
+    pub rows: Vec<String>,
+    /// A/B against another build: runs this build's bench and that `frontseat` executable's
+    /// alternately, `--pairs` times each, and prints mean and median p50/p99 of every latency
+    /// row with the change (e.g. `--against /tmp/frontseat-old --rows P1,P2,M1,M2`). A build
+    /// without `--rows` runs its whole table.
+    #[arg(long, value_name = "EXE")]
+    pub against: Option<std::path::PathBuf>,
+    /// How many runs of each build `--against` makes.
+    #[arg(long, default_value_t = 6, requires = "against")]
+    pub pairs: usize,
+}

@@ -2,7 +2,9 @@
 //! Zenoh, where its page is served and who may read it, when a silent vehicle counts as stale,
 //! and the bounds on what it keeps.
 
-use frontseat_config::{FieldError, ServiceConfig};
+use frontseat_config::{
+    FieldError, ServiceConfig, ZenohAccessConfig, ZenohSecurity, ZenohTlsConfig,
+};
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
@@ -55,6 +57,13 @@ pub struct ZenohConfig {
     pub connect: Vec<String>,
     /// Endpoints to listen on, for vehicles that connect to the topside. Empty by default.
     pub listen: Vec<String>,
+    /// TLS for `tls/…` endpoints (the same section as a vehicle's `[interprocess.tls]`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub tls: Option<ZenohTlsConfig>,
+    /// Access by certificate common name (the same section as a vehicle's
+    /// `[interprocess.access]`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub access: Option<ZenohAccessConfig>,
 }
 
 impl Default for ZenohConfig {
@@ -62,6 +71,21 @@ impl Default for ZenohConfig {
         Self {
             connect: vec!["tcp/127.0.0.1:7447".into()],
             listen: Vec::new(),
+            tls: None,
+            access: None,
+        }
+    }
+}
+
+impl ZenohConfig {
+    /// The endpoints and security sections, checked by the rules every Zenoh session shares.
+    pub fn security(&self) -> ZenohSecurity<'_> {
+        ZenohSecurity {
+            listen: &self.listen,
+            connect: &self.connect,
+            tls: self.tls.as_ref(),
+            access: self.access.as_ref(),
+            in_use: true,
         }
     }
 }
@@ -168,6 +192,7 @@ impl ServiceConfig for TopsideConfig {
                 "with no listen endpoint either, the topside would hear nobody",
             ));
         }
+        e.extend(self.zenoh.security().check("zenoh"));
         for (i, v) in self.vehicle.iter().enumerate() {
             if frontseat_gateway::plan::check_platform(&v.name).is_err() {
                 e.push(FieldError::new(
@@ -197,6 +222,7 @@ impl ServiceConfig for TopsideConfig {
                 "web.listen {a} is beyond loopback without a token: anyone who reaches it sees the fleet (set web.token or {TOKEN_ENV})"
             ));
         }
+        w.extend(self.zenoh.security().warnings("zenoh"));
         w
     }
 }

@@ -67,8 +67,8 @@ impl Default for ZenohTlsConfig {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields, default)]
 pub struct ZenohAccessConfig {
-    /// Common names (CN) of the peers' certificates that are allowed, e.g. the topside's and the
-    /// other vehicles', e.g. ["topside", "auv1"]. At least one.
+    /// Common names (CN) of the peers' certificates that are allowed: the topside's and the
+    /// other vehicles', e.g. ["topside", "auv2"]. At least one.
     pub allow_common_names: Vec<String>,
     /// Also allow plain `tcp/` links over the loopback interface: the vehicle's own helm and
     /// tools on this host, which present no certificate.

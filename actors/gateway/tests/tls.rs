@@ -1,16 +1,18 @@
 //! Zenoh sessions built by `zenoh_config` from `[interprocess.tls]`/`[interprocess.access]`,
-//! talking over real `tls/127.0.0.1` links with certificates made at test time: with mutual TLS a
-//! vehicle and the topside exchange node_status; a peer without a certificate, or with one from
+//! talking over real `tls/127.0.0.1` links with certificates made at test time: with mutual TLS
+//! the interface's gateway and a topside session exchange node_status and desired_course; a peer without a certificate, or with one from
 //! another CA, gets nothing; with access control a certificate whose common name is not listed
 //! can neither publish to nor hear the vehicle; and the config checks on the section.
 
 use std::time::Duration;
 
+use frontseat_actors::bus::Bus;
+
 use frontseat_actors::groups;
-use frontseat_actors::proto::goby::middleware::frontseat::protobuf::NodeStatus;
+use frontseat_actors::proto::goby::middleware::frontseat::protobuf::{DesiredCourse, NodeStatus};
 use frontseat_config::{InterfaceConfig, InterprocessConfig, ServiceConfig, ZenohAccessConfig};
 use frontseat_config::{ZenohTlsConfig, parse};
-use frontseat_gateway::{key_for, put_message, zenoh};
+use frontseat_gateway::{GatewayOptions, key_for, put_message, zenoh};
 use prost::Message;
 use tokio::sync::mpsc::{UnboundedReceiver, unbounded_channel};
 
@@ -112,20 +114,60 @@ async fn with_mutual_tls_the_topside_hears_the_vehicle() {
     let ca = Ca::new(&dir.0, "fleet-ca");
     let port = free_port();
     let ep = format!("tls/127.0.0.1:{port}");
-    let vehicle = session(vec![ep.clone()], vec![], Some(ca.tls_for("auv1")), None).await;
+    // The vehicle side is the interface's own gateway, exporting what its bus carries.
+    let bus = Bus::new();
+    let ip = InterprocessConfig {
+        enabled: true,
+        listen: vec![ep.clone()],
+        connect: vec![],
+        tls: Some(ca.tls_for("auv1")),
+        ..Default::default()
+    };
+    let gw = frontseat_gateway::start(
+        &bus,
+        &ip,
+        "auv1",
+        &["FrontSeatInterface"],
+        GatewayOptions::default(),
+    )
+    .await
+    .unwrap();
     let topside = session(vec![], vec![ep], Some(ca.tls_for("topside")), None).await;
     let (_sub, mut rx) = names_on(&topside, &ns_key("*")).await;
-    let type_name = groups::GOBY_MIDDLEWARE_FRONTSEAT_NODE_STATUS.type_name();
     let got = until_received(
-        || put_message(&vehicle, &ns_key("auv1"), type_name, &ns("auv1", 1.0), None).unwrap(),
+        || {
+            let _ = bus.publish(
+                &groups::GOBY_MIDDLEWARE_FRONTSEAT_NODE_STATUS,
+                ns("auv1", 1.0),
+            );
+        },
         &mut rx,
         "node_status over mTLS",
     )
     .await;
     assert_eq!(got, (ns_key("auv1"), "auv1".to_string()));
-    // The link is TLS: the vehicle's only listener is a tls/ one.
-    let peers: Vec<_> = vehicle.info().peers_zid().await.collect();
-    assert_eq!(peers, vec![topside.zid()]);
+    // And the other way, with put_message as the topside's commander relay or a remote helm
+    // would: the interface's bus gets the desired_course.
+    let (_s, mut course) =
+        bus.subscribe_channel(&groups::GOBY_MIDDLEWARE_FRONTSEAT_DESIRED_COURSE, "t", 1000);
+    let dc_key = key_for(
+        "auv1",
+        groups::GOBY_MIDDLEWARE_FRONTSEAT_DESIRED_COURSE.name(),
+    );
+    let dc_type = groups::GOBY_MIDDLEWARE_FRONTSEAT_DESIRED_COURSE.type_name();
+    let dc = DesiredCourse {
+        heading: Some(90.0),
+        ..Default::default()
+    };
+    let env = until_received(
+        || put_message(&topside, &dc_key, dc_type, &dc, None).unwrap(),
+        &mut course,
+        "desired_course over mTLS",
+    )
+    .await;
+    assert_eq!(env.msg.heading, Some(90.0));
+    assert!(gw.stats().exported >= 1);
+    gw.close().await;
 }
 
 #[tokio::test(flavor = "multi_thread")]

@@ -134,7 +134,8 @@ pub struct InterprocessConfig {
     pub enabled: bool,
     /// Zenoh session mode.
     pub mode: InterprocessMode,
-    /// Zenoh endpoints to listen on, e.g. "tcp/127.0.0.1:7447". The default touches only loopback.
+    /// Zenoh endpoints to listen on, e.g. "tcp/127.0.0.1:7447". The default touches only loopback;
+    /// beyond it use "tls/<address>:<port>" with the `tls` section.
     pub listen: Vec<String>,
     /// Zenoh endpoints to connect to (a router, or other peers), e.g. "tcp/10.0.0.2:7447".
     pub connect: Vec<String>,

@@ -337,6 +337,7 @@ async fn fly(
         listen: Vec::new(),
         connect: endpoints,
         platform: String::new(),
+        ..Default::default()
     };
     let zcfg = frontseat_gateway::zenoh_config(&ip, frontseat_gateway::DEFAULT_MAX_PAYLOAD)
         .map_err(|e| e.to_string())?;

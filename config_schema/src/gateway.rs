@@ -104,4 +104,8 @@ impl ServiceConfig for GatewayConfig {
         self.record.check("record", &mut c);
         c.errors
     }
+
+    fn warnings(&self) -> Vec<String> {
+        self.interprocess.warnings("interprocess")
+    }
 }

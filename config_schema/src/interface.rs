@@ -243,7 +243,9 @@ impl ServiceConfig for InterfaceConfig {
     }
 
     fn warnings(&self) -> Vec<String> {
-        self.web.warnings("web")
+        let mut w = self.web.warnings("web");
+        w.extend(self.interprocess.warnings("interprocess"));
+        w
     }
 
     fn import_goby3(

@@ -18,6 +18,7 @@ mod sections;
 mod sim;
 mod state_name;
 mod web;
+mod zenoh_security;
 
 use std::io::Read;
 use std::path::Path;
@@ -49,6 +50,7 @@ pub use sections::{
 };
 pub use sim::{CurrentConfig, FaultKind, MAX_LINE_BYTES_LIMIT, ScheduledFaultConfig, SimConfig};
 pub use web::{MIN_TOKEN_CHARS, WEB_TOKEN_ENV, WebConfig};
+pub use zenoh_security::{ZenohAccessConfig, ZenohSecurity, ZenohTlsConfig, endpoint_protocol};
 
 /// Largest accepted time warp (sim_warp_factor, moos.time_warp).
 pub const MAX_WARP: f64 = 10_000.0;

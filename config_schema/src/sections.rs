@@ -8,6 +8,7 @@ use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
 use crate::check::{Checker, at};
+use crate::zenoh_security::{ZenohAccessConfig, ZenohSecurity, ZenohTlsConfig};
 
 /// Latitude of the default origin: the example origin Goby3's course uses (MIT, Boston).
 pub const DEFAULT_ORIGIN_LAT: f64 = 42.358456;
@@ -133,13 +134,22 @@ pub struct InterprocessConfig {
     pub enabled: bool,
     /// Zenoh session mode.
     pub mode: InterprocessMode,
-    /// Zenoh endpoints to listen on, e.g. "tcp/127.0.0.1:7447". The default touches only loopback.
+    /// Zenoh endpoints to listen on, e.g. "tcp/127.0.0.1:7447". The default touches only loopback;
+    /// beyond it use "tls/<address>:<port>" with the `tls` section.
     pub listen: Vec<String>,
     /// Zenoh endpoints to connect to (a router, or other peers), e.g. "tcp/10.0.0.2:7447".
     pub connect: Vec<String>,
     /// Platform name, the first element of every key expression
     /// (`<platform>/goby/middleware/frontseat/node_status`); empty = use the top-level `name`.
     pub platform: String,
+    /// TLS for `tls/…` endpoints: what a session across hosts needs to be encrypted and, with
+    /// `mutual`, authenticated. Absent = no `tls/` endpoint may be used.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub tls: Option<ZenohTlsConfig>,
+    /// Only the listed certificate common names may publish or subscribe. Absent = every peer
+    /// that joins the session may.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub access: Option<ZenohAccessConfig>,
 }
 
 impl Default for InterprocessConfig {
@@ -150,11 +160,34 @@ impl Default for InterprocessConfig {
             listen: vec!["tcp/127.0.0.1:7447".into()],
             connect: Vec::new(),
             platform: String::new(),
+            tls: None,
+            access: None,
         }
     }
 }
 
 impl InterprocessConfig {
+    /// The endpoints and security sections, for the checks shared with the topside.
+    pub fn security(&self) -> ZenohSecurity<'_> {
+        let listen: &[String] = match self.mode {
+            InterprocessMode::Peer => &self.listen,
+            // A client listens nowhere (see the gateway's session config).
+            InterprocessMode::Client => &[],
+        };
+        ZenohSecurity {
+            listen,
+            connect: &self.connect,
+            tls: self.tls.as_ref(),
+            access: self.access.as_ref(),
+            in_use: self.enabled,
+        }
+    }
+
+    /// Advice about a valid section (`--check` prints it).
+    pub fn warnings(&self, prefix: &str) -> Vec<String> {
+        self.security().warnings(prefix)
+    }
+
     pub(crate) fn check(&self, prefix: &str, c: &mut Checker) {
         for (field, list) in [("listen", &self.listen), ("connect", &self.connect)] {
             for (i, ep) in list.iter().enumerate() {
@@ -186,6 +219,7 @@ impl InterprocessConfig {
                 "must not contain '/', '*', '$', '?' or '#' (it becomes a key expression chunk)",
             ));
         }
+        c.errors.extend(self.security().check(prefix));
     }
 }
 

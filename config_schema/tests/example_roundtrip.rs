@@ -76,6 +76,11 @@ fn interface_example_has_every_setting_and_commented_ones_work() {
         "[web]",
         "listen = \"127.0.0.1:50001\"",
         "#token = ",
+        "#[interprocess.tls]",
+        "#root_ca_certificate = \"/etc/frontseat/tls/ca.pem\"",
+        "#mutual = true",
+        "#[interprocess.access]",
+        "#allow_common_names = []",
     ] {
         assert!(text.contains(key), "example lacks {key:?}:\n{text}");
     }
@@ -100,6 +105,9 @@ fn interface_example_has_every_setting_and_commented_ones_work() {
     rest.record.path = None;
     assert!(on.record.foxglove.token.is_some());
     rest.record.foxglove.token = None;
+    assert!(on.interprocess.tls.is_some() && on.interprocess.access.is_some());
+    rest.interprocess.tls = None;
+    rest.interprocess.access = None;
     assert_eq!(rest, InterfaceConfig::default());
 }
 

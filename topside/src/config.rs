@@ -2,7 +2,9 @@
 //! Zenoh, where its page is served and who may read it, when a silent vehicle counts as stale,
 //! and the bounds on what it keeps.
 
-use frontseat_config::{FieldError, ServiceConfig};
+use frontseat_config::{
+    FieldError, ServiceConfig, ZenohAccessConfig, ZenohSecurity, ZenohTlsConfig,
+};
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
@@ -60,6 +62,13 @@ pub struct ZenohConfig {
     pub connect: Vec<String>,
     /// Endpoints to listen on, for vehicles that connect to the topside. Empty by default.
     pub listen: Vec<String>,
+    /// TLS for `tls/…` endpoints (the same section as a vehicle's `[interprocess.tls]`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub tls: Option<ZenohTlsConfig>,
+    /// Access by certificate common name (the same section as a vehicle's
+    /// `[interprocess.access]`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub access: Option<ZenohAccessConfig>,
 }
 
 impl Default for ZenohConfig {
@@ -67,6 +76,21 @@ impl Default for ZenohConfig {
         Self {
             connect: vec!["tcp/127.0.0.1:7447".into()],
             listen: Vec::new(),
+            tls: None,
+            access: None,
+        }
+    }
+}
+
+impl ZenohConfig {
+    /// The endpoints and security sections, checked by the rules every Zenoh session shares.
+    pub fn security(&self) -> ZenohSecurity<'_> {
+        ZenohSecurity {
+            listen: &self.listen,
+            connect: &self.connect,
+            tls: self.tls.as_ref(),
+            access: self.access.as_ref(),
+            in_use: true,
         }
     }
 }
@@ -173,6 +197,7 @@ impl ServiceConfig for TopsideConfig {
                 "with no listen endpoint either, the topside would hear nobody",
             ));
         }
+        e.extend(self.zenoh.security().check("zenoh"));
         e.extend(self.record.errors_at("record"));
         if self.record.foxglove.enabled {
             e.push(FieldError::new(
@@ -210,6 +235,7 @@ impl ServiceConfig for TopsideConfig {
                 "web.listen {a} is beyond loopback without a token: anyone who reaches it sees the fleet (set web.token or {TOKEN_ENV})"
             ));
         }
+        w.extend(self.zenoh.security().warnings("zenoh"));
         w
     }
 }

@@ -293,6 +293,8 @@ impl Topside {
             listen: cfg.zenoh.listen.clone(),
             connect: cfg.zenoh.connect.clone(),
             platform: String::new(),
+            tls: cfg.zenoh.tls.clone(),
+            access: cfg.zenoh.access.clone(),
         };
         let zcfg = frontseat_gateway::zenoh_config(&ip, frontseat_gateway::DEFAULT_MAX_PAYLOAD)
             .map_err(|e| TopsideError::Zenoh(e.to_string()))?;

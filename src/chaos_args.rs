@@ -39,6 +39,10 @@ pub struct ChaosArgs {
     /// How often a soak samples and prints the process's resources (e.g. `1m`, `30s`).
     #[arg(long, value_name = "DURATION", value_parser = humantime::parse_duration, default_value = "1m")]
     pub sample_every: Duration,
+    /// Only these faults, comma-separated (e.g. `moos-crash-loop,web-flood`; `--only help` lists
+    /// them): to find which fault a resource drift comes with.
+    #[arg(long, value_name = "KINDS", value_delimiter = ',')]
+    pub only: Vec<String>,
     /// Print the embedded default config and exit.
     #[arg(long)]
     pub print_config: bool,

@@ -68,7 +68,22 @@ async fn run(args: chaos_args::ChaosArgs) -> ExitCode {
         eprintln!("--recovery-bound must be a positive number of seconds");
         return ExitCode::from(2);
     }
+    let mut only = Vec::new();
+    for k in &args.only {
+        match frontseat_chaos::FaultKind::from_key(k) {
+            Some(kind) => only.push(kind),
+            None => {
+                let keys: Vec<&str> = frontseat_chaos::FaultKind::ALL
+                    .iter()
+                    .map(|k| k.key())
+                    .collect();
+                eprintln!("--only: unknown fault {k:?}; one of {}", keys.join(", "));
+                return ExitCode::from(2);
+            }
+        }
+    }
     let opts = ChaosOptions {
+        only,
         seed: args.seed,
         faults: args.faults,
         warp: args.warp,

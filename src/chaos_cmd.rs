@@ -43,6 +43,10 @@ pub struct ChaosArgs {
     /// How often a soak samples and prints the process's resources (e.g. `1m`, `30s`).
     #[arg(long, value_name = "DURATION", value_parser = humantime::parse_duration, default_value = "1m")]
     pub sample_every: Duration,
+    /// Only these faults, comma-separated (e.g. `moos-crash-loop,web-flood`; `--only help` lists
+    /// them): to find which fault a resource drift comes with.
+    #[arg(long, value_name = "KINDS", value_delimiter = ',')]
+    pub only: Vec<String>,
     /// Print the embedded default config and exit.
     #[arg(long)]
     pub print_config: bool,
@@ -73,7 +77,22 @@ pub async fn run(args: ChaosArgs) -> ExitCode {
         eprintln!("--recovery-bound must be a positive number of seconds");
         return ExitCode::from(2);
     }
+    let mut only = Vec::new();
+    for k in &args.only {
+        match frontseat_chaos::FaultKind::from_key(k) {
+            Some(kind) => only.push(kind),
+            None => {
+                let keys: Vec<&str> = frontseat_chaos::FaultKind::ALL
+                    .iter()
+                    .map(|k| k.key())
+                    .collect();
+                eprintln!("--only: unknown fault {k:?}; one of {}", keys.join(", "));
+                return ExitCode::from(2);
+            }
+        }
+    }
     let opts = ChaosOptions {
+        only,
         seed: args.seed,
         faults: args.faults,
         warp: args.warp,

@@ -68,6 +68,21 @@ pub struct DriverActorState {
     ticker: Option<tokio::task::JoinHandle<()>>,
 }
 
+/// A driver that panics or is killed runs no `post_stop` (ractor skips it then), but its state is
+/// dropped: the bus subscriptions go here, or each crash would leave them on the bus — holding
+/// the dead actor's cell through their closures — on every group nobody publishes (issue 31's
+/// soak creep; `tools/chaos/tests/restart_leak.rs`). After an orderly stop both are empty.
+impl Drop for DriverActorState {
+    fn drop(&mut self) {
+        if let Some(t) = self.ticker.take() {
+            t.abort();
+        }
+        for s in self.subs.drain(..) {
+            s.cancel();
+        }
+    }
+}
+
 struct PortSink<'a>(&'a DriverActorPorts);
 
 impl SignalSink for PortSink<'_> {

@@ -288,6 +288,19 @@ pub struct FsiState {
     timers: Vec<tokio::task::JoinHandle<()>>,
 }
 
+/// As the DriverActor's: an interface that panics or is killed (its supervisor restarts it) runs
+/// no `cleanup`, so its subscriptions and timers go when its state is dropped.
+impl Drop for FsiState {
+    fn drop(&mut self) {
+        for t in self.timers.drain(..) {
+            t.abort();
+        }
+        for s in self.subs.drain(..) {
+            s.cancel();
+        }
+    }
+}
+
 pub struct FrontSeatInterface;
 
 pub struct FsiArgs {

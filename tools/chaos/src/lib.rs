@@ -86,6 +86,8 @@ pub struct ChaosOptions {
     pub soak: Option<Duration>,
     /// How often the resources (RSS, open fds, threads, tasks) are sampled and reported.
     pub sample_every: Duration,
+    /// Only these fault kinds (empty: all). To find which fault a resource drift comes with.
+    pub only: Vec<FaultKind>,
 }
 
 impl Default for ChaosOptions {
@@ -99,6 +101,7 @@ impl Default for ChaosOptions {
             moos: true,
             soak: None,
             sample_every: Duration::from_secs(60),
+            only: Vec::new(),
         }
     }
 }
@@ -199,6 +202,35 @@ impl FaultKind {
         )
     }
 
+    /// The short name `--only` takes (`frontseat chaos --only moos-crash-loop,web-flood`).
+    pub fn key(self) -> &'static str {
+        match self {
+            FaultKind::DriverPanic => "driver-panic",
+            FaultKind::DriverKill => "driver-kill",
+            FaultKind::DropConnection => "drop-connection",
+            FaultKind::SimRestart => "sim-restart",
+            FaultKind::StopNav => "stop-nav",
+            FaultKind::Garbage => "garbage",
+            FaultKind::Oversized => "oversized",
+            FaultKind::CtrlAuv => "ctrl-auv",
+            FaultKind::CtrlIdle => "ctrl-idle",
+            FaultKind::CtrlPayload => "ctrl-payload",
+            FaultKind::HelmPark => "helm-park",
+            FaultKind::StalledSubscriber => "stalled-subscriber",
+            FaultKind::MoosRestart => "moos-restart",
+            FaultKind::TranslationPanic => "translation-panic",
+            FaultKind::VehiclePanic => "vehicle-panic",
+            FaultKind::MoosCrashLoop => "moos-crash-loop",
+            FaultKind::WebFlood => "web-flood",
+            FaultKind::ProcessRestart => "process-restart",
+        }
+    }
+
+    /// The kind a `key` names.
+    pub fn from_key(key: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|k| k.key() == key)
+    }
+
     pub fn name(self) -> &'static str {
         match self {
             FaultKind::DriverPanic => "driver panic",
@@ -281,7 +313,7 @@ pub struct PlannedFault {
 
 /// The schedule a seed gives: the same seed, options and warp give the same faults.
 pub fn plan(seed: u64, faults: u32, moos: bool, nav_timeout_s: f64) -> Vec<PlannedFault> {
-    let mut p = Planner::new(seed, moos, nav_timeout_s);
+    let mut p = Planner::new(seed, moos, nav_timeout_s, &[]);
     (0..faults).map(|_| p.next_fault()).collect()
 }
 
@@ -295,11 +327,17 @@ pub struct Planner {
 }
 
 impl Planner {
-    pub fn new(seed: u64, moos: bool, nav_timeout_s: f64) -> Self {
-        let kinds: Vec<FaultKind> = FaultKind::ALL
+    /// `only`: the kinds to draw from (empty: all). A kind that needs MOOS is left out
+    /// without it; with none left, the planner falls back to a dropped connection.
+    pub fn new(seed: u64, moos: bool, nav_timeout_s: f64, only: &[FaultKind]) -> Self {
+        let mut kinds: Vec<FaultKind> = FaultKind::ALL
             .into_iter()
             .filter(|k| moos || !k.needs_moos())
+            .filter(|k| only.is_empty() || only.contains(k))
             .collect();
+        if kinds.is_empty() {
+            kinds.push(FaultKind::DropConnection);
+        }
         let total = kinds.iter().map(|k| k.weight()).sum();
         Self {
             rng: Rng::new(seed),
@@ -1859,6 +1897,7 @@ pub async fn run(
         opts.seed,
         opts.moos,
         config.driver.basic_simulator.nav_timeout,
+        &opts.only,
     );
     let mut samples = vec![Sample::take(started.elapsed(), 0)];
     let mut next_sample = Instant::now() + opts.sample_every;

@@ -1077,7 +1077,7 @@ const SERVICE_RESTART_SEC: Duration = Duration::from_millis(100);
 fn web_flood_request(addr: SocketAddr, n: u64) -> String {
     let course = |h: &str, s: &str| {
         format!(
-            r#"{{"group":"goby::middleware::frontseat::desired_course","message":{{"heading":{h},"speed":{s},"depth":0}}}}"#
+            r#"{{"group":"goby::middleware::frontseat::desired_course","message":{{"time":1,"heading":{h},"speed":{s},"depth":0}}}}"#
         )
     };
     let (auth, origin, body) = match n % 6 {

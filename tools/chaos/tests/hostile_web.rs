@@ -13,7 +13,9 @@ use std::time::Duration;
 use frontseat_actors::bus::Bus;
 use frontseat_actors::groups;
 use frontseat_actors::interface::InterfaceService;
-use frontseat_actors::proto::goby::middleware::frontseat::protobuf::{HelmState, HelmStateReport};
+use frontseat_actors::proto::goby::middleware::frontseat::protobuf::{
+    HelmState, HelmStateReport, InterfaceState,
+};
 use frontseat_sim::{SimOptions, SimServer};
 use tokio::io::{AsyncReadExt, AsyncWriteExt};
 use tokio::time::Instant;
@@ -138,11 +140,11 @@ async fn a_client_flooding_the_web_commander_reaches_nothing_bad() {
     let addr = web.local_addr();
     // In COMMAND before the flood, so that a plain setpoint has a way to the vehicle.
     let deadline = Instant::now() + BOUND;
-    while !service
-        .snapshot(Duration::from_secs(2))
-        .await
-        .is_some_and(|s| s.status.state == Some(3))
-    {
+    loop {
+        let snap = service.snapshot(Duration::from_secs(2)).await;
+        if snap.is_some_and(|s| s.status.state == Some(InterfaceState::InterfaceCommand as i32)) {
+            break;
+        }
         assert!(
             Instant::now() < deadline,
             "the interface never reached COMMAND"

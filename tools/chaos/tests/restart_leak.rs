@@ -49,19 +49,48 @@ fn subscriptions(bus: &Bus) -> Vec<(String, usize)> {
     v
 }
 
+/// The real simulator on loopback, the interface on the embedded chaos config, its ChaosAgent,
+/// and the driver up.
+struct Stack {
+    sim: frontseat_sim::SimHandle,
+    bus: Bus,
+    service: InterfaceService,
+    agent: ChaosAgent,
+    monkey: ChaosMonkeyPorts,
+}
+
+impl Stack {
+    async fn start() -> Self {
+        let sim = SimServer::bind(([127, 0, 0, 1], 0).into(), SimOptions::default())
+            .await
+            .unwrap();
+        let mut cfg = frontseat_chaos::default_config().unwrap();
+        cfg.driver.basic_simulator.tcp_address = "127.0.0.1".into();
+        cfg.driver.basic_simulator.tcp_port = sim.local_addr().port();
+        let bus = Bus::new();
+        let service = InterfaceService::start(&cfg, &bus).await.unwrap();
+        let agent = ChaosAgent::start(&cfg, &bus, service.actor().clone()).unwrap();
+        let monkey = ChaosMonkeyPorts::new(&bus);
+        driver_up(&service, 0).await;
+        Self {
+            sim,
+            bus,
+            service,
+            agent,
+            monkey,
+        }
+    }
+}
+
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn driver_crashes_leave_no_subscription_behind() {
-    let sim = SimServer::bind(([127, 0, 0, 1], 0).into(), SimOptions::default())
-        .await
-        .unwrap();
-    let mut cfg = frontseat_chaos::default_config().unwrap();
-    cfg.driver.basic_simulator.tcp_address = "127.0.0.1".into();
-    cfg.driver.basic_simulator.tcp_port = sim.local_addr().port();
-    let bus = Bus::new();
-    let service = InterfaceService::start(&cfg, &bus).await.unwrap();
-    let agent = ChaosAgent::start(&cfg, &bus, service.actor().clone()).unwrap();
-    let monkey = ChaosMonkeyPorts::new(&bus);
-    driver_up(&service, 0).await;
+    let Stack {
+        sim,
+        bus,
+        service,
+        agent,
+        monkey,
+    } = Stack::start().await;
     let before = subscriptions(&bus);
 
     const CRASHES: u32 = 12;
@@ -91,17 +120,13 @@ async fn driver_crashes_leave_no_subscription_behind() {
 /// still leave the bus with it.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn an_interface_panic_leaves_no_subscription_behind() {
-    let sim = SimServer::bind(([127, 0, 0, 1], 0).into(), SimOptions::default())
-        .await
-        .unwrap();
-    let mut cfg = frontseat_chaos::default_config().unwrap();
-    cfg.driver.basic_simulator.tcp_address = "127.0.0.1".into();
-    cfg.driver.basic_simulator.tcp_port = sim.local_addr().port();
-    let bus = Bus::new();
-    let mut service = InterfaceService::start(&cfg, &bus).await.unwrap();
-    let agent = ChaosAgent::start(&cfg, &bus, service.actor().clone()).unwrap();
-    let monkey = ChaosMonkeyPorts::new(&bus);
-    driver_up(&service, 0).await;
+    let Stack {
+        sim,
+        bus,
+        mut service,
+        agent,
+        monkey,
+    } = Stack::start().await;
     let interface_subs = |bus: &Bus| {
         bus.stats()
             .iter()

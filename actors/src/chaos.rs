@@ -62,6 +62,19 @@ pub struct FaultPort {
     _subs: Arc<Vec<Subscription>>,
 }
 
+/// The last holder of a port takes its subscriptions off the bus: an actor that panics or is
+/// killed drops its state without a `post_stop`, and a restart opens a new port, so leaving them
+/// would add one subscription per fault (the leak `tools/chaos/tests/restart_leak.rs` counts).
+impl Drop for FaultPort {
+    fn drop(&mut self) {
+        if let Some(subs) = Arc::get_mut(&mut self._subs) {
+            for s in subs.drain(..) {
+                s.cancel();
+            }
+        }
+    }
+}
+
 impl std::fmt::Debug for FaultPort {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.write_str("FaultPort")

@@ -4,6 +4,7 @@
 //! another CA, gets nothing; with access control a certificate whose common name is not listed
 //! can neither publish to nor hear the vehicle; and the config checks on the section.
 
+use frontseat_actors::bus::test_util::UntypedBus as _;
 use std::time::Duration;
 
 use frontseat_actors::bus::Bus;

@@ -40,6 +40,11 @@ use frontseat_actors::proto::goby::middleware::frontseat::protobuf::{
 use frontseat_actors::sim_glue::{self, EmbeddedSimulator};
 use frontseat_actors::supervisor::SupervisorHandle;
 use frontseat_actors::translation;
+use frontseat_gateway::GatewayOptions;
+use frontseat_gateway::goby3::{
+    self, Goby3Handle,
+    standin::{StandinGobyd, StandinTransport},
+};
 
 /// The config `frontseat chaos` uses without `-c`: chaos enabled, warped, short reconnect and
 /// restart delays, and a restart limit that a fault every few hundred milliseconds stays under.
@@ -125,6 +130,8 @@ pub enum ChaosHarnessError {
     Translation(String),
     #[error("web commander: {0}")]
     Web(String),
+    #[error("gobyd stand-in or Goby3 gateway: {0}")]
+    Goby3(String),
     #[error("the interface did not reach COMMAND within {0:?} at start")]
     NoStart(Duration),
 }
@@ -150,10 +157,11 @@ pub enum FaultKind {
     MoosCrashLoop,
     WebFlood,
     ProcessRestart,
+    GobydGone,
 }
 
 impl FaultKind {
-    pub const ALL: [FaultKind; 18] = [
+    pub const ALL: [FaultKind; 19] = [
         FaultKind::DriverPanic,
         FaultKind::DriverKill,
         FaultKind::DropConnection,
@@ -172,6 +180,7 @@ impl FaultKind {
         FaultKind::MoosCrashLoop,
         FaultKind::WebFlood,
         FaultKind::ProcessRestart,
+        FaultKind::GobydGone,
     ];
 
     /// Faults that need the MOOS bridge (left out with `--no-moos`).
@@ -192,6 +201,7 @@ impl FaultKind {
                 | FaultKind::WebFlood
                 | FaultKind::StalledSubscriber
                 | FaultKind::HelmPark
+                | FaultKind::GobydGone
         )
     }
 
@@ -199,7 +209,10 @@ impl FaultKind {
     fn alone(self) -> bool {
         matches!(
             self,
-            FaultKind::MoosCrashLoop | FaultKind::WebFlood | FaultKind::ProcessRestart
+            FaultKind::MoosCrashLoop
+                | FaultKind::WebFlood
+                | FaultKind::ProcessRestart
+                | FaultKind::GobydGone
         )
     }
 
@@ -224,6 +237,7 @@ impl FaultKind {
             FaultKind::MoosCrashLoop => "moos-crash-loop",
             FaultKind::WebFlood => "web-flood",
             FaultKind::ProcessRestart => "process-restart",
+            FaultKind::GobydGone => "gobyd-gone",
         }
     }
 
@@ -252,6 +266,7 @@ impl FaultKind {
             FaultKind::MoosCrashLoop => "MOOSDB crash-looping (60 s sim)",
             FaultKind::WebFlood => "web client flooding the commander (60 s sim)",
             FaultKind::ProcessRestart => "process ended, restarted by the service manager",
+            FaultKind::GobydGone => "gobyd gone (60 s sim), then back",
         }
     }
 
@@ -266,6 +281,7 @@ impl FaultKind {
             FaultKind::TranslationPanic | FaultKind::VehiclePanic => 2,
             FaultKind::CtrlPayload => 1,
             FaultKind::MoosCrashLoop | FaultKind::WebFlood | FaultKind::ProcessRestart => 1,
+            FaultKind::GobydGone => 1,
         }
     }
 }
@@ -368,7 +384,9 @@ impl Planner {
             FaultKind::StalledSubscriber => (ms(rng, 100.0, 400.0), 0.0),
             FaultKind::SimRestart | FaultKind::MoosRestart => (ms(rng, 10.0, 300.0), 0.0),
             // The long helm-side faults: `amount` is their length in simulated seconds.
-            FaultKind::MoosCrashLoop | FaultKind::WebFlood => (ms(rng, 10.0, 100.0), 60.0),
+            FaultKind::MoosCrashLoop | FaultKind::WebFlood | FaultKind::GobydGone => {
+                (ms(rng, 10.0, 100.0), 60.0)
+            }
             _ => (ms(rng, 10.0, 200.0), 0.0),
         };
         PlannedFault {
@@ -426,13 +444,17 @@ pub struct Sample {
     pub fds: Option<u64>,
     pub threads: Option<u64>,
     pub tasks: usize,
+    /// Subscriptions on the bus: a crashed actor whose subscriptions stayed made this grow
+    /// (and RSS with it) before issue 31's fix; counted, so a drift is seen without RSS noise.
+    pub subscriptions: usize,
 }
 
 impl Sample {
-    pub fn take(at: Duration, faults: u32) -> Self {
+    pub fn take(at: Duration, faults: u32, bus: &Bus) -> Self {
         Self {
             at,
             faults,
+            subscriptions: bus.stats().len(),
             rss_kib: rss_kib(),
             fds: open_fds(),
             threads: threads(),
@@ -444,14 +466,15 @@ impl Sample {
     pub fn line(&self) -> String {
         let o = |v: Option<u64>| v.map_or("?".to_string(), |v| v.to_string());
         format!(
-            "t {:>6.0} s, {:>6} faults: RSS {} MiB, fds {}, threads {}, tasks {}",
+            "t {:>6.0} s, {:>6} faults: RSS {} MiB, fds {}, threads {}, tasks {}, bus subscriptions {}",
             self.at.as_secs_f64(),
             self.faults,
             self.rss_kib
                 .map_or("?".into(), |k| format!("{:.1}", k as f64 / 1024.0)),
             o(self.fds),
             o(self.threads),
-            self.tasks
+            self.tasks,
+            self.subscriptions
         )
     }
 }
@@ -528,21 +551,22 @@ impl ChaosReport {
         if !self.samples.is_empty() {
             let _ = writeln!(
                 s,
-                "\n| t (wall) | faults | RSS MiB | open fds | threads | tasks |"
+                "\n| t (wall) | faults | RSS MiB | open fds | threads | tasks | bus subscriptions |"
             );
-            let _ = writeln!(s, "|---:|---:|---:|---:|---:|---:|");
+            let _ = writeln!(s, "|---:|---:|---:|---:|---:|---:|---:|");
             let o = |v: Option<u64>| v.map_or("?".to_string(), |v| v.to_string());
             for x in &self.samples {
                 let _ = writeln!(
                     s,
-                    "| {:.0} s | {} | {} | {} | {} | {} |",
+                    "| {:.0} s | {} | {} | {} | {} | {} | {} |",
                     x.at.as_secs_f64(),
                     x.faults,
                     x.rss_kib
                         .map_or("?".into(), |k| format!("{:.1}", k as f64 / 1024.0)),
                     o(x.fds),
                     o(x.threads),
-                    x.tasks
+                    x.tasks,
+                    x.subscriptions
                 );
             }
         }
@@ -1032,7 +1056,7 @@ const SERVICE_RESTART_SEC: Duration = Duration::from_millis(100);
 fn web_flood_request(addr: SocketAddr, n: u64) -> String {
     let course = |h: &str, s: &str| {
         format!(
-            r#"{{"group":"goby::middleware::frontseat::desired_course","message":{{"heading":{h},"speed":{s},"depth":0}}}}"#
+            r#"{{"group":"goby::middleware::frontseat::desired_course","message":{{"time":1,"heading":{h},"speed":{s},"depth":0}}}}"#
         )
     };
     let (auth, origin, body) = match n % 6 {
@@ -1139,6 +1163,65 @@ impl Moos {
     }
 }
 
+/// A gobyd (our stand-in, TCP on loopback) and this process's Goby3 gateway, joined to it as
+/// `frontseat interface` is with `[goby3] enabled = true`. The gobyd can go away and come back
+/// on the same manager port, as a restarted gobyd does.
+struct Goby {
+    port: u16,
+    gobyd: Option<StandinGobyd>,
+    gateway: Goby3Handle,
+}
+
+impl Goby {
+    async fn start(bus: &Bus) -> Result<Self, ChaosHarnessError> {
+        let e = |e: &dyn std::fmt::Display| ChaosHarnessError::Goby3(e.to_string());
+        let gobyd = StandinGobyd::start(StandinTransport::Tcp { manager_port: 0 }, &[])
+            .await
+            .map_err(|x| e(&x))?;
+        let port = gobyd
+            .manager_port()
+            .ok_or_else(|| ChaosHarnessError::Goby3("stand-in gobyd has no TCP port".into()))?;
+        let cfg = frontseat_config::Goby3Config {
+            enabled: true,
+            transport: frontseat_config::Goby3Transport::Tcp,
+            ip_address: "127.0.0.1".into(),
+            tcp_port: port,
+            settle_ms: 50,
+            reconnect_initial_ms: 20,
+            reconnect_max_ms: 200,
+            manager_timeout_seconds: 1.0,
+            ..Default::default()
+        };
+        let settings = goby3::Goby3Settings::from_config(&cfg, "chaos-auv").map_err(|x| e(&x))?;
+        let gateway = goby3::start(
+            bus,
+            settings,
+            &["FrontSeatInterface"],
+            GatewayOptions::default(),
+        )
+        .map_err(|x| e(&x))?;
+        Ok(Self {
+            port,
+            gobyd: Some(gobyd),
+            gateway,
+        })
+    }
+
+    /// Waits (bounded) until the gateway has joined gobyd more than `connects` times and the
+    /// link is up; the time it took, or None.
+    async fn until_joined(&self, connects: u64, within: Duration) -> Option<Duration> {
+        let start = Instant::now();
+        while start.elapsed() < within {
+            let s = self.gateway.stats();
+            if s.link_up && s.connects > connects {
+                return Some(start.elapsed());
+            }
+            tokio::time::sleep(Duration::from_millis(5)).await;
+        }
+        None
+    }
+}
+
 // ---- the run ------------------------------------------------------------------------------
 
 struct Run {
@@ -1164,6 +1247,11 @@ struct Run {
     vehicle_link_checked: u32,
     sim: Sim,
     moos: Option<Moos>,
+    goby: Option<Goby>,
+    /// Per gobyd outage: the time from its return to the gateway's link up again.
+    goby_returns: Vec<Duration>,
+    /// Outages during which the gateway reported its link lost.
+    goby_losses_seen: u32,
     helm: Helm,
     monitor: Arc<Monitor>,
     warp: f64,
@@ -1375,6 +1463,51 @@ impl Run {
                 Instant::now()
             }
             FaultKind::ProcessRestart => self.process_restart(i).await,
+            FaultKind::GobydGone => {
+                self.gobyd_gone(i, f).await;
+                Instant::now()
+            }
+        }
+    }
+
+    /// gobyd goes away for `amount` simulated seconds (every socket closed, nothing answering on
+    /// its port) and comes back on the same port, as a restarted gobyd. The gateway must join
+    /// again within the bound of its return; the vehicle link must not move (checked by the run
+    /// around every helm-side fault).
+    async fn gobyd_gone(&mut self, i: u32, f: &PlannedFault) {
+        let bound = self.opts.recovery_bound;
+        let away = self.warped(f.amount);
+        let Some(g) = self.goby.as_mut() else { return };
+        let before = g.gateway.stats();
+        if let Some(d) = g.gobyd.take() {
+            d.stop().await;
+        }
+        tokio::time::sleep(away).await;
+        let lost = g.gateway.stats().link_losses > before.link_losses;
+        let port = g.port;
+        match rebind(|| StandinGobyd::start(StandinTransport::Tcp { manager_port: port }, &[]))
+            .await
+        {
+            Ok(d) => g.gobyd = Some(d),
+            Err(e) => {
+                self.violations.push(format!(
+                    "fault #{i} (gobyd gone): the stand-in gobyd could not bind its port again: {e}"
+                ));
+                return;
+            }
+        }
+        match g.until_joined(before.connects, bound).await {
+            Some(d) => {
+                self.goby_returns.push(d);
+                if lost {
+                    self.goby_losses_seen += 1;
+                }
+            }
+            None => self.violations.push(format!(
+                "fault #{i} (gobyd gone {:.1} s wall): the Goby3 link not back within {bound:?} of gobyd's return ({:?})",
+                away.as_secs_f64(),
+                g.gateway.stats()
+            )),
         }
     }
 
@@ -1723,6 +1856,10 @@ pub async fn run(
             "exit_on_error turned off for the run (every fault would end the service)".into(),
         );
     }
+    if !opts.only.is_empty() {
+        let keys: Vec<&str> = opts.only.iter().map(|k| k.key()).collect();
+        notes.push(format!("only these faults: {}", keys.join(", ")));
+    }
     let panics = PanicWatch::install()?;
     let started = Instant::now();
     let bus = Bus::new();
@@ -1775,6 +1912,7 @@ pub async fn run(
         None
     };
 
+    let goby = Some(Goby::start(&bus).await?);
     let helm = Helm::start(&bus);
     let service = InterfaceService::start(&config, &bus).await?;
     // The web commander, for the flood: loopback, with a token (without one it refuses sends).
@@ -1810,6 +1948,9 @@ pub async fn run(
         service,
         sim,
         moos,
+        goby,
+        goby_returns: Vec::new(),
+        goby_losses_seen: 0,
         helm,
         monitor,
         warp,
@@ -1841,6 +1982,12 @@ pub async fn run(
         run.violations
             .push("MOOS bridge not connected to the broker at start".into());
     }
+    if let Some(g) = &run.goby
+        && g.until_joined(0, opts.recovery_bound).await.is_none()
+    {
+        run.violations
+            .push("Goby3 gateway not joined to gobyd at start".into());
+    }
     // Warm: this is the baseline the resident set may not grow much beyond.
     let rss_baseline = rss_kib();
     let rss_task = {
@@ -1861,7 +2008,7 @@ pub async fn run(
         config.driver.basic_simulator.nav_timeout,
         &opts.only,
     );
-    let mut samples = vec![Sample::take(started.elapsed(), 0)];
+    let mut samples = vec![Sample::take(started.elapsed(), 0, &run.bus)];
     let mut next_sample = Instant::now() + opts.sample_every;
     let soak_until = opts.soak.map(|d| Instant::now() + d);
     let mut last_report = Instant::now();
@@ -1931,7 +2078,7 @@ pub async fn run(
         tokio::time::sleep(f.gap).await;
         if Instant::now() >= next_sample {
             next_sample += opts.sample_every;
-            let x = Sample::take(started.elapsed(), i);
+            let x = Sample::take(started.elapsed(), i, &run.bus);
             progress(&format!("resources: {}", x.line()));
             samples.push(x);
         }
@@ -1985,7 +2132,7 @@ pub async fn run(
     tokio::time::sleep(Duration::from_millis(200)).await;
 
     let snapshot = run.snapshot().await;
-    samples.push(Sample::take(started.elapsed(), faults_injected));
+    samples.push(Sample::take(started.elapsed(), faults_injected, &run.bus));
     rss_task.abort();
     let rss_max = run.monitor.rss_max_kib.load(Ordering::Relaxed);
 
@@ -1997,6 +2144,12 @@ pub async fn run(
         m.root.shutdown(Duration::from_secs(4)).await;
         if let Some(b) = m.broker {
             b.shutdown().await;
+        }
+    }
+    if let Some(g) = run.goby.take() {
+        g.gateway.close().await;
+        if let Some(d) = g.gobyd {
+            d.stop().await;
         }
     }
     let exit = run.service.shutdown(Duration::from_secs(3)).await;
@@ -2272,7 +2425,7 @@ pub async fn run(
             name: "the driver's connection to the frontseat is never closed by a helm-side fault",
             bound: "0 new connections, 0 driver restarts across a helm-side fault".into(),
             measured: format!(
-                "{} helm-side faults checked (MOOS restarts and crash loops, translation panics, web floods, stalls, PARK), {touched} touched it",
+                "{} helm-side faults checked (MOOS restarts and crash loops, translation panics, web floods, gobyd gone, stalls, PARK), {touched} touched it",
                 run.vehicle_link_checked
             ),
             ok: touched == 0,
@@ -2292,6 +2445,23 @@ pub async fn run(
                 k.injected, run.web_flood_requests, run.web_floods_left_command
             ),
             ok: bad == 0,
+        });
+    }
+    if let Some(k) = run.by_kind.get(&FaultKind::GobydGone) {
+        let mut gr = run.goby_returns.clone();
+        gr.sort();
+        inv.push(Invariant {
+            name: "the Goby3 link is back after gobyd returns (gobyd gone 60 s sim)",
+            bound: format!("≤ {} wall each", fmt_ms(bound)),
+            measured: format!(
+                "{}/{} back; p50 {}, max {}; the gateway saw its link lost in {} of them",
+                gr.len(),
+                k.injected,
+                fmt_ms(percentile(&gr, 50.0)),
+                fmt_ms(gr.last().copied().unwrap_or_default()),
+                run.goby_losses_seen
+            ),
+            ok: gr.len() == k.injected as usize,
         });
     }
     if opts.soak.is_some() {
@@ -2319,6 +2489,8 @@ pub fn soak_invariant(samples: &[Sample], rss_limit_kib: u64) -> Invariant {
     const FD_SLACK: u64 = 32;
     const THREAD_SLACK: u64 = 4;
     const TASK_SLACK: usize = 64;
+    // A stall adds one subscriber for its length; a leak adds several per crash, thousands.
+    const SUB_SLACK: u64 = 16;
     let half = samples.len() / 2;
     let (first, second) = samples.split_at(half.max(1).min(samples.len()));
     let peak = |v: &[Sample], f: &dyn Fn(&Sample) -> Option<u64>| v.iter().filter_map(f).max();
@@ -2326,10 +2498,12 @@ pub fn soak_invariant(samples: &[Sample], rss_limit_kib: u64) -> Invariant {
     let fd = |x: &Sample| x.fds;
     let th = |x: &Sample| x.threads;
     let tk = |x: &Sample| Some(x.tasks as u64);
+    let sb = |x: &Sample| Some(x.subscriptions as u64);
     for (name, f, slack) in [
         ("open fds", &fd as &dyn Fn(&Sample) -> Option<u64>, FD_SLACK),
         ("threads", &th, THREAD_SLACK),
         ("tasks", &tk, TASK_SLACK as u64),
+        ("bus subscriptions", &sb, SUB_SLACK),
     ] {
         if let (Some(a), Some(b)) = (peak(first, f), peak(second, f))
             && b > a + slack
@@ -2346,9 +2520,9 @@ pub fn soak_invariant(samples: &[Sample], rss_limit_kib: u64) -> Invariant {
     }
     let last = samples.last().map(Sample::line).unwrap_or_default();
     Invariant {
-        name: "soak: RSS, open fds, threads and tasks stay flat",
+        name: "soak: RSS, open fds, threads, tasks and bus subscriptions stay flat",
         bound: format!(
-            "second-half peak ≤ first-half peak + {FD_SLACK} fds / {THREAD_SLACK} threads / {TASK_SLACK} tasks; RSS growth ≤ {} MiB",
+            "second-half peak ≤ first-half peak + {FD_SLACK} fds / {THREAD_SLACK} threads / {TASK_SLACK} tasks / {SUB_SLACK} bus subscriptions; RSS growth ≤ {} MiB",
             rss_limit_kib / 1024
         ),
         measured: if problems.is_empty() {
@@ -2396,6 +2570,7 @@ mod tests {
             fds: Some(fds),
             threads: Some(8),
             tasks: 40,
+            subscriptions: 60,
         };
         let flat: Vec<Sample> = (0..10).map(|i| at(i, 30 + i % 3, 10_000)).collect();
         assert!(soak_invariant(&flat, 1024).ok);
@@ -2408,6 +2583,19 @@ mod tests {
         );
         let grow: Vec<Sample> = (0..10).map(|i| at(i, 30, 10_000 + 500 * i)).collect();
         assert!(!soak_invariant(&grow, 1024).ok);
+        // Subscriptions left behind by crashed actors: 7 more every sample.
+        let subs: Vec<Sample> = (0..10)
+            .map(|i| Sample {
+                subscriptions: 60 + 7 * i as usize,
+                ..at(i, 30, 10_000)
+            })
+            .collect();
+        let inv = soak_invariant(&subs, 1024);
+        assert!(
+            !inv.ok && inv.measured.contains("bus subscriptions"),
+            "{}",
+            inv.measured
+        );
     }
 
     #[test]
@@ -2417,6 +2605,7 @@ mod tests {
             FaultKind::MoosCrashLoop,
             FaultKind::WebFlood,
             FaultKind::ProcessRestart,
+            FaultKind::GobydGone,
         ] {
             assert!(p.iter().any(|f| f.kind == k), "{k:?}");
         }

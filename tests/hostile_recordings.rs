@@ -137,12 +137,12 @@ fn run(args: &[&str]) -> Outcome {
     }
 }
 
-/// Files the reader does not survive yet (mcap 0.24.0's linear reader, under record/src):
-/// `*_flip_0.mcap` makes it allocate 4 278 190 089 bytes (a chunk header length taken from
-/// the file: an abort under the cap, 4 GiB of memory without it), and a compressed chunk whose
-/// declared decompressed size exceeds its data makes it loop for ever (no progress in
-/// `decompress_inner` once the compressed bytes are used up). Kept out of the test that must
-/// pass and run by the ignored one below, which passes once they are fixed.
+/// Files mcap 0.24.0's linear reader did not survive (record/src/reader.rs now opens chunks and
+/// checks length prefixes itself): `*_flip_0.mcap` made it allocate 4 278 190 089 bytes (the
+/// header's profile-string length, one bit flipped: an abort under the cap, 4 GiB without it),
+/// and a compressed chunk whose declared decompressed size exceeds its data made it loop for ever
+/// (no progress in `decompress_inner` once the compressed bytes were used up). Their own test,
+/// so a regression names them.
 const KNOWN_BAD: [&str; 5] = [
     "lz4_flip_0.mcap",
     "none_flip_0.mcap",
@@ -187,8 +187,7 @@ fn hostile_recordings_get_a_clean_answer_within_bounded_memory_and_time() {
 }
 
 #[test]
-#[ignore = "fails today: mcap 0.24.0 allocates a 4 GiB chunk header and loops on an overstated decompressed size (see KNOWN_BAD)"]
-fn recordings_the_reader_does_not_survive_yet() {
+fn recordings_that_broke_the_mcap_crates_reader_get_a_clean_answer_too() {
     let dir = scratch("known-bad");
     let files: Vec<PathBuf> = hostile_files(&dir)
         .into_iter()

@@ -2,6 +2,13 @@
 //! power loss (no summary, a torn last chunk) reads up to its last whole chunk, and says so.
 //! Every length in the file is checked against [`MAX_RECORD`] before anything is allocated;
 //! nothing in a file can make this panic (the fuzz target `mcap_reader` drives it).
+//!
+//! Chunks are opened here, not by the `mcap` crate's linear reader: in mcap 0.24 a chunk whose
+//! header claims more uncompressed bytes than its data holds makes that reader loop for ever, and
+//! a flipped compression-name length made it allocate 4 GiB (`tests/hostile_recordings.rs`). So
+//! the reader hands over whole chunk records and this module checks the header's lengths against
+//! the record, decompresses into at most the declared size (itself at most [`MAX_RECORD`]),
+//! requires exactly that size and the declared CRC, and then walks the records inside.
 
 use std::collections::{BTreeMap, HashMap};
 use std::io::Read;
@@ -69,6 +76,8 @@ pub struct Recording<R: Read = std::fs::File> {
     records: u64,
     saw_footer: bool,
     done: bool,
+    /// The records of the chunk being read (decompressed, checked) and how far into them.
+    chunk: Option<(Vec<u8>, usize)>,
 }
 
 impl Recording<std::fs::File> {
@@ -88,7 +97,7 @@ impl<R: Read> Recording<R> {
             // The footer and end magic are missing after a crash: not an error here, the
             // reader notes a torn end itself.
             .with_skip_end_magic(true)
-            .with_validate_chunk_crcs(true);
+            .with_emit_chunks(true);
         Self {
             source,
             reader: LinearReader::new_with_options(opts),
@@ -99,6 +108,7 @@ impl<R: Read> Recording<R> {
             records: 0,
             saw_footer: false,
             done: false,
+            chunk: None,
         }
     }
 
@@ -107,6 +117,28 @@ impl<R: Read> Recording<R> {
     /// first record ends the reading and is reported by [`Recording::truncated`].
     pub fn next_message(&mut self) -> Result<Option<Message>, ReadError> {
         while !self.done {
+            if let Some((data, pos)) = self.chunk.take() {
+                match next_in_chunk(&data, pos) {
+                    Ok(None) => {}
+                    Ok(Some((opcode, body, next))) => {
+                        let parsed = parse_checked(opcode, body);
+                        self.chunk = Some((data, next));
+                        match parsed {
+                            Ok(None) => {}
+                            Ok(Some(rec)) => {
+                                if let Some(m) = self.take_record(rec) {
+                                    return Ok(Some(m));
+                                }
+                            }
+                            Err(e) => {
+                                self.end_early(format!("a damaged record in a chunk: {e}"))?
+                            }
+                        }
+                    }
+                    Err(why) => self.end_early(why)?,
+                }
+                continue;
+            }
             let event = match self.reader.next_event() {
                 None => {
                     self.done = true;
@@ -138,46 +170,23 @@ impl<R: Read> Recording<R> {
                 }
                 Ok(LinearReadEvent::Record { data, opcode }) => {
                     self.records += 1;
-                    let rec = match mcap::parse_record(opcode, data) {
-                        Ok(r) => r,
+                    if opcode == mcap::records::op::CHUNK {
+                        match open_chunk(data) {
+                            Ok(records) => self.chunk = Some((records, 0)),
+                            Err(why) => self.end_early(why)?,
+                        }
+                        continue;
+                    }
+                    let rec = match parse_checked(opcode, data) {
+                        Ok(Some(r)) => r,
+                        Ok(None) => continue,
                         Err(e) => {
                             self.end_early(format!("a damaged record: {e}"))?;
                             continue;
                         }
                     };
-                    match rec {
-                        Record::Schema { header, data } => {
-                            self.schemas.insert(
-                                header.id,
-                                Schema {
-                                    name: header.name,
-                                    encoding: header.encoding,
-                                    data: Arc::from(data.as_ref()),
-                                },
-                            );
-                        }
-                        Record::Channel(c) => {
-                            self.channels.insert(
-                                c.id,
-                                Channel {
-                                    topic: Arc::from(c.topic.as_str()),
-                                    schema_id: c.schema_id,
-                                    message_encoding: c.message_encoding,
-                                    metadata: c.metadata,
-                                },
-                            );
-                        }
-                        Record::Message { header, data } => {
-                            return Ok(Some(Message {
-                                channel_id: header.channel_id,
-                                sequence: header.sequence,
-                                log_time: header.log_time,
-                                data: data.into_owned(),
-                            }));
-                        }
-                        Record::Metadata(m) => self.metadata.push((m.name, m.metadata)),
-                        Record::Footer(_) => self.saw_footer = true,
-                        _ => {}
+                    if let Some(m) = self.take_record(rec) {
+                        return Ok(Some(m));
                     }
                 }
                 Err(e) => {
@@ -193,6 +202,45 @@ impl<R: Read> Recording<R> {
             }
         }
         Ok(None)
+    }
+
+    /// Keeps what a record tells (schemas, channels, metadata, the footer); a message is returned.
+    fn take_record(&mut self, rec: Record<'static>) -> Option<Message> {
+        match rec {
+            Record::Schema { header, data } => {
+                self.schemas.insert(
+                    header.id,
+                    Schema {
+                        name: header.name,
+                        encoding: header.encoding,
+                        data: Arc::from(data.as_ref()),
+                    },
+                );
+            }
+            Record::Channel(c) => {
+                self.channels.insert(
+                    c.id,
+                    Channel {
+                        topic: Arc::from(c.topic.as_str()),
+                        schema_id: c.schema_id,
+                        message_encoding: c.message_encoding,
+                        metadata: c.metadata,
+                    },
+                );
+            }
+            Record::Message { header, data } => {
+                return Some(Message {
+                    channel_id: header.channel_id,
+                    sequence: header.sequence,
+                    log_time: header.log_time,
+                    data: data.into_owned(),
+                });
+            }
+            Record::Metadata(m) => self.metadata.push((m.name, m.metadata)),
+            Record::Footer(_) => self.saw_footer = true,
+            _ => {}
+        }
+        None
     }
 
     fn end_early(&mut self, why: String) -> Result<(), ReadError> {
@@ -221,6 +269,139 @@ impl<R: Read> Recording<R> {
     pub fn metadata(&self) -> &[(String, BTreeMap<String, String>)] {
         &self.metadata
     }
+}
+
+/// The records this reader uses, parsed once every length prefix inside them is known to fit in
+/// the record (mcap's parser allocates what a string length claims: a flipped bit in a header's
+/// profile length asked for 4 GiB); `None` for the records it does not use (indexes, summary).
+fn parse_checked(opcode: u8, body: &[u8]) -> Result<Option<Record<'static>>, String> {
+    use mcap::records::op;
+    // The fields that carry their own length: a string or bytes (u32 length) and a map (u32 byte
+    // length of string pairs).
+    let string = |at: usize, end: usize| -> Option<usize> {
+        let n = u32::from_le_bytes(le::<4>(body, at)?) as usize;
+        let next = at.checked_add(4)?.checked_add(n)?;
+        (next <= end).then_some(next)
+    };
+    let map = |at: usize| -> Option<usize> {
+        let end = string(at, body.len())?;
+        let mut c = at + 4;
+        while c < end {
+            c = string(string(c, end)?, end)?;
+        }
+        Some(end)
+    };
+    let n = body.len();
+    let fits = match opcode {
+        op::HEADER => string(0, n).and_then(|c| string(c, n)).is_some(),
+        op::SCHEMA => string(2, n)
+            .and_then(|c| string(c, n))
+            .and_then(|c| string(c, n))
+            .is_some(),
+        op::CHANNEL => string(4, n)
+            .and_then(|c| string(c, n))
+            .and_then(map)
+            .is_some(),
+        op::METADATA => string(0, n).and_then(map).is_some(),
+        op::MESSAGE => n >= 22,
+        op::FOOTER => n >= 20,
+        _ => return Ok(None),
+    };
+    if !fits {
+        return Err(format!(
+            "a length inside record 0x{opcode:02x} runs past its end"
+        ));
+    }
+    mcap::parse_record(opcode, body)
+        .map(|r| Some(r.into_owned()))
+        .map_err(|e| e.to_string())
+}
+
+/// Little-endian integer at `at`, if the bytes are there.
+fn le<const N: usize>(b: &[u8], at: usize) -> Option<[u8; N]> {
+    b.get(at..at.checked_add(N)?)?.try_into().ok()
+}
+
+/// A chunk record's body → its records, decompressed and checked (the layout is the MCAP spec's
+/// Chunk: start and end time, uncompressed size and CRC, compression name, records).
+fn open_chunk(body: &[u8]) -> Result<Vec<u8>, String> {
+    let damaged = |what: &str| format!("a damaged chunk: {what}");
+    let size = le::<8>(body, 16).map(u64::from_le_bytes);
+    let crc = le::<4>(body, 24).map(u32::from_le_bytes);
+    let name_len = le::<4>(body, 28).map(|b| u32::from_le_bytes(b) as usize);
+    let (Some(size), Some(crc), Some(name_len)) = (size, crc, name_len) else {
+        return Err(damaged("its header is cut short"));
+    };
+    let name = body
+        .get(32..32usize.saturating_add(name_len))
+        .ok_or_else(|| damaged("its compression name runs past the record"))?;
+    let at = 32 + name_len;
+    let records_len = le::<8>(body, at)
+        .map(u64::from_le_bytes)
+        .ok_or_else(|| damaged("its header is cut short"))?;
+    let data = usize::try_from(records_len)
+        .ok()
+        .and_then(|n| body.get(at + 8..(at + 8).checked_add(n)?))
+        .ok_or_else(|| damaged("its records run past the record"))?;
+    let size = usize::try_from(size)
+        .ok()
+        .filter(|&n| n <= MAX_RECORD)
+        .ok_or_else(|| {
+            damaged(&format!(
+                "it declares {size} bytes uncompressed, over the {} MiB limit",
+                MAX_RECORD >> 20
+            ))
+        })?;
+    let out = match name {
+        b"" => data.to_vec(),
+        // At most `size` bytes come out: more is an error, not an allocation.
+        b"zstd" => {
+            zstd::bulk::decompress(data, size).map_err(|e| damaged(&format!("zstd: {e}")))?
+        }
+        b"lz4" => {
+            let mut out = Vec::new();
+            lz4::Decoder::new(data)
+                .and_then(|d| d.take(size as u64 + 1).read_to_end(&mut out))
+                .map_err(|e| damaged(&format!("lz4: {e}")))?;
+            out
+        }
+        other => {
+            return Err(damaged(&format!(
+                "unknown compression {:?}",
+                String::from_utf8_lossy(other)
+            )));
+        }
+    };
+    if out.len() != size {
+        return Err(damaged(&format!(
+            "it holds {} bytes uncompressed, not the {size} it declares",
+            out.len()
+        )));
+    }
+    if crc != 0 && crc32fast::hash(&out) != crc {
+        return Err(damaged("its CRC does not match"));
+    }
+    Ok(out)
+}
+
+/// A record inside a chunk: opcode, body, the offset of the next.
+type InChunk<'a> = (u8, &'a [u8], usize);
+
+/// The record at `pos` of a chunk's records: opcode, body, and where the next one starts;
+/// `None` at the end.
+fn next_in_chunk(data: &[u8], pos: usize) -> Result<Option<InChunk<'_>>, String> {
+    if pos >= data.len() {
+        return Ok(None);
+    }
+    let opcode = data[pos];
+    let body = le::<8>(data, pos + 1)
+        .and_then(|b| usize::try_from(u64::from_le_bytes(b)).ok())
+        .and_then(|len| {
+            let start = pos + 9;
+            data.get(start..start.checked_add(len)?)
+        })
+        .ok_or_else(|| "a damaged chunk: a record inside runs past its end".to_string())?;
+    Ok(Some((opcode, body, pos + 9 + body.len())))
 }
 
 #[cfg(test)]

@@ -1051,14 +1051,41 @@ const WEB_TOKEN: &str = "chaos-web-token-0123456789";
 /// systemd's RestartSec in the service-manager model.
 const SERVICE_RESTART_SEC: Duration = Duration::from_millis(100);
 
+/// A web commander send of a desired_course (`time` set, as the commander requires), with the
+/// heading and speed as written: the flood's and `tests/hostile_web.rs`' body.
+pub fn course_body(heading: &str, speed: &str) -> String {
+    format!(
+        r#"{{"group":"goby::middleware::frontseat::desired_course","message":{{"time":1,"heading":{heading},"speed":{speed},"depth":0}}}}"#
+    )
+}
+
+/// A POST of `body` to the web commander's `/api/send` on its own connection, with the bearer
+/// `token` and the `Origin` header when given.
+pub fn send_request(
+    addr: SocketAddr,
+    token: Option<&str>,
+    origin: Option<&str>,
+    body: &str,
+) -> String {
+    let mut req = format!(
+        "POST /api/send HTTP/1.1\r\nHost: {addr}\r\nContent-Type: application/json\r\nConnection: close\r\nContent-Length: {}\r\n",
+        body.len()
+    );
+    if let Some(t) = token {
+        req.push_str(&format!("Authorization: Bearer {t}\r\n"));
+    }
+    if let Some(o) = origin {
+        req.push_str(&format!("Origin: {o}\r\n"));
+    }
+    req.push_str("\r\n");
+    req.push_str(body);
+    req
+}
+
 /// The `n`th request of the flood: mostly hostile setpoints with the right token, and sends a
 /// browser of another site, a client without the token, or a broken client would make.
 fn web_flood_request(addr: SocketAddr, n: u64) -> String {
-    let course = |h: &str, s: &str| {
-        format!(
-            r#"{{"group":"goby::middleware::frontseat::desired_course","message":{{"time":1,"heading":{h},"speed":{s},"depth":0}}}}"#
-        )
-    };
+    let course = course_body;
     let (auth, origin, body) = match n % 6 {
         0 => (true, None, course("1e308", "1.5")),
         1 => (true, None, course("90", "1e308")),
@@ -1067,19 +1094,7 @@ fn web_flood_request(addr: SocketAddr, n: u64) -> String {
         4 => (true, Some("http://evil.example"), course("90", "1.5")),
         _ => (true, None, "{\"group\": [1, 2, {".to_string()),
     };
-    let mut req = format!(
-        "POST /api/send HTTP/1.1\r\nHost: {addr}\r\nContent-Type: application/json\r\nConnection: close\r\nContent-Length: {}\r\n",
-        body.len()
-    );
-    if auth {
-        req.push_str(&format!("Authorization: Bearer {WEB_TOKEN}\r\n"));
-    }
-    if let Some(o) = origin {
-        req.push_str(&format!("Origin: {o}\r\n"));
-    }
-    req.push_str("\r\n");
-    req.push_str(&body);
-    req
+    send_request(addr, auth.then_some(WEB_TOKEN), origin, &body)
 }
 
 /// One request on its own connection; true when an HTTP answer came within a second.

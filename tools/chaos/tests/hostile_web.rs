@@ -29,11 +29,7 @@ const MAX_CONNECTIONS: usize = 32;
 const MAX_CLIENTS: usize = 4;
 const BOUND: Duration = Duration::from_secs(20);
 
-fn course(h: &str, s: &str) -> String {
-    format!(
-        r#"{{"group":"goby::middleware::frontseat::desired_course","message":{{"time":1,"heading":{h},"speed":{s},"depth":0}}}}"#
-    )
-}
+use frontseat_chaos::course_body as course;
 
 /// The `n`th request: mostly hostile, one in eight a plain setpoint.
 fn request(addr: SocketAddr, n: usize) -> String {
@@ -47,19 +43,7 @@ fn request(addr: SocketAddr, n: usize) -> String {
         6 => (true, None, "{\"group\": [1, 2, {".to_string()),
         _ => (true, None, course("90", "1.5")),
     };
-    let mut r = format!(
-        "POST /api/send HTTP/1.1\r\nHost: {addr}\r\nContent-Type: application/json\r\nConnection: close\r\nContent-Length: {}\r\n",
-        body.len()
-    );
-    if auth {
-        r.push_str(&format!("Authorization: Bearer {TOKEN}\r\n"));
-    }
-    if let Some(o) = origin {
-        r.push_str(&format!("Origin: {o}\r\n"));
-    }
-    r.push_str("\r\n");
-    r.push_str(&body);
-    r
+    frontseat_chaos::send_request(addr, auth.then_some(TOKEN), origin, &body)
 }
 
 /// One request on its own connection: the status code, or None (refused or cut).

@@ -78,6 +78,23 @@ fn error(status: StatusCode, text: impl Into<String>) -> Response {
     (status, JsonBody(json!({"ok": false, "error": text.into()}))).into_response()
 }
 
+/// A 503 for an event stream that cannot be served now. The connection is closed after the
+/// answer (`Connection: close`): a refused tab left on keep-alive held one of
+/// `max_connections` until the idle timeout, so refusals could fill the server.
+fn busy(text: &str) -> Response {
+    let mut r = error(StatusCode::SERVICE_UNAVAILABLE, text);
+    let h = r.headers_mut();
+    h.insert(
+        axum::http::header::CONNECTION,
+        axum::http::HeaderValue::from_static("close"),
+    );
+    h.insert(
+        axum::http::header::RETRY_AFTER,
+        axum::http::HeaderValue::from_static("5"),
+    );
+    r
+}
+
 pub fn router(st: AppState, max_body_bytes: usize) -> Router {
     Router::new()
         .route("/", get(index))
@@ -134,25 +151,12 @@ async fn events(
         return refuse(&st, r);
     }
     let Some(hub) = st.hub.get() else {
-        return error(
-            StatusCode::SERVICE_UNAVAILABLE,
-            "the web hub is not running",
-        );
+        return busy("the web hub is not running");
     };
     let joined = match ractor::call_t!(hub, HubMsg::Join, HUB_TIMEOUT.as_millis() as u64) {
         Ok(Some(j)) => j,
-        Ok(None) => {
-            return error(
-                StatusCode::SERVICE_UNAVAILABLE,
-                "too many open scope tabs (web.max_clients)",
-            );
-        }
-        Err(_) => {
-            return error(
-                StatusCode::SERVICE_UNAVAILABLE,
-                "the web hub is not running",
-            );
-        }
+        Ok(None) => return busy("too many open scope tabs (web.max_clients)"),
+        Err(_) => return busy("the web hub is not running"),
     };
     Sse::new(event_stream(joined, st.hub_counters.clone()))
         .keep_alive(KeepAlive::new().interval(Duration::from_secs(5)))

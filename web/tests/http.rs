@@ -18,7 +18,7 @@ use frontseat_actors::proto::goby::middleware::protobuf::LatLonPoint;
 use frontseat_config::WebConfig;
 use frontseat_web::WebService;
 use serde_json::json;
-use tokio::io::AsyncReadExt;
+use tokio::io::{AsyncReadExt, AsyncWriteExt};
 
 const TOKEN: &str = "a-long-enough-test-token";
 const DESIRED: &str = "goby::middleware::frontseat::desired_course";
@@ -359,11 +359,24 @@ async fn bodies_connections_and_event_streams_are_bounded() {
     let mut first = Sse::open(addr, "/api/events").await;
     assert_eq!(first.status, 200);
     assert_eq!(first.next().await.unwrap()["kind"], "snapshot");
-    let second = Sse::open(addr, "/api/events").await;
-    assert_eq!(second.status, 503);
-    drop(second);
-    // The server frees the refused tab's slot when it sees the close, not at once: wait for it,
-    // or one of the idle sockets below would be the one refused.
+    // A second tab is refused, and the server closes that connection itself: a refused client
+    // that keeps its socket open does not hold one of max_connections until the idle timeout.
+    let mut second = tokio::net::TcpStream::connect(addr).await.unwrap();
+    second
+        .write_all(format!("GET /api/events HTTP/1.1\r\nHost: {addr}\r\n\r\n").as_bytes())
+        .await
+        .unwrap();
+    let mut answer = Vec::new();
+    tokio::time::timeout(TIMEOUT, second.read_to_end(&mut answer))
+        .await
+        .expect("the refused event stream's connection is closed by the server, not kept alive")
+        .unwrap();
+    let answer = String::from_utf8_lossy(&answer).to_ascii_lowercase();
+    assert!(answer.starts_with("http/1.1 503"), "{answer}");
+    assert!(answer.contains("connection: close"), "{answer}");
+    assert!(answer.contains("max_clients"), "{answer}");
+    // The server frees the slot as it closes: wait (bounded) for its count to drop, or one of
+    // the idle sockets below would be the one refused.
     let deadline = tokio::time::Instant::now() + TIMEOUT;
     while web.server_counters.connections_open.load(Ordering::Relaxed) > 1 {
         assert!(
@@ -526,7 +539,6 @@ async fn an_idle_socket_is_closed_and_frees_its_slot() {
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_request_trickled_a_byte_at_a_time_is_cut_at_the_idle_timeout() {
-    use tokio::io::AsyncWriteExt;
     let (_bus, web) = start(
         WebConfig {
             max_connections: 1,

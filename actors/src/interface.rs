@@ -1327,9 +1327,14 @@ pub enum StartError {
 }
 
 impl InterfaceService {
-    /// Starts the interface with the driver the config names.
-    pub async fn start(cfg: &InterfaceConfig, bus: &Bus) -> Result<Self, StartError> {
-        let factory = crate::drivers::factory(cfg)?;
+    /// Starts the interface with the driver the config names, a plugin or one of `built_in`
+    /// (the registry's list, `frontseat_drivers::BUILT_IN`).
+    pub async fn start(
+        cfg: &InterfaceConfig,
+        bus: &Bus,
+        built_in: &[crate::drivers::BuiltIn],
+    ) -> Result<Self, StartError> {
+        let factory = crate::drivers::factory(cfg, built_in)?;
         Self::start_with(InterfaceSettings::from_config(cfg), bus, factory).await
     }
 

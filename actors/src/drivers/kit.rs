@@ -10,7 +10,7 @@ use tokio::task::JoinHandle;
 
 use crate::driver::{SignalSink, raw_ascii};
 use crate::link::{LineWriter, WriteError};
-use crate::proto::goby::middleware::frontseat::protobuf::CommandResponse;
+use crate::proto::goby::middleware::frontseat::protobuf::{CommandResponse, FrontSeatState};
 use crate::ratelog::{LogDecision, RateLimitedLog};
 
 /// A driver's I/O task (link, NTP copy, …), aborted when replaced, cleared or dropped, so a
@@ -108,6 +108,27 @@ pub fn log_due(log: &mut RateLimitedLog) -> Option<u64> {
     match log.decide(tokio::time::Instant::now()) {
         LogDecision::Log { suppressed_before } => Some(suppressed_before),
         LogDecision::Suppress => None,
+    }
+}
+
+/// The counter every driver bumps for a line or frame it could not read (one metric for all
+/// drivers, so an operator's alert does not name the vehicle).
+pub use crate::metrics::bad_line;
+/// A line cut to a length fit for a log line.
+pub use crate::telemetry::truncate;
+
+pub fn state_of(name: frontseat_config::FrontSeatStateName) -> FrontSeatState {
+    match name {
+        frontseat_config::FrontSeatStateName::FrontseatNotConnected => {
+            FrontSeatState::FrontseatNotConnected
+        }
+        frontseat_config::FrontSeatStateName::FrontseatIdle => FrontSeatState::FrontseatIdle,
+        frontseat_config::FrontSeatStateName::FrontseatInControl => {
+            FrontSeatState::FrontseatInControl
+        }
+        frontseat_config::FrontSeatStateName::FrontseatAcceptingCommands => {
+            FrontSeatState::FrontseatAcceptingCommands
+        }
     }
 }
 

@@ -7,26 +7,26 @@ use std::collections::VecDeque;
 use std::sync::Arc;
 use std::time::Duration;
 
-use frontseat_config::{FrontSeatStateName, InterfaceConfig, IverModeAssignments};
+use frontseat_config::{InterfaceConfig, IverModeAssignments};
 
-use super::codec::{self, IverMode, Sentence, ack_type};
-use crate::clock::SimClock;
-use crate::driver::{Driver, DriverContext, DriverIoEvent, SignalSink, raw_ascii};
-use crate::drivers::kit::{DataWatch, OwnedTask, failure, log_due, send_line};
-use crate::drivers::vehicle_link;
-use crate::link::LineWriter;
-use crate::link::byte::{self, ByteLinkConfig, LinkStats, Transport};
-use crate::link::framing::Framing;
-use crate::link::serial::SerialSettings;
-use crate::proto::frontseat::protobuf::iver::{
+use crate::edge::{self as codec, IverMode, Sentence, ack_type};
+use frontseat_actors::clock::SimClock;
+use frontseat_actors::driver::{Driver, DriverContext, DriverIoEvent, SignalSink, raw_ascii};
+use frontseat_actors::drivers::kit::{DataWatch, OwnedTask, failure, log_due, send_line, state_of};
+use frontseat_actors::drivers::vehicle_link;
+use frontseat_actors::link::LineWriter;
+use frontseat_actors::link::byte::{self, ByteLinkConfig, LinkStats, Transport};
+use frontseat_actors::link::framing::Framing;
+use frontseat_actors::link::serial::SerialSettings;
+use frontseat_actors::proto::frontseat::protobuf::iver::{
     CommandRequest as IverCommandRequest, InterfaceData as IverInterfaceData,
 };
-use crate::proto::goby::middleware::frontseat::protobuf::IverState;
-use crate::proto::goby::middleware::frontseat::protobuf::iver_extra_commands::IverCommand;
-use crate::proto::goby::middleware::frontseat::protobuf::{
+use frontseat_actors::proto::goby::middleware::frontseat::protobuf::IverState;
+use frontseat_actors::proto::goby::middleware::frontseat::protobuf::iver_extra_commands::IverCommand;
+use frontseat_actors::proto::goby::middleware::frontseat::protobuf::{
     CommandRequest, CommandResponse, FrontSeatState, InterfaceData, NodeStatus, Raw,
 };
-use crate::ratelog::RateLimitedLog;
+use frontseat_actors::ratelog::RateLimitedLog;
 
 /// Goby3's fixed baud of the NTP copy port.
 const NTP_BAUD: u32 = 4800;
@@ -50,17 +50,6 @@ pub struct Settings {
 /// FrontSeatState per UVC mode.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ModeTable(pub IverModeAssignments);
-
-pub fn state_of(name: FrontSeatStateName) -> FrontSeatState {
-    match name {
-        FrontSeatStateName::FrontseatNotConnected => FrontSeatState::FrontseatNotConnected,
-        FrontSeatStateName::FrontseatIdle => FrontSeatState::FrontseatIdle,
-        FrontSeatStateName::FrontseatInControl => FrontSeatState::FrontseatInControl,
-        FrontSeatStateName::FrontseatAcceptingCommands => {
-            FrontSeatState::FrontseatAcceptingCommands
-        }
-    }
-}
 
 impl ModeTable {
     pub fn state(&self, m: IverMode) -> FrontSeatState {
@@ -190,7 +179,7 @@ impl Iver3Driver {
 
     fn bad(&mut self, what: &str) {
         self.counters.bad_lines += 1;
-        crate::metrics::bad_line();
+        frontseat_actors::drivers::kit::bad_line();
         if let Some(suppressed) = log_due(&mut self.bad_log) {
             tracing::warn!(%what, suppressed, "bad input from the Iver");
         }
@@ -205,7 +194,10 @@ impl Iver3Driver {
         let s = match Sentence::parse(line) {
             Ok(s) => s,
             Err(e) => {
-                self.bad(&format!("{e}: {}", crate::telemetry::truncate(line)));
+                self.bad(&format!(
+                    "{e}: {}",
+                    frontseat_actors::drivers::kit::truncate(line)
+                ));
                 return;
             }
         };
@@ -341,7 +333,7 @@ impl Driver for Iver3Driver {
             // Write-only: what the NTP side sends back is discarded (as Goby3), so its events
             // stay on its own task instead of the driver's mailbox.
             let slot = self.ntp.clone();
-            let io = crate::driver::IoSender::new(move |ev| {
+            let io = frontseat_actors::driver::IoSender::new(move |ev| {
                 let mut s = slot.lock().unwrap_or_else(|p| p.into_inner());
                 match ev {
                     DriverIoEvent::Connected(w) => *s = Some(w),
@@ -551,9 +543,9 @@ impl Driver for Iver3Driver {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::proto::goby::middleware::frontseat::protobuf::DesiredCourse;
+    use frontseat_actors::proto::goby::middleware::frontseat::protobuf::DesiredCourse;
 
-    type Sink = crate::driver::RecordingSink;
+    type Sink = frontseat_actors::driver::RecordingSink;
 
     fn driver() -> Iver3Driver {
         let mut cfg = InterfaceConfig::default();
@@ -630,7 +622,7 @@ mod tests {
 
     #[test]
     fn osi_carries_goby3s_iver_state_extension() {
-        use crate::proto::goby::middleware::frontseat::protobuf::iver_state::IverMissionMode;
+        use frontseat_actors::proto::goby::middleware::frontseat::protobuf::iver_state::IverMissionMode;
         let mut d = driver();
         let mut sink = Sink::default();
         let (w, _rx) = LineWriter::for_test();
@@ -649,7 +641,7 @@ mod tests {
     }
 
     fn mission(cmd: IverCommand, name: Option<&str>, course: bool) -> IverCommandRequest {
-        use crate::proto::goby::middleware::frontseat::protobuf::IverExtraCommands;
+        use frontseat_actors::proto::goby::middleware::frontseat::protobuf::IverExtraCommands;
         IverCommandRequest {
             desired_course: course.then(|| DesiredCourse {
                 time: 0.0,
@@ -760,7 +752,7 @@ mod tests {
         let req = IverCommandRequest {
             request_id: Some(7),
             iver_command: Some(
-                crate::proto::goby::middleware::frontseat::protobuf::IverExtraCommands {
+                frontseat_actors::proto::goby::middleware::frontseat::protobuf::IverExtraCommands {
                     command: Some(IverCommand::StartMission as i32),
                     mission: Some("a".into()),
                 },
@@ -862,8 +854,8 @@ mod tests {
         cfg.driver.iver3.ntp_serial_port = Some(pty.slave_path().to_string_lossy().into_owned());
         let mut d = Iver3Driver::new(Settings::from_config(&cfg));
         d.start(DriverContext {
-            io: crate::driver::IoSender::new(|_| true),
-            clock: crate::clock::SimClock::new(1.0),
+            io: frontseat_actors::driver::IoSender::new(|_| true),
+            clock: frontseat_actors::clock::SimClock::new(1.0),
         });
         let ntp = d.ntp.clone();
         tokio::time::timeout(Duration::from_secs(10), async {

@@ -15,25 +15,27 @@ use std::time::Duration;
 use base64::Engine as _;
 use frontseat_config::{AcceptingCommandsHook, InterfaceConfig};
 
-use super::codec::{
+use crate::codec::{
     self, Ack, AckStatus, AdjustStatus, CtdOut, FromHuxley, FromPayload, HorizontalMode, Nvg, Nvr,
     Rmb, Sentence, SpeedMode, VerticalMode,
 };
-use crate::clock::SimClock;
-use crate::driver::{Driver, DriverContext, DriverIoEvent, IoSender, SignalSink, raw_ascii};
-use crate::drivers::kit::{DataWatch, OwnedTask, send_line};
-use crate::link::{self, LineWriter, LinkConfig};
-use crate::proto::frontseat::protobuf::bluefin as bf;
-use crate::proto::goby::acomms::protobuf::ModemRaw;
-use crate::proto::goby::middleware::frontseat::protobuf::{
+use frontseat_actors::clock::SimClock;
+use frontseat_actors::driver::{
+    Driver, DriverContext, DriverIoEvent, IoSender, SignalSink, raw_ascii,
+};
+use frontseat_actors::drivers::kit::{DataWatch, OwnedTask, send_line};
+use frontseat_actors::link::{self, LineWriter, LinkConfig};
+use frontseat_actors::proto::frontseat::protobuf::bluefin as bf;
+use frontseat_actors::proto::goby::acomms::protobuf::ModemRaw;
+use frontseat_actors::proto::goby::middleware::frontseat::protobuf::{
     BluefinExtraData, BuoyancyStatus, CommandRequest, CommandResponse, CtdSample, DesiredCourse,
     EulerAngles, FrontSeatState, InterfaceData, NodeStatus, Raw, Source, Speed, TrimStatus,
     bluefin_extra_commands::{AbortReason, BluefinCommand, SilentMode},
     bluefin_extra_data::{PayloadStatus, RawDvl, RawThrusterRotation},
     source::Sensor,
 };
-use crate::proto::goby::middleware::protobuf::LatLonPoint;
-use crate::ratelog::{LogDecision, RateLimitedLog};
+use frontseat_actors::proto::goby::middleware::protobuf::LatLonPoint;
+use frontseat_actors::ratelog::{LogDecision, RateLimitedLog};
 
 /// Sentences waiting to be written before new ones are refused: a Huxley that stops acking
 /// must not grow our memory.
@@ -385,7 +387,7 @@ impl BluefinDriver {
             Err(codec::CodecError::Empty) => return,
             Err(e) => {
                 self.stats.bad_lines += 1;
-                crate::metrics::bad_line();
+                frontseat_actors::drivers::kit::bad_line();
                 self.problem(&format!("bad line from the Huxley: {e}"), line);
                 return;
             }
@@ -396,7 +398,7 @@ impl BluefinDriver {
             Ok(m) => m,
             Err(e) => {
                 self.stats.bad_lines += 1;
-                crate::metrics::bad_line();
+                frontseat_actors::drivers::kit::bad_line();
                 self.problem(&format!("bad sentence from the Huxley: {e}"), line);
                 return;
             }
@@ -477,7 +479,7 @@ impl BluefinDriver {
                 let fix = self.nvg.as_ref().map(|n| (n.lat, n.lon, n.depth));
                 let (Some(t), Some(p)) = (c.temperature, c.pressure_kpa) else {
                     self.stats.bad_lines += 1;
-                    crate::metrics::bad_line();
+                    frontseat_actors::drivers::kit::bad_line();
                     self.problem("BFCTD without temperature or pressure", line);
                     return;
                 };
@@ -873,7 +875,9 @@ impl BluefinDriver {
 /// The fields of a CommandRequest, plain or Bluefin-extended.
 struct Cmd<'a> {
     desired: Option<&'a DesiredCourse>,
-    ext: Option<&'a crate::proto::goby::middleware::frontseat::protobuf::BluefinExtraCommands>,
+    ext: Option<
+        &'a frontseat_actors::proto::goby::middleware::frontseat::protobuf::BluefinExtraCommands,
+    >,
     response_requested: bool,
     request_id: Option<i32>,
     cancel_request_id: Option<i32>,
@@ -959,12 +963,12 @@ impl Driver for BluefinDriver {
             DriverIoEvent::Line(line) => self.handle_line(&line, now, sig),
             DriverIoEvent::BadInput(what) => {
                 self.stats.bad_lines += 1;
-                crate::metrics::bad_line();
+                frontseat_actors::drivers::kit::bad_line();
                 self.problem("bad input from the Huxley", &what);
             }
             DriverIoEvent::Frame(_) => {
                 self.stats.bad_lines += 1;
-                crate::metrics::bad_line();
+                frontseat_actors::drivers::kit::bad_line();
                 self.problem("binary frame on a Huxley link", "");
             }
             DriverIoEvent::Disconnected(reason) => {
@@ -1052,7 +1056,7 @@ impl Driver for BluefinDriver {
         let bytes = raw.raw.as_deref().unwrap_or_default();
         let Ok(text) = std::str::from_utf8(bytes) else {
             self.stats.bad_lines += 1;
-            crate::metrics::bad_line();
+            frontseat_actors::drivers::kit::bad_line();
             self.problem(
                 "raw_send_request is not text; Huxley sentences are ASCII",
                 "",
@@ -1069,7 +1073,7 @@ impl Driver for BluefinDriver {
             Ok(s) => self.enqueue(FromPayload::Other(s), None, now, sig),
             Err(e) => {
                 self.stats.bad_lines += 1;
-                crate::metrics::bad_line();
+                frontseat_actors::drivers::kit::bad_line();
                 self.problem(&format!("raw_send_request is not a sentence: {e}"), text);
             }
         }
@@ -1097,9 +1101,9 @@ impl Driver for BluefinDriver {
 
     fn interface_status(
         &mut self,
-        status: &crate::proto::goby::middleware::frontseat::protobuf::InterfaceStatus,
+        status: &frontseat_actors::proto::goby::middleware::frontseat::protobuf::InterfaceStatus,
     ) {
-        use crate::proto::goby::middleware::frontseat::protobuf::InterfaceState;
+        use frontseat_actors::proto::goby::middleware::frontseat::protobuf::InterfaceState;
         self.interface_in_error = matches!(
             status.state(),
             InterfaceState::InterfaceHelmError | InterfaceState::InterfaceFsError

@@ -6,8 +6,6 @@
 use std::time::Duration;
 
 use frontseat_actors::driver::{Driver, DriverIoEvent};
-use frontseat_actors::drivers::bluefin::driver::error_code;
-use frontseat_actors::drivers::bluefin::{BluefinDriver, Settings, codec};
 use frontseat_actors::link::LineWriter;
 use frontseat_actors::proto;
 use frontseat_actors::proto::frontseat::protobuf::bluefin as bf;
@@ -16,6 +14,8 @@ use frontseat_actors::proto::goby::middleware::frontseat::protobuf::{
     BluefinExtraCommands, BluefinExtraData, CommandRequest, DesiredCourse, FrontSeatState, Raw,
     bluefin_extra_commands::BluefinCommand, bluefin_extra_data::PayloadStatus,
 };
+use frontseat_bluefin::driver::error_code;
+use frontseat_bluefin::{BluefinDriver, Settings, codec};
 use frontseat_config::{AcceptingCommandsHook, InterfaceConfig, RpmTableEntry};
 use prost::Message;
 
@@ -625,7 +625,7 @@ fn huxley_extension_data_is_published_with_goby3_fields() {
     assert_eq!(c.conductivity, Some(4.2));
     assert_eq!((c.temperature, c.pressure), (12.5, 201_325.0));
     // Completed as Goby3's compute_missing: PSS-78 salinity, Mackenzie sound speed, EOS-80.
-    let sal = frontseat_actors::seawater::salinity_pss78(4.2 / 4.2914, 12.5, 20.1325);
+    let sal = frontseat_bluefin::seawater::salinity_pss78(4.2 / 4.2914, 12.5, 20.1325);
     assert_eq!(c.salinity, sal);
     assert!((35.0..38.0).contains(&c.salinity), "{}", c.salinity);
     assert!(

@@ -132,6 +132,23 @@ pub fn state_of(name: frontseat_config::FrontSeatStateName) -> FrontSeatState {
     }
 }
 
+/// An extension of the driver's own vehicle decoded, or None after refusing it as an unknown
+/// one (answering a command that asked for a response) when its bytes do not decode.
+pub fn decoded<M: prost::Message + Default>(
+    ext: &crate::driver::DriverExtension,
+    sig: &mut dyn SignalSink,
+    driver: &str,
+) -> Option<M> {
+    match M::decode(ext.value()) {
+        Ok(m) => Some(m),
+        Err(e) => {
+            tracing::warn!(type_name = ext.type_name(), error = %e, "{driver}: extension does not decode; refused");
+            crate::driver::refuse_extension(sig, ext, driver);
+            None
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -19,8 +19,10 @@ use crate::modes::{Control, Firmware};
 use frontseat_config::{ArdupilotVehicle, InterfaceConfig, MavlinkAddress};
 
 use frontseat_actors::clock::SimClock;
-use frontseat_actors::driver::{Driver, DriverContext, DriverIoEvent, SignalSink};
-use frontseat_actors::drivers::kit::state_of;
+use frontseat_actors::driver::{
+    Driver, DriverContext, DriverExtension, DriverIoEvent, SignalSink, refuse_extension,
+};
+use frontseat_actors::drivers::kit::{decoded, state_of};
 use frontseat_actors::link::LineWriter;
 use frontseat_actors::link::byte::{self, ByteLinkConfig, LinkStats, Transport};
 use frontseat_actors::link::framing::{FrameCutter, Framing};
@@ -34,6 +36,10 @@ use frontseat_actors::proto::goby::middleware::frontseat::protobuf::{
 };
 use frontseat_actors::proto::goby::middleware::protobuf::LatLonPoint;
 use frontseat_actors::ratelog::{LogDecision, RateLimitedLog};
+
+/// The type of our ArduPilot extension (field 1002), as its group declares it.
+pub const COMMAND: &str =
+    frontseat_actors::groups::FRONTSEAT_ARDUPILOT_ARDUPILOT_COMMAND_REQUEST.type_name();
 
 /// Requests awaiting a verdict at most (older ones are answered as failed).
 const MAX_PENDING: usize = 64;
@@ -713,7 +719,94 @@ impl Drop for ArdupilotDriver {
     }
 }
 
+impl ArdupilotDriver {
+    pub fn send_ardupilot_command(
+        &mut self,
+        req: &ArdupilotCommandRequest,
+        now: Duration,
+        sig: &mut dyn SignalSink,
+    ) {
+        let base = CommandRequest {
+            desired_course: req.desired_course,
+            response_requested: req.response_requested,
+            request_id: req.request_id,
+            cancel_request_id: req.cancel_request_id,
+        };
+        if !self.settings.allow_mode_commands {
+            fail(
+                &base,
+                "ArduPilot mode and arming commands are off ([driver.ardupilot] allow_mode_commands = false)",
+                sig,
+            );
+            return;
+        }
+        let action = req.ardupilot_command.as_ref().map(|c| c.action());
+        let fw = self.settings.firmware;
+        let (cmd, p1, p2) = match action {
+            Some(Action::Guided) => {
+                // README: GUIDED before the estimate is ready ends in an EKF failsafe to HOLD.
+                if let Err(why) = self.nav_ready() {
+                    fail(
+                        &base,
+                        &format!("navigation not ready for GUIDED: {why}"),
+                        sig,
+                    );
+                    return;
+                }
+                if !self.providing_data {
+                    fail(
+                        &base,
+                        "navigation not ready for GUIDED: no usable position yet",
+                        sig,
+                    );
+                    return;
+                }
+                (MavCmd::MAV_CMD_DO_SET_MODE, 1.0, fw.guided() as f32)
+            }
+            Some(Action::Hold) => (MavCmd::MAV_CMD_DO_SET_MODE, 1.0, fw.hold() as f32),
+            Some(Action::Arm) => (MavCmd::MAV_CMD_COMPONENT_ARM_DISARM, 1.0, 0.0),
+            Some(Action::Disarm) => (MavCmd::MAV_CMD_COMPONENT_ARM_DISARM, 0.0, 0.0),
+            Some(Action::Unknown) | None => {
+                if base.desired_course.is_some() {
+                    self.send_command_to_frontseat(&base, now, sig);
+                } else {
+                    fail(&base, "ardupilot_command without an action", sig);
+                }
+                return;
+            }
+        };
+        if self.vehicle.is_none() || !self.command_long(cmd, p1, p2, sig) {
+            fail(&base, "not connected to the vehicle: command not sent", sig);
+            return;
+        }
+        let with_course = base.desired_course.is_some();
+        self.push_pending(
+            Pending {
+                request_id: base.request_id,
+                respond: base.response_requested() && !with_course,
+                deadline: now + self.settings.ack_timeout,
+                command: Some(cmd),
+            },
+            sig,
+        );
+        if with_course {
+            self.send_command_to_frontseat(&base, now, sig);
+        }
+    }
+}
+
 impl Driver for ArdupilotDriver {
+    fn send_extension(&mut self, ext: &DriverExtension, now: Duration, sig: &mut dyn SignalSink) {
+        match ext.type_name() {
+            COMMAND => {
+                if let Some(r) = decoded::<ArdupilotCommandRequest>(ext, sig, self.name()) {
+                    self.send_ardupilot_command(&r, now, sig);
+                }
+            }
+            _ => refuse_extension(sig, ext, self.name()),
+        }
+    }
+
     fn name(&self) -> &str {
         "ardupilot"
     }
@@ -811,80 +904,6 @@ impl Driver for ArdupilotDriver {
                 },
                 sig,
             );
-        }
-    }
-
-    fn send_ardupilot_command(
-        &mut self,
-        req: &ArdupilotCommandRequest,
-        now: Duration,
-        sig: &mut dyn SignalSink,
-    ) {
-        let base = CommandRequest {
-            desired_course: req.desired_course,
-            response_requested: req.response_requested,
-            request_id: req.request_id,
-            cancel_request_id: req.cancel_request_id,
-        };
-        if !self.settings.allow_mode_commands {
-            fail(
-                &base,
-                "ArduPilot mode and arming commands are off ([driver.ardupilot] allow_mode_commands = false)",
-                sig,
-            );
-            return;
-        }
-        let action = req.ardupilot_command.as_ref().map(|c| c.action());
-        let fw = self.settings.firmware;
-        let (cmd, p1, p2) = match action {
-            Some(Action::Guided) => {
-                // README: GUIDED before the estimate is ready ends in an EKF failsafe to HOLD.
-                if let Err(why) = self.nav_ready() {
-                    fail(
-                        &base,
-                        &format!("navigation not ready for GUIDED: {why}"),
-                        sig,
-                    );
-                    return;
-                }
-                if !self.providing_data {
-                    fail(
-                        &base,
-                        "navigation not ready for GUIDED: no usable position yet",
-                        sig,
-                    );
-                    return;
-                }
-                (MavCmd::MAV_CMD_DO_SET_MODE, 1.0, fw.guided() as f32)
-            }
-            Some(Action::Hold) => (MavCmd::MAV_CMD_DO_SET_MODE, 1.0, fw.hold() as f32),
-            Some(Action::Arm) => (MavCmd::MAV_CMD_COMPONENT_ARM_DISARM, 1.0, 0.0),
-            Some(Action::Disarm) => (MavCmd::MAV_CMD_COMPONENT_ARM_DISARM, 0.0, 0.0),
-            Some(Action::Unknown) | None => {
-                if base.desired_course.is_some() {
-                    self.send_command_to_frontseat(&base, now, sig);
-                } else {
-                    fail(&base, "ardupilot_command without an action", sig);
-                }
-                return;
-            }
-        };
-        if self.vehicle.is_none() || !self.command_long(cmd, p1, p2, sig) {
-            fail(&base, "not connected to the vehicle: command not sent", sig);
-            return;
-        }
-        let with_course = base.desired_course.is_some();
-        self.push_pending(
-            Pending {
-                request_id: base.request_id,
-                respond: base.response_requested() && !with_course,
-                deadline: now + self.settings.ack_timeout,
-                command: Some(cmd),
-            },
-            sig,
-        );
-        if with_course {
-            self.send_command_to_frontseat(&base, now, sig);
         }
     }
 

@@ -21,9 +21,10 @@ use crate::codec::{
 };
 use frontseat_actors::clock::SimClock;
 use frontseat_actors::driver::{
-    Driver, DriverContext, DriverIoEvent, IoSender, SignalSink, raw_ascii,
+    Driver, DriverContext, DriverExtension, DriverIoEvent, IoSender, SignalSink, raw_ascii,
+    refuse_extension,
 };
-use frontseat_actors::drivers::kit::{DataWatch, OwnedTask, send_line};
+use frontseat_actors::drivers::kit::{DataWatch, OwnedTask, decoded, send_line};
 use frontseat_actors::link::{self, LineWriter, LinkConfig};
 use frontseat_actors::proto::frontseat::protobuf::bluefin as bf;
 use frontseat_actors::proto::goby::acomms::protobuf::ModemRaw;
@@ -36,6 +37,12 @@ use frontseat_actors::proto::goby::middleware::frontseat::protobuf::{
 };
 use frontseat_actors::proto::goby::middleware::protobuf::LatLonPoint;
 use frontseat_actors::ratelog::{LogDecision, RateLimitedLog};
+
+/// The types of the Bluefin extension (Goby3's field 1000), as its groups declare them.
+pub const COMMAND: &str =
+    frontseat_actors::groups::FRONTSEAT_BLUEFIN_BLUEFIN_COMMAND_REQUEST.type_name();
+pub const DATA: &str =
+    frontseat_actors::groups::FRONTSEAT_BLUEFIN_BLUEFIN_DATA_FROM_FRONTSEAT.type_name();
 
 /// Sentences waiting to be written before new ones are refused: a Huxley that stops acking
 /// must not grow our memory.
@@ -442,39 +449,49 @@ impl BluefinDriver {
                     }
                 }
             }
-            FromHuxley::Boy(b) => sig.bluefin_data_from_frontseat(extra(BluefinExtraData {
-                buoyancy_status: Some(buoyancy(&b)),
-                ..Default::default()
-            })),
-            FromHuxley::Trm(t) => sig.bluefin_data_from_frontseat(extra(BluefinExtraData {
-                trim_status: Some(trim(&t)),
-                ..Default::default()
-            })),
-            FromHuxley::Dvl(d) => sig.bluefin_data_from_frontseat(extra(BluefinExtraData {
-                dvl: Some(RawDvl {
-                    dvl_time: d
-                        .dvl_time
-                        .map(|t| codec::unix_of_time_of_day(t, (self.wall)(now))),
-                    u: d.u,
-                    v: d.v,
-                    w: d.w,
-                    beam1_range: d.beams[0],
-                    beam2_range: d.beams[1],
-                    beam3_range: d.beams[2],
-                    beam4_range: d.beams[3],
-                    temperature: d.temperature,
+            FromHuxley::Boy(b) => emit(
+                sig,
+                extra(BluefinExtraData {
+                    buoyancy_status: Some(buoyancy(&b)),
+                    ..Default::default()
                 }),
-                ..Default::default()
-            })),
-            FromHuxley::Rvl { rpm, speed, .. } => {
-                sig.bluefin_data_from_frontseat(extra(BluefinExtraData {
+            ),
+            FromHuxley::Trm(t) => emit(
+                sig,
+                extra(BluefinExtraData {
+                    trim_status: Some(trim(&t)),
+                    ..Default::default()
+                }),
+            ),
+            FromHuxley::Dvl(d) => emit(
+                sig,
+                extra(BluefinExtraData {
+                    dvl: Some(RawDvl {
+                        dvl_time: d
+                            .dvl_time
+                            .map(|t| codec::unix_of_time_of_day(t, (self.wall)(now))),
+                        u: d.u,
+                        v: d.v,
+                        w: d.w,
+                        beam1_range: d.beams[0],
+                        beam2_range: d.beams[1],
+                        beam3_range: d.beams[2],
+                        beam4_range: d.beams[3],
+                        temperature: d.temperature,
+                    }),
+                    ..Default::default()
+                }),
+            ),
+            FromHuxley::Rvl { rpm, speed, .. } => emit(
+                sig,
+                extra(BluefinExtraData {
                     thruster: Some(RawThrusterRotation {
                         rotation: rpm,
                         speed_from_lookup_table: speed,
                     }),
                     ..Default::default()
-                }))
-            }
+                }),
+            ),
             FromHuxley::Ctd(c) => {
                 let fix = self.nvg.as_ref().map(|n| (n.lat, n.lon, n.depth));
                 let (Some(t), Some(p)) = (c.temperature, c.pressure_kpa) else {
@@ -938,7 +955,76 @@ fn trim(t: &AdjustStatus) -> TrimStatus {
     }
 }
 
+impl BluefinDriver {
+    pub fn send_bluefin_command(
+        &mut self,
+        req: &bf::CommandRequest,
+        now: Duration,
+        sig: &mut dyn SignalSink,
+    ) {
+        let c = Cmd {
+            desired: req.desired_course.as_ref(),
+            ext: req.bluefin_command.as_ref(),
+            response_requested: req.response_requested(),
+            request_id: req.request_id,
+            cancel_request_id: req.cancel_request_id,
+        };
+        self.command(c, now, sig);
+    }
+
+    pub fn send_bluefin_data(
+        &mut self,
+        data: &bf::InterfaceData,
+        now: Duration,
+        sig: &mut dyn SignalSink,
+    ) {
+        let base = InterfaceData {
+            node_status: None,
+            ctd_sample: data.ctd_sample,
+            dccl_message: data.dccl_message.clone(),
+        };
+        self.data(&base, now, sig);
+        let Some(extra) = &data.bluefin_data else {
+            return;
+        };
+        for p in &extra.payload_status {
+            if self.payload_status.len() >= MAX_PAYLOAD_STATUSES {
+                self.payload_status.remove(0);
+            }
+            self.payload_status.push(p.clone());
+        }
+        if self.settings.send_tmr
+            && let Some(ModemRaw { raw, .. }) = &extra.micro_modem_raw_in
+        {
+            let line = String::from_utf8_lossy(raw).to_string();
+            let tod = self.tod(now);
+            self.enqueue(FromPayload::Tmr { time: tod, line }, None, now, sig);
+        }
+    }
+}
+
+/// Extension data to the interface, tagged with its type.
+fn emit(sig: &mut dyn SignalSink, data: bf::InterfaceData) {
+    sig.extension_from_frontseat(DriverExtension::encode(DATA, "Bluefin", &data));
+}
+
 impl Driver for BluefinDriver {
+    fn send_extension(&mut self, ext: &DriverExtension, now: Duration, sig: &mut dyn SignalSink) {
+        match ext.type_name() {
+            COMMAND => {
+                if let Some(r) = decoded::<bf::CommandRequest>(ext, sig, self.name()) {
+                    self.send_bluefin_command(&r, now, sig);
+                }
+            }
+            DATA => {
+                if let Some(d) = decoded::<bf::InterfaceData>(ext, sig, self.name()) {
+                    self.send_bluefin_data(&d, now, sig);
+                }
+            }
+            _ => refuse_extension(sig, ext, self.name()),
+        }
+    }
+
     fn name(&self) -> &str {
         "bluefin"
     }
@@ -997,22 +1083,6 @@ impl Driver for BluefinDriver {
         self.command(c, now, sig);
     }
 
-    fn send_bluefin_command(
-        &mut self,
-        req: &bf::CommandRequest,
-        now: Duration,
-        sig: &mut dyn SignalSink,
-    ) {
-        let c = Cmd {
-            desired: req.desired_course.as_ref(),
-            ext: req.bluefin_command.as_ref(),
-            response_requested: req.response_requested(),
-            request_id: req.request_id,
-            cancel_request_id: req.cancel_request_id,
-        };
-        self.command(c, now, sig);
-    }
-
     fn send_data_to_frontseat(
         &mut self,
         data: &InterfaceData,
@@ -1020,36 +1090,6 @@ impl Driver for BluefinDriver {
         sig: &mut dyn SignalSink,
     ) {
         self.data(data, now, sig);
-    }
-
-    fn send_bluefin_data(
-        &mut self,
-        data: &bf::InterfaceData,
-        now: Duration,
-        sig: &mut dyn SignalSink,
-    ) {
-        let base = InterfaceData {
-            node_status: None,
-            ctd_sample: data.ctd_sample,
-            dccl_message: data.dccl_message.clone(),
-        };
-        self.data(&base, now, sig);
-        let Some(extra) = &data.bluefin_data else {
-            return;
-        };
-        for p in &extra.payload_status {
-            if self.payload_status.len() >= MAX_PAYLOAD_STATUSES {
-                self.payload_status.remove(0);
-            }
-            self.payload_status.push(p.clone());
-        }
-        if self.settings.send_tmr
-            && let Some(ModemRaw { raw, .. }) = &extra.micro_modem_raw_in
-        {
-            let line = String::from_utf8_lossy(raw).to_string();
-            let tod = self.tod(now);
-            self.enqueue(FromPayload::Tmr { time: tod, line }, None, now, sig);
-        }
     }
 
     fn send_raw_to_frontseat(&mut self, raw: &Raw, now: Duration, sig: &mut dyn SignalSink) {

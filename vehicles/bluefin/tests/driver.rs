@@ -594,13 +594,15 @@ fn huxley_extension_data_is_published_with_goby3_fields() {
     h.feed("$BFTRM,120024.000,2,0,done,1.2,0.3*56");
     h.feed("$BFRVL,120025.000,1200,1.5*53");
     h.feed("$BFDVL,120026.000,1.5,0.01,-0.02,10.1,10.2,10.3,10.4,12.5,120025.900*48");
+    assert_eq!(h.sink.extensions.len(), 4);
     let d: Vec<_> = h
         .sink
-        .bluefin
-        .iter()
-        .map(|d| d.bluefin_data.clone().unwrap())
+        .extensions_of::<bf::InterfaceData>(frontseat_bluefin::driver::DATA)
+        .into_iter()
+        .map(|d| d.bluefin_data.unwrap())
         .collect();
-    assert_eq!(d.len(), 4);
+    assert_eq!(d.len(), 4, "every one of the Bluefin's type, and decodes");
+    assert!(h.sink.extensions.iter().all(|e| e.vehicle() == "Bluefin"));
     let b = d[0].buoyancy_status.as_ref().unwrap();
     assert_eq!((b.status, b.buoyancy_newtons), (Some(2), Some(-1.5)));
     let t = d[1].trim_status.as_ref().unwrap();

@@ -11,8 +11,12 @@ use frontseat_config::{InterfaceConfig, IverModeAssignments};
 
 use crate::edge::{self as codec, IverMode, Sentence, ack_type};
 use frontseat_actors::clock::SimClock;
-use frontseat_actors::driver::{Driver, DriverContext, DriverIoEvent, SignalSink, raw_ascii};
-use frontseat_actors::drivers::kit::{DataWatch, OwnedTask, failure, log_due, send_line, state_of};
+use frontseat_actors::driver::{
+    Driver, DriverContext, DriverExtension, DriverIoEvent, SignalSink, raw_ascii, refuse_extension,
+};
+use frontseat_actors::drivers::kit::{
+    DataWatch, OwnedTask, decoded, failure, log_due, send_line, state_of,
+};
 use frontseat_actors::drivers::vehicle_link;
 use frontseat_actors::link::LineWriter;
 use frontseat_actors::link::byte::{self, ByteLinkConfig, LinkStats, Transport};
@@ -27,6 +31,11 @@ use frontseat_actors::proto::goby::middleware::frontseat::protobuf::{
     CommandRequest, CommandResponse, FrontSeatState, InterfaceData, NodeStatus, Raw,
 };
 use frontseat_actors::ratelog::RateLimitedLog;
+
+/// The types of Goby3's Iver3 extension (field 1001), as its groups declare them.
+pub const COMMAND: &str = frontseat_actors::groups::FRONTSEAT_IVER_IVER_COMMAND_REQUEST.type_name();
+pub const DATA: &str =
+    frontseat_actors::groups::FRONTSEAT_IVER_IVER_DATA_FROM_FRONTSEAT.type_name();
 
 /// Goby3's fixed baud of the NTP copy port.
 const NTP_BAUD: u32 = 4800;
@@ -216,13 +225,16 @@ impl Iver3Driver {
                 // Goby3 publishes one InterfaceData with the iver_state extension; the same
                 // bytes go on frontseat::iver::iver_data_from_frontseat, and the plain one (the
                 // base fields Goby3's subscribers decode) on data_from_frontseat.
-                sig.iver_data_from_frontseat(IverInterfaceData {
-                    node_status: Some(ns.clone()),
-                    iver_state: Some(IverState {
-                        mode: Some(codec::mode_proto(self.mode) as i32),
-                    }),
-                    ..Default::default()
-                });
+                emit(
+                    sig,
+                    IverInterfaceData {
+                        node_status: Some(ns.clone()),
+                        iver_state: Some(IverState {
+                            mode: Some(codec::mode_proto(self.mode) as i32),
+                        }),
+                        ..Default::default()
+                    },
+                );
                 sig.data_from_frontseat(InterfaceData {
                     node_status: Some(ns),
                     ..Default::default()
@@ -318,7 +330,91 @@ impl Iver3Driver {
     }
 }
 
+impl Iver3Driver {
+    /// Goby3's iver_command: START_MISSION with a mission → `$OMSTART`, STOP_MISSION →
+    /// `$OMSTOP,0`, each awaiting its `$ACK` like `$OMS`; a desired_course in the same request is
+    /// sent after it (as Goby3). START_MISSION without a mission is refused (Goby3 only logs).
+    pub fn send_iver_command(
+        &mut self,
+        req: &IverCommandRequest,
+        now: Duration,
+        sig: &mut dyn SignalSink,
+    ) {
+        let base = CommandRequest {
+            desired_course: req.desired_course,
+            response_requested: req.response_requested,
+            request_id: req.request_id,
+            cancel_request_id: req.cancel_request_id,
+        };
+        let extra = req.iver_command.as_ref();
+        let sentence = match extra.map(|c| (c.command(), c.mission.as_deref().unwrap_or(""))) {
+            Some((IverCommand::StartMission, "")) => {
+                tracing::warn!("iver_command START_MISSION without a mission name: refused");
+                Self::fail(&base, "START_MISSION needs a mission name", sig);
+                return;
+            }
+            Some((IverCommand::StartMission, m)) if !codec::is_field_safe(m) => {
+                self.bad("iver_command mission name is not a plain NMEA field");
+                Self::fail(
+                    &base,
+                    "mission name must be printable ASCII without , * $",
+                    sig,
+                );
+                return;
+            }
+            Some((IverCommand::StartMission, m)) => Some((
+                Sentence::OmStart {
+                    mission: m.to_string(),
+                },
+                ack_type::OMSTART,
+            )),
+            Some((IverCommand::StopMission, _)) => Some((Sentence::OmStop, ack_type::OMSTOP)),
+            Some((IverCommand::UnknownCommand, _)) | None => None,
+        };
+        let Some((sentence, ack)) = sentence else {
+            // Nothing for the extension: the course alone, if any.
+            if base.desired_course.is_some() {
+                self.send_command_to_frontseat(&base, now, sig);
+            } else {
+                Self::fail(&base, "iver_command without a command", sig);
+            }
+            return;
+        };
+        let line = sentence.to_line();
+        if !self.write(&line, sig) {
+            Self::fail(
+                &base,
+                "not connected to the Iver: mission command not sent",
+                sig,
+            );
+            return;
+        }
+        // With a course as well, the response answers the course's $ACK (as one request).
+        let respond = base.response_requested() && base.desired_course.is_none();
+        self.await_ack(ack, base.request_id, respond, now, sig);
+        if base.desired_course.is_some() {
+            self.send_command_to_frontseat(&base, now, sig);
+        }
+    }
+}
+
+/// Extension data to the interface, tagged with its type.
+fn emit(sig: &mut dyn SignalSink, data: IverInterfaceData) {
+    sig.extension_from_frontseat(DriverExtension::encode(DATA, "Iver3", &data));
+}
+
 impl Driver for Iver3Driver {
+    fn send_extension(&mut self, ext: &DriverExtension, now: Duration, sig: &mut dyn SignalSink) {
+        match ext.type_name() {
+            COMMAND => {
+                if let Some(r) = decoded::<IverCommandRequest>(ext, sig, self.name()) {
+                    self.send_iver_command(&r, now, sig);
+                }
+            }
+            _ => refuse_extension(sig, ext, self.name()),
+        }
+    }
+
     fn name(&self) -> &str {
         "iver3"
     }
@@ -401,72 +497,6 @@ impl Driver for Iver3Driver {
             now,
             sig,
         );
-    }
-
-    /// Goby3's iver_command: START_MISSION with a mission → `$OMSTART`, STOP_MISSION →
-    /// `$OMSTOP,0`, each awaiting its `$ACK` like `$OMS`; a desired_course in the same request is
-    /// sent after it (as Goby3). START_MISSION without a mission is refused (Goby3 only logs).
-    fn send_iver_command(
-        &mut self,
-        req: &IverCommandRequest,
-        now: Duration,
-        sig: &mut dyn SignalSink,
-    ) {
-        let base = CommandRequest {
-            desired_course: req.desired_course,
-            response_requested: req.response_requested,
-            request_id: req.request_id,
-            cancel_request_id: req.cancel_request_id,
-        };
-        let extra = req.iver_command.as_ref();
-        let sentence = match extra.map(|c| (c.command(), c.mission.as_deref().unwrap_or(""))) {
-            Some((IverCommand::StartMission, "")) => {
-                tracing::warn!("iver_command START_MISSION without a mission name: refused");
-                Self::fail(&base, "START_MISSION needs a mission name", sig);
-                return;
-            }
-            Some((IverCommand::StartMission, m)) if !codec::is_field_safe(m) => {
-                self.bad("iver_command mission name is not a plain NMEA field");
-                Self::fail(
-                    &base,
-                    "mission name must be printable ASCII without , * $",
-                    sig,
-                );
-                return;
-            }
-            Some((IverCommand::StartMission, m)) => Some((
-                Sentence::OmStart {
-                    mission: m.to_string(),
-                },
-                ack_type::OMSTART,
-            )),
-            Some((IverCommand::StopMission, _)) => Some((Sentence::OmStop, ack_type::OMSTOP)),
-            Some((IverCommand::UnknownCommand, _)) | None => None,
-        };
-        let Some((sentence, ack)) = sentence else {
-            // Nothing for the extension: the course alone, if any.
-            if base.desired_course.is_some() {
-                self.send_command_to_frontseat(&base, now, sig);
-            } else {
-                Self::fail(&base, "iver_command without a command", sig);
-            }
-            return;
-        };
-        let line = sentence.to_line();
-        if !self.write(&line, sig) {
-            Self::fail(
-                &base,
-                "not connected to the Iver: mission command not sent",
-                sig,
-            );
-            return;
-        }
-        // With a course as well, the response answers the course's $ACK (as one request).
-        let respond = base.response_requested() && base.desired_course.is_none();
-        self.await_ack(ack, base.request_id, respond, now, sig);
-        if base.desired_course.is_some() {
-            self.send_command_to_frontseat(&base, now, sig);
-        }
     }
 
     fn send_data_to_frontseat(
@@ -628,10 +658,13 @@ mod tests {
         let (w, _rx) = LineWriter::for_test();
         d.handle_io(DriverIoEvent::Connected(w), Duration::ZERO, &mut sink);
         d.handle_io(DriverIoEvent::Line(osi("W")), Duration::ZERO, &mut sink);
-        assert_eq!(sink.iver.len(), 1);
-        let st = sink.iver[0].iver_state.as_ref().unwrap();
+        assert_eq!(sink.extensions.len(), 1);
+        assert_eq!(sink.extensions[0].vehicle(), "Iver3");
+        let iver = sink.extensions_of::<IverInterfaceData>(DATA);
+        assert_eq!(iver.len(), 1, "of the Iver3 data type, and decodes");
+        let st = iver[0].iver_state.as_ref().unwrap();
         assert_eq!(st.mode(), IverMissionMode::IverModeMissionMode);
-        assert_eq!(sink.iver[0].node_status, sink.data[0].node_status);
+        assert_eq!(iver[0].node_status, sink.data[0].node_status);
         // Goby3's numbering: the mode is the letter's code.
         assert_eq!(IverMissionMode::IverModeMissionMode as i32, i32::from(b'W'));
         assert_eq!(

@@ -68,7 +68,7 @@ pub fn interface_children(
         (&sup.interface).into(),
         (ctx.clone(), current),
         |((cfg, bus), current)| async move {
-            let service = InterfaceService::start(&cfg, &bus)
+            let service = InterfaceService::start(&cfg, &bus, frontseat_drivers::BUILT_IN)
                 .await
                 .map_err(|e| e.to_string())?;
             *current.lock().unwrap_or_else(|p| p.into_inner()) = Some(service.actor().clone());

@@ -230,7 +230,7 @@ pub async fn run_demo(args: DemoArgs, kind: VehicleKind) -> ExitCode {
             return ExitCode::from(1);
         }
     };
-    let service = match InterfaceService::start(&cfg, &bus).await {
+    let service = match InterfaceService::start(&cfg, &bus, frontseat_drivers::BUILT_IN).await {
         Ok(s) => s,
         Err(e) => {
             eprintln!("cannot start the interface: {e}");

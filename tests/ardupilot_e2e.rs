@@ -132,7 +132,7 @@ async fn helm_drives_an_ardupilot_boat_through_guided() {
     let (_n, mut nav) =
         bus.subscribe_channel(&groups::GOBY_MIDDLEWARE_FRONTSEAT_NODE_STATUS, "t", 100_000);
     let helm = helm_heartbeat(&bus, HelmState::HelmDrive);
-    let service = InterfaceService::start(&config(addr, true), &bus)
+    let service = InterfaceService::start(&config(addr, true), &bus, frontseat_drivers::BUILT_IN)
         .await
         .unwrap();
 
@@ -264,9 +264,13 @@ async fn mode_commands_are_refused_unless_allowed() {
         "t",
         10_000,
     );
-    let service = InterfaceService::start(&config(emu.tcp_addr().unwrap(), false), &bus)
-        .await
-        .unwrap();
+    let service = InterfaceService::start(
+        &config(emu.tcp_addr().unwrap(), false),
+        &bus,
+        frontseat_drivers::BUILT_IN,
+    )
+    .await
+    .unwrap();
     status
         .until_state(InterfaceState::InterfaceListen, LONG)
         .await;
@@ -308,9 +312,13 @@ async fn mode_commands_wait_for_listen_and_early_navigation_is_not_published() {
     );
     let (_n, mut nav) =
         bus.subscribe_channel(&groups::GOBY_MIDDLEWARE_FRONTSEAT_NODE_STATUS, "t", 1000);
-    let service = InterfaceService::start(&config(emu.tcp_addr().unwrap(), true), &bus)
-        .await
-        .unwrap();
+    let service = InterfaceService::start(
+        &config(emu.tcp_addr().unwrap(), true),
+        &bus,
+        frontseat_drivers::BUILT_IN,
+    )
+    .await
+    .unwrap();
     // Streams asked and positions flowing (past INITIALISING), yet nothing published.
     wait_for("positions streamed by the vehicle", || {
         emu.session().stats.commands >= 6 && emu.session().sim_time() > 3.0
@@ -351,7 +359,9 @@ async fn serial_address_reaches_listen_over_a_pty() {
     let mut status = StatusWatch::new(&bus);
     let mut cfg = config(([127, 0, 0, 1], 1).into(), false);
     cfg.driver.ardupilot.address = format!("serial:{path}:57600");
-    let service = InterfaceService::start(&cfg, &bus).await.unwrap();
+    let service = InterfaceService::start(&cfg, &bus, frontseat_drivers::BUILT_IN)
+        .await
+        .unwrap();
     status
         .until_state(InterfaceState::InterfaceListen, LONG)
         .await;

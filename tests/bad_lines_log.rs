@@ -27,7 +27,9 @@ async fn a_hundred_garbage_lines_give_a_few_warnings_and_a_summary() {
     // The frontseat: accepts the driver, then sends garbage.
     let (listener, cfg) = played_frontseat("noisy-auv").await;
     let bus = Bus::new();
-    let service = InterfaceService::start(&cfg, &bus).await.unwrap();
+    let service = InterfaceService::start(&cfg, &bus, frontseat_drivers::BUILT_IN)
+        .await
+        .unwrap();
     let (_rd, mut wr) = accept_start(&listener).await;
     let mut burst = String::new();
     for i in 0..GARBAGE {

@@ -64,9 +64,13 @@ async fn the_homework_triangle_flies_through_the_bluefin_driver() {
     let hux = huxley(Refusal::None).await;
     let bus = Bus::new();
     let mut status = StatusWatch::new(&bus);
-    let service = InterfaceService::start(&bluefin_config(hux.local_addr().port()), &bus)
-        .await
-        .unwrap();
+    let service = InterfaceService::start(
+        &bluefin_config(hux.local_addr().port()),
+        &bus,
+        frontseat_drivers::BUILT_IN,
+    )
+    .await
+    .unwrap();
     let params = DemoParams {
         east_s: 20.0,
         south_s: 20.0,
@@ -126,9 +130,13 @@ async fn bluefin_extension_commands_and_data_travel_on_their_groups() {
         1000,
     );
     let helm = helm_heartbeat(&bus, HelmState::HelmDrive);
-    let service = InterfaceService::start(&bluefin_config(hux.local_addr().port()), &bus)
-        .await
-        .unwrap();
+    let service = InterfaceService::start(
+        &bluefin_config(hux.local_addr().port()),
+        &bus,
+        frontseat_drivers::BUILT_IN,
+    )
+    .await
+    .unwrap();
     status
         .until_state(InterfaceState::InterfaceCommand, LONG)
         .await;
@@ -184,9 +192,13 @@ async fn a_refusing_huxley_answers_failures_and_the_interface_recovers() {
         1000,
     );
     let helm = helm_heartbeat(&bus, HelmState::HelmDrive);
-    let service = InterfaceService::start(&bluefin_config(hux.local_addr().port()), &bus)
-        .await
-        .unwrap();
+    let service = InterfaceService::start(
+        &bluefin_config(hux.local_addr().port()),
+        &bus,
+        frontseat_drivers::BUILT_IN,
+    )
+    .await
+    .unwrap();
     status
         .until_state(InterfaceState::InterfaceCommand, LONG)
         .await;
@@ -233,7 +245,7 @@ async fn garbage_from_the_huxley_is_survived_and_an_oversized_line_reconnects() 
     let bus = Bus::new();
     let (_n, mut nav) =
         bus.subscribe_channel(&groups::GOBY_MIDDLEWARE_FRONTSEAT_NODE_STATUS, "test", 1000);
-    let service = InterfaceService::start(&bluefin_config(port), &bus)
+    let service = InterfaceService::start(&bluefin_config(port), &bus, frontseat_drivers::BUILT_IN)
         .await
         .unwrap();
     let (sock, _) = tokio::time::timeout(LONG, listener.accept())

@@ -800,7 +800,9 @@ async fn hung_interface_actor_stops_the_watchdog() {
     cfg.require_helm = false;
     // Periodic status: the actor publishes it from its own handler, where the hang is planted.
     cfg.status_period = 1.0;
-    let service = InterfaceService::start(&cfg, &bus).await.unwrap();
+    let service = InterfaceService::start(&cfg, &bus, frontseat_drivers::BUILT_IN)
+        .await
+        .unwrap();
     n.ready();
     let current = systemd::InterfaceRef::default();
     *current.lock().unwrap() = Some(service.actor().clone());

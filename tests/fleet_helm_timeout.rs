@@ -24,7 +24,9 @@ async fn a_silent_helm_takes_the_vehicle_out_of_command_and_back_when_heard_agai
     let mut cfg = config_for(&sim, WARP);
     cfg.helm_state_timeout = 3.0; // sim seconds: 0.3 s of wall time at WARP 10
     let helm = helm_heartbeat(&bus, HelmState::HelmDrive);
-    let service = InterfaceService::start(&cfg, &bus).await.unwrap();
+    let service = InterfaceService::start(&cfg, &bus, frontseat_drivers::BUILT_IN)
+        .await
+        .unwrap();
     status
         .until_state(InterfaceState::InterfaceCommand, LONG)
         .await;
@@ -52,7 +54,9 @@ async fn without_the_timeout_the_last_helm_state_holds_as_in_goby3() {
     let mut cfg = config_for(&sim, WARP);
     cfg.status_period = 0.5; // a status every 50 ms of wall time, to watch the state
     let helm = helm_heartbeat(&bus, HelmState::HelmDrive);
-    let service = InterfaceService::start(&cfg, &bus).await.unwrap();
+    let service = InterfaceService::start(&cfg, &bus, frontseat_drivers::BUILT_IN)
+        .await
+        .unwrap();
     status
         .until_state(InterfaceState::InterfaceCommand, LONG)
         .await;

@@ -82,7 +82,9 @@ async fn a_hostile_basic_simulator_never_puts_impossible_navigation_on_the_bus()
         "t",
         1000,
     );
-    let service = InterfaceService::start(&cfg, &bus).await.unwrap();
+    let service = InterfaceService::start(&cfg, &bus, frontseat_drivers::BUILT_IN)
+        .await
+        .unwrap();
     let (_rd, mut wr) = accept_start(&listener).await;
 
     let good = |lat: f64| format!("NAV,LAT:{lat},LON:-71.08,DEPTH:2,HEADING:90,SPEED:1.5\r\n");
@@ -158,7 +160,9 @@ async fn a_hostile_iver3_never_puts_impossible_navigation_on_the_bus() {
         bus.subscribe_channel(&groups::GOBY_MIDDLEWARE_FRONTSEAT_NODE_STATUS, "t", 1000);
     let (_s2, mut iver) =
         bus.subscribe_channel(&groups::FRONTSEAT_IVER_IVER_DATA_FROM_FRONTSEAT, "t", 1000);
-    let service = InterfaceService::start(&cfg, &bus).await.unwrap();
+    let service = InterfaceService::start(&cfg, &bus, frontseat_drivers::BUILT_IN)
+        .await
+        .unwrap();
     let (sock, _) = tokio::time::timeout(WAIT, listener.accept())
         .await
         .expect("the driver connects")

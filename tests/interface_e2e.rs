@@ -12,7 +12,6 @@ use std::time::Duration;
 use common::*;
 use frontseat_actors::bus::Bus;
 use frontseat_actors::driver::{Driver, DriverContext, DriverFactory, DriverIoEvent, SignalSink};
-use frontseat_actors::drivers::basic_simulator::{BasicSimulatorDriver, Settings};
 use frontseat_actors::groups;
 use frontseat_actors::interface::{InterfaceService, InterfaceSettings, ServiceExit};
 use frontseat_actors::proto::frontseat::protobuf::{SimFault, sim_fault};
@@ -20,6 +19,7 @@ use frontseat_actors::proto::goby::middleware::frontseat::protobuf::{
     CommandRequest, DesiredCourse, FrontSeatError, FrontSeatState, HelmError, HelmState,
     InterfaceData, InterfaceState, Raw,
 };
+use frontseat_basic_simulator::{BasicSimulatorDriver, Settings};
 
 const LONG: Duration = Duration::from_secs(20);
 
@@ -55,7 +55,9 @@ async fn reaches_command_steers_and_reports_ground_truth() {
         bus.subscribe_channel(&groups::FRONTSEAT_SIM_GROUND_TRUTH, "test", 100_000);
     let cfg = config_for(&sim, WARP);
     let helm = helm_heartbeat(&bus, HelmState::HelmDrive);
-    let service = InterfaceService::start(&cfg, &bus).await.unwrap();
+    let service = InterfaceService::start(&cfg, &bus, frontseat_drivers::BUILT_IN)
+        .await
+        .unwrap();
 
     status
         .until_state(InterfaceState::InterfaceCommand, LONG)
@@ -138,7 +140,9 @@ async fn helm_errors_not_running_parked_and_cleared_by_drive() {
     let mut status = StatusWatch::new(&bus);
     let mut cfg = config_for(&sim, WARP);
     cfg.helm_running_timeout = 5.0;
-    let service = InterfaceService::start(&cfg, &bus).await.unwrap();
+    let service = InterfaceService::start(&cfg, &bus, frontseat_drivers::BUILT_IN)
+        .await
+        .unwrap();
 
     let s = status
         .until("helm error not running", LONG, |s| {
@@ -181,7 +185,9 @@ async fn ctrl_auv_idle_and_duration_move_command_to_listen_and_back() {
     // DURATION 30 s of sim time: the simulator goes IDLE on its own at the end.
     cfg.driver.basic_simulator.start.duration = 30.0;
     let helm = helm_heartbeat(&bus, HelmState::HelmDrive);
-    let service = InterfaceService::start(&cfg, &bus).await.unwrap();
+    let service = InterfaceService::start(&cfg, &bus, frontseat_drivers::BUILT_IN)
+        .await
+        .unwrap();
     status
         .until_state(InterfaceState::InterfaceCommand, LONG)
         .await;
@@ -218,7 +224,9 @@ async fn nav_stops_gives_not_providing_data_and_recovers() {
     let mut cfg = config_for(&sim, WARP);
     cfg.driver.basic_simulator.nav_timeout = 2.0;
     let helm = helm_heartbeat(&bus, HelmState::HelmDrive);
-    let service = InterfaceService::start(&cfg, &bus).await.unwrap();
+    let service = InterfaceService::start(&cfg, &bus, frontseat_drivers::BUILT_IN)
+        .await
+        .unwrap();
     status
         .until_state(InterfaceState::InterfaceCommand, LONG)
         .await;
@@ -265,7 +273,9 @@ async fn commands_outside_command_state_get_a_failed_response() {
         100,
     );
     let cfg = config_for(&sim, WARP);
-    let service = InterfaceService::start(&cfg, &bus).await.unwrap();
+    let service = InterfaceService::start(&cfg, &bus, frontseat_drivers::BUILT_IN)
+        .await
+        .unwrap();
     // No helm: the interface stays out of COMMAND (listen once data flows).
     status
         .until_state(InterfaceState::InterfaceListen, LONG)
@@ -438,7 +448,9 @@ async fn dropped_connection_recovers_to_command() {
     let mut status = StatusWatch::new(&bus);
     let cfg = config_for(&sim, WARP);
     let helm = helm_heartbeat(&bus, HelmState::HelmDrive);
-    let service = InterfaceService::start(&cfg, &bus).await.unwrap();
+    let service = InterfaceService::start(&cfg, &bus, frontseat_drivers::BUILT_IN)
+        .await
+        .unwrap();
     status
         .until_state(InterfaceState::InterfaceCommand, LONG)
         .await;

@@ -318,7 +318,9 @@ async fn helm_over_moos_steers_the_sim_and_nav_matches_ground_truth() {
     .await;
     helm.run();
     let cfg = config_for(&sim, WARP);
-    let service = InterfaceService::start(&cfg, &bus).await.unwrap();
+    let service = InterfaceService::start(&cfg, &bus, frontseat_drivers::BUILT_IN)
+        .await
+        .unwrap();
     status
         .until_state(InterfaceState::InterfaceCommand, LONG)
         .await;
@@ -461,9 +463,10 @@ async fn broker_restart_mid_run_is_survived() {
     let mut helm = Helm::start(addr.port(), script.clone()).await;
     let translation = start_translation(addr.port(), &bus, 5.0).await;
     helm.run();
-    let service = InterfaceService::start(&config_for(&sim, WARP), &bus)
-        .await
-        .unwrap();
+    let service =
+        InterfaceService::start(&config_for(&sim, WARP), &bus, frontseat_drivers::BUILT_IN)
+            .await
+            .unwrap();
     status
         .until_state(InterfaceState::InterfaceCommand, LONG)
         .await;
@@ -659,9 +662,10 @@ async fn a_hostile_helm_over_moos_never_reaches_the_frontseat() {
     })
     .await;
     let drive = helm_heartbeat(&bus, HelmState::HelmDrive);
-    let service = InterfaceService::start(&config_for(&sim, WARP), &bus)
-        .await
-        .unwrap();
+    let service =
+        InterfaceService::start(&config_for(&sim, WARP), &bus, frontseat_drivers::BUILT_IN)
+            .await
+            .unwrap();
     status
         .until_state(InterfaceState::InterfaceCommand, LONG)
         .await;
@@ -810,7 +814,9 @@ async fn a_panic_in_the_translation_is_restarted_and_the_bridge_flows_again() {
     let script = Script::new("DRIVE", 90.0, 1.0, true);
     let mut helm = Helm::start(port, script.clone()).await;
     helm.run();
-    let service = InterfaceService::start(&cfg, &bus).await.unwrap();
+    let service = InterfaceService::start(&cfg, &bus, frontseat_drivers::BUILT_IN)
+        .await
+        .unwrap();
     status
         .until_state(InterfaceState::InterfaceCommand, LONG)
         .await;

@@ -47,7 +47,9 @@ async fn raw_sends_are_one_line_from_allowed_sources_and_absurd_headings_are_ref
         "t",
         100,
     );
-    let service = InterfaceService::start(&cfg, &bus).await.unwrap();
+    let service = InterfaceService::start(&cfg, &bus, frontseat_drivers::BUILT_IN)
+        .await
+        .unwrap();
     let (mut rd, mut wr) = accept_start(&listener).await;
     let helm = helm_heartbeat(&bus, HelmState::HelmDrive);
     let nav = tokio::spawn(async move {

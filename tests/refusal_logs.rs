@@ -47,7 +47,9 @@ async fn refused_setpoints_and_navigation_give_a_few_warnings_and_a_summary() {
     let bus = Bus::new();
     let (_st, mut status) =
         bus.subscribe_channel(&groups::GOBY_MIDDLEWARE_FRONTSEAT_STATUS, "test", 64);
-    let service = InterfaceService::start(&cfg, &bus).await.unwrap();
+    let service = InterfaceService::start(&cfg, &bus, frontseat_drivers::BUILT_IN)
+        .await
+        .unwrap();
 
     let (mut rd, wr) = accept_start(&listener).await;
     let wr = Arc::new(tokio::sync::Mutex::new(wr));

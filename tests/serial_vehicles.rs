@@ -119,7 +119,7 @@ async fn iver3_over_a_pty_reaches_command_steers_in_feet_and_acks() {
     let (_s2, mut nav) =
         bus.subscribe_channel(&groups::GOBY_MIDDLEWARE_FRONTSEAT_NODE_STATUS, "t", 100_000);
     let helm = helm_heartbeat(&bus, HelmState::HelmDrive);
-    let service = InterfaceService::start(&iver_config(&path), &bus)
+    let service = InterfaceService::start(&iver_config(&path), &bus, frontseat_drivers::BUILT_IN)
         .await
         .unwrap();
     status
@@ -264,7 +264,7 @@ async fn iver3_mission_commands_and_mode_over_a_pty() {
         }),
         ..Default::default()
     };
-    let service = InterfaceService::start(&iver_config(&path), &bus)
+    let service = InterfaceService::start(&iver_config(&path), &bus, frontseat_drivers::BUILT_IN)
         .await
         .unwrap();
     // Before COMMAND (no helm yet) the gate refuses it, as any command.
@@ -326,7 +326,9 @@ async fn iver3_survives_line_noise_and_a_vanished_port() {
     let (_s, mut nav) =
         bus.subscribe_channel(&groups::GOBY_MIDDLEWARE_FRONTSEAT_NODE_STATUS, "t", 100_000);
     let helm = helm_heartbeat(&bus, HelmState::HelmDrive);
-    let service = InterfaceService::start(&cfg, &bus).await.unwrap();
+    let service = InterfaceService::start(&cfg, &bus, frontseat_drivers::BUILT_IN)
+        .await
+        .unwrap();
     status
         .until_state(InterfaceState::InterfaceCommand, LONG)
         .await;
@@ -394,7 +396,9 @@ async fn iver3_over_tcp_for_serial_over_ip_adapters() {
         1000,
     );
     let helm = helm_heartbeat(&bus, HelmState::HelmDrive);
-    let service = InterfaceService::start(&cfg, &bus).await.unwrap();
+    let service = InterfaceService::start(&cfg, &bus, frontseat_drivers::BUILT_IN)
+        .await
+        .unwrap();
     status
         .until_state(InterfaceState::InterfaceCommand, LONG)
         .await;
@@ -422,7 +426,7 @@ async fn waveglider_sv2_over_a_pty_pulls_commands_and_survives_naks_and_noise() 
         1000,
     );
     let helm = helm_heartbeat(&bus, HelmState::HelmDrive);
-    let service = InterfaceService::start(&sv2_config(&path), &bus)
+    let service = InterfaceService::start(&sv2_config(&path), &bus, frontseat_drivers::BUILT_IN)
         .await
         .unwrap();
     status

@@ -92,9 +92,10 @@ async fn one_nav_line_and_one_setpoint_each_form_one_trace() {
         1000,
     );
     let helm = helm_heartbeat(&bus, HelmState::HelmDrive);
-    let service = InterfaceService::start(&config_for(&sim, WARP), &bus)
-        .await
-        .unwrap();
+    let service =
+        InterfaceService::start(&config_for(&sim, WARP), &bus, frontseat_drivers::BUILT_IN)
+            .await
+            .unwrap();
     status
         .until_state(InterfaceState::InterfaceCommand, Duration::from_secs(20))
         .await;

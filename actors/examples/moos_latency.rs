@@ -180,7 +180,7 @@ async fn main() -> Result<(), Error> {
         ..Default::default()
     };
     cfg.driver.basic_simulator.tcp_port = fs.port;
-    let service = InterfaceService::start(&cfg, &bus).await?;
+    let service = InterfaceService::start(&cfg, &bus, frontseat_drivers::BUILT_IN).await?;
     // Wait for the interface to reach COMMAND: the first DesiredCourse that makes a CMD.
     let deadline = Instant::now() + WAIT;
     loop {

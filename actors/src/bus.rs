@@ -60,7 +60,8 @@ impl<T> Group<T> {
     pub fn name(&self) -> &'static str {
         self.name
     }
-    pub fn type_name(&self) -> &'static str {
+    /// Const, so a vehicle crate can name its extension's type by its declared group.
+    pub const fn type_name(&self) -> &'static str {
         self.type_name
     }
     pub fn layer(&self) -> Layer {

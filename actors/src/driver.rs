@@ -2,12 +2,17 @@
 //!
 //! Five operations (send command / data / raw, frontseat state, providing data), a `do_loop` at
 //! 10 Hz of simulated time, and the four signals, emitted through a `SignalSink` at the moment
-//! the driver has them. I/O happens in tasks the driver spawns in `start`; what they read comes
+//! the driver has them. A vehicle's extensions of Goby3's messages (Bluefin, Iver3, ArduPilot)
+//! cross the contract as one generic [`DriverExtension`] each way, so the contract names no
+//! vehicle and a driver refuses another vehicle's commands through [`refuse_extension`]. I/O happens in tasks the driver spawns in `start`; what they read comes
 //! back as `DriverIoEvent`s handled on the driver actor, one at a time, so a driver is plain
 //! single-threaded state.
 
 use std::time::Duration;
 
+use prost::Message as _;
+
+pub use crate::proto::frontseat::protobuf::DriverExtension;
 use crate::proto::goby::middleware::frontseat::protobuf::{
     CommandRequest, CommandResponse, FrontSeatState, InterfaceData, Raw,
 };
@@ -18,20 +23,10 @@ pub trait SignalSink {
     fn data_from_frontseat(&mut self, data: InterfaceData);
     fn raw_from_frontseat(&mut self, raw: Raw);
     fn raw_to_frontseat(&mut self, raw: Raw);
-    /// InterfaceData carrying Goby3's Bluefin extension (`bluefin_data`, field 1000), published
-    /// on `frontseat::bluefin::bluefin_data_from_frontseat`. Only the Bluefin driver emits it.
-    fn bluefin_data_from_frontseat(
-        &mut self,
-        _data: crate::proto::frontseat::protobuf::bluefin::InterfaceData,
-    ) {
-    }
-    /// InterfaceData carrying Goby3's Iver3 extension (`iver_state`, field 1001), published on
-    /// `frontseat::iver::iver_data_from_frontseat`. Only the Iver3 driver emits it.
-    fn iver_data_from_frontseat(
-        &mut self,
-        _data: crate::proto::frontseat::protobuf::iver::InterfaceData,
-    ) {
-    }
+    /// A vehicle-extended InterfaceData (Bluefin's `bluefin_data`, Iver3's `iver_state`), tagged
+    /// with its type; the interface gates its navigation and publishes it on the vehicle's group
+    /// (`frontseat::bluefin::bluefin_data_from_frontseat`, …). Only drivers with an extension emit it.
+    fn extension_from_frontseat(&mut self, _ext: DriverExtension) {}
 }
 
 /// What a driver's I/O tasks observe and how they hand it over: defined with the links that
@@ -43,10 +38,21 @@ pub use crate::link::{DriverIoEvent, IoSender};
 pub struct RecordingSink {
     pub responses: Vec<CommandResponse>,
     pub data: Vec<InterfaceData>,
-    pub bluefin: Vec<crate::proto::frontseat::protobuf::bluefin::InterfaceData>,
-    pub iver: Vec<crate::proto::frontseat::protobuf::iver::InterfaceData>,
+    pub extensions: Vec<DriverExtension>,
     pub raw_in: Vec<Raw>,
     pub raw_out: Vec<Raw>,
+}
+
+impl RecordingSink {
+    /// The extension data of type `type_name` emitted so far, decoded (what does not decode is
+    /// left out, so a test comparing lengths sees it).
+    pub fn extensions_of<M: prost::Message + Default>(&self, type_name: &str) -> Vec<M> {
+        self.extensions
+            .iter()
+            .filter_map(|e| e.decode::<M>(type_name))
+            .filter_map(Result::ok)
+            .collect()
+    }
 }
 
 impl SignalSink for RecordingSink {
@@ -62,18 +68,47 @@ impl SignalSink for RecordingSink {
     fn raw_to_frontseat(&mut self, r: Raw) {
         self.raw_out.push(r);
     }
-    fn bluefin_data_from_frontseat(
-        &mut self,
-        d: crate::proto::frontseat::protobuf::bluefin::InterfaceData,
-    ) {
-        self.bluefin.push(d);
+    fn extension_from_frontseat(&mut self, e: DriverExtension) {
+        self.extensions.push(e);
     }
-    fn iver_data_from_frontseat(
-        &mut self,
-        d: crate::proto::frontseat::protobuf::iver::InterfaceData,
-    ) {
-        self.iver.push(d);
+}
+
+impl DriverExtension {
+    /// `msg` (a vehicle's mirror message whose full proto name is `type_name`) as an extension
+    /// of `vehicle` (in words, for refusals).
+    pub fn encode<M: prost::Message>(type_name: &str, vehicle: &str, msg: &M) -> Self {
+        Self {
+            type_name: Some(type_name.to_string()),
+            value: Some(msg.encode_to_vec()),
+            vehicle: Some(vehicle.to_string()),
+        }
     }
+
+    /// The message, when this extension is of `type_name`: None for another type, an error
+    /// for bytes that do not decode as it.
+    pub fn decode<M: prost::Message + Default>(
+        &self,
+        type_name: &str,
+    ) -> Option<Result<M, prost::DecodeError>> {
+        (self.type_name() == type_name).then(|| M::decode(self.value()))
+    }
+}
+
+/// How a driver answers an extension it does not speak: a command is refused (answered when a
+/// response was requested, as Goby3's drivers answer nothing they do not know), data is ignored.
+/// A mirror's base fields have Goby3's numbers, so the base request decodes from its bytes.
+pub fn refuse_extension(sig: &mut dyn SignalSink, ext: &DriverExtension, driver: &str) {
+    if !ext.type_name().ends_with(".CommandRequest") {
+        return;
+    }
+    let base = CommandRequest::decode(ext.value()).unwrap_or_default();
+    refuse_unsupported(
+        sig,
+        base.response_requested(),
+        base.request_id,
+        driver,
+        ext.vehicle(),
+    );
 }
 
 /// The answer of a driver to a vehicle-extended command it does not speak (`vehicle`'s).
@@ -119,62 +154,11 @@ pub trait Driver: Send + 'static {
         sig: &mut dyn SignalSink,
     );
     fn send_raw_to_frontseat(&mut self, raw: &Raw, now: Duration, sig: &mut dyn SignalSink);
-    /// A CommandRequest with Goby3's Bluefin extension (`bluefin_command`, field 1000). Drivers
-    /// other than Bluefin refuse it (answering when a response was requested).
-    fn send_bluefin_command(
-        &mut self,
-        req: &crate::proto::frontseat::protobuf::bluefin::CommandRequest,
-        _now: Duration,
-        sig: &mut dyn SignalSink,
-    ) {
-        refuse_unsupported(
-            sig,
-            req.response_requested(),
-            req.request_id,
-            self.name(),
-            "Bluefin",
-        );
-    }
-    /// A CommandRequest with Goby3's Iver3 extension (`iver_command`, field 1001). Drivers other
-    /// than Iver3 refuse it (answering when a response was requested).
-    fn send_iver_command(
-        &mut self,
-        req: &crate::proto::frontseat::protobuf::iver::CommandRequest,
-        _now: Duration,
-        sig: &mut dyn SignalSink,
-    ) {
-        refuse_unsupported(
-            sig,
-            req.response_requested(),
-            req.request_id,
-            self.name(),
-            "Iver3",
-        );
-    }
-    /// A CommandRequest with our ArduPilot extension (`ardupilot_command`, field 1002: GUIDED,
-    /// HOLD, arm, disarm). Drivers other than ArduPilot refuse it.
-    fn send_ardupilot_command(
-        &mut self,
-        req: &crate::proto::frontseat::protobuf::ardupilot::CommandRequest,
-        _now: Duration,
-        sig: &mut dyn SignalSink,
-    ) {
-        refuse_unsupported(
-            sig,
-            req.response_requested(),
-            req.request_id,
-            self.name(),
-            "ArduPilot",
-        );
-    }
-    /// InterfaceData with Goby3's Bluefin extension (payload status, modem lines). Drivers other
-    /// than Bluefin ignore it.
-    fn send_bluefin_data(
-        &mut self,
-        _data: &crate::proto::frontseat::protobuf::bluefin::InterfaceData,
-        _now: Duration,
-        _sig: &mut dyn SignalSink,
-    ) {
+    /// A vehicle-extended CommandRequest or InterfaceData (Goby3's Bluefin and Iver3 extensions,
+    /// our ArduPilot one) that passed the interface's gate, whole. A driver takes its vehicle's
+    /// types (by `ext.type_name`) and hands the rest to [`refuse_extension`], the default.
+    fn send_extension(&mut self, ext: &DriverExtension, _now: Duration, sig: &mut dyn SignalSink) {
+        refuse_extension(sig, ext, self.name());
     }
     /// The interface's status, at every change (Bluefin reports an error state in `$BPSTS`).
     fn interface_status(

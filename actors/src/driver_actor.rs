@@ -99,17 +99,8 @@ impl SignalSink for PortSink<'_> {
     fn raw_to_frontseat(&mut self, raw: Raw) {
         self.0.publish_raw_to_frontseat(raw);
     }
-    fn bluefin_data_from_frontseat(
-        &mut self,
-        data: crate::proto::frontseat::protobuf::bluefin::InterfaceData,
-    ) {
-        self.0.publish_bluefin_data_from_frontseat(data);
-    }
-    fn iver_data_from_frontseat(
-        &mut self,
-        data: crate::proto::frontseat::protobuf::iver::InterfaceData,
-    ) {
-        self.0.publish_iver_data_from_frontseat(data);
+    fn extension_from_frontseat(&mut self, ext: crate::driver::DriverExtension) {
+        self.0.publish_extension_from_frontseat(ext);
     }
 }
 
@@ -214,17 +205,8 @@ impl Actor for DriverActor {
                 DriverActorInbox::RawSendRequest(env) => {
                     state.driver.send_raw_to_frontseat(&env.msg, now, &mut sink)
                 }
-                DriverActorInbox::BluefinCommand(env) => {
-                    state.driver.send_bluefin_command(&env.msg, now, &mut sink)
-                }
-                DriverActorInbox::IverCommand(env) => {
-                    state.driver.send_iver_command(&env.msg, now, &mut sink)
-                }
-                DriverActorInbox::ArdupilotCommand(env) => state
-                    .driver
-                    .send_ardupilot_command(&env.msg, now, &mut sink),
-                DriverActorInbox::BluefinData(env) => {
-                    state.driver.send_bluefin_data(&env.msg, now, &mut sink)
+                DriverActorInbox::ExtensionToFrontseat(env) => {
+                    state.driver.send_extension(&env.msg, now, &mut sink)
                 }
                 DriverActorInbox::InterfaceStatus(env) => state.driver.interface_status(&env.msg),
             },

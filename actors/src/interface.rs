@@ -676,27 +676,57 @@ impl FsiState {
         }
     }
 
-    /// The Bluefin driver's extended data: its node_status (none today) crosses the same gate.
-    fn handle_bluefin_data(
-        &mut self,
-        env: Envelope<crate::proto::frontseat::protobuf::bluefin::InterfaceData>,
+    /// A vehicle extension that passed the gate, to the driver whole, tagged with the type of
+    /// the group it came on.
+    fn to_driver<M: prost::Message>(
+        &self,
+        from: &crate::bus::Group<M>,
+        vehicle: &str,
+        msg: &M,
+        meta: crate::bus::PublishMeta,
     ) {
-        let mut data = (*env.msg).clone();
-        self.gate_extension_nav(&mut data.node_status, true);
+        let ext = crate::driver::DriverExtension::encode(from.type_name(), vehicle, msg);
         self.ports
-            .publish_bluefin_data_from_frontseat_with(Arc::new(data), env.meta());
+            .publish_extension_to_frontseat_with(Arc::new(ext), meta);
     }
 
-    /// The Iver3 driver's extended $OSI: the same navigation as its plain data_from_frontseat,
-    /// gated alike but counted there only.
-    fn handle_iver_data(
-        &mut self,
-        env: Envelope<crate::proto::frontseat::protobuf::iver::InterfaceData>,
-    ) {
-        let mut data = (*env.msg).clone();
-        self.gate_extension_nav(&mut data.node_status, false);
-        self.ports
-            .publish_iver_data_from_frontseat_with(Arc::new(data), env.meta());
+    /// A driver's extended data, by its type: Bluefin's (its node_status, none today, crosses
+    /// the same gate) and Iver3's extended $OSI (the same navigation as its plain
+    /// data_from_frontseat, gated alike but counted there only), each onto its vehicle's group.
+    fn handle_extension_data(&mut self, env: Envelope<crate::driver::DriverExtension>) {
+        use crate::proto::frontseat::protobuf::{bluefin, iver};
+        let meta = env.meta();
+        let bf = crate::groups::FRONTSEAT_BLUEFIN_BLUEFIN_DATA_FROM_FRONTSEAT;
+        let iv = crate::groups::FRONTSEAT_IVER_IVER_DATA_FROM_FRONTSEAT;
+        let bad = match (
+            env.msg.decode::<bluefin::InterfaceData>(bf.type_name()),
+            env.msg.decode::<iver::InterfaceData>(iv.type_name()),
+        ) {
+            (Some(Ok(mut data)), _) => {
+                self.gate_extension_nav(&mut data.node_status, true);
+                self.ports
+                    .publish_bluefin_data_from_frontseat_with(Arc::new(data), meta);
+                return;
+            }
+            (_, Some(Ok(mut data))) => {
+                self.gate_extension_nav(&mut data.node_status, false);
+                self.ports
+                    .publish_iver_data_from_frontseat_with(Arc::new(data), meta);
+                return;
+            }
+            (Some(Err(e)), _) | (_, Some(Err(e))) => e.to_string(),
+            (None, None) => "no vehicle group has this type".to_string(),
+        };
+        // A driver bug, not vehicle input: logged at a bounded rate all the same.
+        static DROPPED: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+        let n = DROPPED.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
+        if n.is_power_of_two() {
+            tracing::warn!(
+                type_name = env.msg.type_name(),
+                dropped_total = n,
+                "extension data from the driver dropped: {bad}"
+            );
+        }
     }
 
     /// Goby3's raw backdoor, through the raw gate (raw_gate): one line or frame, from an allowed
@@ -1130,23 +1160,42 @@ impl FrontSeatInterface {
                 }
                 I::BluefinCommandRequest(env) => {
                     if let Some((req, meta)) = st.gate_extended(env) {
-                        st.ports.publish_bluefin_command_with(Arc::new(req), meta);
+                        st.to_driver(
+                            &crate::groups::FRONTSEAT_BLUEFIN_BLUEFIN_COMMAND_REQUEST,
+                            "Bluefin",
+                            &req,
+                            meta,
+                        );
                     }
                 }
                 I::IverCommandRequest(env) => {
                     if let Some((req, meta)) = st.gate_extended(env) {
-                        st.ports.publish_iver_command_with(Arc::new(req), meta);
+                        st.to_driver(
+                            &crate::groups::FRONTSEAT_IVER_IVER_COMMAND_REQUEST,
+                            "Iver3",
+                            &req,
+                            meta,
+                        );
                     }
                 }
                 I::ArdupilotCommandRequest(env) => {
                     if let Some((req, meta)) = st.gate_mode_command(env) {
-                        st.ports.publish_ardupilot_command_with(Arc::new(req), meta);
+                        st.to_driver(
+                            &crate::groups::FRONTSEAT_ARDUPILOT_ARDUPILOT_COMMAND_REQUEST,
+                            "ArduPilot",
+                            &req,
+                            meta,
+                        );
                     }
                 }
                 I::BluefinDataToFrontseat(env) => {
                     if st.listen_or_command() {
-                        st.ports
-                            .publish_bluefin_data_with(env.msg.clone(), env.meta());
+                        st.to_driver(
+                            &crate::groups::FRONTSEAT_BLUEFIN_BLUEFIN_DATA_TO_FRONTSEAT,
+                            "Bluefin",
+                            &*env.msg,
+                            env.meta(),
+                        );
                     } else {
                         st.counters.data_gated += 1;
                         tracing::debug!(
@@ -1176,8 +1225,7 @@ impl FrontSeatInterface {
                 }
                 I::CommandResponse(env) => st.handle_driver_response(env),
                 I::DataFromFrontseat(env) => st.handle_data_from_frontseat(env),
-                I::BluefinDataFromFrontseat(env) => st.handle_bluefin_data(env),
-                I::IverDataFromFrontseat(env) => st.handle_iver_data(env),
+                I::ExtensionFromFrontseat(env) => st.handle_extension_data(env),
                 I::RawFromFrontseat(env) => {
                     st.ports.publish_raw_in_with(env.msg.clone(), env.meta());
                 }
@@ -1327,9 +1375,14 @@ pub enum StartError {
 }
 
 impl InterfaceService {
-    /// Starts the interface with the driver the config names.
-    pub async fn start(cfg: &InterfaceConfig, bus: &Bus) -> Result<Self, StartError> {
-        let factory = crate::drivers::factory(cfg)?;
+    /// Starts the interface with the driver the config names, a plugin or one of `built_in`
+    /// (the registry's list, `frontseat_drivers::BUILT_IN`).
+    pub async fn start(
+        cfg: &InterfaceConfig,
+        bus: &Bus,
+        built_in: &[crate::drivers::BuiltIn],
+    ) -> Result<Self, StartError> {
+        let factory = crate::drivers::factory(cfg, built_in)?;
         Self::start_with(InterfaceSettings::from_config(cfg), bus, factory).await
     }
 

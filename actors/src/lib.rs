@@ -1,7 +1,8 @@
 //! The frontseat runtime: the in-process bus, the generated wiring (messages, groups, ports), the
-//! FrontSeatInterface and its supervised DriverActor, the drivers (each on its vehicle crate's
-//! codec under `vehicles/`, sharing `drivers::kit`), the glue that embeds the simulator and systemd
-//! notification. `docs/ARCHITECTURE.md` follows the data through these modules. Pure logic lives
+//! FrontSeatInterface and its supervised DriverActor, the driver contract (`driver`), driver
+//! selection and the driver kit every vehicle's driver uses (`drivers`; the drivers themselves
+//! live in their vehicle crates under `vehicles/`, listed by `vehicles/registry`), the glue that
+//! embeds the simulator and systemd notification. `docs/ARCHITECTURE.md` follows the data through these modules. Pure logic lives
 //! in plain modules; actors are thin shells around it. What only exercises the runtime lives
 //! outside it and uses this crate's public API:
 //! the chaos harness (`tools/chaos`), the benchmark (`tools/bench`) and the demo helm
@@ -27,7 +28,6 @@ pub mod metrics;
 pub mod nav_gate;
 pub mod ratelog;
 pub mod raw_gate;
-pub mod seawater;
 pub mod service_child;
 pub mod sim_glue;
 pub mod state_machine;

@@ -34,7 +34,7 @@ fn interface_child(cfg: InterfaceConfig, bus: Bus, current: Current) -> ChildSpe
     let start: StartService = Arc::new(move || {
         let (cfg, bus, current) = (cfg.clone(), bus.clone(), current.clone());
         Box::pin(async move {
-            let s = InterfaceService::start(&cfg, &bus)
+            let s = InterfaceService::start(&cfg, &bus, frontseat_drivers::BUILT_IN)
                 .await
                 .map_err(|e| e.to_string())?;
             *current.lock().unwrap() = Some(s.actor().clone());

@@ -11,10 +11,10 @@
 use std::time::Duration;
 
 use frontseat_actors::driver::{Driver, DriverIoEvent, SignalSink};
-use frontseat_actors::drivers::basic_simulator::{BasicSimulatorDriver, Settings, parse_nav};
 use frontseat_actors::proto::goby::middleware::frontseat::protobuf::{
     CommandResponse, InterfaceData, Raw,
 };
+use frontseat_basic_simulator::{BasicSimulatorDriver, Settings, parse_nav};
 use frontseat_config::{InterfaceConfig, ServiceConfig};
 use frontseat_sim::codec::{self, Inbound, Outbound};
 
@@ -215,9 +215,9 @@ pub fn zmtp_guard(data: &[u8]) {
 /// message re-encodes to a frame that decodes and re-encodes to the same bytes; raw_in once per
 /// frame; every published fix finite; no command response unasked.
 pub fn mavlink_frame(data: &[u8]) {
-    use frontseat_actors::drivers::ardupilot::{ArdupilotDriver, Settings as ApSettings};
     use frontseat_actors::link::LineWriter;
     use frontseat_ardupilot::codec::{Deframer, MAX_FRAME, decode, encode};
+    use frontseat_ardupilot::{ArdupilotDriver, Settings as ApSettings};
 
     let mut whole = Vec::new();
     Deframer::new().feed(data, &mut |r| whole.push(r));

@@ -252,7 +252,7 @@ async fn the_page_shows_nav_expands_messages_and_commands_through_the_interface(
     let web = WebService::start_with(&web_cfg, &cfg.limits, None, &bus, &cfg.name)
         .await
         .expect("web");
-    let service = InterfaceService::start(&cfg, &bus)
+    let service = InterfaceService::start(&cfg, &bus, frontseat_drivers::BUILT_IN)
         .await
         .expect("interface");
     let url = format!("http://{}/", web.local_addr());

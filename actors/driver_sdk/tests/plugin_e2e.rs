@@ -11,7 +11,7 @@ use std::time::Duration;
 
 use common::*;
 use frontseat_actors::bus::Bus;
-use frontseat_actors::drivers::{DriverSelectError, factory_with_env};
+use frontseat_actors::drivers::DriverSelectError;
 use frontseat_actors::groups;
 use frontseat_actors::interface::{InterfaceService, InterfaceSettings, ServiceExit};
 use frontseat_actors::proto::goby::middleware::frontseat::protobuf::{
@@ -19,6 +19,7 @@ use frontseat_actors::proto::goby::middleware::frontseat::protobuf::{
 };
 use frontseat_config::InterfaceConfig;
 use frontseat_driver_sdk::Error;
+use frontseat_drivers::factory_with_env;
 use frontseat_sim::{SimHandle, SimOptions, SimServer};
 
 const LONG: Duration = Duration::from_secs(20);

@@ -10,7 +10,7 @@ use tokio::task::JoinHandle;
 
 use crate::driver::{SignalSink, raw_ascii};
 use crate::link::{LineWriter, WriteError};
-use crate::proto::goby::middleware::frontseat::protobuf::CommandResponse;
+use crate::proto::goby::middleware::frontseat::protobuf::{CommandResponse, FrontSeatState};
 use crate::ratelog::{LogDecision, RateLimitedLog};
 
 /// A driver's I/O task (link, NTP copy, …), aborted when replaced, cleared or dropped, so a
@@ -108,6 +108,44 @@ pub fn log_due(log: &mut RateLimitedLog) -> Option<u64> {
     match log.decide(tokio::time::Instant::now()) {
         LogDecision::Log { suppressed_before } => Some(suppressed_before),
         LogDecision::Suppress => None,
+    }
+}
+
+/// The counter every driver bumps for a line or frame it could not read (one metric for all
+/// drivers, so an operator's alert does not name the vehicle).
+pub use crate::metrics::bad_line;
+/// A line cut to a length fit for a log line.
+pub use crate::telemetry::truncate;
+
+pub fn state_of(name: frontseat_config::FrontSeatStateName) -> FrontSeatState {
+    match name {
+        frontseat_config::FrontSeatStateName::FrontseatNotConnected => {
+            FrontSeatState::FrontseatNotConnected
+        }
+        frontseat_config::FrontSeatStateName::FrontseatIdle => FrontSeatState::FrontseatIdle,
+        frontseat_config::FrontSeatStateName::FrontseatInControl => {
+            FrontSeatState::FrontseatInControl
+        }
+        frontseat_config::FrontSeatStateName::FrontseatAcceptingCommands => {
+            FrontSeatState::FrontseatAcceptingCommands
+        }
+    }
+}
+
+/// An extension of the driver's own vehicle decoded, or None after refusing it as an unknown
+/// one (answering a command that asked for a response) when its bytes do not decode.
+pub fn decoded<M: prost::Message + Default>(
+    ext: &crate::driver::DriverExtension,
+    sig: &mut dyn SignalSink,
+    driver: &str,
+) -> Option<M> {
+    match M::decode(ext.value()) {
+        Ok(m) => Some(m),
+        Err(e) => {
+            tracing::warn!(type_name = ext.type_name(), error = %e, "{driver}: extension does not decode; refused");
+            crate::driver::refuse_extension(sig, ext, driver);
+            None
+        }
     }
 }
 

@@ -1,33 +1,44 @@
-//! The built-in drivers and driver selection: a plugin library when FRONTSEAT_DRIVER_LIBRARY or
+//! Driver selection and the driver kit: a plugin library when FRONTSEAT_DRIVER_LIBRARY or
 //! `driver.library` names one (see plugin.rs), otherwise the built-in driver the config names
-//! (`driver.name`). Each built-in driver speaks through its vehicle crate's pure codec
-//! (`vehicles/<vehicle>/`; the basic simulator's is `frontseat_sim::codec`) and takes the glue
-//! they all need from [`kit`].
+//! (`driver.name`) among the [`BuiltIn`]s the caller passes. The built-in drivers live with their
+//! vehicles (`vehicles/<vehicle>/`, each on its own pure codec) and the list of them is the
+//! registry crate's (`vehicles/registry`, `frontseat-drivers`), so this runtime names no vehicle;
+//! every driver takes the glue they all need from [`kit`] and its byte link from [`vehicle_link`].
 
-pub mod ardupilot;
-pub mod basic_simulator;
-pub mod bluefin;
-pub mod iver3;
 pub mod kit;
 pub mod plugin;
-pub mod waveglider_sv2;
 
 use crate::driver::{Driver, DriverFactory};
 use frontseat_config::InterfaceConfig;
 
+/// A built-in driver: the name `driver.name` selects it by, and how it is built from a config
+/// (settings read once; the factory makes a fresh driver for every (re)start).
+#[derive(Clone, Copy)]
+pub struct BuiltIn {
+    pub name: &'static str,
+    pub factory: fn(&InterfaceConfig) -> DriverFactory,
+}
+
+impl std::fmt::Debug for BuiltIn {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("BuiltIn").field("name", &self.name).finish()
+    }
+}
+
 #[derive(Debug, thiserror::Error)]
 pub enum DriverSelectError {
-    #[error(
-        "unknown driver `{0}` (built-in drivers: basic_simulator, bluefin, iver3, waveglider_sv2, ardupilot)"
-    )]
-    Unknown(String),
+    #[error("unknown driver `{name}` (built-in drivers: {built_in})")]
+    Unknown { name: String, built_in: String },
     #[error(transparent)]
     Plugin(#[from] plugin::PluginError),
 }
 
 /// The factory for the driver the environment and the config select.
-pub fn factory(cfg: &InterfaceConfig) -> Result<DriverFactory, DriverSelectError> {
-    factory_with_env(cfg, &|k| std::env::var(k).ok())
+pub fn factory(
+    cfg: &InterfaceConfig,
+    built_in: &[BuiltIn],
+) -> Result<DriverFactory, DriverSelectError> {
+    factory_with_env(cfg, &|k| std::env::var(k).ok(), built_in)
 }
 
 /// [`factory`] with the environment given (tests). A plugin is checked before this returns:
@@ -35,6 +46,7 @@ pub fn factory(cfg: &InterfaceConfig) -> Result<DriverFactory, DriverSelectError
 pub fn factory_with_env(
     cfg: &InterfaceConfig,
     env: &dyn Fn(&str) -> Option<String>,
+    built_in: &[BuiltIn],
 ) -> Result<DriverFactory, DriverSelectError> {
     // A Goby3 driver library named by the environment or the config selects our built-in
     // driver (normally already applied when the config was loaded; applied here too so every
@@ -63,40 +75,16 @@ pub fn factory_with_env(
             Box::new(plugin::PluginDriver::new(settings.clone())) as Box<dyn Driver>
         }));
     }
-    match cfg.driver.name.as_str() {
-        "basic_simulator" => {
-            let settings = basic_simulator::Settings::from_config(cfg);
-            Ok(std::sync::Arc::new(move || {
-                Box::new(basic_simulator::BasicSimulatorDriver::new(settings.clone()))
-                    as Box<dyn Driver>
-            }))
-        }
-        frontseat_config::BLUEFIN => {
-            let settings = bluefin::Settings::from_config(cfg);
-            Ok(std::sync::Arc::new(move || {
-                Box::new(bluefin::BluefinDriver::new(settings.clone())) as Box<dyn Driver>
-            }))
-        }
-        frontseat_config::IVER3 => {
-            let settings = iver3::Settings::from_config(cfg);
-            Ok(std::sync::Arc::new(move || {
-                Box::new(iver3::Iver3Driver::new(settings.clone())) as Box<dyn Driver>
-            }))
-        }
-        frontseat_config::WAVEGLIDER_SV2 => {
-            let settings = waveglider_sv2::Settings::from_config(cfg);
-            Ok(std::sync::Arc::new(move || {
-                Box::new(waveglider_sv2::WavegliderSv2Driver::new(settings.clone()))
-                    as Box<dyn Driver>
-            }))
-        }
-        frontseat_config::ARDUPILOT => {
-            let settings = ardupilot::Settings::from_config(cfg);
-            Ok(std::sync::Arc::new(move || {
-                Box::new(ardupilot::ArdupilotDriver::new(settings.clone())) as Box<dyn Driver>
-            }))
-        }
-        other => Err(DriverSelectError::Unknown(other.to_string())),
+    match built_in.iter().find(|b| b.name == cfg.driver.name) {
+        Some(b) => Ok((b.factory)(cfg)),
+        None => Err(DriverSelectError::Unknown {
+            name: cfg.driver.name.clone(),
+            built_in: built_in
+                .iter()
+                .map(|b| b.name)
+                .collect::<Vec<_>>()
+                .join(", "),
+        }),
     }
 }
 

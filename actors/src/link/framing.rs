@@ -1,37 +1,43 @@
-//! How a byte link cuts its input into messages, with bounded memory: text lines (NMEA),
-//! Wave Glider SV2 binary frames or MAVLink frames. Both resynchronise after bad input instead of closing the
-//! link (a serial line cannot be "reconnected" past its noise), and report every problem as a
+//! How a byte link cuts its input into messages, with bounded memory: text lines (NMEA), or the
+//! binary frames of a vehicle whose crate supplies the [`FrameCutter`] (Wave Glider SV2, MAVLink),
+//! so the runtime names no vehicle protocol. Both resynchronise after bad input instead of closing
+//! the link (a serial line cannot be "reconnected" past its noise), and report every problem as a
 //! `BadInput` event the driver counts.
-
-use frontseat_waveglider_sv2::codec::FrameDecoder;
 
 use super::DriverIoEvent;
 
+/// A vehicle's binary framing: cuts bytes into whole frames with bounded memory and resynchronises
+/// after bad input. Every frame (`Ok`) or problem in words (`Err`) goes to `out`, in order.
+pub trait FrameCutter: Send {
+    fn feed(&mut self, bytes: &[u8], out: &mut dyn FnMut(Result<Vec<u8>, String>));
+}
+
+/// Makes the per-connection state of a binary framing (one per connection: a reconnect starts
+/// from a clean buffer).
+pub type NewFrameCutter = fn() -> Box<dyn FrameCutter>;
+
 /// How a link's input is cut into messages.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy)]
 pub enum Framing {
     /// `\n`-terminated lines (a `\r` before it is dropped); longer than this many bytes is
     /// discarded up to the next `\n`.
     Lines { max_line_bytes: usize },
-    /// SV2 frames: start byte 0x7E, escaping, size field, CRC-16/ARC.
-    Sv2Frames,
-    /// MAVLink 1/2 frames of the ardupilotmega dialect, CRC-checked (`frontseat_ardupilot::codec`).
-    Mavlink,
+    /// A vehicle's binary frames (SV2: `frontseat_waveglider_sv2::driver::sv2_frames`; MAVLink:
+    /// `frontseat_ardupilot::driver::mavlink_frames`).
+    Frames(NewFrameCutter),
 }
 
 /// Per-connection state of a [`Framing`].
 pub(crate) enum Deframer {
     Lines(LineSplitter),
-    Sv2(FrameDecoder),
-    Mavlink(frontseat_ardupilot::codec::Deframer),
+    Frames(Box<dyn FrameCutter>),
 }
 
 impl Deframer {
     pub(crate) fn new(f: Framing) -> Self {
         match f {
             Framing::Lines { max_line_bytes } => Deframer::Lines(LineSplitter::new(max_line_bytes)),
-            Framing::Sv2Frames => Deframer::Sv2(FrameDecoder::new()),
-            Framing::Mavlink => Deframer::Mavlink(frontseat_ardupilot::codec::Deframer::new()),
+            Framing::Frames(new) => Deframer::Frames(new()),
         }
     }
 
@@ -39,16 +45,9 @@ impl Deframer {
     pub(crate) fn feed(&mut self, bytes: &[u8], out: &mut dyn FnMut(DriverIoEvent)) {
         match self {
             Deframer::Lines(l) => l.feed(bytes, out),
-            Deframer::Sv2(d) => d.feed(bytes, &mut |r| match r {
-                Ok(f) => match f.unescaped() {
-                    Ok(b) => out(DriverIoEvent::Frame(b)),
-                    Err(e) => out(DriverIoEvent::BadInput(e.to_string())),
-                },
-                Err(e) => out(DriverIoEvent::BadInput(format!("SV2 framing: {e}"))),
-            }),
-            Deframer::Mavlink(d) => d.feed(bytes, &mut |r| match r {
+            Deframer::Frames(d) => d.feed(bytes, &mut |r| match r {
                 Ok(f) => out(DriverIoEvent::Frame(f)),
-                Err(e) => out(DriverIoEvent::BadInput(format!("MAVLink: {e}"))),
+                Err(e) => out(DriverIoEvent::BadInput(e)),
             }),
         }
     }

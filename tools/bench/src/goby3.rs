@@ -105,7 +105,7 @@ async fn run_inner(plan: Plan) -> Result<Vec<Row>, String> {
     // The helm's DRIVE goes through gobyd, as a Goby3 helm's would.
     tasks.push(helm_drive(&bus_helm));
 
-    let service = InterfaceService::start(&cfg, &bus_if)
+    let service = InterfaceService::start(&cfg, &bus_if, frontseat_drivers::BUILT_IN)
         .await
         .map_err(|e| format!("interface: {e}"))?;
     let gw_if = gateway(&bus_if, port, "FrontSeatInterface")?;

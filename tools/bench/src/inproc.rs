@@ -113,7 +113,7 @@ async fn run_inner(plan: Plan, sel: &super::Selection) -> Result<Vec<Row>, Strin
     let (_st_sub, mut st_rx) = status_channel(&bus, capacity);
     tasks.push(helm_drive(&bus));
 
-    let service = InterfaceService::start(&cfg, &bus)
+    let service = InterfaceService::start(&cfg, &bus, frontseat_drivers::BUILT_IN)
         .await
         .map_err(|e| format!("interface: {e}"))?;
     let rows = if reached_command(&mut st_rx).await {

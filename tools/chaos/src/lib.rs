@@ -1688,7 +1688,7 @@ impl Run {
             .await;
         self.monitor.process_gone();
         tokio::time::sleep(SERVICE_RESTART_SEC).await;
-        match InterfaceService::start(&self.config, &self.bus).await {
+        match InterfaceService::start(&self.config, &self.bus, frontseat_drivers::BUILT_IN).await {
             Ok(new) => {
                 let old = std::mem::replace(&mut self.service, new);
                 let _ = old.shutdown(Duration::from_millis(100)).await;
@@ -1932,7 +1932,7 @@ pub async fn run(
 
     let goby = Some(Goby::start(&bus).await?);
     let helm = Helm::start(&bus);
-    let service = InterfaceService::start(&config, &bus).await?;
+    let service = InterfaceService::start(&config, &bus, frontseat_drivers::BUILT_IN).await?;
     // The web commander, for the flood: loopback, with a token (without one it refuses sends).
     let web_cfg = frontseat_config::WebConfig {
         enabled: true,

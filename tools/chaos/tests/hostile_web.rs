@@ -104,7 +104,9 @@ async fn a_client_flooding_the_web_commander_reaches_nothing_bad() {
             }
         })
     };
-    let service = InterfaceService::start(&cfg, &bus).await.unwrap();
+    let service = InterfaceService::start(&cfg, &bus, frontseat_drivers::BUILT_IN)
+        .await
+        .unwrap();
     let web_cfg = frontseat_config::WebConfig {
         enabled: true,
         listen: "127.0.0.1:0".into(),

@@ -68,7 +68,9 @@ impl Stack {
         cfg.driver.basic_simulator.tcp_address = "127.0.0.1".into();
         cfg.driver.basic_simulator.tcp_port = sim.local_addr().port();
         let bus = Bus::new();
-        let service = InterfaceService::start(&cfg, &bus).await.unwrap();
+        let service = InterfaceService::start(&cfg, &bus, frontseat_drivers::BUILT_IN)
+            .await
+            .unwrap();
         let monkey = ChaosMonkeyPorts::new(&bus);
         driver_up(&service, 0).await;
         Self {

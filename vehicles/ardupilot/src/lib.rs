@@ -1,16 +1,30 @@
 //! ArduPilot (Rover with a boat frame; Sub) as a frontseat, over MAVLink: everything about the
-//! vehicle that does not need the runtime. Read top to bottom: [`codec`] (the wire: bounded
-//! deframing, CRC, decode/encode through the `mavlink` crate), [`modes`] (the autopilot's mode
-//! numbers), [`infer`] (what a backseat concludes from what the vehicle says, and what it sends
-//! for a course — pure functions), [`emulator`] (what ArduPilot Rover answers, on the
-//! simulator's vehicle model). The driver that uses these lives in the actors crate
-//! (`actors/src/drivers/ardupilot/`); see README.md for why it is split that way.
+//! vehicle. Read top to bottom: [`codec`] (the wire: bounded deframing, CRC, decode/encode
+//! through the `mavlink` crate), [`modes`] (the autopilot's mode numbers), [`infer`] (what a
+//! backseat concludes from what the vehicle says, and what it sends for a course — pure
+//! functions), [`driver`] (the state, the I/O and the glue to the runtime's driver trait),
+//! [`emulator`] (what ArduPilot Rover answers, on the simulator's vehicle model). See README.md.
 
 #![forbid(unsafe_code)]
 
 pub mod codec;
+pub mod driver;
 pub mod emulator;
 pub mod infer;
 pub mod modes;
 
 pub use mavlink::dialects::ardupilotmega as dialect;
+
+pub use driver::{ArdupilotCounters, ArdupilotDriver, Settings};
+
+/// The built-in `ardupilot` driver, as the registry (`vehicles/registry`) lists it.
+pub const DRIVER: frontseat_actors::drivers::BuiltIn = frontseat_actors::drivers::BuiltIn {
+    name: frontseat_config::ARDUPILOT,
+    factory: |cfg| {
+        let settings = Settings::from_config(cfg);
+        std::sync::Arc::new(move || {
+            Box::new(ArdupilotDriver::new(settings.clone()))
+                as Box<dyn frontseat_actors::driver::Driver>
+        })
+    },
+};

@@ -14,8 +14,8 @@ use super::Count;
 /// with its loop ticking). What parses formats back to a line that parses to the same thing;
 /// every line reaches raw_in once; no command response without a command; fixes are finite.
 pub fn bluefin_codec(data: &[u8]) {
-    use frontseat_actors::drivers::bluefin::codec::{FromHuxley, FromPayload, Sentence};
-    use frontseat_actors::drivers::bluefin::{BluefinDriver, Settings as BfSettings};
+    use frontseat_bluefin::codec::{FromHuxley, FromPayload, Sentence};
+    use frontseat_bluefin::{BluefinDriver, Settings as BfSettings};
 
     let mut cfg = InterfaceConfig::default();
     cfg.driver.name = "bluefin".into();

@@ -1,6 +1,6 @@
 //! The Bluefin Huxley "Standard Payload Interface" sentences: `$BF…` from the vehicle, `$BP…`
 //! from the payload, NMEA-framed with an XOR checksum. Pure text in, typed values out (and
-//! back); no I/O, no clock. Both the driver (`actors/src/drivers/bluefin/`) and the
+//! back); no I/O, no clock. Both the driver (`driver.rs`) and the
 //! Huxley emulator ([`crate::emulator`]) speak through this module, so a golden session replays
 //! against both sides with the same bytes.
 //!

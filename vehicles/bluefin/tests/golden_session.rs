@@ -2,7 +2,7 @@
 //! sentence line of both directions parses (its checksum holds), formats back to the same bytes,
 //! and decodes as the typed sentence of its side — `$BP…` as [`FromPayload`], `$BF…` as
 //! [`FromHuxley`], none of them unknown. The driver replays the same file against its own state
-//! (`actors/tests/bluefin_golden.rs`), so the wire facts and the behaviour share one transcript.
+//! (`tests/driver_golden.rs`), so the wire facts and the behaviour share one transcript.
 
 use frontseat_bluefin::codec::{FromHuxley, FromPayload, Sentence};
 

@@ -13,8 +13,8 @@ use super::Count;
 /// Iver3 driver. A parsed sentence formats to a line that parses to the same kind; the driver
 /// publishes raw_in once per line, never a non-finite fix, and no command response unasked.
 pub fn iver_sentence(data: &[u8]) {
-    use frontseat_actors::drivers::iver3::{Iver3Driver, Settings as IverSettings};
     use frontseat_iver3::codec::Sentence;
+    use frontseat_iver3::{Iver3Driver, Settings as IverSettings};
 
     let mut cfg = InterfaceConfig::default();
     cfg.driver.iver3.serial_port = "/dev/null".into();

@@ -1,6 +1,6 @@
 //! The UVC's units and mode letters, pure: feet and knots to metres and m/s and back, the `$OSI`
 //! mode letter, the heading as `$OMS` prints it, and the `$OMS` a course becomes. The driver maps
-//! these onto Goby's protobuf types at its edge (`actors/src/drivers/iver3/codec.rs`); they live
+//! these onto Goby's protobuf types at its edge (`edge.rs`); they live
 //! here so the emulator and the tests read the same rules without the runtime.
 
 use crate::codec::{MPS_PER_KNOT, Oms};

@@ -15,8 +15,8 @@ use super::Count;
 /// that decodes to the same message; the driver publishes raw_in once per frame and never
 /// answers a command it was not given.
 pub fn sv2_frame(data: &[u8]) {
-    use frontseat_actors::drivers::waveglider_sv2::{Settings as Sv2Settings, WavegliderSv2Driver};
     use frontseat_waveglider_sv2::codec::{FrameDecoder, MAX_FRAME, Packet};
+    use frontseat_waveglider_sv2::{Settings as Sv2Settings, WavegliderSv2Driver};
 
     let mut cfg = InterfaceConfig::default();
     cfg.driver.waveglider_sv2.pm_serial_port = "/dev/null".into();

@@ -5,8 +5,8 @@
 //! functions in the papers' units (conductivity ratio, °C IPTS-68, decibars); [`fill_ctd`] maps a
 //! CTDSample's SI fields onto them as Goby3 does. Checked against the papers' check values.
 
-use crate::proto::goby::middleware::frontseat::protobuf::CtdSample;
-use crate::proto::goby::middleware::frontseat::protobuf::ctd_sample::{
+use frontseat_actors::proto::goby::middleware::frontseat::protobuf::CtdSample;
+use frontseat_actors::proto::goby::middleware::frontseat::protobuf::ctd_sample::{
     DensityAlgorithm, SalinityAlgorithm, SoundSpeedAlgorithm,
 };
 

@@ -7,11 +7,11 @@
 use std::time::Duration;
 
 use frontseat_actors::driver::{Driver, DriverIoEvent};
-use frontseat_actors::drivers::bluefin::{BluefinDriver, Settings, codec};
 use frontseat_actors::link::LineWriter;
 use frontseat_actors::proto::goby::middleware::frontseat::protobuf::{
     CommandRequest, CommandResponse, DesiredCourse, FrontSeatState, source::Sensor,
 };
+use frontseat_bluefin::{BluefinDriver, Settings, codec};
 use frontseat_config::InterfaceConfig;
 
 /// 2025-11-22 00:00:00 UTC; the session runs from 12:00:00.
@@ -95,7 +95,7 @@ impl Replay {
 
 #[test]
 fn golden_session_replays_byte_for_byte() {
-    let text = include_str!("../../vehicles/bluefin/fixtures/golden_session.txt");
+    let text = include_str!("../fixtures/golden_session.txt");
     let mut r = Replay::new();
     assert_eq!(r.driver.frontseat_state(), FrontSeatState::FrontseatIdle);
     let mut expected: Vec<String> = Vec::new();

@@ -15,25 +15,34 @@ use std::time::Duration;
 use base64::Engine as _;
 use frontseat_config::{AcceptingCommandsHook, InterfaceConfig};
 
-use super::codec::{
+use crate::codec::{
     self, Ack, AckStatus, AdjustStatus, CtdOut, FromHuxley, FromPayload, HorizontalMode, Nvg, Nvr,
     Rmb, Sentence, SpeedMode, VerticalMode,
 };
-use crate::clock::SimClock;
-use crate::driver::{Driver, DriverContext, DriverIoEvent, IoSender, SignalSink, raw_ascii};
-use crate::drivers::kit::{DataWatch, OwnedTask, send_line};
-use crate::link::{self, LineWriter, LinkConfig};
-use crate::proto::frontseat::protobuf::bluefin as bf;
-use crate::proto::goby::acomms::protobuf::ModemRaw;
-use crate::proto::goby::middleware::frontseat::protobuf::{
+use frontseat_actors::clock::SimClock;
+use frontseat_actors::driver::{
+    Driver, DriverContext, DriverExtension, DriverIoEvent, IoSender, SignalSink, raw_ascii,
+    refuse_extension,
+};
+use frontseat_actors::drivers::kit::{DataWatch, OwnedTask, decoded, send_line};
+use frontseat_actors::link::{self, LineWriter, LinkConfig};
+use frontseat_actors::proto::frontseat::protobuf::bluefin as bf;
+use frontseat_actors::proto::goby::acomms::protobuf::ModemRaw;
+use frontseat_actors::proto::goby::middleware::frontseat::protobuf::{
     BluefinExtraData, BuoyancyStatus, CommandRequest, CommandResponse, CtdSample, DesiredCourse,
     EulerAngles, FrontSeatState, InterfaceData, NodeStatus, Raw, Source, Speed, TrimStatus,
     bluefin_extra_commands::{AbortReason, BluefinCommand, SilentMode},
     bluefin_extra_data::{PayloadStatus, RawDvl, RawThrusterRotation},
     source::Sensor,
 };
-use crate::proto::goby::middleware::protobuf::LatLonPoint;
-use crate::ratelog::{LogDecision, RateLimitedLog};
+use frontseat_actors::proto::goby::middleware::protobuf::LatLonPoint;
+use frontseat_actors::ratelog::{LogDecision, RateLimitedLog};
+
+/// The types of the Bluefin extension (Goby3's field 1000), as its groups declare them.
+pub const COMMAND: &str =
+    frontseat_actors::groups::FRONTSEAT_BLUEFIN_BLUEFIN_COMMAND_REQUEST.type_name();
+pub const DATA: &str =
+    frontseat_actors::groups::FRONTSEAT_BLUEFIN_BLUEFIN_DATA_FROM_FRONTSEAT.type_name();
 
 /// Sentences waiting to be written before new ones are refused: a Huxley that stops acking
 /// must not grow our memory.
@@ -385,7 +394,7 @@ impl BluefinDriver {
             Err(codec::CodecError::Empty) => return,
             Err(e) => {
                 self.stats.bad_lines += 1;
-                crate::metrics::bad_line();
+                frontseat_actors::drivers::kit::bad_line();
                 self.problem(&format!("bad line from the Huxley: {e}"), line);
                 return;
             }
@@ -396,7 +405,7 @@ impl BluefinDriver {
             Ok(m) => m,
             Err(e) => {
                 self.stats.bad_lines += 1;
-                crate::metrics::bad_line();
+                frontseat_actors::drivers::kit::bad_line();
                 self.problem(&format!("bad sentence from the Huxley: {e}"), line);
                 return;
             }
@@ -440,44 +449,54 @@ impl BluefinDriver {
                     }
                 }
             }
-            FromHuxley::Boy(b) => sig.bluefin_data_from_frontseat(extra(BluefinExtraData {
-                buoyancy_status: Some(buoyancy(&b)),
-                ..Default::default()
-            })),
-            FromHuxley::Trm(t) => sig.bluefin_data_from_frontseat(extra(BluefinExtraData {
-                trim_status: Some(trim(&t)),
-                ..Default::default()
-            })),
-            FromHuxley::Dvl(d) => sig.bluefin_data_from_frontseat(extra(BluefinExtraData {
-                dvl: Some(RawDvl {
-                    dvl_time: d
-                        .dvl_time
-                        .map(|t| codec::unix_of_time_of_day(t, (self.wall)(now))),
-                    u: d.u,
-                    v: d.v,
-                    w: d.w,
-                    beam1_range: d.beams[0],
-                    beam2_range: d.beams[1],
-                    beam3_range: d.beams[2],
-                    beam4_range: d.beams[3],
-                    temperature: d.temperature,
+            FromHuxley::Boy(b) => emit(
+                sig,
+                extra(BluefinExtraData {
+                    buoyancy_status: Some(buoyancy(&b)),
+                    ..Default::default()
                 }),
-                ..Default::default()
-            })),
-            FromHuxley::Rvl { rpm, speed, .. } => {
-                sig.bluefin_data_from_frontseat(extra(BluefinExtraData {
+            ),
+            FromHuxley::Trm(t) => emit(
+                sig,
+                extra(BluefinExtraData {
+                    trim_status: Some(trim(&t)),
+                    ..Default::default()
+                }),
+            ),
+            FromHuxley::Dvl(d) => emit(
+                sig,
+                extra(BluefinExtraData {
+                    dvl: Some(RawDvl {
+                        dvl_time: d
+                            .dvl_time
+                            .map(|t| codec::unix_of_time_of_day(t, (self.wall)(now))),
+                        u: d.u,
+                        v: d.v,
+                        w: d.w,
+                        beam1_range: d.beams[0],
+                        beam2_range: d.beams[1],
+                        beam3_range: d.beams[2],
+                        beam4_range: d.beams[3],
+                        temperature: d.temperature,
+                    }),
+                    ..Default::default()
+                }),
+            ),
+            FromHuxley::Rvl { rpm, speed, .. } => emit(
+                sig,
+                extra(BluefinExtraData {
                     thruster: Some(RawThrusterRotation {
                         rotation: rpm,
                         speed_from_lookup_table: speed,
                     }),
                     ..Default::default()
-                }))
-            }
+                }),
+            ),
             FromHuxley::Ctd(c) => {
                 let fix = self.nvg.as_ref().map(|n| (n.lat, n.lon, n.depth));
                 let (Some(t), Some(p)) = (c.temperature, c.pressure_kpa) else {
                     self.stats.bad_lines += 1;
-                    crate::metrics::bad_line();
+                    frontseat_actors::drivers::kit::bad_line();
                     self.problem("BFCTD without temperature or pressure", line);
                     return;
                 };
@@ -873,7 +892,9 @@ impl BluefinDriver {
 /// The fields of a CommandRequest, plain or Bluefin-extended.
 struct Cmd<'a> {
     desired: Option<&'a DesiredCourse>,
-    ext: Option<&'a crate::proto::goby::middleware::frontseat::protobuf::BluefinExtraCommands>,
+    ext: Option<
+        &'a frontseat_actors::proto::goby::middleware::frontseat::protobuf::BluefinExtraCommands,
+    >,
     response_requested: bool,
     request_id: Option<i32>,
     cancel_request_id: Option<i32>,
@@ -934,66 +955,8 @@ fn trim(t: &AdjustStatus) -> TrimStatus {
     }
 }
 
-impl Driver for BluefinDriver {
-    fn name(&self) -> &str {
-        "bluefin"
-    }
-
-    fn start(&mut self, ctx: DriverContext) {
-        self.io = Some(ctx.io.clone());
-        self.link_task
-            .set(link::spawn(self.settings.link.clone(), ctx.io));
-    }
-
-    fn handle_io(&mut self, ev: DriverIoEvent, now: Duration, sig: &mut dyn SignalSink) {
-        match ev {
-            DriverIoEvent::Connected(w) => {
-                tracing::info!(
-                    host = %self.settings.link.host,
-                    port = self.settings.link.port,
-                    "connected to the Huxley; enabling its sentences"
-                );
-                self.writer = Some(w);
-                self.initialise(now, sig);
-            }
-            DriverIoEvent::Line(line) => self.handle_line(&line, now, sig),
-            DriverIoEvent::BadInput(what) => {
-                self.stats.bad_lines += 1;
-                crate::metrics::bad_line();
-                self.problem("bad input from the Huxley", &what);
-            }
-            DriverIoEvent::Frame(_) => {
-                self.stats.bad_lines += 1;
-                crate::metrics::bad_line();
-                self.problem("binary frame on a Huxley link", "");
-            }
-            DriverIoEvent::Disconnected(reason) => {
-                tracing::warn!(%reason, "Huxley connection lost; reconnecting");
-                self.writer = None;
-                self.state = FrontSeatState::FrontseatNotConnected;
-                self.nav.lost();
-                self.fail_all("connection to the Huxley lost", sig);
-            }
-        }
-    }
-
-    fn send_command_to_frontseat(
-        &mut self,
-        req: &CommandRequest,
-        now: Duration,
-        sig: &mut dyn SignalSink,
-    ) {
-        let c = Cmd {
-            desired: req.desired_course.as_ref(),
-            ext: None,
-            response_requested: req.response_requested(),
-            request_id: req.request_id,
-            cancel_request_id: req.cancel_request_id,
-        };
-        self.command(c, now, sig);
-    }
-
-    fn send_bluefin_command(
+impl BluefinDriver {
+    pub fn send_bluefin_command(
         &mut self,
         req: &bf::CommandRequest,
         now: Duration,
@@ -1009,16 +972,7 @@ impl Driver for BluefinDriver {
         self.command(c, now, sig);
     }
 
-    fn send_data_to_frontseat(
-        &mut self,
-        data: &InterfaceData,
-        now: Duration,
-        sig: &mut dyn SignalSink,
-    ) {
-        self.data(data, now, sig);
-    }
-
-    fn send_bluefin_data(
+    pub fn send_bluefin_data(
         &mut self,
         data: &bf::InterfaceData,
         now: Duration,
@@ -1047,12 +1001,102 @@ impl Driver for BluefinDriver {
             self.enqueue(FromPayload::Tmr { time: tod, line }, None, now, sig);
         }
     }
+}
+
+/// Extension data to the interface, tagged with its type.
+fn emit(sig: &mut dyn SignalSink, data: bf::InterfaceData) {
+    sig.extension_from_frontseat(DriverExtension::encode(DATA, "Bluefin", &data));
+}
+
+impl Driver for BluefinDriver {
+    fn send_extension(&mut self, ext: &DriverExtension, now: Duration, sig: &mut dyn SignalSink) {
+        match ext.type_name() {
+            COMMAND => {
+                if let Some(r) = decoded::<bf::CommandRequest>(ext, sig, self.name()) {
+                    self.send_bluefin_command(&r, now, sig);
+                }
+            }
+            DATA => {
+                if let Some(d) = decoded::<bf::InterfaceData>(ext, sig, self.name()) {
+                    self.send_bluefin_data(&d, now, sig);
+                }
+            }
+            _ => refuse_extension(sig, ext, self.name()),
+        }
+    }
+
+    fn name(&self) -> &str {
+        "bluefin"
+    }
+
+    fn start(&mut self, ctx: DriverContext) {
+        self.io = Some(ctx.io.clone());
+        self.link_task
+            .set(link::spawn(self.settings.link.clone(), ctx.io));
+    }
+
+    fn handle_io(&mut self, ev: DriverIoEvent, now: Duration, sig: &mut dyn SignalSink) {
+        match ev {
+            DriverIoEvent::Connected(w) => {
+                tracing::info!(
+                    host = %self.settings.link.host,
+                    port = self.settings.link.port,
+                    "connected to the Huxley; enabling its sentences"
+                );
+                self.writer = Some(w);
+                self.initialise(now, sig);
+            }
+            DriverIoEvent::Line(line) => self.handle_line(&line, now, sig),
+            DriverIoEvent::BadInput(what) => {
+                self.stats.bad_lines += 1;
+                frontseat_actors::drivers::kit::bad_line();
+                self.problem("bad input from the Huxley", &what);
+            }
+            DriverIoEvent::Frame(_) => {
+                self.stats.bad_lines += 1;
+                frontseat_actors::drivers::kit::bad_line();
+                self.problem("binary frame on a Huxley link", "");
+            }
+            DriverIoEvent::Disconnected(reason) => {
+                tracing::warn!(%reason, "Huxley connection lost; reconnecting");
+                self.writer = None;
+                self.state = FrontSeatState::FrontseatNotConnected;
+                self.nav.lost();
+                self.fail_all("connection to the Huxley lost", sig);
+            }
+        }
+    }
+
+    fn send_command_to_frontseat(
+        &mut self,
+        req: &CommandRequest,
+        now: Duration,
+        sig: &mut dyn SignalSink,
+    ) {
+        let c = Cmd {
+            desired: req.desired_course.as_ref(),
+            ext: None,
+            response_requested: req.response_requested(),
+            request_id: req.request_id,
+            cancel_request_id: req.cancel_request_id,
+        };
+        self.command(c, now, sig);
+    }
+
+    fn send_data_to_frontseat(
+        &mut self,
+        data: &InterfaceData,
+        now: Duration,
+        sig: &mut dyn SignalSink,
+    ) {
+        self.data(data, now, sig);
+    }
 
     fn send_raw_to_frontseat(&mut self, raw: &Raw, now: Duration, sig: &mut dyn SignalSink) {
         let bytes = raw.raw.as_deref().unwrap_or_default();
         let Ok(text) = std::str::from_utf8(bytes) else {
             self.stats.bad_lines += 1;
-            crate::metrics::bad_line();
+            frontseat_actors::drivers::kit::bad_line();
             self.problem(
                 "raw_send_request is not text; Huxley sentences are ASCII",
                 "",
@@ -1069,7 +1113,7 @@ impl Driver for BluefinDriver {
             Ok(s) => self.enqueue(FromPayload::Other(s), None, now, sig),
             Err(e) => {
                 self.stats.bad_lines += 1;
-                crate::metrics::bad_line();
+                frontseat_actors::drivers::kit::bad_line();
                 self.problem(&format!("raw_send_request is not a sentence: {e}"), text);
             }
         }
@@ -1097,9 +1141,9 @@ impl Driver for BluefinDriver {
 
     fn interface_status(
         &mut self,
-        status: &crate::proto::goby::middleware::frontseat::protobuf::InterfaceStatus,
+        status: &frontseat_actors::proto::goby::middleware::frontseat::protobuf::InterfaceStatus,
     ) {
-        use crate::proto::goby::middleware::frontseat::protobuf::InterfaceState;
+        use frontseat_actors::proto::goby::middleware::frontseat::protobuf::InterfaceState;
         self.interface_in_error = matches!(
             status.state(),
             InterfaceState::InterfaceHelmError | InterfaceState::InterfaceFsError

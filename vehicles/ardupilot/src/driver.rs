@@ -9,31 +9,37 @@ use std::collections::{BTreeMap, VecDeque};
 use std::sync::Arc;
 use std::time::Duration;
 
-use frontseat_ardupilot::codec::{self, FrameError, MavMessage, Sender};
-use frontseat_ardupilot::dialect::{
+use crate::codec::{self, FrameError, MavMessage, Sender};
+use crate::dialect::{
     COMMAND_LONG_DATA, EkfStatusFlags, GpsFixType, HEARTBEAT_DATA, MavAutopilot, MavCmd,
     MavModeFlag, MavResult, MavSeverity, MavState, MavSysStatusSensor, MavType,
 };
-use frontseat_ardupilot::infer::{self, Beat};
-use frontseat_ardupilot::modes::{Control, Firmware};
+use crate::infer::{self, Beat};
+use crate::modes::{Control, Firmware};
 use frontseat_config::{ArdupilotVehicle, InterfaceConfig, MavlinkAddress};
 
-use crate::clock::SimClock;
-use crate::driver::{Driver, DriverContext, DriverIoEvent, SignalSink};
-use crate::drivers::iver3::driver::state_of;
-use crate::link::LineWriter;
-use crate::link::byte::{self, ByteLinkConfig, LinkStats, Transport};
-use crate::link::framing::Framing;
-use crate::link::serial::SerialSettings;
-use crate::proto::frontseat::protobuf::ardupilot::{
+use frontseat_actors::clock::SimClock;
+use frontseat_actors::driver::{
+    Driver, DriverContext, DriverExtension, DriverIoEvent, SignalSink, refuse_extension,
+};
+use frontseat_actors::drivers::kit::{decoded, state_of};
+use frontseat_actors::link::LineWriter;
+use frontseat_actors::link::byte::{self, ByteLinkConfig, LinkStats, Transport};
+use frontseat_actors::link::framing::{FrameCutter, Framing};
+use frontseat_actors::link::serial::SerialSettings;
+use frontseat_actors::proto::frontseat::protobuf::ardupilot::{
     CommandRequest as ArdupilotCommandRequest, ardupilot_command::Action,
 };
-use crate::proto::goby::middleware::frontseat::protobuf::{
+use frontseat_actors::proto::goby::middleware::frontseat::protobuf::{
     CommandRequest, CommandResponse, EulerAngles, FrontSeatState, InterfaceData, NodeStatus, Raw,
     Speed, raw::RawType,
 };
-use crate::proto::goby::middleware::protobuf::LatLonPoint;
-use crate::ratelog::{LogDecision, RateLimitedLog};
+use frontseat_actors::proto::goby::middleware::protobuf::LatLonPoint;
+use frontseat_actors::ratelog::{LogDecision, RateLimitedLog};
+
+/// The type of our ArduPilot extension (field 1002), as its group declares it.
+pub const COMMAND: &str =
+    frontseat_actors::groups::FRONTSEAT_ARDUPILOT_ARDUPILOT_COMMAND_REQUEST.type_name();
 
 /// Requests awaiting a verdict at most (older ones are answered as failed).
 const MAX_PENDING: usize = 64;
@@ -84,7 +90,7 @@ impl Settings {
         Self {
             link: transport.map(|transport| ByteLinkConfig {
                 transport,
-                framing: Framing::Mavlink,
+                framing: Framing::Frames(mavlink_frames),
                 backoff_initial: Duration::from_millis(c.reconnect_initial_ms.max(1)),
                 backoff_max: Duration::from_millis(
                     c.reconnect_max_ms.max(c.reconnect_initial_ms).max(1),
@@ -309,7 +315,7 @@ impl ArdupilotDriver {
 
     fn bad(&mut self, what: &str) {
         self.counters.bad_input += 1;
-        crate::metrics::bad_line();
+        frontseat_actors::drivers::kit::bad_line();
         if let LogDecision::Log {
             suppressed_before: suppressed,
         } = self.bad_log.decide(tokio::time::Instant::now())
@@ -713,7 +719,94 @@ impl Drop for ArdupilotDriver {
     }
 }
 
+impl ArdupilotDriver {
+    pub fn send_ardupilot_command(
+        &mut self,
+        req: &ArdupilotCommandRequest,
+        now: Duration,
+        sig: &mut dyn SignalSink,
+    ) {
+        let base = CommandRequest {
+            desired_course: req.desired_course,
+            response_requested: req.response_requested,
+            request_id: req.request_id,
+            cancel_request_id: req.cancel_request_id,
+        };
+        if !self.settings.allow_mode_commands {
+            fail(
+                &base,
+                "ArduPilot mode and arming commands are off ([driver.ardupilot] allow_mode_commands = false)",
+                sig,
+            );
+            return;
+        }
+        let action = req.ardupilot_command.as_ref().map(|c| c.action());
+        let fw = self.settings.firmware;
+        let (cmd, p1, p2) = match action {
+            Some(Action::Guided) => {
+                // README: GUIDED before the estimate is ready ends in an EKF failsafe to HOLD.
+                if let Err(why) = self.nav_ready() {
+                    fail(
+                        &base,
+                        &format!("navigation not ready for GUIDED: {why}"),
+                        sig,
+                    );
+                    return;
+                }
+                if !self.providing_data {
+                    fail(
+                        &base,
+                        "navigation not ready for GUIDED: no usable position yet",
+                        sig,
+                    );
+                    return;
+                }
+                (MavCmd::MAV_CMD_DO_SET_MODE, 1.0, fw.guided() as f32)
+            }
+            Some(Action::Hold) => (MavCmd::MAV_CMD_DO_SET_MODE, 1.0, fw.hold() as f32),
+            Some(Action::Arm) => (MavCmd::MAV_CMD_COMPONENT_ARM_DISARM, 1.0, 0.0),
+            Some(Action::Disarm) => (MavCmd::MAV_CMD_COMPONENT_ARM_DISARM, 0.0, 0.0),
+            Some(Action::Unknown) | None => {
+                if base.desired_course.is_some() {
+                    self.send_command_to_frontseat(&base, now, sig);
+                } else {
+                    fail(&base, "ardupilot_command without an action", sig);
+                }
+                return;
+            }
+        };
+        if self.vehicle.is_none() || !self.command_long(cmd, p1, p2, sig) {
+            fail(&base, "not connected to the vehicle: command not sent", sig);
+            return;
+        }
+        let with_course = base.desired_course.is_some();
+        self.push_pending(
+            Pending {
+                request_id: base.request_id,
+                respond: base.response_requested() && !with_course,
+                deadline: now + self.settings.ack_timeout,
+                command: Some(cmd),
+            },
+            sig,
+        );
+        if with_course {
+            self.send_command_to_frontseat(&base, now, sig);
+        }
+    }
+}
+
 impl Driver for ArdupilotDriver {
+    fn send_extension(&mut self, ext: &DriverExtension, now: Duration, sig: &mut dyn SignalSink) {
+        match ext.type_name() {
+            COMMAND => {
+                if let Some(r) = decoded::<ArdupilotCommandRequest>(ext, sig, self.name()) {
+                    self.send_ardupilot_command(&r, now, sig);
+                }
+            }
+            _ => refuse_extension(sig, ext, self.name()),
+        }
+    }
+
     fn name(&self) -> &str {
         "ardupilot"
     }
@@ -811,80 +904,6 @@ impl Driver for ArdupilotDriver {
                 },
                 sig,
             );
-        }
-    }
-
-    fn send_ardupilot_command(
-        &mut self,
-        req: &ArdupilotCommandRequest,
-        now: Duration,
-        sig: &mut dyn SignalSink,
-    ) {
-        let base = CommandRequest {
-            desired_course: req.desired_course,
-            response_requested: req.response_requested,
-            request_id: req.request_id,
-            cancel_request_id: req.cancel_request_id,
-        };
-        if !self.settings.allow_mode_commands {
-            fail(
-                &base,
-                "ArduPilot mode and arming commands are off ([driver.ardupilot] allow_mode_commands = false)",
-                sig,
-            );
-            return;
-        }
-        let action = req.ardupilot_command.as_ref().map(|c| c.action());
-        let fw = self.settings.firmware;
-        let (cmd, p1, p2) = match action {
-            Some(Action::Guided) => {
-                // README: GUIDED before the estimate is ready ends in an EKF failsafe to HOLD.
-                if let Err(why) = self.nav_ready() {
-                    fail(
-                        &base,
-                        &format!("navigation not ready for GUIDED: {why}"),
-                        sig,
-                    );
-                    return;
-                }
-                if !self.providing_data {
-                    fail(
-                        &base,
-                        "navigation not ready for GUIDED: no usable position yet",
-                        sig,
-                    );
-                    return;
-                }
-                (MavCmd::MAV_CMD_DO_SET_MODE, 1.0, fw.guided() as f32)
-            }
-            Some(Action::Hold) => (MavCmd::MAV_CMD_DO_SET_MODE, 1.0, fw.hold() as f32),
-            Some(Action::Arm) => (MavCmd::MAV_CMD_COMPONENT_ARM_DISARM, 1.0, 0.0),
-            Some(Action::Disarm) => (MavCmd::MAV_CMD_COMPONENT_ARM_DISARM, 0.0, 0.0),
-            Some(Action::Unknown) | None => {
-                if base.desired_course.is_some() {
-                    self.send_command_to_frontseat(&base, now, sig);
-                } else {
-                    fail(&base, "ardupilot_command without an action", sig);
-                }
-                return;
-            }
-        };
-        if self.vehicle.is_none() || !self.command_long(cmd, p1, p2, sig) {
-            fail(&base, "not connected to the vehicle: command not sent", sig);
-            return;
-        }
-        let with_course = base.desired_course.is_some();
-        self.push_pending(
-            Pending {
-                request_id: base.request_id,
-                respond: base.response_requested() && !with_course,
-                deadline: now + self.settings.ack_timeout,
-                command: Some(cmd),
-            },
-            sig,
-        );
-        if with_course {
-            self.send_command_to_frontseat(&base, now, sig);
         }
     }
 
@@ -992,18 +1011,32 @@ impl Driver for ArdupilotDriver {
     }
 }
 
+/// MAVLink 1/2 frames of the ardupilotmega dialect on a byte link, CRC-checked by the codec's
+/// bounded deframer.
+pub fn mavlink_frames() -> Box<dyn FrameCutter> {
+    Box::new(MavlinkFrames(codec::Deframer::new()))
+}
+
+struct MavlinkFrames(codec::Deframer);
+
+impl FrameCutter for MavlinkFrames {
+    fn feed(&mut self, bytes: &[u8], out: &mut dyn FnMut(Result<Vec<u8>, String>)) {
+        self.0
+            .feed(bytes, &mut |r| out(r.map_err(|e| format!("MAVLink: {e}"))))
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::proto::frontseat::protobuf::ardupilot::ArdupilotCommand;
-    use crate::proto::goby::middleware::frontseat::protobuf::DesiredCourse;
+    use frontseat_actors::proto::frontseat::protobuf::ardupilot::ArdupilotCommand;
+    use frontseat_actors::proto::goby::middleware::frontseat::protobuf::DesiredCourse;
     use tokio::sync::mpsc::Receiver;
 
-    type Sink = crate::driver::RecordingSink;
+    type Sink = frontseat_actors::driver::RecordingSink;
 
     /// Vehicle-side frames encoded by pymavlink (see the file's header).
-    const FIXTURE: &str =
-        include_str!("../../../../vehicles/ardupilot/fixtures/pymavlink_vehicle_frames.hex");
+    const FIXTURE: &str = include_str!("../fixtures/pymavlink_vehicle_frames.hex");
 
     fn frame(name: &str) -> Vec<u8> {
         let hex = FIXTURE
@@ -1160,7 +1193,7 @@ mod tests {
         // SYS_STATUS: the GPS sensor present and enabled but not healthy.
         feed(&mut d, &mut sink, "gps_3d", 3.0);
         let gps = MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_GPS;
-        let sick = MavMessage::SYS_STATUS(frontseat_ardupilot::dialect::SYS_STATUS_DATA {
+        let sick = MavMessage::SYS_STATUS(crate::dialect::SYS_STATUS_DATA {
             onboard_control_sensors_present: gps,
             onboard_control_sensors_enabled: gps,
             onboard_control_sensors_health: MavSysStatusSensor::empty(),
@@ -1212,7 +1245,7 @@ mod tests {
             );
         }
         assert!(d.counters.bad_input >= before + 10_001);
-        let nan = MavMessage::ATTITUDE(frontseat_ardupilot::dialect::ATTITUDE_DATA {
+        let nan = MavMessage::ATTITUDE(crate::dialect::ATTITUDE_DATA {
             roll: f32::NAN,
             ..Default::default()
         });

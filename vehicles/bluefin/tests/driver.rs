@@ -6,8 +6,6 @@
 use std::time::Duration;
 
 use frontseat_actors::driver::{Driver, DriverIoEvent};
-use frontseat_actors::drivers::bluefin::driver::error_code;
-use frontseat_actors::drivers::bluefin::{BluefinDriver, Settings, codec};
 use frontseat_actors::link::LineWriter;
 use frontseat_actors::proto;
 use frontseat_actors::proto::frontseat::protobuf::bluefin as bf;
@@ -16,6 +14,8 @@ use frontseat_actors::proto::goby::middleware::frontseat::protobuf::{
     BluefinExtraCommands, BluefinExtraData, CommandRequest, DesiredCourse, FrontSeatState, Raw,
     bluefin_extra_commands::BluefinCommand, bluefin_extra_data::PayloadStatus,
 };
+use frontseat_bluefin::driver::error_code;
+use frontseat_bluefin::{BluefinDriver, Settings, codec};
 use frontseat_config::{AcceptingCommandsHook, InterfaceConfig, RpmTableEntry};
 use prost::Message;
 
@@ -594,13 +594,15 @@ fn huxley_extension_data_is_published_with_goby3_fields() {
     h.feed("$BFTRM,120024.000,2,0,done,1.2,0.3*56");
     h.feed("$BFRVL,120025.000,1200,1.5*53");
     h.feed("$BFDVL,120026.000,1.5,0.01,-0.02,10.1,10.2,10.3,10.4,12.5,120025.900*48");
+    assert_eq!(h.sink.extensions.len(), 4);
     let d: Vec<_> = h
         .sink
-        .bluefin
-        .iter()
-        .map(|d| d.bluefin_data.clone().unwrap())
+        .extensions_of::<bf::InterfaceData>(frontseat_bluefin::driver::DATA)
+        .into_iter()
+        .map(|d| d.bluefin_data.unwrap())
         .collect();
-    assert_eq!(d.len(), 4);
+    assert_eq!(d.len(), 4, "every one of the Bluefin's type, and decodes");
+    assert!(h.sink.extensions.iter().all(|e| e.vehicle() == "Bluefin"));
     let b = d[0].buoyancy_status.as_ref().unwrap();
     assert_eq!((b.status, b.buoyancy_newtons), (Some(2), Some(-1.5)));
     let t = d[1].trim_status.as_ref().unwrap();
@@ -625,7 +627,7 @@ fn huxley_extension_data_is_published_with_goby3_fields() {
     assert_eq!(c.conductivity, Some(4.2));
     assert_eq!((c.temperature, c.pressure), (12.5, 201_325.0));
     // Completed as Goby3's compute_missing: PSS-78 salinity, Mackenzie sound speed, EOS-80.
-    let sal = frontseat_actors::seawater::salinity_pss78(4.2 / 4.2914, 12.5, 20.1325);
+    let sal = frontseat_bluefin::seawater::salinity_pss78(4.2 / 4.2914, 12.5, 20.1325);
     assert_eq!(c.salinity, sal);
     assert!((35.0..38.0).contains(&c.salinity), "{}", c.salinity);
     assert!(

@@ -7,26 +7,35 @@ use std::collections::VecDeque;
 use std::sync::Arc;
 use std::time::Duration;
 
-use frontseat_config::{FrontSeatStateName, InterfaceConfig, IverModeAssignments};
+use frontseat_config::{InterfaceConfig, IverModeAssignments};
 
-use super::codec::{self, IverMode, Sentence, ack_type};
-use crate::clock::SimClock;
-use crate::driver::{Driver, DriverContext, DriverIoEvent, SignalSink, raw_ascii};
-use crate::drivers::kit::{DataWatch, OwnedTask, failure, log_due, send_line};
-use crate::drivers::vehicle_link;
-use crate::link::LineWriter;
-use crate::link::byte::{self, ByteLinkConfig, LinkStats, Transport};
-use crate::link::framing::Framing;
-use crate::link::serial::SerialSettings;
-use crate::proto::frontseat::protobuf::iver::{
+use crate::edge::{self as codec, IverMode, Sentence, ack_type};
+use frontseat_actors::clock::SimClock;
+use frontseat_actors::driver::{
+    Driver, DriverContext, DriverExtension, DriverIoEvent, SignalSink, raw_ascii, refuse_extension,
+};
+use frontseat_actors::drivers::kit::{
+    DataWatch, OwnedTask, decoded, failure, log_due, send_line, state_of,
+};
+use frontseat_actors::drivers::vehicle_link;
+use frontseat_actors::link::LineWriter;
+use frontseat_actors::link::byte::{self, ByteLinkConfig, LinkStats, Transport};
+use frontseat_actors::link::framing::Framing;
+use frontseat_actors::link::serial::SerialSettings;
+use frontseat_actors::proto::frontseat::protobuf::iver::{
     CommandRequest as IverCommandRequest, InterfaceData as IverInterfaceData,
 };
-use crate::proto::goby::middleware::frontseat::protobuf::IverState;
-use crate::proto::goby::middleware::frontseat::protobuf::iver_extra_commands::IverCommand;
-use crate::proto::goby::middleware::frontseat::protobuf::{
+use frontseat_actors::proto::goby::middleware::frontseat::protobuf::IverState;
+use frontseat_actors::proto::goby::middleware::frontseat::protobuf::iver_extra_commands::IverCommand;
+use frontseat_actors::proto::goby::middleware::frontseat::protobuf::{
     CommandRequest, CommandResponse, FrontSeatState, InterfaceData, NodeStatus, Raw,
 };
-use crate::ratelog::RateLimitedLog;
+use frontseat_actors::ratelog::RateLimitedLog;
+
+/// The types of Goby3's Iver3 extension (field 1001), as its groups declare them.
+pub const COMMAND: &str = frontseat_actors::groups::FRONTSEAT_IVER_IVER_COMMAND_REQUEST.type_name();
+pub const DATA: &str =
+    frontseat_actors::groups::FRONTSEAT_IVER_IVER_DATA_FROM_FRONTSEAT.type_name();
 
 /// Goby3's fixed baud of the NTP copy port.
 const NTP_BAUD: u32 = 4800;
@@ -50,17 +59,6 @@ pub struct Settings {
 /// FrontSeatState per UVC mode.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ModeTable(pub IverModeAssignments);
-
-pub fn state_of(name: FrontSeatStateName) -> FrontSeatState {
-    match name {
-        FrontSeatStateName::FrontseatNotConnected => FrontSeatState::FrontseatNotConnected,
-        FrontSeatStateName::FrontseatIdle => FrontSeatState::FrontseatIdle,
-        FrontSeatStateName::FrontseatInControl => FrontSeatState::FrontseatInControl,
-        FrontSeatStateName::FrontseatAcceptingCommands => {
-            FrontSeatState::FrontseatAcceptingCommands
-        }
-    }
-}
 
 impl ModeTable {
     pub fn state(&self, m: IverMode) -> FrontSeatState {
@@ -190,7 +188,7 @@ impl Iver3Driver {
 
     fn bad(&mut self, what: &str) {
         self.counters.bad_lines += 1;
-        crate::metrics::bad_line();
+        frontseat_actors::drivers::kit::bad_line();
         if let Some(suppressed) = log_due(&mut self.bad_log) {
             tracing::warn!(%what, suppressed, "bad input from the Iver");
         }
@@ -205,7 +203,10 @@ impl Iver3Driver {
         let s = match Sentence::parse(line) {
             Ok(s) => s,
             Err(e) => {
-                self.bad(&format!("{e}: {}", crate::telemetry::truncate(line)));
+                self.bad(&format!(
+                    "{e}: {}",
+                    frontseat_actors::drivers::kit::truncate(line)
+                ));
                 return;
             }
         };
@@ -224,13 +225,16 @@ impl Iver3Driver {
                 // Goby3 publishes one InterfaceData with the iver_state extension; the same
                 // bytes go on frontseat::iver::iver_data_from_frontseat, and the plain one (the
                 // base fields Goby3's subscribers decode) on data_from_frontseat.
-                sig.iver_data_from_frontseat(IverInterfaceData {
-                    node_status: Some(ns.clone()),
-                    iver_state: Some(IverState {
-                        mode: Some(codec::mode_proto(self.mode) as i32),
-                    }),
-                    ..Default::default()
-                });
+                emit(
+                    sig,
+                    IverInterfaceData {
+                        node_status: Some(ns.clone()),
+                        iver_state: Some(IverState {
+                            mode: Some(codec::mode_proto(self.mode) as i32),
+                        }),
+                        ..Default::default()
+                    },
+                );
                 sig.data_from_frontseat(InterfaceData {
                     node_status: Some(ns),
                     ..Default::default()
@@ -326,7 +330,91 @@ impl Iver3Driver {
     }
 }
 
+impl Iver3Driver {
+    /// Goby3's iver_command: START_MISSION with a mission → `$OMSTART`, STOP_MISSION →
+    /// `$OMSTOP,0`, each awaiting its `$ACK` like `$OMS`; a desired_course in the same request is
+    /// sent after it (as Goby3). START_MISSION without a mission is refused (Goby3 only logs).
+    pub fn send_iver_command(
+        &mut self,
+        req: &IverCommandRequest,
+        now: Duration,
+        sig: &mut dyn SignalSink,
+    ) {
+        let base = CommandRequest {
+            desired_course: req.desired_course,
+            response_requested: req.response_requested,
+            request_id: req.request_id,
+            cancel_request_id: req.cancel_request_id,
+        };
+        let extra = req.iver_command.as_ref();
+        let sentence = match extra.map(|c| (c.command(), c.mission.as_deref().unwrap_or(""))) {
+            Some((IverCommand::StartMission, "")) => {
+                tracing::warn!("iver_command START_MISSION without a mission name: refused");
+                Self::fail(&base, "START_MISSION needs a mission name", sig);
+                return;
+            }
+            Some((IverCommand::StartMission, m)) if !codec::is_field_safe(m) => {
+                self.bad("iver_command mission name is not a plain NMEA field");
+                Self::fail(
+                    &base,
+                    "mission name must be printable ASCII without , * $",
+                    sig,
+                );
+                return;
+            }
+            Some((IverCommand::StartMission, m)) => Some((
+                Sentence::OmStart {
+                    mission: m.to_string(),
+                },
+                ack_type::OMSTART,
+            )),
+            Some((IverCommand::StopMission, _)) => Some((Sentence::OmStop, ack_type::OMSTOP)),
+            Some((IverCommand::UnknownCommand, _)) | None => None,
+        };
+        let Some((sentence, ack)) = sentence else {
+            // Nothing for the extension: the course alone, if any.
+            if base.desired_course.is_some() {
+                self.send_command_to_frontseat(&base, now, sig);
+            } else {
+                Self::fail(&base, "iver_command without a command", sig);
+            }
+            return;
+        };
+        let line = sentence.to_line();
+        if !self.write(&line, sig) {
+            Self::fail(
+                &base,
+                "not connected to the Iver: mission command not sent",
+                sig,
+            );
+            return;
+        }
+        // With a course as well, the response answers the course's $ACK (as one request).
+        let respond = base.response_requested() && base.desired_course.is_none();
+        self.await_ack(ack, base.request_id, respond, now, sig);
+        if base.desired_course.is_some() {
+            self.send_command_to_frontseat(&base, now, sig);
+        }
+    }
+}
+
+/// Extension data to the interface, tagged with its type.
+fn emit(sig: &mut dyn SignalSink, data: IverInterfaceData) {
+    sig.extension_from_frontseat(DriverExtension::encode(DATA, "Iver3", &data));
+}
+
 impl Driver for Iver3Driver {
+    fn send_extension(&mut self, ext: &DriverExtension, now: Duration, sig: &mut dyn SignalSink) {
+        match ext.type_name() {
+            COMMAND => {
+                if let Some(r) = decoded::<IverCommandRequest>(ext, sig, self.name()) {
+                    self.send_iver_command(&r, now, sig);
+                }
+            }
+            _ => refuse_extension(sig, ext, self.name()),
+        }
+    }
+
     fn name(&self) -> &str {
         "iver3"
     }
@@ -341,7 +429,7 @@ impl Driver for Iver3Driver {
             // Write-only: what the NTP side sends back is discarded (as Goby3), so its events
             // stay on its own task instead of the driver's mailbox.
             let slot = self.ntp.clone();
-            let io = crate::driver::IoSender::new(move |ev| {
+            let io = frontseat_actors::driver::IoSender::new(move |ev| {
                 let mut s = slot.lock().unwrap_or_else(|p| p.into_inner());
                 match ev {
                     DriverIoEvent::Connected(w) => *s = Some(w),
@@ -409,72 +497,6 @@ impl Driver for Iver3Driver {
             now,
             sig,
         );
-    }
-
-    /// Goby3's iver_command: START_MISSION with a mission → `$OMSTART`, STOP_MISSION →
-    /// `$OMSTOP,0`, each awaiting its `$ACK` like `$OMS`; a desired_course in the same request is
-    /// sent after it (as Goby3). START_MISSION without a mission is refused (Goby3 only logs).
-    fn send_iver_command(
-        &mut self,
-        req: &IverCommandRequest,
-        now: Duration,
-        sig: &mut dyn SignalSink,
-    ) {
-        let base = CommandRequest {
-            desired_course: req.desired_course,
-            response_requested: req.response_requested,
-            request_id: req.request_id,
-            cancel_request_id: req.cancel_request_id,
-        };
-        let extra = req.iver_command.as_ref();
-        let sentence = match extra.map(|c| (c.command(), c.mission.as_deref().unwrap_or(""))) {
-            Some((IverCommand::StartMission, "")) => {
-                tracing::warn!("iver_command START_MISSION without a mission name: refused");
-                Self::fail(&base, "START_MISSION needs a mission name", sig);
-                return;
-            }
-            Some((IverCommand::StartMission, m)) if !codec::is_field_safe(m) => {
-                self.bad("iver_command mission name is not a plain NMEA field");
-                Self::fail(
-                    &base,
-                    "mission name must be printable ASCII without , * $",
-                    sig,
-                );
-                return;
-            }
-            Some((IverCommand::StartMission, m)) => Some((
-                Sentence::OmStart {
-                    mission: m.to_string(),
-                },
-                ack_type::OMSTART,
-            )),
-            Some((IverCommand::StopMission, _)) => Some((Sentence::OmStop, ack_type::OMSTOP)),
-            Some((IverCommand::UnknownCommand, _)) | None => None,
-        };
-        let Some((sentence, ack)) = sentence else {
-            // Nothing for the extension: the course alone, if any.
-            if base.desired_course.is_some() {
-                self.send_command_to_frontseat(&base, now, sig);
-            } else {
-                Self::fail(&base, "iver_command without a command", sig);
-            }
-            return;
-        };
-        let line = sentence.to_line();
-        if !self.write(&line, sig) {
-            Self::fail(
-                &base,
-                "not connected to the Iver: mission command not sent",
-                sig,
-            );
-            return;
-        }
-        // With a course as well, the response answers the course's $ACK (as one request).
-        let respond = base.response_requested() && base.desired_course.is_none();
-        self.await_ack(ack, base.request_id, respond, now, sig);
-        if base.desired_course.is_some() {
-            self.send_command_to_frontseat(&base, now, sig);
-        }
     }
 
     fn send_data_to_frontseat(
@@ -551,9 +573,9 @@ impl Driver for Iver3Driver {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::proto::goby::middleware::frontseat::protobuf::DesiredCourse;
+    use frontseat_actors::proto::goby::middleware::frontseat::protobuf::DesiredCourse;
 
-    type Sink = crate::driver::RecordingSink;
+    type Sink = frontseat_actors::driver::RecordingSink;
 
     fn driver() -> Iver3Driver {
         let mut cfg = InterfaceConfig::default();
@@ -630,16 +652,19 @@ mod tests {
 
     #[test]
     fn osi_carries_goby3s_iver_state_extension() {
-        use crate::proto::goby::middleware::frontseat::protobuf::iver_state::IverMissionMode;
+        use frontseat_actors::proto::goby::middleware::frontseat::protobuf::iver_state::IverMissionMode;
         let mut d = driver();
         let mut sink = Sink::default();
         let (w, _rx) = LineWriter::for_test();
         d.handle_io(DriverIoEvent::Connected(w), Duration::ZERO, &mut sink);
         d.handle_io(DriverIoEvent::Line(osi("W")), Duration::ZERO, &mut sink);
-        assert_eq!(sink.iver.len(), 1);
-        let st = sink.iver[0].iver_state.as_ref().unwrap();
+        assert_eq!(sink.extensions.len(), 1);
+        assert_eq!(sink.extensions[0].vehicle(), "Iver3");
+        let iver = sink.extensions_of::<IverInterfaceData>(DATA);
+        assert_eq!(iver.len(), 1, "of the Iver3 data type, and decodes");
+        let st = iver[0].iver_state.as_ref().unwrap();
         assert_eq!(st.mode(), IverMissionMode::IverModeMissionMode);
-        assert_eq!(sink.iver[0].node_status, sink.data[0].node_status);
+        assert_eq!(iver[0].node_status, sink.data[0].node_status);
         // Goby3's numbering: the mode is the letter's code.
         assert_eq!(IverMissionMode::IverModeMissionMode as i32, i32::from(b'W'));
         assert_eq!(
@@ -649,7 +674,7 @@ mod tests {
     }
 
     fn mission(cmd: IverCommand, name: Option<&str>, course: bool) -> IverCommandRequest {
-        use crate::proto::goby::middleware::frontseat::protobuf::IverExtraCommands;
+        use frontseat_actors::proto::goby::middleware::frontseat::protobuf::IverExtraCommands;
         IverCommandRequest {
             desired_course: course.then(|| DesiredCourse {
                 time: 0.0,
@@ -760,7 +785,7 @@ mod tests {
         let req = IverCommandRequest {
             request_id: Some(7),
             iver_command: Some(
-                crate::proto::goby::middleware::frontseat::protobuf::IverExtraCommands {
+                frontseat_actors::proto::goby::middleware::frontseat::protobuf::IverExtraCommands {
                     command: Some(IverCommand::StartMission as i32),
                     mission: Some("a".into()),
                 },
@@ -862,8 +887,8 @@ mod tests {
         cfg.driver.iver3.ntp_serial_port = Some(pty.slave_path().to_string_lossy().into_owned());
         let mut d = Iver3Driver::new(Settings::from_config(&cfg));
         d.start(DriverContext {
-            io: crate::driver::IoSender::new(|_| true),
-            clock: crate::clock::SimClock::new(1.0),
+            io: frontseat_actors::driver::IoSender::new(|_| true),
+            clock: frontseat_actors::clock::SimClock::new(1.0),
         });
         let ntp = d.ntp.clone();
         tokio::time::timeout(Duration::from_secs(10), async {

@@ -1,10 +1,10 @@
-//! The SV2 driver's edge: the frames, messages and unit conversions (pure, in the vehicle's
-//! crate `frontseat-waveglider-sv2`, shared with the emulator) mapped onto Goby's NodeStatus.
+//! The SV2 driver's edge: the frames, messages and unit conversions (pure, in [`crate::codec`],
+//! shared with the emulator) mapped onto Goby's NodeStatus.
 
-pub use frontseat_waveglider_sv2::codec::*;
+pub use crate::codec::*;
 
-use crate::proto::goby::middleware::frontseat::protobuf::NodeStatus;
-use crate::proto::goby::middleware::protobuf::LatLonPoint;
+use frontseat_actors::proto::goby::middleware::frontseat::protobuf::NodeStatus;
+use frontseat_actors::proto::goby::middleware::protobuf::LatLonPoint;
 
 /// The position of a status request with a valid fix → NodeStatus (lat/lon only).
 pub fn status_to_node_status(latitude: u32, longitude: u32, now_unix: f64) -> Option<NodeStatus> {

@@ -9,20 +9,21 @@ use std::time::Duration;
 
 use frontseat_config::InterfaceConfig;
 
-use super::codec::{
-    self, DeviceInfo, Frame, HeadingCommand, Message, Packet, PayloadStatus, WAITING_BIT, msg_type,
+use crate::edge::{
+    self as codec, DeviceInfo, Frame, HeadingCommand, Message, Packet, PayloadStatus, WAITING_BIT,
+    msg_type,
 };
-use crate::clock::SimClock;
-use crate::driver::{Driver, DriverContext, DriverIoEvent, SignalSink};
-use crate::drivers::kit::{DataWatch, OwnedTask, log_due};
-use crate::drivers::vehicle_link;
-use crate::link::LineWriter;
-use crate::link::byte::{self, ByteLinkConfig, LinkStats};
-use crate::link::framing::Framing;
-use crate::proto::goby::middleware::frontseat::protobuf::{
+use frontseat_actors::clock::SimClock;
+use frontseat_actors::driver::{Driver, DriverContext, DriverIoEvent, SignalSink};
+use frontseat_actors::drivers::kit::{DataWatch, OwnedTask, log_due};
+use frontseat_actors::drivers::vehicle_link;
+use frontseat_actors::link::LineWriter;
+use frontseat_actors::link::byte::{self, ByteLinkConfig, LinkStats};
+use frontseat_actors::link::framing::{FrameCutter, Framing};
+use frontseat_actors::proto::goby::middleware::frontseat::protobuf::{
     CommandRequest, CommandResponse, FrontSeatState, InterfaceData, Raw, raw::RawType,
 };
-use crate::ratelog::RateLimitedLog;
+use frontseat_actors::ratelog::RateLimitedLog;
 
 /// C&C main task: where enumerate and status replies go (as in Goby3).
 const CC_MAIN: u16 = 0x0000;
@@ -47,7 +48,7 @@ impl Settings {
                 &c.link,
                 &c.pm_serial_port,
                 c.pm_serial_baud,
-                Framing::Sv2Frames,
+                Framing::Frames(sv2_frames),
             ),
             address: ((c.board_id.min(255) as u16) << 8) | c.task_id.min(255) as u16,
             providing_data_timeout: Duration::from_secs_f64(c.providing_data_timeout.max(0.0)),
@@ -463,13 +464,30 @@ impl Driver for WavegliderSv2Driver {
     }
 }
 
+/// The SV2's frames on a byte link (start byte 0x7E, escaping, size field, CRC-16/ARC), cut by
+/// the codec's resynchronising decoder.
+pub fn sv2_frames() -> Box<dyn FrameCutter> {
+    Box::new(Sv2Frames(codec::FrameDecoder::new()))
+}
+
+struct Sv2Frames(codec::FrameDecoder);
+
+impl FrameCutter for Sv2Frames {
+    fn feed(&mut self, bytes: &[u8], out: &mut dyn FnMut(Result<Vec<u8>, String>)) {
+        self.0.feed(bytes, &mut |r| match r {
+            Ok(f) => out(f.unescaped().map_err(|e| e.to_string())),
+            Err(e) => out(Err(format!("SV2 framing: {e}"))),
+        })
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::proto::goby::middleware::frontseat::protobuf::DesiredCourse;
+    use frontseat_actors::proto::goby::middleware::frontseat::protobuf::DesiredCourse;
     use tokio::sync::mpsc::Receiver;
 
-    type Sink = crate::driver::RecordingSink;
+    type Sink = frontseat_actors::driver::RecordingSink;
 
     fn driver() -> (WavegliderSv2Driver, Receiver<Vec<u8>>, Sink) {
         let mut cfg = InterfaceConfig::default();

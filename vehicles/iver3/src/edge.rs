@@ -1,20 +1,20 @@
 //! The Iver3 driver's edge: the Remote Helm sentences and the UVC's units and mode letters
-//! (pure, in the vehicle's crate `frontseat-iver3`, shared with the emulator) mapped onto Goby's
+//! (pure, in [`crate::codec`] and [`crate::units`], shared with the emulator) mapped onto Goby's
 //! protobuf types (NodeStatus, DesiredCourse, IverMissionMode) and back. Table-tested.
 
-pub use frontseat_iver3::codec::*;
-pub use frontseat_iver3::units::*;
+pub use crate::codec::*;
+pub use crate::units::*;
 
-use crate::proto::goby::middleware::frontseat::protobuf::{
+use frontseat_actors::proto::goby::middleware::frontseat::protobuf::{
     DesiredCourse, EulerAngles, NodeStatus, Speed,
 };
-use crate::proto::goby::middleware::protobuf::LatLonPoint;
+use frontseat_actors::proto::goby::middleware::protobuf::LatLonPoint;
 
 /// Goby3's IverState.IverMissionMode for a UVC mode.
 pub fn mode_proto(
     m: IverMode,
-) -> crate::proto::goby::middleware::frontseat::protobuf::iver_state::IverMissionMode {
-    use crate::proto::goby::middleware::frontseat::protobuf::iver_state::IverMissionMode as M;
+) -> frontseat_actors::proto::goby::middleware::frontseat::protobuf::iver_state::IverMissionMode {
+    use frontseat_actors::proto::goby::middleware::frontseat::protobuf::iver_state::IverMissionMode as M;
     match m {
         IverMode::Unknown => M::IverModeUnknown,
         IverMode::Normal => M::IverModeNormal,

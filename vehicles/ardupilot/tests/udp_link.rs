@@ -26,7 +26,7 @@ fn link(
     let task = byte::spawn(
         ByteLinkConfig {
             transport,
-            framing: Framing::Mavlink,
+            framing: Framing::Frames(frontseat_ardupilot::driver::mavlink_frames),
             backoff_initial: Duration::from_millis(10),
             backoff_max: Duration::from_millis(100),
         },

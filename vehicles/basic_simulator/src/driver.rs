@@ -12,16 +12,16 @@ use std::time::Duration;
 use frontseat_config::InterfaceConfig;
 use frontseat_sim::codec::{self, FieldError, LineError, Outbound};
 
-use super::kit::{DataWatch, OwnedTask, failure, send_line};
-use crate::clock::SimClock;
-use crate::driver::{Driver, DriverContext, DriverIoEvent, SignalSink, raw_ascii};
-use crate::link::{self, LineWriter, LinkConfig};
-use crate::proto::goby::middleware::frontseat::protobuf::{
+use frontseat_actors::clock::SimClock;
+use frontseat_actors::driver::{Driver, DriverContext, DriverIoEvent, SignalSink, raw_ascii};
+use frontseat_actors::drivers::kit::{DataWatch, OwnedTask, failure, send_line};
+use frontseat_actors::link::{self, LineWriter, LinkConfig};
+use frontseat_actors::proto::goby::middleware::frontseat::protobuf::{
     CommandRequest, CommandResponse, EulerAngles, FrontSeatState, InterfaceData, NodeStatus, Raw,
     Speed,
 };
-use crate::proto::goby::middleware::protobuf::LatLonPoint;
-use crate::ratelog::{LogDecision, RateLimitedLog, more, summary};
+use frontseat_actors::proto::goby::middleware::protobuf::LatLonPoint;
+use frontseat_actors::ratelog::{LogDecision, RateLimitedLog, more, summary};
 
 #[derive(Clone, Debug)]
 pub struct Settings {
@@ -104,9 +104,9 @@ impl BasicSimulatorDriver {
     /// Input the driver cannot use: counted, and logged as the rate limiter allows.
     fn bad_input(&mut self, now: Duration, what: &str, line: &str, error: &str) {
         self.bad_lines += 1;
-        crate::metrics::bad_line();
+        frontseat_actors::drivers::kit::bad_line();
         if let LogDecision::Log { suppressed_before } = self.bad_log.decide_at(now) {
-            let line = crate::telemetry::truncate(line);
+            let line = frontseat_actors::drivers::kit::truncate(line);
             let window = self.bad_log.window();
             tracing::warn!(
                 line,
@@ -128,7 +128,7 @@ impl BasicSimulatorDriver {
             target: "frontseat_actors",
             "frontseat.socket_write",
             bytes = line.len() + 2,
-            line = crate::telemetry::truncate(line),
+            line = frontseat_actors::drivers::kit::truncate(line),
         )
         .entered();
         match send_line(w, line, sig) {
@@ -197,7 +197,7 @@ impl BasicSimulatorDriver {
                 if let LogDecision::Log { suppressed_before } = self.unknown_log.decide_at(now) {
                     let window = self.unknown_log.window();
                     tracing::info!(
-                        line = crate::telemetry::truncate(line),
+                        line = frontseat_actors::drivers::kit::truncate(line),
                         "unknown line from the frontseat{}",
                         more(suppressed_before, "unknown lines", window)
                     );
@@ -400,10 +400,10 @@ impl Driver for BasicSimulatorDriver {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::proto::goby::middleware::frontseat::protobuf::DesiredCourse;
+    use frontseat_actors::proto::goby::middleware::frontseat::protobuf::DesiredCourse;
     use frontseat_sim::codec::Problem;
 
-    type Sink = crate::driver::RecordingSink;
+    type Sink = frontseat_actors::driver::RecordingSink;
 
     fn driver() -> BasicSimulatorDriver {
         BasicSimulatorDriver::new(Settings::from_config(&InterfaceConfig::default()))

@@ -322,12 +322,27 @@ pub enum SupervisorMsg {
     Snapshot(RpcReplyPort<SupervisorSnapshot>),
 }
 
+/// A child's end as its supervisor tells an observer, before it decides what to do about it.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct ChildDown {
+    pub name: String,
+    pub why: String,
+    /// A failure (a panic, an error, a start that failed), not an orderly end.
+    pub failed: bool,
+}
+
+/// Hears of every child's end: how the actor hosting a nested supervisor (the
+/// FrontSeatInterface, of its DriverActor's) learns that the child is down while the
+/// supervisor alone decides on the restart.
+pub type ChildObserver = Arc<dyn Fn(ChildDown) + Send + Sync>;
+
 pub struct SupervisorArgs {
     pub name: String,
     pub children: Vec<ChildSpec>,
     pub exit: watch::Sender<Option<ServiceExit>>,
     /// Where the status goes (`frontseat::supervision::status`), if anywhere.
     pub bus: Option<Bus>,
+    pub observer: Option<ChildObserver>,
 }
 
 struct Child {
@@ -344,6 +359,7 @@ pub struct SupervisorState {
     exit: watch::Sender<Option<ServiceExit>>,
     giving_up: bool,
     ports: Option<RootSupervisorPorts>,
+    observer: Option<ChildObserver>,
 }
 
 pub struct Supervisor;
@@ -439,6 +455,13 @@ impl SupervisorState {
         if ending == Ending::Failed {
             child.last_failure = Some(why.clone());
         }
+        if let Some(observer) = &self.observer {
+            observer(ChildDown {
+                name: child.spec.name.clone(),
+                why: why.clone(),
+                failed: ending == Ending::Failed,
+            });
+        }
         if self.giving_up {
             return None;
         }
@@ -526,6 +549,7 @@ impl Actor for Supervisor {
             exit: args.exit,
             giving_up: false,
             ports: args.bus.as_ref().map(RootSupervisorPorts::new),
+            observer: args.observer,
         };
         st.publish();
         Ok(st)
@@ -637,6 +661,7 @@ impl SupervisorHandle {
                 children,
                 exit: tx,
                 bus: bus.cloned(),
+                observer: None,
             },
         )
         .await
@@ -677,6 +702,35 @@ impl SupervisorHandle {
         self.actor.stop(Some("shutdown".into()));
         let _ = tokio::time::timeout(within, self.join).await;
     }
+}
+
+/// A supervisor nested under `parent`, an actor that hosts a supervision tree of its own: giving
+/// up reaches the parent as this supervisor's failure (a [`ChildFailure`] whose exit is
+/// [`ServiceExit::RestartLimit`]), and `observer` hears of each child's end before the restart
+/// is decided. Its status is not published (the root's is the process's).
+pub async fn spawn_nested(
+    name: &str,
+    children: Vec<ChildSpec>,
+    parent: ActorCell,
+    observer: Option<ChildObserver>,
+) -> Result<ActorRef<SupervisorMsg>, String> {
+    // Nobody reads the exit: the parent learns of giving up from the failure itself.
+    let (exit, _) = watch::channel(None);
+    let (actor, _join) = Actor::spawn_linked(
+        None,
+        Supervisor,
+        SupervisorArgs {
+            name: name.to_string(),
+            children,
+            exit,
+            bus: None,
+            observer,
+        },
+        parent,
+    )
+    .await
+    .map_err(|e| e.to_string())?;
+    Ok(actor)
 }
 
 /// Who supervises whom, as `frontseat interfaces` prints it.

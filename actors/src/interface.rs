@@ -37,7 +37,8 @@ use crate::ratelog::{LogDecision, RateLimitedLog, more, summary};
 use crate::raw_gate::{RawPolicy, check_raw, source_name, source_of};
 use crate::state_machine::{Inputs, StateMachine, StateMachineConfig, Transition, state_words};
 use crate::supervisor::{
-    ChildDown, ChildFailure, ChildObserver, ChildSpec, Policy, Side, SupervisorMsg, spawn_nested,
+    ChildDown, ChildFailure, ChildObserver, ChildSpec, Node, Policy, Side, SupervisorMsg,
+    spawn_nested,
 };
 use frontseat_sim::geodesy::LocalGrid;
 
@@ -215,7 +216,9 @@ pub enum FsiMsg {
     StatusTick,
     /// From the driver's start function, before the DriverActor is spawned: statuses from now on
     /// are the new driver's (`restarts`: how many starts came before).
-    DriverStarting { restarts: u32 },
+    DriverStarting {
+        restarts: u32,
+    },
     /// The DriverActor started.
     DriverUp,
     /// From the driver's supervisor: the DriverActor ended (it decides on the restart).
@@ -883,33 +886,29 @@ impl FsiState {
         let clock = self.clock;
         let queue_capacity = self.s.queue_capacity;
         let fault_ports = self.s.fault_ports;
-        ChildSpec {
-            name: "DriverActor".into(),
-            policy: self.s.driver_policy(),
-            start: Arc::new(move |sup| {
-                let restarts = starts.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-                // A fresh driver counts as alive from its start.
-                heartbeat.store(heartbeat_now(), std::sync::atomic::Ordering::Relaxed);
-                let _ = fsi.cast(FsiMsg::DriverStarting { restarts });
-                let args = DriverArgs {
-                    heartbeat: heartbeat.clone(),
-                    factory: factory.clone(),
-                    bus: bus.clone(),
-                    clock,
-                    restarts,
-                    queue_capacity,
-                    faults: FaultPort::open_if(fault_ports, &bus, FaultTarget::Driver),
-                };
-                let fsi = fsi.clone();
-                Box::pin(async move {
-                    let (actor, _join) = Actor::spawn_linked(None, DriverActor, args, sup)
-                        .await
-                        .map_err(|e| e.to_string())?;
-                    let _ = fsi.cast(FsiMsg::DriverUp);
-                    Ok(actor.get_cell())
-                })
-            }),
-        }
+        driver_node(&self.s).spec(Arc::new(move |sup| {
+            let restarts = starts.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+            // A fresh driver counts as alive from its start.
+            heartbeat.store(heartbeat_now(), std::sync::atomic::Ordering::Relaxed);
+            let _ = fsi.cast(FsiMsg::DriverStarting { restarts });
+            let args = DriverArgs {
+                heartbeat: heartbeat.clone(),
+                factory: factory.clone(),
+                bus: bus.clone(),
+                clock,
+                restarts,
+                queue_capacity,
+                faults: FaultPort::open_if(fault_ports, &bus, FaultTarget::Driver),
+            };
+            let fsi = fsi.clone();
+            Box::pin(async move {
+                let (actor, _join) = Actor::spawn_linked(None, DriverActor, args, sup)
+                    .await
+                    .map_err(|e| e.to_string())?;
+                let _ = fsi.cast(FsiMsg::DriverUp);
+                Ok(actor.get_cell())
+            })
+        }))
     }
 
     /// The driver ended (its supervisor restarts it, or gives up): the frontseat is not
@@ -926,6 +925,15 @@ impl FsiState {
         tracing::error!(%why, "driver failed: frontseat treated as not connected");
         self.evaluate(myself);
     }
+}
+
+/// The interface's one supervised child, as its supervisor starts it and the tree shows it.
+pub fn driver_node(settings: &InterfaceSettings) -> Node {
+    Node::new(
+        "DriverActor",
+        settings.driver_policy(),
+        "[supervision] (restart_initial_delay_ms, restart_max_delay_ms, max_restarts, restart_window_s); down = frontseat not connected",
+    )
 }
 
 /// "pose.pitch = NaN (not a finite number), …" for a log line.

@@ -1015,6 +1015,13 @@ fn with_telemetry(mut d: InterfaceDetail, m: &crate::metrics::VehicleMetrics) ->
     d
 }
 
+/// Goby3's name of an InterfaceState number, for the metrics.
+fn state_name(n: i32) -> &'static str {
+    InterfaceState::try_from(n)
+        .map(|s| s.as_str_name())
+        .unwrap_or("UNKNOWN")
+}
+
 fn log_transition(t: &Transition) {
     tracing::info!(
         from = state_words(t.from),
@@ -1086,7 +1093,7 @@ impl Actor for FrontSeatInterface {
             nav_drop_log: RateLimitedLog::for_bad_input(),
             raw_log: RateLimitedLog::for_bad_input(),
             raw_refused_log: RateLimitedLog::for_bad_input(),
-            metrics: crate::metrics::register(&args.settings.name),
+            metrics: crate::metrics::register(&args.settings.name, state_name),
             shutting_down: false,
             exit: args.exit,
             subs,

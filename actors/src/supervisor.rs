@@ -11,7 +11,11 @@
 //! down the supervisor reports itself *degraded* (which child, since when). Every restart is
 //! logged and counted; [`SupervisorSnapshot`] says who is up.
 //!
-//! The pure decision ([`Decider`]) is separate from the actor so it is table-tested.
+//! The pure decision ([`Decider`]) is separate from the actor so it is table-tested. It is the only
+//! restart decision in the process: a part that supervises a child of its own nests a supervisor
+//! (the FrontSeatInterface its DriverActor, with [`spawn_nested`], hearing of the driver's end
+//! through a [`ChildObserver`]; the web scope its hub). The tree `frontseat interfaces` prints is
+//! rendered ([`render_tree`]) from the [`Node`]s of the very [`ChildSpec`]s a service starts.
 
 use std::collections::VecDeque;
 use std::future::Future;

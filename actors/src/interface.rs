@@ -153,30 +153,8 @@ pub fn command_timeout(cfg: &InterfaceConfig) -> Duration {
     (budget + Duration::from_secs(1)).max(MIN_COMMAND_TIMEOUT)
 }
 
-/// Why the service ended.
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub enum ServiceExit {
-    /// Orderly shutdown.
-    Clean,
-    /// exit_on_error and an error state was entered. Its code is Goby3's (0, frontseat_interface.cpp
-    /// 176-184); `frontseat interface` exits with the configured `exit_on_error_code` instead.
-    ErrorState(String),
-    /// The driver failed more often than the restart limit allows.
-    RestartLimit(String),
-    /// The interface actor itself failed.
-    Failed(String),
-}
-
-impl ServiceExit {
-    pub fn code(&self) -> i32 {
-        match self {
-            ServiceExit::Clean => 0,
-            ServiceExit::ErrorState(_) => 0,
-            ServiceExit::RestartLimit(_) => 3,
-            ServiceExit::Failed(_) => 4,
-        }
-    }
-}
+/// Why the service ended (the supervision tree's word; the interface's path kept for its users).
+pub use crate::supervisor::ServiceExit;
 
 /// A mirror of Goby3's CommandRequest carrying a vehicle extension: its base request, and the
 /// same request with its course replaced by the one the safety envelope made safe.

@@ -29,9 +29,33 @@ use tokio::sync::watch;
 use tokio::time::Instant;
 
 use crate::bus::Bus;
-use crate::interface::ServiceExit;
 use crate::ports::RootSupervisorPorts;
 use crate::proto::frontseat::protobuf::{SupervisedActor, SupervisionStatus};
+
+/// Why the service ended.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum ServiceExit {
+    /// Orderly shutdown.
+    Clean,
+    /// exit_on_error and an error state was entered. Its code is Goby3's (0, frontseat_interface.cpp
+    /// 176-184); `frontseat interface` exits with the configured `exit_on_error_code` instead.
+    ErrorState(String),
+    /// A vehicle-side child (the driver, the interface) failed more often than its limit allows.
+    RestartLimit(String),
+    /// The interface actor itself failed.
+    Failed(String),
+}
+
+impl ServiceExit {
+    pub fn code(&self) -> i32 {
+        match self {
+            ServiceExit::Clean => 0,
+            ServiceExit::ErrorState(_) => 0,
+            ServiceExit::RestartLimit(_) => 3,
+            ServiceExit::Failed(_) => 4,
+        }
+    }
+}
 
 /// Which side of the frontseat link a child is on, and so what repeated failures of it do.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]

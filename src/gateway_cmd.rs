@@ -111,6 +111,14 @@ fn open_hint(e: &GatewayError) -> &'static str {
     }
 }
 
+/// `frontseat moos-gateway`'s children with both transports on, for the printed tree.
+pub fn tree_children(bus: &Bus) -> Vec<ChildSpec> {
+    let mut cfg = GatewayConfig::default();
+    cfg.interprocess.enabled = true;
+    cfg.goby3.enabled = true;
+    gateway_children(&cfg, "platform", bus)
+}
+
 /// The root supervisor's children for `frontseat moos-gateway`, in start order: the transports
 /// first, so that what the MOOS side publishes from its first moment is exported.
 fn gateway_children(cfg: &GatewayConfig, platform: &str, bus: &Bus) -> Vec<ChildSpec> {
@@ -123,46 +131,61 @@ fn gateway_children(cfg: &GatewayConfig, platform: &str, bus: &Bus) -> Vec<Child
             platform.to_string(),
             bus.clone(),
         );
-        children.push(service_child_with(
-            "ZenohGateway",
-            (&sup.zenoh).into(),
-            ctx,
-            |(icfg, platform, bus)| async move {
-                frontseat_gateway::start(&bus, &icfg, &platform, &HOSTED, GatewayOptions::default())
+        children.push(
+            service_child_with(
+                "ZenohGateway",
+                (&sup.zenoh).into(),
+                ctx,
+                |(icfg, platform, bus)| async move {
+                    frontseat_gateway::start(
+                        &bus,
+                        &icfg,
+                        &platform,
+                        &HOSTED,
+                        GatewayOptions::default(),
+                    )
                     .await
                     .map(|g| Box::new(g) as Box<dyn Service>)
                     .map_err(|e| format!("{e} {}", open_hint(&e)))
-            },
-        ));
+                },
+            )
+            .noted("with [interprocess] enabled; [supervision.zenoh]"),
+        );
     }
     if cfg.goby3.enabled {
-        children.push(goby3_child(
-            &cfg.goby3.with_client_name_for("goby_moos_gateway"),
-            &cfg.name,
-            bus,
-            HOSTED.to_vec(),
-            (&sup.goby3).into(),
-        ));
+        children.push(
+            goby3_child(
+                &cfg.goby3.with_client_name_for("goby_moos_gateway"),
+                &cfg.name,
+                bus,
+                HOSTED.to_vec(),
+                (&sup.goby3).into(),
+            )
+            .noted("with [goby3] enabled; [supervision.goby3]"),
+        );
     }
-    children.push(health_child(
-        cfg.goby3.health_name("goby_moos_gateway"),
-        bus,
-    ));
+    children.push(
+        health_child(cfg.goby3.health_name("goby_moos_gateway"), bus)
+            .noted("answers goby_coroner (goby::health::request)"),
+    );
     let vehicle = if cfg.name.is_empty() {
         platform.to_string()
     } else {
         cfg.name.clone()
     };
-    children.push(frontseat_actors::translation::child_spec(
-        frontseat_actors::translation::TranslationArgs {
-            cfg: cfg.moos.with_warp(1.0),
-            vehicle,
-            bus: bus.clone(),
-            faults: None,
-            observer: Default::default(),
-        },
-        (&sup.translation).into(),
-    ));
+    children.push(
+        frontseat_actors::translation::child_spec(
+            frontseat_actors::translation::TranslationArgs {
+                cfg: cfg.moos.with_warp(1.0),
+                vehicle,
+                bus: bus.clone(),
+                faults: None,
+                observer: Default::default(),
+            },
+            (&sup.translation).into(),
+        )
+        .noted("[supervision.translation]"),
+    );
     children
 }
 

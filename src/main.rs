@@ -156,8 +156,8 @@ fn init_telemetry(
     cfg: &frontseat_config::TelemetryConfig,
     role: &str,
     platform: &str,
-) -> frontseat_actors::telemetry::Telemetry {
-    frontseat_actors::telemetry::init(cfg, role, platform)
+) -> frontseat_telemetry::Telemetry {
+    frontseat_telemetry::init(cfg, role, platform)
 }
 
 /// Runs a service with telemetry, and flushes the last spans before exiting.
@@ -305,7 +305,7 @@ fn main() -> ExitCode {
     match cli.command {
         Command::Interfaces => {
             print!("{}", frontseat_actors::generated::RESOLVED_INTERFACES_YAML);
-            print!("{}", frontseat_actors::supervisor::TREE);
+            print!("{}", service::supervision_tree());
             ExitCode::SUCCESS
         }
         Command::Interface { cfg } => {

@@ -7,9 +7,11 @@ use std::sync::Arc;
 use std::time::Duration;
 
 use frontseat_actors::bus::Bus;
-use frontseat_actors::interface::{InterfaceService, ServiceExit};
+use frontseat_actors::interface::{InterfaceService, InterfaceSettings, ServiceExit, driver_node};
 use frontseat_actors::service_child::{BoxFuture, Service, service_child_with};
-use frontseat_actors::supervisor::{ChildFailure, ChildSpec, Policy, SupervisorHandle};
+use frontseat_actors::supervisor::{
+    ChildFailure, ChildSpec, Policy, SupervisorHandle, TREE_PREAMBLE, render_tree,
+};
 use frontseat_config::{FaultKind, InterfaceConfig, SimConfig};
 use frontseat_sim::{CtrlState, Fault, ScheduledFault, SimHandle, SimOptions, SimServer};
 
@@ -34,34 +36,40 @@ pub fn interface_children(
     let ctx = (Arc::new(config.clone()), bus.clone());
     let mut children = Vec::new();
     if config.interprocess.enabled {
-        children.push(service_child_with(
-            "ZenohGateway",
-            Policy::from(&sup.zenoh).helm_side(),
-            ctx.clone(),
-            |(cfg, bus)| async move {
-                match crate::gateway_cmd::start_for_interface(&cfg, &bus).await {
-                    Ok(Some(g)) => Ok(Box::new(g) as Box<dyn Service>),
-                    Ok(None) => Err("[interprocess] is not enabled".to_string()),
-                    Err(e) => Err(e.to_string()),
-                }
-            },
-        ));
+        children.push(
+            service_child_with(
+                "ZenohGateway",
+                Policy::from(&sup.zenoh).helm_side(),
+                ctx.clone(),
+                |(cfg, bus)| async move {
+                    match crate::gateway_cmd::start_for_interface(&cfg, &bus).await {
+                        Ok(Some(g)) => Ok(Box::new(g) as Box<dyn Service>),
+                        Ok(None) => Err("[interprocess] is not enabled".to_string()),
+                        Err(e) => Err(e.to_string()),
+                    }
+                },
+            )
+            .noted("with [interprocess] enabled; [supervision.zenoh]"),
+        );
     }
     // First of the rest, so that its first answer already knows every child.
     let mut health =
         crate::gateway_cmd::health_child(config.goby3.health_name("goby_frontseat_interface"), bus);
     health.policy = health.policy.helm_side();
-    children.push(health);
+    children.push(health.noted("answers goby_coroner (goby::health::request)"));
     if config.goby3.enabled {
-        children.push(crate::gateway_cmd::goby3_child(
-            &config
-                .goby3
-                .with_client_name_for("goby_frontseat_interface"),
-            &config.name,
-            bus,
-            crate::gateway_cmd::interface_actors(config),
-            Policy::from(&sup.goby3).helm_side(),
-        ));
+        children.push(
+            crate::gateway_cmd::goby3_child(
+                &config
+                    .goby3
+                    .with_client_name_for("goby_frontseat_interface"),
+                &config.name,
+                bus,
+                crate::gateway_cmd::interface_actors(config),
+                Policy::from(&sup.goby3).helm_side(),
+            )
+            .noted("with [goby3] enabled; [supervision.goby3]"),
+        );
     }
     children.push(service_child_with(
         "FrontSeatInterface",
@@ -74,33 +82,92 @@ pub fn interface_children(
             *current.lock().unwrap_or_else(|p| p.into_inner()) = Some(service.actor().clone());
             Ok(Box::new(service) as Box<dyn Service>)
         },
-    ));
+    )
+    .noted("[supervision.interface]; an error state (exit_on_error) or its driver's exhausted limit is not restarted: the process ends with exit 2 / exit 3")
+    .nesting(vec![driver_node(&InterfaceSettings::from_config(config))]),
+    );
     if let Some(moos) = &config.moos {
-        children.push(frontseat_actors::translation::child_spec(
-            frontseat_actors::translation::TranslationArgs {
-                cfg: moos.with_warp(config.sim_warp_factor),
-                vehicle: config.name.clone(),
-                bus: bus.clone(),
-                faults: None,
-                observer: Default::default(),
-            },
-            Policy::from(&sup.translation).helm_side(),
-        ));
+        children.push(
+            frontseat_actors::translation::child_spec(
+                frontseat_actors::translation::TranslationArgs {
+                    cfg: moos.with_warp(config.sim_warp_factor),
+                    vehicle: config.name.clone(),
+                    bus: bus.clone(),
+                    faults: None,
+                    observer: Default::default(),
+                },
+                Policy::from(&sup.translation).helm_side(),
+            )
+            .noted("with [moos]; [supervision.translation]"),
+        );
     }
     if config.web.enabled {
-        children.push(service_child_with(
-            "WebScope",
-            Policy::from(&sup.web).helm_side(),
-            ctx,
-            |(cfg, bus)| async move {
-                frontseat_web::WebService::start(&cfg, &bus)
-                    .await
-                    .map(|w| Box::new(w) as Box<dyn Service>)
-                    .map_err(|e| e.to_string())
-            },
-        ));
+        children.push(
+            service_child_with(
+                "WebScope",
+                Policy::from(&sup.web).helm_side(),
+                ctx,
+                |(cfg, bus)| async move {
+                    frontseat_web::WebService::start(&cfg, &bus)
+                        .await
+                        .map(|w| Box::new(w) as Box<dyn Service>)
+                        .map_err(|e| e.to_string())
+                },
+            )
+            .noted("with [web] enabled; [supervision.web]")
+            .nesting(vec![frontseat_web::supervisor::hub_node()]),
+        );
     }
     children
+}
+
+/// `config` with every optional child of `frontseat interface` on.
+fn with_every_child(mut config: InterfaceConfig) -> InterfaceConfig {
+    config.interprocess.enabled = true;
+    config.goby3.enabled = true;
+    config.moos.get_or_insert_with(Default::default);
+    config.web.enabled = true;
+    config
+}
+
+/// The supervision trees `frontseat interfaces` prints, rendered from the child specs that
+/// `frontseat interface` (with every optional child on), `frontseat sim` and `frontseat
+/// moos-gateway` start: a child added there is a child printed here. Builds, starts nothing.
+pub fn supervision_tree() -> String {
+    let bus = Bus::new();
+    let nodes = |c: Vec<ChildSpec>| c.iter().map(ChildSpec::node).collect::<Vec<_>>();
+    let interface = interface_children(
+        &with_every_child(InterfaceConfig::default()),
+        &bus,
+        Default::default(),
+    );
+    let sim = SimConfig::default();
+    let sim = sim_child(
+        None,
+        SocketAddr::from(([127, 0, 0, 1], sim.port)),
+        sim_options(&sim),
+        (&sim.supervision).into(),
+        Default::default(),
+        None,
+    )
+    .noted("[supervision] of the sim config; one task per vehicle connection: a panic closes only that connection (vehicle_panics)");
+    let mut out = TREE_PREAMBLE.to_string();
+    out.push_str(&render_tree(
+        "frontseat interface",
+        "gives up only past a vehicle-side limit: exit 3 (or the child's code)",
+        &nodes(interface),
+    ));
+    out.push_str(&render_tree(
+        "frontseat sim (and the demo: these and the interface's under one root)",
+        "gives up past the server's limit",
+        &nodes(vec![sim]),
+    ));
+    out.push_str(&render_tree(
+        "frontseat moos-gateway",
+        "gives up past a child's limit: exit 3",
+        &nodes(crate::gateway_cmd::tree_children(&bus)),
+    ));
+    out
 }
 
 pub async fn interface(config: InterfaceConfig) -> ExitCode {
@@ -323,4 +390,83 @@ pub async fn sim(config: SimConfig) -> ExitCode {
         tracing::info!(stats = ?sim.stats(), "simulator stopped");
     }
     exit_code(&exit)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use frontseat_actors::supervisor::tree_names;
+
+    /// A loopback port nothing listens on: bound by the system, then let go.
+    fn closed_port() -> u16 {
+        std::net::TcpListener::bind("127.0.0.1:0")
+            .and_then(|l| l.local_addr())
+            .map(|a| a.port())
+            .unwrap_or(9)
+    }
+
+    /// What `frontseat interfaces` prints for `frontseat interface` is what that service
+    /// starts: the printed children (in start order) are the names the root supervisor reports
+    /// for the children it started, and each one's nested children are the ones it runs.
+    #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+    async fn the_printed_tree_is_the_started_tree() {
+        let printed = supervision_tree();
+        let section: String = printed
+            .split("# frontseat ")
+            .find(|s| s.starts_with("interface\n"))
+            .expect("a `frontseat interface` tree")
+            .to_string();
+        let names = tree_names(&section);
+        let printed_children: Vec<&str> = names
+            .iter()
+            .filter(|(depth, _)| *depth == 1)
+            .map(|(_, n)| n.as_str())
+            .collect();
+
+        // The same config as printed, every optional child on, its sockets on free loopback ports.
+        let mut cfg = with_every_child(InterfaceConfig::default());
+        cfg.interprocess.listen = vec!["tcp/127.0.0.1:0".into()];
+        cfg.web.listen = "127.0.0.1:0".into();
+        cfg.goby3.platform = format!("tree-test-{}", std::process::id());
+        cfg.goby3.ip_address = "127.0.0.1".into();
+        cfg.goby3.tcp_port = closed_port();
+        if let Some(m) = cfg.moos.as_mut() {
+            m.port = closed_port();
+        }
+        cfg.driver.basic_simulator.tcp_port = closed_port();
+        let bus = Bus::new();
+        let current = systemd::InterfaceRef::default();
+        let root = SupervisorHandle::start(
+            "root",
+            interface_children(&cfg, &bus, current.clone()),
+            Some(&bus),
+        )
+        .await
+        .expect("the tree starts");
+        let snap = root
+            .snapshot(Duration::from_secs(5))
+            .await
+            .expect("the root answers");
+        let started: Vec<&str> = snap.children.iter().map(|c| c.name.as_str()).collect();
+        assert_eq!(printed_children, started, "{printed}");
+
+        // The interface runs one nested supervisor, which runs as many children as are printed
+        // under it.
+        let under_interface = names
+            .iter()
+            .skip_while(|(_, n)| n != "FrontSeatInterface")
+            .skip(1)
+            .take_while(|(depth, _)| *depth == 2)
+            .count();
+        let fsi = current
+            .lock()
+            .unwrap_or_else(|p| p.into_inner())
+            .clone()
+            .expect("the interface started");
+        let nested = fsi.get_children();
+        assert_eq!(nested.len(), 1, "the driver's supervisor");
+        assert_eq!(nested[0].get_children().len(), under_interface, "{printed}");
+        assert_eq!(under_interface, 1, "{printed}");
+        root.shutdown(Duration::from_secs(10)).await;
+    }
 }

@@ -78,7 +78,7 @@ async fn a_hundred_garbage_lines_give_a_few_warnings_and_a_summary() {
         warns.len()
     );
     assert_eq!(
-        frontseat_actors::metrics::bad_lines(),
+        frontseat_telemetry::metrics::bad_lines(),
         GARBAGE as u64,
         "every bad line counted for the metrics"
     );

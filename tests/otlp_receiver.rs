@@ -20,7 +20,7 @@ use std::process::{Command, Stdio};
 use std::time::Duration;
 
 use frontseat_actors::groups;
-use frontseat_actors::metrics::names;
+use frontseat_telemetry::metrics::names;
 
 const BIN: &str = env!("CARGO_BIN_EXE_frontseat");
 /// The demo's path at warp 20 takes ≈10 s of wall time; the bound is for a loaded machine.

@@ -79,9 +79,8 @@ async fn spans_until(
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn one_nav_line_and_one_setpoint_each_form_one_trace() {
     let exporter = InMemorySpanExporter::default();
-    let mut telemetry =
-        frontseat_actors::telemetry::init_with_exporter(exporter.clone(), "frontseat-test");
-    assert!(frontseat_actors::telemetry::enabled());
+    let mut telemetry = frontseat_telemetry::init_with_exporter(exporter.clone(), "frontseat-test");
+    assert!(frontseat_telemetry::enabled());
 
     let sim = start_sim().await;
     let bus = Bus::new();

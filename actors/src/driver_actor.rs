@@ -231,6 +231,9 @@ impl Actor for DriverActor {
         _myself: ActorRef<DriverMsg>,
         state: &mut DriverActorState,
     ) -> Result<(), ActorProcessingErr> {
+        // An orderly stop however it was asked for (`Stop`, or its supervisor stopping it)
+        // closes the frontseat connection cleanly; a driver's stop may run twice.
+        state.driver.stop();
         if let Some(t) = state.ticker.take() {
             t.abort();
         }

@@ -1,17 +1,20 @@
 //! FrontSeatInterface: the state machine, the gate between helm and driver, compute_missing, the
-//! status publications, and the supervisor of the DriverActor.
+//! status publications, and the host of its DriverActor's supervisor.
 //!
-//! Supervision maps driver failures onto Goby3's states: a driver that panics or stops is at once
-//! a frontseat NOT_CONNECTED (→ FS_ERROR by the ordinary rules); it is restarted after a growing
-//! backoff, and the interface climbs back STANDBY → LISTEN → COMMAND by itself once data flows.
-//! More than `max_restarts` restarts within `restart_window` ends the service with an error so
-//! that systemd restarts the whole process.
+//! The driver is the one child of a nested [`Supervisor`](crate::supervisor) (`spawn_nested`),
+//! which alone decides its restarts, with the same [`Policy`] and decider as every other child:
+//! `[supervision]`'s backoff and limit, vehicle side. The interface maps what the supervisor tells
+//! it onto Goby3's states: a driver that panics or stops is at once a frontseat NOT_CONNECTED (→
+//! FS_ERROR by the ordinary rules) and its pending commands fail with DRIVER_FAILED; the
+//! interface climbs back STANDBY → LISTEN → COMMAND by itself once data flows again. When the
+//! supervisor gives up (more than `max_restarts` within `restart_window`), the service ends with
+//! [`ServiceExit::RestartLimit`] so that systemd restarts the whole process.
 
-use std::collections::{HashMap, VecDeque};
+use std::collections::HashMap;
 use std::sync::Arc;
 use std::time::Duration;
 
-use frontseat_config::InterfaceConfig;
+use frontseat_config::{InterfaceConfig, RestartPolicy};
 use ractor::{Actor, ActorProcessingErr, ActorRef, RpcReplyPort, SupervisionEvent};
 use tokio::sync::watch;
 
@@ -20,7 +23,7 @@ use crate::chaos::{FaultPort, FaultTarget};
 use crate::clock::SimClock;
 use crate::command_gate::{GateContext, Limits, check_course};
 use crate::driver::DriverFactory;
-use crate::driver_actor::{DriverActor, DriverArgs, DriverMsg};
+use crate::driver_actor::{DriverActor, DriverArgs};
 use crate::nav_gate::{NavField, NavLimits, NavViolation, OnViolation, check_navigation};
 use crate::ports::{FrontSeatInterfaceInbox, FrontSeatInterfacePorts};
 use crate::proto::frontseat::protobuf::{InterfaceDetail, NavFieldCount};
@@ -33,6 +36,10 @@ use crate::proto::goby::middleware::protobuf::LatLonPoint;
 use crate::ratelog::{LogDecision, RateLimitedLog, more, summary};
 use crate::raw_gate::{RawPolicy, check_raw, source_name, source_of};
 use crate::state_machine::{Inputs, StateMachine, StateMachineConfig, Transition, state_words};
+use crate::supervisor::{
+    ChildDown, ChildFailure, ChildObserver, ChildSpec, Node, Policy, Side, SupervisorMsg,
+    spawn_nested,
+};
 use frontseat_sim::geodesy::LocalGrid;
 
 /// Error codes in CommandResponse.error_code for the failures the interface itself answers.
@@ -106,6 +113,20 @@ impl InterfaceSettings {
             fault_ports: cfg.chaos.enabled,
         }
     }
+
+    /// The DriverActor's restart policy (`[supervision]`): restarted however it ends (a panic, a
+    /// kill, a stop nobody asked for), after `restart_initial` doubling to `restart_max`; more
+    /// than `max_restarts` within `restart_window` and its supervisor gives up.
+    pub fn driver_policy(&self) -> Policy {
+        Policy {
+            side: Side::Vehicle,
+            restart: RestartPolicy::Always,
+            max_restarts: self.max_restarts,
+            window: self.restart_window,
+            backoff_initial: self.restart_initial,
+            backoff_max: self.restart_max,
+        }
+    }
 }
 
 /// Our own answer to a command waits at least this long for the driver's.
@@ -132,30 +153,8 @@ pub fn command_timeout(cfg: &InterfaceConfig) -> Duration {
     (budget + Duration::from_secs(1)).max(MIN_COMMAND_TIMEOUT)
 }
 
-/// Why the service ended.
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub enum ServiceExit {
-    /// Orderly shutdown.
-    Clean,
-    /// exit_on_error and an error state was entered. Its code is Goby3's (0, frontseat_interface.cpp
-    /// 176-184); `frontseat interface` exits with the configured `exit_on_error_code` instead.
-    ErrorState(String),
-    /// The driver failed more often than the restart limit allows.
-    RestartLimit(String),
-    /// The interface actor itself failed.
-    Failed(String),
-}
-
-impl ServiceExit {
-    pub fn code(&self) -> i32 {
-        match self {
-            ServiceExit::Clean => 0,
-            ServiceExit::ErrorState(_) => 0,
-            ServiceExit::RestartLimit(_) => 3,
-            ServiceExit::Failed(_) => 4,
-        }
-    }
-}
+/// Why the service ended (the supervision tree's word; the interface's path kept for its users).
+pub use crate::supervisor::ServiceExit;
 
 /// A mirror of Goby3's CommandRequest carrying a vehicle extension: its base request, and the
 /// same request with its course replaced by the one the safety envelope made safe.
@@ -193,7 +192,15 @@ pub enum FsiMsg {
     Bus(FrontSeatInterfaceInbox),
     Tick,
     StatusTick,
-    RestartDriver,
+    /// From the driver's start function, before the DriverActor is spawned: statuses from now on
+    /// are the new driver's (`restarts`: how many starts came before).
+    DriverStarting {
+        restarts: u32,
+    },
+    /// The DriverActor started.
+    DriverUp,
+    /// From the driver's supervisor: the DriverActor ended (it decides on the restart).
+    DriverDown(String),
     /// Orderly shutdown: refuse further commands, stop the driver, publish a last status.
     Shutdown(RpcReplyPort<()>),
     /// A snapshot for tests and the systemd watchdog: answering proves the actor is alive.
@@ -206,7 +213,9 @@ impl FsiMsg {
             FsiMsg::Bus(m) => m.group(),
             FsiMsg::Tick => "tick",
             FsiMsg::StatusTick => "status_tick",
-            FsiMsg::RestartDriver => "restart_driver",
+            FsiMsg::DriverStarting { .. } => "driver_starting",
+            FsiMsg::DriverUp => "driver_up",
+            FsiMsg::DriverDown(_) => "driver_down",
             FsiMsg::Shutdown(_) => "shutdown",
             FsiMsg::Snapshot(_) => "snapshot",
         }
@@ -266,10 +275,14 @@ pub struct FsiState {
     helm_heard: tokio::time::Instant,
     helm_state_timeout: Duration,
     frame: Option<LocalGrid>,
-    driver: Option<ActorRef<DriverMsg>>,
+    /// The DriverActor's supervisor (its one child), until the interface stops it.
+    drivers: Option<ActorRef<SupervisorMsg>>,
+    /// Between a driver's start and its end: its statuses count (a dead driver's must not).
+    driver_live: bool,
+    /// The DriverActor is running.
+    driver_up: bool,
     driver_heartbeat: Arc<std::sync::atomic::AtomicU64>,
     restarts: u32,
-    restart_times: VecDeque<tokio::time::Instant>,
     /// request_id → sim-time deadline of commands awaiting the frontseat's answer.
     pending: HashMap<Option<i32>, Duration>,
     counters: Counters,
@@ -300,6 +313,11 @@ impl Drop for FsiState {
         }
         for s in self.subs.drain(..) {
             s.cancel();
+        }
+        // Not linked the other way: the driver (and its frontseat connection) must not outlive
+        // an interface that panicked, beside the one its restart starts.
+        if let Some(d) = self.drivers.take() {
+            d.stop(Some("interface gone".into()));
         }
     }
 }
@@ -402,7 +420,7 @@ impl FsiState {
     fn finish(&mut self, myself: &ActorRef<FsiMsg>, exit: ServiceExit) {
         self.exit.send_replace(Some(exit));
         self.shutting_down = true;
-        if let Some(d) = self.driver.take() {
+        if let Some(d) = self.drivers.take() {
             d.stop(None);
         }
         myself.stop(None);
@@ -864,31 +882,48 @@ impl FsiState {
         }
     }
 
-    async fn spawn_driver(&mut self, myself: &ActorRef<FsiMsg>) -> Result<(), ActorProcessingErr> {
-        // A fresh driver counts as alive from its start.
-        self.driver_heartbeat
-            .store(heartbeat_now(), std::sync::atomic::Ordering::Relaxed);
-        let (actor, _join) = Actor::spawn_linked(
-            None,
-            DriverActor,
-            DriverArgs {
-                heartbeat: self.driver_heartbeat.clone(),
-                factory: self.factory.clone(),
-                bus: self.bus.clone(),
-                clock: self.clock,
-                restarts: self.restarts,
-                queue_capacity: self.s.queue_capacity,
-                faults: FaultPort::open_if(self.s.fault_ports, &self.bus, FaultTarget::Driver),
-            },
-            myself.get_cell(),
-        )
-        .await?;
-        self.driver = Some(actor);
-        Ok(())
+    /// The DriverActor as the one child of its supervisor: each start builds a fresh driver from
+    /// the factory and tells the interface first, so that no status of the new driver comes
+    /// before the interface counts it as live.
+    fn driver_child(&self, myself: &ActorRef<FsiMsg>) -> ChildSpec {
+        let fsi = myself.clone();
+        let starts = Arc::new(std::sync::atomic::AtomicU32::new(0));
+        let heartbeat = self.driver_heartbeat.clone();
+        let factory = self.factory.clone();
+        let bus = self.bus.clone();
+        let clock = self.clock;
+        let queue_capacity = self.s.queue_capacity;
+        let fault_ports = self.s.fault_ports;
+        driver_node(&self.s).spec(Arc::new(move |sup| {
+            let restarts = starts.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+            // A fresh driver counts as alive from its start.
+            heartbeat.store(heartbeat_now(), std::sync::atomic::Ordering::Relaxed);
+            let _ = fsi.cast(FsiMsg::DriverStarting { restarts });
+            let args = DriverArgs {
+                heartbeat: heartbeat.clone(),
+                factory: factory.clone(),
+                bus: bus.clone(),
+                clock,
+                restarts,
+                queue_capacity,
+                faults: FaultPort::open_if(fault_ports, &bus, FaultTarget::Driver),
+            };
+            let fsi = fsi.clone();
+            Box::pin(async move {
+                let (actor, _join) = Actor::spawn_linked(None, DriverActor, args, sup)
+                    .await
+                    .map_err(|e| e.to_string())?;
+                let _ = fsi.cast(FsiMsg::DriverUp);
+                Ok(actor.get_cell())
+            })
+        }))
     }
 
-    fn driver_down(&mut self, myself: &ActorRef<FsiMsg>, why: String) {
-        self.driver = None;
+    /// The driver ended (its supervisor restarts it, or gives up): the frontseat is not
+    /// connected, and no answer to a pending command can come any more.
+    fn driver_down(&mut self, myself: &ActorRef<FsiMsg>, why: &str) {
+        self.driver_live = false;
+        self.driver_up = false;
         self.inputs.frontseat = FrontSeatState::FrontseatNotConnected;
         self.inputs.providing_data = false;
         self.fail_pending(error_code::DRIVER_FAILED, "driver failed", false);
@@ -897,37 +932,16 @@ impl FsiState {
         }
         tracing::error!(%why, "driver failed: frontseat treated as not connected");
         self.evaluate(myself);
-        if self.shutting_down {
-            return;
-        }
-        let now = tokio::time::Instant::now();
-        while let Some(t) = self.restart_times.front() {
-            if now.duration_since(*t) > self.s.restart_window {
-                self.restart_times.pop_front();
-            } else {
-                break;
-            }
-        }
-        if self.restart_times.len() as u32 >= self.s.max_restarts {
-            let why = format!(
-                "driver failed {} times within {:?}; giving up so the service manager can restart the process",
-                self.restart_times.len() + 1,
-                self.s.restart_window
-            );
-            tracing::error!("{why}");
-            self.finish(myself, ServiceExit::RestartLimit(why));
-            return;
-        }
-        let n = self.restart_times.len() as u32;
-        let delay = self
-            .s
-            .restart_initial
-            .saturating_mul(2u32.saturating_pow(n))
-            .min(self.s.restart_max);
-        self.restart_times.push_back(now);
-        tracing::warn!(?delay, restart = self.restarts + 1, "restarting driver");
-        myself.send_after(delay, || FsiMsg::RestartDriver);
     }
+}
+
+/// The interface's one supervised child, as its supervisor starts it and the tree shows it.
+pub fn driver_node(settings: &InterfaceSettings) -> Node {
+    Node::new(
+        "DriverActor",
+        settings.driver_policy(),
+        "[supervision] (restart_initial_delay_ms, restart_max_delay_ms, max_restarts, restart_window_s); down = frontseat not connected",
+    )
 }
 
 /// "pose.pitch = NaN (not a finite number), …" for a log line.
@@ -1009,6 +1023,13 @@ fn with_telemetry(mut d: InterfaceDetail, m: &crate::metrics::VehicleMetrics) ->
     d
 }
 
+/// Goby3's name of an InterfaceState number, for the metrics.
+fn state_name(n: i32) -> &'static str {
+    InterfaceState::try_from(n)
+        .map(|s| s.as_str_name())
+        .unwrap_or("UNKNOWN")
+}
+
 fn log_transition(t: &Transition) {
     tracing::info!(
         from = state_words(t.from),
@@ -1067,10 +1088,11 @@ impl Actor for FrontSeatInterface {
             helm_heard: tokio::time::Instant::now(),
             helm_state_timeout: clock.wall(args.settings.helm_state_timeout),
             frame,
-            driver: None,
+            drivers: None,
+            driver_live: false,
+            driver_up: false,
             driver_heartbeat: Arc::new(std::sync::atomic::AtomicU64::new(heartbeat_now())),
             restarts: 0,
-            restart_times: VecDeque::new(),
             pending: HashMap::new(),
             counters: Counters::default(),
             gate: GateContext::default(),
@@ -1079,14 +1101,27 @@ impl Actor for FrontSeatInterface {
             nav_drop_log: RateLimitedLog::for_bad_input(),
             raw_log: RateLimitedLog::for_bad_input(),
             raw_refused_log: RateLimitedLog::for_bad_input(),
-            metrics: crate::metrics::register(&args.settings.name),
+            metrics: crate::metrics::register(&args.settings.name, state_name),
             shutting_down: false,
             exit: args.exit,
             subs,
             timers,
             s: args.settings,
         };
-        state.spawn_driver(&myself).await?;
+        let me = myself.clone();
+        let observer: ChildObserver = Arc::new(move |down: ChildDown| {
+            let _ = me.cast(FsiMsg::DriverDown(down.why));
+        });
+        let child = state.driver_child(&myself);
+        state.drivers = Some(
+            spawn_nested(
+                "FrontSeatInterface",
+                vec![child],
+                myself.get_cell(),
+                Some(observer),
+            )
+            .await?,
+        );
         state.publish_status();
         tracing::info!(state = "standby", "frontseat interface started");
         Ok(state)
@@ -1234,7 +1269,7 @@ impl FrontSeatInterface {
                 }
                 I::Status(env) => {
                     // A status from a driver we already consider dead must not revive it.
-                    if st.driver.is_some() {
+                    if st.driver_live {
                         st.inputs.frontseat = env.msg.frontseat_state();
                         st.inputs.providing_data = env.msg.providing_data();
                         st.evaluate(&myself);
@@ -1262,12 +1297,12 @@ impl FrontSeatInterface {
                 st.evaluate(&myself);
             }
             FsiMsg::StatusTick => st.publish_status(),
-            FsiMsg::RestartDriver => {
-                if !st.shutting_down && st.driver.is_none() {
-                    st.restarts += 1;
-                    st.spawn_driver(&myself).await?;
-                }
+            FsiMsg::DriverStarting { restarts } => {
+                st.driver_live = true;
+                st.restarts = restarts;
             }
+            FsiMsg::DriverUp => st.driver_up = st.driver_live,
+            FsiMsg::DriverDown(why) => st.driver_down(&myself, &why),
             FsiMsg::Shutdown(reply) => {
                 tracing::info!(
                     "orderly shutdown: refusing commands, closing the frontseat connection"
@@ -1275,11 +1310,15 @@ impl FrontSeatInterface {
                 st.shutting_down = true;
                 st.fail_pending(error_code::SHUTTING_DOWN, "interface shutting down", false);
                 st.publish_status();
-                if let Some(d) = st.driver.take() {
-                    let _ = d.cast(DriverMsg::Stop);
-                    // Give the driver a moment to flush and close its socket.
-                    let _ =
-                        tokio::time::timeout(Duration::from_millis(500), wait_stopped(&d)).await;
+                if let Some(d) = st.drivers.take() {
+                    // The driver's supervisor stops it (an orderly stop: the driver closes its
+                    // frontseat connection) and restarts nothing. Give it a moment to flush.
+                    let _ = d
+                        .stop_and_wait(
+                            Some("orderly shutdown".into()),
+                            Some(Duration::from_millis(500)),
+                        )
+                        .await;
                 }
                 st.exit.send_replace(Some(ServiceExit::Clean));
                 let _ = reply.send(());
@@ -1290,8 +1329,8 @@ impl FrontSeatInterface {
                     status: st.status(),
                     providing_data: st.inputs.providing_data,
                     driver_restarts: st.restarts,
-                    driver_up: st.driver.is_some(),
-                    driver_responsive: st.driver.is_none()
+                    driver_up: st.driver_up,
+                    driver_responsive: !st.driver_up
                         || heartbeat_now().saturating_sub(
                             st.driver_heartbeat
                                 .load(std::sync::atomic::Ordering::Relaxed),
@@ -1315,22 +1354,39 @@ impl FrontSeatInterface {
         evt: SupervisionEvent,
         st: &mut FsiState,
     ) -> Result<(), ActorProcessingErr> {
-        // ractor's default would stop us with the child; a driver failure is ours to handle.
-        match evt {
-            SupervisionEvent::ActorFailed(cell, err)
-                if st.driver.as_ref().map(|d| d.get_id()) == Some(cell.get_id()) =>
-            {
-                st.driver_down(&myself, format!("driver panicked or failed: {err}"));
+        // ractor's default would stop us with the child. The driver's supervisor ends only when
+        // it gave up (its failure carries the restart limit's reason) or when we stopped it.
+        let is_drivers = |cell: &ractor::ActorCell| {
+            st.drivers.as_ref().map(|d| d.get_id()) == Some(cell.get_id())
+        };
+        let exit = match evt {
+            SupervisionEvent::ActorFailed(cell, err) if is_drivers(&cell) => {
+                match err.downcast_ref::<ChildFailure>() {
+                    Some(ChildFailure {
+                        exit: Some(ServiceExit::RestartLimit(reason)),
+                        ..
+                    }) => ServiceExit::RestartLimit(reason.clone()),
+                    _ => ServiceExit::Failed(format!("driver supervisor failed: {err}")),
+                }
             }
-            SupervisionEvent::ActorTerminated(cell, _, reason)
-                if st.driver.as_ref().map(|d| d.get_id()) == Some(cell.get_id()) =>
-            {
-                st.driver_down(
-                    &myself,
-                    format!("driver stopped: {}", reason.unwrap_or_default()),
-                );
+            SupervisionEvent::ActorTerminated(cell, _, reason) if is_drivers(&cell) => {
+                ServiceExit::Failed(format!(
+                    "driver supervisor stopped: {}",
+                    reason.unwrap_or_default()
+                ))
             }
-            _ => {}
+            _ => return Ok(()),
+        };
+        st.drivers = None;
+        let why = match &exit {
+            ServiceExit::RestartLimit(w) | ServiceExit::Failed(w) => w.clone(),
+            _ => String::new(),
+        };
+        // This may come before the supervisor's word that the driver is down.
+        st.driver_down(&myself, &why);
+        if !st.shutting_down {
+            tracing::error!("{why}");
+            st.finish(&myself, exit);
         }
         Ok(())
     }
@@ -1350,12 +1406,6 @@ impl FrontSeatInterface {
             st.exit.send_replace(Some(ServiceExit::Clean));
         }
         Ok(())
-    }
-}
-
-async fn wait_stopped(actor: &ActorRef<DriverMsg>) {
-    while actor.get_status() != ractor::ActorStatus::Stopped {
-        tokio::time::sleep(Duration::from_millis(5)).await;
     }
 }
 

@@ -24,7 +24,6 @@ pub mod generated;
 pub mod health;
 pub mod interface;
 pub mod link;
-pub mod metrics;
 pub mod nav_gate;
 pub mod ratelog;
 pub mod raw_gate;
@@ -33,7 +32,10 @@ pub mod sim_glue;
 pub mod state_machine;
 pub mod supervisor;
 pub mod systemd;
-pub mod telemetry;
 pub mod translation;
 
+/// Telemetry and metrics are their own crate (`frontseat-telemetry`); these two paths stay for
+/// the drivers, which report bad lines and truncate raw lines through them while they move to
+/// `vehicles/` (issue 26, in parallel). New code uses `frontseat_telemetry` directly.
+pub use frontseat_telemetry::{self as telemetry, metrics};
 pub use generated::{groups, ports, proto};

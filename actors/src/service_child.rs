@@ -37,6 +37,7 @@ pub fn service_child(name: &str, policy: Policy, start: StartService) -> ChildSp
     ChildSpec {
         name: name.to_string(),
         policy,
+        about: Default::default(),
         start: Arc::new(move |sup| {
             let args = ServiceArgs {
                 name: child_name.clone(),

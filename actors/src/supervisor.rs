@@ -11,7 +11,11 @@
 //! down the supervisor reports itself *degraded* (which child, since when). Every restart is
 //! logged and counted; [`SupervisorSnapshot`] says who is up.
 //!
-//! The pure decision ([`Decider`]) is separate from the actor so it is table-tested.
+//! The pure decision ([`Decider`]) is separate from the actor so it is table-tested. It is the only
+//! restart decision in the process: a part that supervises a child of its own nests a supervisor
+//! (the FrontSeatInterface its DriverActor, with [`spawn_nested`], hearing of the driver's end
+//! through a [`ChildObserver`]; the web scope its hub). The tree `frontseat interfaces` prints is
+//! rendered ([`render_tree`]) from the [`Node`]s of the very [`ChildSpec`]s a service starts.
 
 use std::collections::VecDeque;
 use std::future::Future;
@@ -25,9 +29,33 @@ use tokio::sync::watch;
 use tokio::time::Instant;
 
 use crate::bus::Bus;
-use crate::interface::ServiceExit;
 use crate::ports::RootSupervisorPorts;
 use crate::proto::frontseat::protobuf::{SupervisedActor, SupervisionStatus};
+
+/// Why the service ended.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum ServiceExit {
+    /// Orderly shutdown.
+    Clean,
+    /// exit_on_error and an error state was entered. Its code is Goby3's (0, frontseat_interface.cpp
+    /// 176-184); `frontseat interface` exits with the configured `exit_on_error_code` instead.
+    ErrorState(String),
+    /// A vehicle-side child (the driver, the interface) failed more often than its limit allows.
+    RestartLimit(String),
+    /// The interface actor itself failed.
+    Failed(String),
+}
+
+impl ServiceExit {
+    pub fn code(&self) -> i32 {
+        match self {
+            ServiceExit::Clean => 0,
+            ServiceExit::ErrorState(_) => 0,
+            ServiceExit::RestartLimit(_) => 3,
+            ServiceExit::Failed(_) => 4,
+        }
+    }
+}
 
 /// Which side of the frontseat link a child is on, and so what repeated failures of it do.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
@@ -290,6 +318,69 @@ pub struct ChildSpec {
     pub name: String,
     pub policy: Policy,
     pub start: StartFn,
+    /// What the printed tree says of it besides its name and policy.
+    pub about: About,
+}
+
+/// What the tree `frontseat interfaces` prints says of a child besides its name and policy.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct About {
+    /// When it runs and where its policy is configured, e.g. "with [web] enabled; [supervision.web]".
+    pub note: String,
+    /// The children it supervises itself (the interface's DriverActor, the web scope's hub).
+    pub nested: Vec<Node>,
+}
+
+/// One child as the printed tree shows it: the name and policy its [`ChildSpec`] starts it with.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Node {
+    pub name: String,
+    pub policy: Policy,
+    pub about: About,
+}
+
+impl Node {
+    pub fn new(name: &str, policy: Policy, note: &str) -> Self {
+        Self {
+            name: name.to_string(),
+            policy,
+            about: About {
+                note: note.to_string(),
+                nested: Vec::new(),
+            },
+        }
+    }
+
+    /// The spec that starts this child with `start`: the tree and the start share name and policy.
+    pub fn spec(self, start: StartFn) -> ChildSpec {
+        ChildSpec {
+            name: self.name,
+            policy: self.policy,
+            start,
+            about: self.about,
+        }
+    }
+}
+
+impl ChildSpec {
+    /// This child as the printed tree shows it.
+    pub fn node(&self) -> Node {
+        Node {
+            name: self.name.clone(),
+            policy: self.policy.clone(),
+            about: self.about.clone(),
+        }
+    }
+
+    pub fn noted(mut self, note: &str) -> Self {
+        self.about.note = note.to_string();
+        self
+    }
+
+    pub fn nesting(mut self, nested: Vec<Node>) -> Self {
+        self.about.nested = nested;
+        self
+    }
 }
 
 /// One child as the supervisor sees it.
@@ -322,12 +413,27 @@ pub enum SupervisorMsg {
     Snapshot(RpcReplyPort<SupervisorSnapshot>),
 }
 
+/// A child's end as its supervisor tells an observer, before it decides what to do about it.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct ChildDown {
+    pub name: String,
+    pub why: String,
+    /// A failure (a panic, an error, a start that failed), not an orderly end.
+    pub failed: bool,
+}
+
+/// Hears of every child's end: how the actor hosting a nested supervisor (the
+/// FrontSeatInterface, of its DriverActor's) learns that the child is down while the
+/// supervisor alone decides on the restart.
+pub type ChildObserver = Arc<dyn Fn(ChildDown) + Send + Sync>;
+
 pub struct SupervisorArgs {
     pub name: String,
     pub children: Vec<ChildSpec>,
     pub exit: watch::Sender<Option<ServiceExit>>,
     /// Where the status goes (`frontseat::supervision::status`), if anywhere.
     pub bus: Option<Bus>,
+    pub observer: Option<ChildObserver>,
 }
 
 struct Child {
@@ -344,6 +450,7 @@ pub struct SupervisorState {
     exit: watch::Sender<Option<ServiceExit>>,
     giving_up: bool,
     ports: Option<RootSupervisorPorts>,
+    observer: Option<ChildObserver>,
 }
 
 pub struct Supervisor;
@@ -439,6 +546,13 @@ impl SupervisorState {
         if ending == Ending::Failed {
             child.last_failure = Some(why.clone());
         }
+        if let Some(observer) = &self.observer {
+            observer(ChildDown {
+                name: child.spec.name.clone(),
+                why: why.clone(),
+                failed: ending == Ending::Failed,
+            });
+        }
         if self.giving_up {
             return None;
         }
@@ -526,6 +640,7 @@ impl Actor for Supervisor {
             exit: args.exit,
             giving_up: false,
             ports: args.bus.as_ref().map(RootSupervisorPorts::new),
+            observer: args.observer,
         };
         st.publish();
         Ok(st)
@@ -637,6 +752,7 @@ impl SupervisorHandle {
                 children,
                 exit: tx,
                 bus: bus.cloned(),
+                observer: None,
             },
         )
         .await
@@ -679,41 +795,129 @@ impl SupervisorHandle {
     }
 }
 
-/// Who supervises whom, as `frontseat interfaces` prints it.
-pub const TREE: &str = "\
+/// A supervisor nested under `parent`, an actor that hosts a supervision tree of its own: giving
+/// up reaches the parent as this supervisor's failure (a [`ChildFailure`] whose exit is
+/// [`ServiceExit::RestartLimit`]), and `observer` hears of each child's end before the restart
+/// is decided. Its status is not published (the root's is the process's).
+pub async fn spawn_nested(
+    name: &str,
+    children: Vec<ChildSpec>,
+    parent: ActorCell,
+    observer: Option<ChildObserver>,
+) -> Result<ActorRef<SupervisorMsg>, String> {
+    // Nobody reads the exit: the parent learns of giving up from the failure itself.
+    let (exit, _) = watch::channel(None);
+    let (actor, _join) = Actor::spawn_linked(
+        None,
+        Supervisor,
+        SupervisorArgs {
+            name: name.to_string(),
+            children,
+            exit,
+            bus: None,
+            observer,
+        },
+        parent,
+    )
+    .await
+    .map_err(|e| e.to_string())?;
+    Ok(actor)
+}
+
+/// What the printed tree says before the trees of the services.
+pub const TREE_PREAMBLE: &str = "\
 # supervision tree (every restart is logged, counted, and published on frontseat::supervision::status)
 # two sides, two policies: only the vehicle side can end the process; a helm-side child is
 # restarted without end (backoff doubling to backoff_max_ms, jittered), and while it is down the
 # process is degraded (supervision status: degraded, the child's down_since; goby_coroner health:
-# DEGRADED; metric frontseat.supervision.helm_side_down), never dead
-# frontseat interface
-#   root supervisor                 gives up only past a vehicle-side limit: exit 3 (or the child's code)
-#   ├── ZenohGateway          helm     with [interprocess] enabled   [supervision.zenoh]
-#   ├── HealthReporter        helm     answers goby_coroner (goby::health::request)
-#   ├── Goby3Gateway          helm     with [goby3] enabled          [supervision.goby3]
-#   ├── FrontSeatInterface    VEHICLE  [supervision.interface] (on-failure, 3 in 60 s); an error state
-#   │   │                              (exit_on_error) or its driver's exhausted limit is not restarted:
-#   │   │                              the process ends with exit 2 / exit 3
-#   │   └── DriverActor       VEHICLE  [supervision]: restart after restart_initial_delay_ms doubling to
-#   │                                  restart_max_delay_ms, at most max_restarts within restart_window_s
-#   ├── FrontSeatTranslation  helm     with [moos]                   [supervision.translation]
-#   └── WebScope              helm     with [web] enabled            [supervision.web]
-#       └── WebHub                     always restarted, at most 5 a minute; then the scope fails and
-#                                      the root restarts the scope
-#   each [supervision.X]: policy never|on-failure|always, backoff_initial_ms doubling to
-#   backoff_max_ms; max_restarts within restart_window_s bounds the vehicle side only (a helm-side
-#   `never` child that fails is left down, degraded); children stop in reverse start order
-# frontseat sim (and the demo: SimServer + FrontSeatInterface + WebScope under one root)
-#   root supervisor
-#   └── SimServer                   [supervision] of the sim config
-#       └── one task per vehicle connection   a panic closes only that connection (vehicle_panics)
-# frontseat moos-gateway
-#   root supervisor
-#   ├── ZenohGateway                [supervision.zenoh]
-#   ├── Goby3Gateway                [supervision.goby3]
-#   ├── HealthReporter              answers goby_coroner (goby::health::request)
-#   └── FrontSeatTranslation        [supervision.translation]
+# DEGRADED; metric frontseat.supervision.helm_side_down), never dead; a vehicle-side child is
+# restarted at most max_restarts within restart_window_s, then its supervisor gives up (exit 3, or
+# the child's own code); a helm-side `never` child that fails is left down, degraded; children
+# stop in reverse start order
 ";
+
+/// "100 ms", "2 s", "1.5 s".
+fn span(d: Duration) -> String {
+    if d.subsec_millis() == 0 && d.as_secs() > 0 {
+        format!("{} s", d.as_secs())
+    } else if d < Duration::from_secs(1) {
+        format!("{} ms", d.as_millis())
+    } else {
+        format!("{} s", d.as_secs_f64())
+    }
+}
+
+fn policy_words(p: &Policy) -> String {
+    let restart = match p.restart {
+        RestartPolicy::Never => "never",
+        RestartPolicy::OnFailure => "on-failure",
+        RestartPolicy::Always => "always",
+    };
+    let backoff = format!(
+        "after {} doubling to {}",
+        span(p.backoff_initial),
+        span(p.backoff_max)
+    );
+    match p.side {
+        Side::Vehicle => format!(
+            "{restart}, {backoff}, at most {} in {}",
+            p.max_restarts,
+            span(p.window)
+        ),
+        Side::Helm => format!("{restart}, {backoff}, jittered, without end"),
+    }
+}
+
+fn render_nodes(out: &mut String, nodes: &[Node], indent: &str) {
+    for (i, n) in nodes.iter().enumerate() {
+        let last = i + 1 == nodes.len();
+        let (branch, more) = if last {
+            ("└── ", "    ")
+        } else {
+            ("├── ", "│   ")
+        };
+        let side = match n.policy.side {
+            Side::Vehicle => "VEHICLE",
+            Side::Helm => "helm",
+        };
+        let width = 26usize.saturating_sub(indent.chars().count());
+        out.push_str(&format!(
+            "#   {indent}{branch}{:<width$}{side:<8} {}\n",
+            n.name,
+            policy_words(&n.policy)
+        ));
+        let below = format!("{indent}{more}");
+        let bar = if n.about.nested.is_empty() {
+            " "
+        } else {
+            "│"
+        };
+        if !n.about.note.is_empty() {
+            out.push_str(&format!("#   {below}{bar}   {}\n", n.about.note));
+        }
+        render_nodes(out, &n.about.nested, &below);
+    }
+}
+
+/// One service's tree under its root supervisor, from the nodes of the very [`ChildSpec`]s it
+/// starts (in start order), as `frontseat interfaces` prints it.
+pub fn render_tree(title: &str, root_note: &str, children: &[Node]) -> String {
+    let mut out = format!("# {title}\n#   root supervisor   {root_note}\n");
+    render_nodes(&mut out, children, "");
+    out
+}
+
+/// The names in a tree [`render_tree`] printed, each with its depth (1: a root's child).
+pub fn tree_names(tree: &str) -> Vec<(usize, String)> {
+    tree.lines()
+        .filter_map(|l| {
+            let at = l.find("── ")?;
+            let depth = l[..at].chars().count().saturating_sub(4) / 4 + 1;
+            let name = l[at + "── ".len()..].split_whitespace().next()?;
+            Some((depth, name.to_string()))
+        })
+        .collect()
+}
 
 #[cfg(test)]
 mod tests {
@@ -728,6 +932,44 @@ mod tests {
             backoff_initial: Duration::from_millis(100),
             backoff_max: Duration::from_millis(1000),
         }
+    }
+
+    #[test]
+    fn the_tree_is_rendered_from_the_nodes_and_read_back() {
+        let mut scope = Node::new(
+            "Scope",
+            policy(RestartPolicy::OnFailure, 3).helm_side(),
+            "a",
+        );
+        scope.about.nested = vec![Node::new("Inner", policy(RestartPolicy::Always, 5), "")];
+        let nodes = vec![
+            Node::new("First", policy(RestartPolicy::Never, 2), "first note"),
+            scope,
+            Node::new("Last", policy(RestartPolicy::OnFailure, 4), ""),
+        ];
+        let tree = render_tree("svc", "root note", &nodes);
+        assert_eq!(
+            tree_names(&tree),
+            vec![
+                (1, "First".to_string()),
+                (1, "Scope".to_string()),
+                (2, "Inner".to_string()),
+                (1, "Last".to_string()),
+            ],
+            "{tree}"
+        );
+        assert!(
+            tree.contains("First                     VEHICLE  never, after 100 ms doubling to 1 s, at most 2 in 60 s"),
+            "{tree}"
+        );
+        assert!(
+            tree.contains(
+                "helm     on-failure, after 100 ms doubling to 1 s, jittered, without end"
+            ),
+            "{tree}"
+        );
+        assert!(tree.contains("│   └── Inner"), "{tree}");
+        assert!(tree.contains("first note"), "{tree}");
     }
 
     #[tokio::test(start_paused = true)]

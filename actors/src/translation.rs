@@ -865,6 +865,7 @@ pub fn child_spec(
     crate::supervisor::ChildSpec {
         name: "FrontSeatTranslation".into(),
         policy,
+        about: Default::default(),
         start: Arc::new(move |sup| {
             let args = args.clone();
             Box::pin(async move {

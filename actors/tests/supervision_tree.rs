@@ -6,7 +6,9 @@
 //! - the driver's own restart limit exhausted → not restarted by the root: the process's exit is
 //!   the driver limit's (3), as before the root supervisor existed;
 //! - a helm-side child failing again and again, far past its restart limit → restarted without
-//!   end, the process degraded but alive, the driver's connection to the frontseat never closed.
+//!   end, the process degraded but alive, the driver's connection to the frontseat never closed;
+//! - the driver crashing under its own supervisor (nested in the interface) → pending commands
+//!   fail with DRIVER_FAILED, the restarted driver's first status brings back COMMAND.
 //!
 //! Every wait has a deadline.
 
@@ -15,9 +17,16 @@ use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
 use frontseat_actors::bus::Bus;
+use frontseat_actors::driver::{Driver, DriverContext, DriverFactory, DriverIoEvent, SignalSink};
 use frontseat_actors::groups;
-use frontseat_actors::interface::{FsiMsg, InterfaceService};
+use frontseat_actors::interface::{
+    FsiMsg, InterfaceService, InterfaceSettings, ServiceExit, error_code,
+};
 use frontseat_actors::proto::frontseat::protobuf::{ChaosFault, chaos_fault};
+use frontseat_actors::proto::goby::middleware::frontseat::protobuf::{
+    CommandRequest, DesiredCourse, FrontSeatState, HelmState, HelmStateReport, InterfaceData,
+    InterfaceState, InterfaceStatus, Raw,
+};
 use frontseat_actors::service_child::{BoxFuture, Service, StartService, service_child};
 use frontseat_actors::supervisor::{ChildFailure, ChildSpec, Policy, SupervisorHandle};
 use frontseat_config::RestartPolicy;
@@ -289,4 +298,139 @@ async fn a_helm_side_child_failing_without_end_never_ends_the_process_nor_the_ve
         }
     }
     root.shutdown(Duration::from_secs(10)).await;
+}
+
+/// A frontseat that accepts commands and never answers them; a command with request id
+/// `CRASH_ON` makes it panic, as a driver bug would.
+struct Mute;
+
+const CRASH_ON: i32 = 99;
+
+impl Driver for Mute {
+    fn name(&self) -> &str {
+        "mute"
+    }
+    fn start(&mut self, _ctx: DriverContext) {}
+    fn handle_io(&mut self, _ev: DriverIoEvent, _now: Duration, _sig: &mut dyn SignalSink) {}
+    fn send_command_to_frontseat(
+        &mut self,
+        req: &CommandRequest,
+        _now: Duration,
+        _sig: &mut dyn SignalSink,
+    ) {
+        assert_ne!(req.request_id, Some(CRASH_ON), "the mute driver crashes");
+    }
+    fn send_data_to_frontseat(&mut self, _: &InterfaceData, _: Duration, _: &mut dyn SignalSink) {}
+    fn send_raw_to_frontseat(&mut self, _: &Raw, _: Duration, _: &mut dyn SignalSink) {}
+    fn do_loop(&mut self, _now: Duration, _sig: &mut dyn SignalSink) {}
+    fn frontseat_state(&self) -> FrontSeatState {
+        FrontSeatState::FrontseatAcceptingCommands
+    }
+    fn frontseat_providing_data(&self) -> bool {
+        true
+    }
+}
+
+/// Waits for an InterfaceStatus in `state`.
+async fn until_state(
+    rx: &mut tokio::sync::mpsc::UnboundedReceiver<frontseat_actors::bus::Envelope<InterfaceStatus>>,
+    state: InterfaceState,
+) {
+    tokio::time::timeout(DEADLINE, async {
+        while let Some(s) = rx.recv().await {
+            if s.msg.state() == state {
+                return;
+            }
+        }
+        panic!("status group closed");
+    })
+    .await
+    .unwrap_or_else(|_| panic!("no {state:?} within the deadline"));
+}
+
+/// The driver's restart is its supervisor's, and the interface still plays its part: a command
+/// pending when the driver crashes fails with DRIVER_FAILED, the interface leaves COMMAND, and
+/// once the supervisor restarted the driver the new driver's very first status (it sends no
+/// other) brings the interface back to COMMAND.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_driver_crash_fails_pending_commands_and_its_supervisor_restarts_it() {
+    let bus = Bus::new();
+    let (_st_sub, mut statuses) = bus.subscribe_channel(
+        &groups::GOBY_MIDDLEWARE_FRONTSEAT_STATUS,
+        "test-status",
+        1024,
+    );
+    let (_resp_sub, mut responses) = bus.subscribe_channel(
+        &groups::GOBY_MIDDLEWARE_FRONTSEAT_COMMAND_RESPONSE,
+        "test-responses",
+        64,
+    );
+    let mut cfg = InterfaceConfig::default();
+    cfg.supervision.restart_initial_delay_ms = 10;
+    let factory: DriverFactory = Arc::new(|| Box::new(Mute) as Box<dyn Driver>);
+    let service = InterfaceService::start_with(InterfaceSettings::from_config(&cfg), &bus, factory)
+        .await
+        .unwrap();
+    let helm = {
+        let bus = bus.clone();
+        tokio::spawn(async move {
+            loop {
+                bus.publish(
+                    &groups::GOBY_MIDDLEWARE_FRONTSEAT_HELM_STATE,
+                    HelmStateReport {
+                        state: HelmState::HelmDrive as i32,
+                    },
+                );
+                tokio::time::sleep(Duration::from_millis(50)).await;
+            }
+        })
+    };
+    until_state(&mut statuses, InterfaceState::InterfaceCommand).await;
+
+    let ask = |id: i32| CommandRequest {
+        desired_course: Some(DesiredCourse {
+            heading: Some(90.0),
+            speed: Some(1.0),
+            ..Default::default()
+        }),
+        response_requested: Some(true),
+        request_id: Some(id),
+        cancel_request_id: None,
+    };
+    bus.publish(&groups::GOBY_MIDDLEWARE_FRONTSEAT_COMMAND_REQUEST, ask(7));
+    bus.publish(
+        &groups::GOBY_MIDDLEWARE_FRONTSEAT_COMMAND_REQUEST,
+        ask(CRASH_ON),
+    );
+    let mut failed = Vec::new();
+    while failed.len() < 2 {
+        let r = tokio::time::timeout(DEADLINE, responses.recv())
+            .await
+            .expect("the pending commands are answered")
+            .expect("bus open");
+        assert_eq!(r.msg.request_successful, Some(false), "{:?}", r.msg);
+        assert_eq!(
+            r.msg.error_code,
+            Some(error_code::DRIVER_FAILED),
+            "{:?}",
+            r.msg
+        );
+        failed.push(r.msg.request_id);
+    }
+    failed.sort();
+    assert_eq!(failed, vec![Some(7), Some(CRASH_ON)]);
+
+    until_state(&mut statuses, InterfaceState::InterfaceFsError).await;
+    until_state(&mut statuses, InterfaceState::InterfaceCommand).await;
+    let snap = service
+        .snapshot(Duration::from_secs(2))
+        .await
+        .expect("the interface answers");
+    assert_eq!(snap.driver_restarts, 1, "{snap:?}");
+    assert!(snap.driver_up, "{snap:?}");
+    helm.abort();
+    assert_eq!(
+        service.shutdown(Duration::from_secs(3)).await,
+        ServiceExit::Clean
+    );
 }

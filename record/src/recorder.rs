@@ -315,7 +315,7 @@ impl RecordInput {
             Ok(()) => true,
             Err(TrySendError::Full(_)) => {
                 self.counters.dropped_queue.fetch_add(1, Ordering::Relaxed);
-                frontseat_actors::metrics::recorder_dropped(1);
+                frontseat_telemetry::metrics::recorder_dropped(1);
                 false
             }
             Err(TrySendError::Disconnected(_)) => false,
@@ -401,7 +401,7 @@ impl Recorder {
                         Ok(()) => Ok(()),
                         Err(TrySendError::Full(_)) => {
                             c.dropped_queue.fetch_add(1, Ordering::Relaxed);
-                            frontseat_actors::metrics::recorder_dropped(1);
+                            frontseat_telemetry::metrics::recorder_dropped(1);
                             Ok(())
                         }
                         // The writer thread is gone (stopped, or it failed): stop delivering.
@@ -467,7 +467,7 @@ impl Recorder {
             .name("recorder".into())
             .spawn(move || sink.run(rx, thread_stop))
             .map_err(RecorderError::Thread)?;
-        frontseat_actors::metrics::recorder_running(true);
+        frontseat_telemetry::metrics::recorder_running(true);
         Ok((
             Self {
                 subs: Vec::new(),
@@ -545,7 +545,7 @@ impl Recorder {
         }
         self.stop.store(true, Ordering::Release);
         if let Some(t) = self.thread.take() {
-            frontseat_actors::metrics::recorder_running(false);
+            frontseat_telemetry::metrics::recorder_running(false);
             if t.join().is_err() {
                 tracing::error!("the recorder thread panicked; the last file may lack its summary");
             }
@@ -655,7 +655,7 @@ impl Sink {
             self.counters
                 .dropped_unwritable
                 .fetch_add(1, Ordering::Relaxed);
-            frontseat_actors::metrics::recorder_dropped(1);
+            frontseat_telemetry::metrics::recorder_dropped(1);
             return;
         };
         match write_item(f, self.pool, &item) {
@@ -666,7 +666,7 @@ impl Sink {
                 self.counters
                     .dropped_unwritable
                     .fetch_add(1, Ordering::Relaxed);
-                frontseat_actors::metrics::recorder_dropped(1);
+                frontseat_telemetry::metrics::recorder_dropped(1);
                 let why = format!("writing {}: {e}", f.path.display());
                 // The writer may be half-way through a record: this file is done.
                 self.file = None;

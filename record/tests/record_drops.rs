@@ -9,10 +9,10 @@ use std::time::Duration;
 
 use frontseat_actors::bus::Bus;
 use frontseat_actors::groups::GOBY_MIDDLEWARE_FRONTSEAT_NODE_STATUS as NODE_STATUS;
-use frontseat_actors::metrics;
 use frontseat_actors::proto::goby::middleware::frontseat::protobuf::NodeStatus;
 use frontseat_record::recorder::{RecordMeta, Recorder, RecorderOptions};
 use frontseat_record::{META_RECORDER, Recording, info};
+use frontseat_telemetry::metrics;
 
 #[test]
 fn an_overflowing_queue_counts_its_drops_in_the_metrics_and_the_file() {

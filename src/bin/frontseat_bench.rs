@@ -34,7 +34,7 @@ fn main() -> ExitCode {
             }
         },
     };
-    let mut telemetry = frontseat_actors::telemetry::init(&Default::default(), "bench", "");
+    let mut telemetry = frontseat_telemetry::init(&Default::default(), "bench", "");
     let code = match tokio::runtime::Builder::new_multi_thread()
         .enable_all()
         .build()

@@ -27,8 +27,8 @@ struct Cli {
 fn main() -> ExitCode {
     let args = Cli::parse().args;
     // A long run would fill the console with every injected fault at info level.
-    frontseat_actors::telemetry::set_default_console_level("warn");
-    let mut telemetry = frontseat_actors::telemetry::init(&Default::default(), "chaos", "");
+    frontseat_telemetry::set_default_console_level("warn");
+    let mut telemetry = frontseat_telemetry::init(&Default::default(), "chaos", "");
     let code = match tokio::runtime::Builder::new_multi_thread()
         .enable_all()
         .build()

@@ -8,7 +8,7 @@
 use std::sync::{Arc, RwLock};
 use std::time::Duration;
 
-use frontseat_actors::supervisor::{ChildSpec, Policy, Side, SupervisorHandle};
+use frontseat_actors::supervisor::{Node, Policy, Side, SupervisorHandle};
 use frontseat_config::RestartPolicy;
 use ractor::{Actor, ActorRef, ActorStatus};
 
@@ -47,25 +47,30 @@ fn hub_policy() -> Policy {
     }
 }
 
+/// The hub as its supervisor starts it and the tree `frontseat interfaces` prints shows it.
+pub fn hub_node() -> Node {
+    Node::new(
+        "WebHub",
+        hub_policy(),
+        "restarted however it ends; past the limit the scope fails and the root restarts the scope",
+    )
+}
+
 /// Starts the hub under its supervisor; returns the supervisor and the handle the HTTP side uses.
 pub async fn start(hub: HubArgs) -> Result<(SupervisorHandle, HubHandle), String> {
     let handle = HubHandle(Arc::new(RwLock::new(None)));
     let current = handle.clone();
-    let spec = ChildSpec {
-        name: "WebHub".into(),
-        policy: hub_policy(),
-        start: Arc::new(move |sup| {
-            let args = hub.clone();
-            let current = current.clone();
-            Box::pin(async move {
-                let (h, _) = Actor::spawn_linked(None, Hub, args, sup)
-                    .await
-                    .map_err(|e| e.to_string())?;
-                current.set(Some(h.clone()));
-                Ok(h.get_cell())
-            })
-        }),
-    };
+    let spec = hub_node().spec(Arc::new(move |sup| {
+        let args = hub.clone();
+        let current = current.clone();
+        Box::pin(async move {
+            let (h, _) = Actor::spawn_linked(None, Hub, args, sup)
+                .await
+                .map_err(|e| e.to_string())?;
+            current.set(Some(h.clone()));
+            Ok(h.get_cell())
+        })
+    }));
     let sup = SupervisorHandle::start("web", vec![spec], None).await?;
     Ok((sup, handle))
 }

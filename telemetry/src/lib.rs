@@ -1,6 +1,9 @@
 //! Logs and traces for every frontseat process: console logs (tracing-subscriber with an env
 //! filter, no colours off a TTY) always, and OpenTelemetry traces exported over OTLP/HTTP when the
-//! config's `[telemetry]` or the standard `OTEL_*` environment variables ask for it.
+//! config's `[telemetry]` or the standard `OTEL_*` environment variables ask for it. A crate of its
+//! own, beside the runtime rather than in it: the runtime (`frontseat-actors`) reports into it
+//! (trace context on the bus, counters in [`metrics`]) and the binaries set it up; it knows no
+//! actor and no message type.
 //!
 //! The hop spans (socket read, decode, bus publish, bus delivery, handling, socket write) are at
 //! TRACE level and only the OpenTelemetry layer enables them, so with telemetry off they cost one
@@ -12,6 +15,10 @@
 //! either exported, dropped at a full queue or lost in a failed request, and those counts reach
 //! the interface's detail status, the metrics (`crate::metrics`, exported over OTLP/HTTP beside
 //! the traces) and a last log line at shutdown.
+
+#![forbid(unsafe_code)]
+
+pub mod metrics;
 
 use std::collections::HashMap;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};

@@ -14,8 +14,6 @@ use std::sync::{Arc, Mutex, Weak};
 use opentelemetry::KeyValue;
 use opentelemetry::metrics::Meter;
 
-use crate::proto::goby::middleware::frontseat::protobuf::InterfaceState;
-
 /// One interface's counters, shared between the interface actor (writer) and the exporter's
 /// callbacks (reader).
 #[derive(Debug, Default)]
@@ -36,6 +34,24 @@ pub struct VehicleMetrics {
     pub driver_restarts: AtomicU64,
     /// The InterfaceState number (Goby3's enum).
     pub state: AtomicI32,
+    /// Its name: the runtime owns the enum, this crate only reports it.
+    pub state_name: StateName,
+}
+
+/// Names a Goby3 InterfaceState number, as the runtime that owns the enum does.
+#[derive(Clone, Copy)]
+pub struct StateName(pub fn(i32) -> &'static str);
+
+impl Default for StateName {
+    fn default() -> Self {
+        Self(|_| "UNKNOWN")
+    }
+}
+
+impl std::fmt::Debug for StateName {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("StateName")
+    }
 }
 
 impl VehicleMetrics {
@@ -55,9 +71,13 @@ static VEHICLES: Mutex<Vec<(String, Weak<VehicleMetrics>)>> = Mutex::new(Vec::ne
 /// for the whole process: drivers do not know which vehicle they serve.
 static BAD_LINES: AtomicU64 = AtomicU64::new(0);
 
-/// The counters of a new interface, exported with the attribute `vehicle = <name>`.
-pub fn register(vehicle: &str) -> Arc<VehicleMetrics> {
-    let m = Arc::new(VehicleMetrics::default());
+/// The counters of a new interface, exported with the attribute `vehicle = <name>`; its state
+/// is named by `state_name`.
+pub fn register(vehicle: &str, state_name: fn(i32) -> &'static str) -> Arc<VehicleMetrics> {
+    let m = Arc::new(VehicleMetrics {
+        state_name: StateName(state_name),
+        ..Default::default()
+    });
     let mut v = VEHICLES.lock().unwrap_or_else(|p| p.into_inner());
     v.retain(|(_, w)| w.strong_count() > 0);
     v.push((vehicle.to_string(), Arc::downgrade(&m)));
@@ -232,9 +252,7 @@ pub(crate) fn install(meter: &Meter, spans: fn() -> (u64, u64)) {
         .with_callback(|obs| {
             each_vehicle(|attrs, m| {
                 let n = m.state.load(Ordering::Relaxed);
-                let name = InterfaceState::try_from(n)
-                    .map(|s| s.as_str_name())
-                    .unwrap_or("UNKNOWN");
+                let name = (m.state_name.0)(n);
                 let mut a = attrs.to_vec();
                 a.push(KeyValue::new("state", name));
                 obs.observe(i64::from(n), &a);

@@ -216,7 +216,7 @@ async fn until_nav(
     let deadline = Instant::now() + LONG;
     loop {
         match timeout_at(deadline, rx.recv()).await {
-            Ok(Some(n)) if (n.msg.global_fix.lat() - lat).abs() < 1e-6 => break,
+            Ok(Some(n)) if (n.msg.global_fix.lat - lat).abs() < 1e-6 => break,
             Ok(Some(_)) => {}
             _ => panic!("{what}: no node_status at lat {lat} through gobyd\n{}", log(dir)),
         }
@@ -313,7 +313,7 @@ async fn floods_on_every_surface_leave_the_interface_alive_bounded_and_the_vehic
             hb.publish(
                 &groups::GOBY_MIDDLEWARE_FRONTSEAT_DESIRED_COURSE,
                 DesiredCourse {
-                    time: Some(1.7e9),
+                    time: 1.7e9,
                     heading: Some(45.0),
                     speed: Some(1.0),
                     depth: Some(3.0),
@@ -340,7 +340,7 @@ async fn floods_on_every_surface_leave_the_interface_alive_bounded_and_the_vehic
         name: "warm",
         rss_kib: baseline,
     }];
-    let mut after = |name: &'static str, child: &mut Kill, stages: &mut Vec<Stage>| {
+    let after = |name: &'static str, child: &mut Kill, stages: &mut Vec<Stage>| {
         assert!(
             matches!(child.0.try_wait(), Ok(None)),
             "the interface died during the {name} flood\n{}",
@@ -440,7 +440,7 @@ async fn floods_on_every_surface_leave_the_interface_alive_bounded_and_the_vehic
     let mut sent = 0u64;
     for i in 0..40_000u32 {
         let mut payload = DesiredCourse {
-            time: Some(1.7e9),
+            time: 1.7e9,
             heading: Some(if i % 2 == 0 { 1e308 } else { 7200.0 }),
             speed: Some(if i % 3 == 0 { 1e308 } else { -5.1e307 }),
             depth: Some(1e20),

@@ -217,15 +217,15 @@ async fn the_topside_page_shows_the_fleet_a_vehicles_scope_and_commands_it_with_
         "topside.sent.length === 2 && topside.sent[1].result.startsWith('refused (401)')",
     )
     .await;
-    assert!(courses2.try_recv().is_err(), "no course reached auv2");
-    assert_eq!(
+    let auv2_sends = || {
         fleet[1]
             .page
             .server_counters
             .sends
-            .load(std::sync::atomic::Ordering::Relaxed),
-        0
-    );
+            .load(std::sync::atomic::Ordering::Relaxed)
+    };
+    assert!(courses2.try_recv().is_err(), "no course reached auv2");
+    assert_eq!(auv2_sends(), 0);
     // With auv2's token: auv2's commander publishes it on auv2's bus, and only there.
     b.type_into("#cmd-token", &token_of("auv2")).await;
     b.click("#cmd-send").await;
@@ -239,14 +239,7 @@ async fn the_topside_page_shows_the_fleet_a_vehicles_scope_and_commands_it_with_
         .expect("the course reaches auv2 in time")
         .expect("auv2's bus");
     assert_eq!((env.msg.heading, env.msg.speed), (Some(77.0), Some(1.5)));
-    assert_eq!(
-        fleet[1]
-            .page
-            .server_counters
-            .sends
-            .load(std::sync::atomic::Ordering::Relaxed),
-        1
-    );
+    assert_eq!(auv2_sends(), 1);
     assert!(courses1.try_recv().is_err(), "auv1 got nothing");
 
     // auv3 goes silent: shown stale (greyed, labelled), never removed.

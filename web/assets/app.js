@@ -114,16 +114,8 @@
   // ---------- rendering helpers ----------
   const fmtTime = (ms) => ms ? new Date(ms).toISOString().slice(11, 23) : "";
   const el = FrontseatForm.el;
-  function tree(v) {
-    if (v === null || typeof v !== "object") return el("span", {}, JSON.stringify(v));
-    const ul = el("ul", { class: "tree" });
-    for (const [k, x] of Object.entries(v)) {
-      const li = el("li", { "data-field": k }, el("span", { class: "k" }, k + ": "));
-      li.append(typeof x === "object" && x !== null ? tree(x) : el("span", { class: "v" }, JSON.stringify(x)));
-      ul.append(li);
-    }
-    return ul;
-  }
+  const tree = FrontseatForm.tree;
+
 
   // ---------- scope ----------
   // Rows are made once per group and updated in place, so a click is never lost to a row

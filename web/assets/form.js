@@ -1,6 +1,7 @@
-// The commander's form, shared by the vehicle's own page (app.js) and the topside's page: built
-// from a message type's form schema (/api/commander), read back into the JSON the server then
-// checks again (the form only flags; the interface's gates decide). No library.
+// What the vehicle's own page (app.js) and the topside's page share: the commander's form, built
+// from a message type's form schema (/api/commander) and read back into the JSON the server then
+// checks again (the form only flags; the interface's gates decide), and the scope's field tree.
+// No library.
 "use strict";
 window.FrontseatForm = (function () {
   function el(tag, attrs, ...kids) {
@@ -10,6 +11,17 @@ window.FrontseatForm = (function () {
     }
     for (const k of kids) if (k !== null && k !== undefined) e.append(k instanceof Node ? k : String(k));
     return e;
+  }
+  // A message as nested lists, one item per field (`data-field` names it), for the scopes.
+  function tree(v) {
+    if (v === null || typeof v !== "object") return el("span", {}, JSON.stringify(v));
+    const ul = el("ul", { class: "tree" });
+    for (const [k, x] of Object.entries(v)) {
+      const li = el("li", { "data-field": k }, el("span", { class: "k" }, k + ": "));
+      li.append(typeof x === "object" && x !== null ? tree(x) : el("span", { class: "v" }, JSON.stringify(x)));
+      ul.append(li);
+    }
+    return ul;
   }
   const INT_RANGES = { int32: [-2147483648, 2147483647], uint32: [0, 4294967295], int64: [-9007199254740991, 9007199254740991], uint64: [0, 9007199254740991] };
   function fieldsOf(schema, prefix, onChange) {
@@ -74,5 +86,5 @@ window.FrontseatForm = (function () {
     }
     return { message, errors };
   }
-  return { el, fieldsOf, collect };
+  return { el, tree, fieldsOf, collect };
 })();

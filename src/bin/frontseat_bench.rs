@@ -23,6 +23,10 @@ struct Cli {
 }
 
 fn main() -> ExitCode {
+    // The bench's own F1 publishers, started by the bench as a child of its own.
+    if let Ok(spec) = std::env::var(frontseat_bench::PUBLISHER_ENV) {
+        return frontseat_bench::publisher_main(&spec);
+    }
     let args = Cli::parse().args;
     let exe = match std::env::var_os("FRONTSEAT_EXE") {
         Some(p) => std::path::PathBuf::from(p),

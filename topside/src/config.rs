@@ -29,8 +29,8 @@ pub struct TopsideConfig {
     /// Track points kept per vehicle (one per metre moved at most); older ones are dropped.
     #[schemars(range(min = 2, max = 100000))]
     pub track_points: usize,
-    /// Each vehicle's own page (scope and commander): linked from the topside page, and where
-    /// commands for that vehicle are relayed.
+    /// Each vehicle's own page: linked from the topside page, and where commands from the
+    /// topside's commander for that vehicle are relayed (its page checks its token).
     #[schemars(example = example_links())]
     pub vehicle: Vec<VehicleLink>,
     /// Recording what the topside hears (every vehicle's node_status, status and desired_course)

@@ -1,11 +1,14 @@
 //! `frontseat topside -c FILE`: every vehicle of a fleet on one page. A Zenoh subscriber of what
 //! the vehicles' interfaces publish (`*/goby/middleware/frontseat/node_status`, `status`) and of
 //! what their helms command (`desired_course`), with the platform taken from the key expression;
-//! a [`fleet`] model (bounded, stale-not-removed); and an HTTP page served with the web crate's
-//! access rules (loopback by default, Host check, optional token) and bounded listener.
+//! a [`fleet`] model (bounded, stale-not-removed); each vehicle's [`scope`] (every interprocess
+//! group heard under its platform, newest message decoded on request); and an HTTP page served
+//! with the web crate's access rules (loopback by default, Host check, optional token) and
+//! bounded listener.
 //!
 //! The topside publishes nothing itself: a command for a vehicle is relayed ([`relay`]) to that
-//! vehicle's own page, which checks that vehicle's token, so its interface's gates decide.
+//! vehicle's own page, which checks that vehicle's token, so its interface's gates decide. The
+//! page's commander form is the vehicle page's own (`form.js`, the same schema).
 //!
 //! `[record]` writes every sample the fleet model took in (decoded, of a platform it tracks) to
 //! MCAP, channel `<platform>/<group>`, stamped with its receive time, through the recorder's
@@ -15,6 +18,7 @@
 pub mod config;
 pub mod fleet;
 pub mod relay;
+pub mod scope;
 
 use std::collections::BTreeMap;
 use std::net::SocketAddr;
@@ -28,7 +32,8 @@ use axum::http::header::{CACHE_CONTROL, CONTENT_TYPE};
 use axum::http::{HeaderMap, HeaderValue};
 use axum::response::{IntoResponse, Response};
 use axum::routing::get;
-use frontseat_actors::groups;
+use frontseat_actors::bus::Layer;
+use frontseat_actors::groups::{self, GroupInfo};
 use frontseat_actors::proto::goby::middleware::frontseat::protobuf::{
     DesiredCourse, InterfaceStatus, NodeStatus,
 };
@@ -44,6 +49,7 @@ use serde_json::json;
 
 pub use config::TopsideConfig;
 use fleet::{Fleet, Refused};
+use scope::Scope;
 
 const INDEX_HTML: &str = include_str!("../assets/topside.html");
 
@@ -107,12 +113,13 @@ pub fn effective_token(cfg: &TopsideConfig) -> Result<Option<String>, TopsideErr
 #[derive(Clone)]
 struct AppState {
     fleet: Arc<Mutex<Fleet>>,
+    scope: Arc<Mutex<Scope>>,
     access: Access,
     counters: Arc<Counters>,
     links: Arc<BTreeMap<String, String>>,
 }
 
-/// Which of the three subscribed groups a sample is.
+/// Which of the groups the fleet model shows a sample is (the map and table).
 #[derive(Clone, Copy)]
 enum Kind {
     NodeStatus,
@@ -185,64 +192,89 @@ fn bump(c: &AtomicU64, what: &str, key: &str) {
 /// Called with each node_status the fleet model took in (benchmarks measure arrival with it).
 pub type Observer = Arc<dyn Fn(&str, &NodeStatus) + Send + Sync>;
 
-/// Takes one sample into the fleet: the platform from the key, the payload bounded and decoded.
-fn take(
-    fleet: &Mutex<Fleet>,
-    counters: &Counters,
-    kind: Kind,
-    key: &str,
-    payload: &[u8],
-    observer: Option<&Observer>,
-    record: Option<&RecordTo>,
-) {
-    let Some(platform) = key
-        .split('/')
-        .next()
-        .filter(|p| frontseat_gateway::plan::check_platform(p).is_ok())
-    else {
-        return bump(&counters.bad_key, "bad platform in key expression", key);
-    };
-    if payload.len() > frontseat_gateway::DEFAULT_MAX_PAYLOAD {
-        return bump(&counters.oversized, "oversized payload refused", key);
-    }
-    let now = tokio::time::Instant::now();
-    let mut f = fleet.lock().unwrap_or_else(|p| p.into_inner());
-    let r = match kind {
-        Kind::NodeStatus => match NodeStatus::decode(payload) {
-            Ok(m) => {
-                let r = f.on_node_status(platform, &m, now);
-                if let (Ok(()), Some(o)) = (&r, observer) {
-                    o(platform, &m);
-                }
-                r
-            }
-            Err(_) => return bump(&counters.undecodable, "undecodable node_status", key),
-        },
-        Kind::Status => match InterfaceStatus::decode(payload) {
-            Ok(m) => f.on_status(platform, &m, now),
-            Err(_) => return bump(&counters.undecodable, "undecodable status", key),
-        },
-        Kind::Course => match DesiredCourse::decode(payload) {
-            Ok(m) => f.on_course(platform, &m),
-            Err(_) => return bump(&counters.undecodable, "undecodable desired_course", key),
-        },
-    };
-    drop(f);
-    // Recorded as heard, implausible values too (the record is of what came in); a platform the
-    // model refused is not, so the file's channels are bounded by max_vehicles.
-    if let (Some(rec), Ok(()) | Err(Refused::Implausible)) = (record, &r) {
-        rec.record(platform, payload);
-    }
-    match r {
-        Ok(()) => {
-            counters.accepted.fetch_add(1, Ordering::Relaxed);
+/// Where the samples of one subscription go: the fleet model (for the three groups it shows),
+/// the scope (every group), the counters, the observer and the recorder.
+#[derive(Clone)]
+struct Sink {
+    fleet: Arc<Mutex<Fleet>>,
+    scope: Arc<Mutex<Scope>>,
+    counters: Arc<Counters>,
+    observer: Option<Observer>,
+    record: Option<RecordTo>,
+}
+
+impl Sink {
+    /// Takes one sample of `info`'s group: the platform from the key, the payload bounded, kept
+    /// for the scope, and decoded into the fleet when it is one of the groups the map shows.
+    fn take(&self, info: &'static GroupInfo, kind: Option<Kind>, key: &str, payload: &[u8]) {
+        let counters = &self.counters;
+        let Some(platform) = key
+            .split('/')
+            .next()
+            .filter(|p| frontseat_gateway::plan::check_platform(p).is_ok())
+        else {
+            return bump(&counters.bad_key, "bad platform in key expression", key);
+        };
+        if payload.len() > frontseat_gateway::DEFAULT_MAX_PAYLOAD {
+            return bump(&counters.oversized, "oversized payload refused", key);
         }
-        Err(Refused::Implausible) => bump(&counters.implausible, "implausible value refused", key),
-        Err(Refused::TooManyVehicles) => bump(
-            &counters.too_many_vehicles,
-            "max_vehicles reached; platform refused",
-            key,
-        ),
+        let now = tokio::time::Instant::now();
+        let scoped = self
+            .scope
+            .lock()
+            .unwrap_or_else(|p| p.into_inner())
+            .on_sample(platform, info, payload, now);
+        let Some(kind) = kind else {
+            // The fleet's own groups count their refusals below; the others here.
+            if scoped.is_err() {
+                bump(
+                    &counters.too_many_vehicles,
+                    "max_vehicles reached; platform refused",
+                    key,
+                );
+            }
+            return;
+        };
+        let mut f = self.fleet.lock().unwrap_or_else(|p| p.into_inner());
+        let r = match kind {
+            Kind::NodeStatus => match NodeStatus::decode(payload) {
+                Ok(m) => {
+                    let r = f.on_node_status(platform, &m, now);
+                    if let (Ok(()), Some(o)) = (&r, &self.observer) {
+                        o(platform, &m);
+                    }
+                    r
+                }
+                Err(_) => return bump(&counters.undecodable, "undecodable node_status", key),
+            },
+            Kind::Status => match InterfaceStatus::decode(payload) {
+                Ok(m) => f.on_status(platform, &m, now),
+                Err(_) => return bump(&counters.undecodable, "undecodable status", key),
+            },
+            Kind::Course => match DesiredCourse::decode(payload) {
+                Ok(m) => f.on_course(platform, &m),
+                Err(_) => return bump(&counters.undecodable, "undecodable desired_course", key),
+            },
+        };
+        drop(f);
+        // Recorded as heard, implausible values too (the record is of what came in); a platform
+        // the model refused is not, so the file's channels are bounded by max_vehicles.
+        if let (Some(rec), Ok(()) | Err(Refused::Implausible)) = (&self.record, &r) {
+            rec.record(platform, payload);
+        }
+        match r {
+            Ok(()) => {
+                counters.accepted.fetch_add(1, Ordering::Relaxed);
+            }
+            Err(Refused::Implausible) => {
+                bump(&counters.implausible, "implausible value refused", key)
+            }
+            Err(Refused::TooManyVehicles) => bump(
+                &counters.too_many_vehicles,
+                "max_vehicles reached; platform refused",
+                key,
+            ),
+        }
     }
 }
 
@@ -306,38 +338,40 @@ impl Topside {
             cfg.track_points,
             Duration::from_secs_f64(cfg.stale_after_s.clamp(0.001, 3600.0)),
         )));
+        let scope = Arc::new(Mutex::new(Scope::new(cfg.max_vehicles)));
         let counters = Arc::new(Counters::default());
         let mut subs = Vec::new();
-        for (group, kind) in [
-            (
-                groups::GOBY_MIDDLEWARE_FRONTSEAT_NODE_STATUS.name(),
-                Kind::NodeStatus,
-            ),
-            (
-                groups::GOBY_MIDDLEWARE_FRONTSEAT_STATUS.name(),
-                Kind::Status,
-            ),
-            (
-                groups::GOBY_MIDDLEWARE_FRONTSEAT_DESIRED_COURSE.name(),
-                Kind::Course,
-            ),
-        ] {
-            let key = frontseat_gateway::key_for("*", group);
-            let (fleet, counters, observer) = (fleet.clone(), counters.clone(), observer.clone());
-            let record = record.as_ref().and_then(|i| RecordTo::new(i, group));
+        // One subscription per interprocess group (the scope shows them all), so the group is
+        // known from the subscription and only the platform is read from the key.
+        for info in groups::ALL
+            .iter()
+            .filter(|g| g.layer == Layer::Interprocess)
+        {
+            let kind = match info.name {
+                n if n == groups::GOBY_MIDDLEWARE_FRONTSEAT_NODE_STATUS.name() => {
+                    Some(Kind::NodeStatus)
+                }
+                n if n == groups::GOBY_MIDDLEWARE_FRONTSEAT_STATUS.name() => Some(Kind::Status),
+                n if n == groups::GOBY_MIDDLEWARE_FRONTSEAT_DESIRED_COURSE.name() => {
+                    Some(Kind::Course)
+                }
+                _ => None,
+            };
+            let key = frontseat_gateway::key_for("*", info.name);
+            let sink = Sink {
+                fleet: fleet.clone(),
+                scope: scope.clone(),
+                counters: counters.clone(),
+                observer: observer.clone(),
+                record: kind
+                    .and(record.as_ref())
+                    .and_then(|i| RecordTo::new(i, info.name)),
+            };
             let sub = session
                 .declare_subscriber(key.clone())
                 .callback(move |s| {
                     let payload = s.payload().to_bytes();
-                    take(
-                        &fleet,
-                        &counters,
-                        kind,
-                        s.key_expr().as_str(),
-                        &payload,
-                        observer.as_ref(),
-                        record.as_ref(),
-                    );
+                    sink.take(info, kind, s.key_expr().as_str(), &payload);
                 })
                 .await
                 .map_err(|e| TopsideError::Zenoh(format!("subscribe {key}: {e}")))?;
@@ -355,6 +389,7 @@ impl Topside {
         })?;
         let state = AppState {
             fleet,
+            scope,
             access: Access::new(addr, token),
             counters: counters.clone(),
             links: Arc::new(
@@ -430,7 +465,15 @@ fn router(st: AppState) -> Router {
     Router::new()
         .route("/", get(index))
         .route("/api/fleet", get(fleet_json))
+        .route(
+            "/form.js",
+            get(|| async {
+                frontseat_web::server::asset("text/javascript", frontseat_web::server::FORM_JS)
+            }),
+        )
         .route("/api/info", get(info))
+        .route("/api/commander", get(commander))
+        .route("/api/vehicle/{name}/scope", get(vehicle_scope))
         .route("/api/vehicle/{name}/send", axum::routing::post(send))
         .layer(axum::extract::DefaultBodyLimit::max(relay::MAX_BODY))
         .with_state(st)
@@ -547,6 +590,56 @@ async fn fleet_json(
     r.headers_mut()
         .insert(CACHE_CONTROL, HeaderValue::from_static("no-store"));
     r
+}
+
+/// One vehicle's scope: every group heard under its platform, the newest message decoded.
+async fn vehicle_scope(
+    State(st): State<AppState>,
+    axum::extract::Path(name): axum::extract::Path<String>,
+    headers: HeaderMap,
+    Query(q): Query<TokenQuery>,
+) -> Response {
+    if let Err(r) = st.access.check_read(&headers, q.token.as_deref()) {
+        return refused(r.status(), r.text());
+    }
+    let now = tokio::time::Instant::now();
+    // Copied under the lock, decoded outside it: the Zenoh callbacks never wait for a decode.
+    let rows = st
+        .scope
+        .lock()
+        .unwrap_or_else(|p| p.into_inner())
+        .rows(&name, now);
+    let Some(rows) = rows else {
+        return refused(
+            axum::http::StatusCode::NOT_FOUND,
+            format!(
+                "no vehicle `{}` heard",
+                name.chars().take(64).collect::<String>()
+            ),
+        );
+    };
+    let mut r = axum::Json(scope::render(&name, rows)).into_response();
+    r.headers_mut()
+        .insert(CACHE_CONTROL, HeaderValue::from_static("no-store"));
+    r
+}
+
+/// The commander's groups and form schemas, the same as every vehicle's page serves. The
+/// envelope (`limits`) is each vehicle's own and its gate applies it, so none is given here.
+async fn commander(
+    State(st): State<AppState>,
+    headers: HeaderMap,
+    Query(q): Query<TokenQuery>,
+) -> Response {
+    if let Err(r) = st.access.check_read(&headers, q.token.as_deref()) {
+        return refused(r.status(), r.text());
+    }
+    axum::Json(json!({
+        "groups": frontseat_web::server::commander_groups(),
+        "limits": {},
+        "vehicles": st.links.keys().collect::<Vec<_>>(),
+    }))
+    .into_response()
 }
 
 /// Stops a recorder off the async threads and logs what it counted.

@@ -113,24 +113,9 @@
 
   // ---------- rendering helpers ----------
   const fmtTime = (ms) => ms ? new Date(ms).toISOString().slice(11, 23) : "";
-  function el(tag, attrs, ...kids) {
-    const e = document.createElement(tag);
-    for (const [k, v] of Object.entries(attrs || {})) {
-      if (k === "class") e.className = v; else if (k.startsWith("on")) e.addEventListener(k.slice(2), v); else e.setAttribute(k, v);
-    }
-    for (const k of kids) if (k !== null && k !== undefined) e.append(k instanceof Node ? k : String(k));
-    return e;
-  }
-  function tree(v) {
-    if (v === null || typeof v !== "object") return el("span", {}, JSON.stringify(v));
-    const ul = el("ul", { class: "tree" });
-    for (const [k, x] of Object.entries(v)) {
-      const li = el("li", { "data-field": k }, el("span", { class: "k" }, k + ": "));
-      li.append(typeof x === "object" && x !== null ? tree(x) : el("span", { class: "v" }, JSON.stringify(x)));
-      ul.append(li);
-    }
-    return ul;
-  }
+  const el = FrontseatForm.el;
+  const tree = FrontseatForm.tree;
+
 
   // ---------- scope ----------
   // Rows are made once per group and updated in place, so a click is never lost to a row
@@ -198,7 +183,6 @@
   }
 
   // ---------- commander ----------
-  const INT_RANGES = { int32: [-2147483648, 2147483647], uint32: [0, 4294967295], int64: [-9007199254740991, 9007199254740991], uint64: [0, 9007199254740991] };
   async function loadCommander() {
     try {
       const r = await fetch(q("/api/commander"), { headers: authHeaders() });
@@ -218,37 +202,8 @@
     form.replaceChildren();
     if (!g) return;
     $("cmd-type").textContent = g.type;
-    form.append(fieldsOf(g.schema, ""));
+    form.append(FrontseatForm.fieldsOf(g.schema, "", validate));
     validate();
-  }
-  function fieldsOf(schema, prefix) {
-    const box = el("div", {});
-    for (const f of schema.fields) {
-      const path = prefix + f.name;
-      if (f.type === "message") {
-        if (f.label === "repeated" || !f.message) continue;
-        const fs = el("fieldset", { "data-message": path }, el("legend", {}, f.name + (f.label === "required" ? " *" : "") + " (" + f.message.type + ")"));
-        fs.append(fieldsOf(f.message, path + "."));
-        box.append(fs);
-        continue;
-      }
-      let input;
-      const def = f.default === null || f.default === undefined ? "" : String(f.default);
-      if (f.type === "enum") {
-        input = el("select", { name: path, "data-type": "enum" }, el("option", { value: "", class: "default" }, def ? "(default " + def + ")" : "(unset)"));
-        for (const v of f.enum) input.append(el("option", { value: v.name }, v.name));
-      } else if (f.type === "bool") {
-        input = el("select", { name: path, "data-type": "bool" }, el("option", { value: "" }, "(default " + (def || "false") + ")"), el("option", { value: "true" }, "true"), el("option", { value: "false" }, "false"));
-      } else {
-        input = el("input", { name: path, "data-type": f.type, placeholder: def, "data-label": f.label });
-        if (f.label === "repeated") input.setAttribute("placeholder", "comma-separated");
-      }
-      input.dataset.label = f.label;
-      input.addEventListener("input", validate); input.addEventListener("change", validate);
-      const extra = f.name === "time" ? el("button", { type: "button", onclick: () => { input.value = (Date.now() / 1000).toFixed(3); validate(); } }, "now") : "";
-      box.append(el("div", { class: "field" }, el("label", { class: f.label === "required" ? "req" : "" }, f.name), input, el("span", { class: "muted" }, f.unit || ""), extra));
-    }
-    return box;
   }
   // The interface's command gate ([limits]) as the server reports it, per group and field.
   function limitFor(path) {
@@ -256,39 +211,7 @@
     const g = lim && lim[$("cmd-group").value];
     return g && g[path];
   }
-  // Builds the JSON to send and flags bad fields; returns {message, errors}.
-  function collect() {
-    const message = {}; const errors = [];
-    for (const input of $("cmd-form").querySelectorAll("[name]")) {
-      const path = input.name; const type = input.dataset.type; const raw = input.value.trim();
-      input.classList.remove("bad");
-      const bad = (why) => { input.classList.add("bad"); errors.push(path + ": " + why); };
-      if (raw === "") {
-        const parent = path.includes(".") ? path.slice(0, path.lastIndexOf(".")) : null;
-        const parentUsed = parent === null || [...$("cmd-form").querySelectorAll("[name^='" + parent + ".']")].some((i) => i.value.trim() !== "");
-        if (input.dataset.label === "required" && parentUsed) bad("required");
-        continue;
-      }
-      let value;
-      if (type === "enum") value = raw;
-      else if (type === "bool") value = raw === "true";
-      else if (type === "string") value = raw;
-      else if (type === "bytes") value = btoa(raw);
-      else if (input.dataset.label === "repeated") value = raw.split(",").map((s) => Number(s.trim()));
-      else {
-        value = Number(raw);
-        if (!Number.isFinite(value)) { bad("not a number"); continue; }
-        const range = INT_RANGES[type];
-        if (range && (!Number.isInteger(value) || value < range[0] || value > range[1])) { bad("not a " + type); continue; }
-        const lim = limitFor(path);
-        if (lim && ((lim.min !== undefined && value < lim.min) || (lim.max !== undefined && value > lim.max))) { bad("outside [" + lim.min + ", " + lim.max + "]"); continue; }
-      }
-      let o = message; const parts = path.split(".");
-      for (const p of parts.slice(0, -1)) o = (o[p] = o[p] || {});
-      o[parts[parts.length - 1]] = value;
-    }
-    return { message, errors };
-  }
+  const collect = () => FrontseatForm.collect($("cmd-form"), limitFor);
   function validate() {
     const { errors } = collect();
     $("cmd-result").textContent = errors.length ? errors.join("; ") : "";

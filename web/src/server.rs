@@ -35,6 +35,8 @@ use crate::supervisor::HubHandle;
 const INDEX_HTML: &str = include_str!("../assets/index.html");
 const APP_JS: &str = include_str!("../assets/app.js");
 const APP_CSS: &str = include_str!("../assets/app.css");
+/// The commander's form (schema → inputs → checked JSON), also served by the topside's page.
+pub const FORM_JS: &str = include_str!("../assets/form.js");
 
 /// How long a request waits for the hub before answering 503.
 const HUB_TIMEOUT: Duration = Duration::from_secs(2);
@@ -103,6 +105,10 @@ pub fn router(st: AppState, max_body_bytes: usize) -> Router {
             get(|| async { asset("text/javascript", APP_JS) }),
         )
         .route("/app.css", get(|| async { asset("text/css", APP_CSS) }))
+        .route(
+            "/form.js",
+            get(|| async { asset("text/javascript", FORM_JS) }),
+        )
         .route("/api/info", get(info))
         .route("/api/events", get(events))
         .route("/api/history", get(history))
@@ -113,7 +119,8 @@ pub fn router(st: AppState, max_body_bytes: usize) -> Router {
         .with_state(st)
 }
 
-fn asset(content_type: &'static str, body: &'static str) -> Response {
+/// An embedded asset, revalidated on every load.
+pub fn asset(content_type: &'static str, body: &'static str) -> Response {
     (
         [
             (CONTENT_TYPE, HeaderValue::from_static(content_type)),
@@ -275,7 +282,14 @@ async fn commander(
     if let Err(r) = st.access.check_read(&headers, q.token.as_deref()) {
         return refuse(&st, r);
     }
-    let items: Vec<Json> = WebCommanderPorts::PUBLISHES
+    JsonBody(json!({"can_send": st.access.can_send(), "groups": commander_groups(), "limits": st.limits}))
+        .into_response()
+}
+
+/// The groups the commander may send on, each with its type and form schema (the vehicle's
+/// page and the topside's build the same form from it).
+pub fn commander_groups() -> Vec<Json> {
+    WebCommanderPorts::PUBLISHES
         .iter()
         .filter_map(|name| groups::ALL.iter().find(|g| g.name == *name))
         .map(|g| {
@@ -285,9 +299,7 @@ async fn commander(
                 "schema": reflect::message_schema(g.type_name).unwrap_or(Json::Null),
             })
         })
-        .collect();
-    JsonBody(json!({"can_send": st.access.can_send(), "groups": items, "limits": st.limits}))
-        .into_response()
+        .collect()
 }
 
 #[derive(Deserialize)]

@@ -1,9 +1,13 @@
 //! Rows F1 and F2: a fleet's scale. F1 — N vehicles' node_status at 10 Hz each, put on Zenoh
-//! over loopback under N platforms, reaching the topside's fleet model (latency from the put,
-//! stamped in NodeStatus.time, to the model taking it in; CPU and RSS of the process, which also
-//! runs the publishers, so an upper bound for the topside). F2 — the simulator with 1000
-//! vehicles at 10 Hz (frontseat_sim::capacity_bench: CPU, tick lateness).
+//! over loopback under N platforms by a child process (this very executable, started with
+//! [`PUBLISHER_ENV`]), reaching the topside's fleet model in this process (latency from the put,
+//! stamped in NodeStatus.time, to the model taking it in; CPU and RSS of this process, which
+//! runs the topside and nothing else meanwhile, and the child's CPU apart). F2 — the simulator
+//! with 1000 vehicles at 10 Hz (frontseat_sim::capacity_bench: CPU, tick lateness).
 
+use std::io::{BufRead, BufReader, Write};
+use std::path::Path;
+use std::process::{Child, Command, ExitCode, Stdio};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, SystemTime, UNIX_EPOCH};
 
@@ -46,11 +50,188 @@ fn rss_kib() -> Option<u64> {
         .ok()
 }
 
-pub async fn run(plan: Plan, want_f1: bool, want_f2: bool) -> Vec<Row> {
+/// Set (to `<port> <vehicles> <window_ms>`) in the environment of the F1 publishing child.
+pub const PUBLISHER_ENV: &str = "FRONTSEAT_BENCH_F1_PUBLISHER";
+
+/// The F1 publishers, as the child process: listens for the topside on the port, says
+/// `listening`, puts vehicle 0 until `go` arrives on stdin, then every vehicle at 10 Hz for the
+/// window, and says `sent S errors E secs T`.
+pub fn publisher_main(spec: &str) -> ExitCode {
+    let parts: Vec<u64> = spec
+        .split_whitespace()
+        .filter_map(|p| p.parse().ok())
+        .collect();
+    let [port, n, window_ms] = parts[..] else {
+        eprintln!("{PUBLISHER_ENV}: expected `<port> <vehicles> <window_ms>`, got {spec:?}");
+        return ExitCode::from(2);
+    };
+    let rt = match tokio::runtime::Builder::new_multi_thread()
+        .enable_all()
+        .build()
+    {
+        Ok(rt) => rt,
+        Err(e) => {
+            eprintln!("cannot start the async runtime: {e}");
+            return ExitCode::from(1);
+        }
+    };
+    match rt.block_on(publish(
+        port as u16,
+        n as usize,
+        Duration::from_millis(window_ms),
+    )) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("F1 publisher: {e}");
+            ExitCode::from(1)
+        }
+    }
+}
+
+async fn publish(port: u16, n: usize, window: Duration) -> Result<(), String> {
+    let ip = frontseat_config::InterprocessConfig {
+        enabled: true,
+        listen: vec![format!("tcp/127.0.0.1:{port}")],
+        ..Default::default()
+    };
+    let zcfg = frontseat_gateway::zenoh_config(&ip, frontseat_gateway::DEFAULT_MAX_PAYLOAD)
+        .map_err(|e| e.to_string())?;
+    let vehicles = zenoh::open(zcfg).await.map_err(|e| e.to_string())?;
+    let (go_tx, mut go) = tokio::sync::oneshot::channel::<()>();
+    std::thread::spawn(move || {
+        let mut line = String::new();
+        if std::io::stdin().lock().read_line(&mut line).is_ok() && line.trim() == "go" {
+            let _ = go_tx.send(());
+        }
+    });
+    println!("listening");
+    let _ = std::io::stdout().flush();
+    let keys: Vec<String> = (0..n)
+        .map(|i| {
+            key_for(
+                &format!("v{i}"),
+                groups::GOBY_MIDDLEWARE_FRONTSEAT_NODE_STATUS.name(),
+            )
+        })
+        .collect();
+    let type_name = groups::GOBY_MIDDLEWARE_FRONTSEAT_NODE_STATUS.type_name();
+    let publish = |i: usize, k: u64| {
+        let ns = NodeStatus {
+            time: unix_now(),
+            local_fix: Some(CartesianCoordinate {
+                x: k as f64,
+                y: i as f64,
+                ..Default::default()
+            }),
+            ..Default::default()
+        };
+        put_message(&vehicles, &keys[i], type_name, &ns, None)
+    };
+    // Warm up until the bench has heard vehicle 0 (the session must connect first).
+    let warm = tokio::time::timeout(Duration::from_secs(30), async {
+        loop {
+            let _ = publish(0, 0);
+            tokio::select! {
+                r = &mut go => return r.is_ok(),
+                _ = tokio::time::sleep(Duration::from_millis(20)) => {}
+            }
+        }
+    })
+    .await;
+    if warm != Ok(true) {
+        let _ = vehicles.close().await;
+        return Err("no `go` from the bench".into());
+    }
+    // Every vehicle at 10 Hz, spread over the 100 ms period.
+    let period = Duration::from_millis(100);
+    let mut tick = tokio::time::interval(period / n.max(1) as u32);
+    tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Burst);
+    let t0 = tokio::time::Instant::now();
+    let (mut sent, mut errors, mut k) = (0u64, 0u64, 0u64);
+    while t0.elapsed() < window {
+        for i in 0..n {
+            tick.tick().await;
+            match publish(i, k) {
+                Ok(()) => sent += 1,
+                Err(_) => errors += 1,
+            }
+        }
+        k += 1;
+    }
+    println!(
+        "sent {sent} errors {errors} secs {}",
+        t0.elapsed().as_secs_f64()
+    );
+    let _ = std::io::stdout().flush();
+    // Let the last puts leave before the session closes.
+    tokio::time::sleep(Duration::from_millis(200)).await;
+    let _ = vehicles.close().await;
+    Ok(())
+}
+
+/// The publishing child, killed when dropped; its stdout lines arrive on `lines`.
+struct Publisher {
+    child: Child,
+    lines: tokio::sync::mpsc::UnboundedReceiver<String>,
+}
+
+impl Drop for Publisher {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+impl Publisher {
+    fn spawn(bench_exe: &Path, port: u16, n: usize, window: Duration) -> Result<Self, String> {
+        let mut child = Command::new(bench_exe)
+            .env(PUBLISHER_ENV, format!("{port} {n} {}", window.as_millis()))
+            .env_remove("OTEL_EXPORTER_OTLP_ENDPOINT")
+            .stdin(Stdio::piped())
+            .stdout(Stdio::piped())
+            .stderr(Stdio::inherit())
+            .spawn()
+            .map_err(|e| format!("spawning the F1 publisher {}: {e}", bench_exe.display()))?;
+        let (tx, lines) = tokio::sync::mpsc::unbounded_channel();
+        if let Some(out) = child.stdout.take() {
+            std::thread::spawn(move || {
+                for line in BufReader::new(out).lines() {
+                    let Ok(line) = line else { return };
+                    if tx.send(line).is_err() {
+                        return;
+                    }
+                }
+            });
+        }
+        Ok(Self { child, lines })
+    }
+
+    async fn line(&mut self, within: Duration) -> Result<String, String> {
+        match tokio::time::timeout(within, self.lines.recv()).await {
+            Ok(Some(l)) => Ok(l),
+            Ok(None) => Err("the F1 publisher ended early".into()),
+            Err(_) => Err(format!("the F1 publisher said nothing within {within:?}")),
+        }
+    }
+
+    fn go(&mut self) -> Result<(), String> {
+        let stdin = self
+            .child
+            .stdin
+            .as_mut()
+            .ok_or("the F1 publisher has no stdin")?;
+        stdin
+            .write_all(b"go\n")
+            .and_then(|()| stdin.flush())
+            .map_err(|e| format!("the F1 publisher: {e}"))
+    }
+}
+
+pub async fn run(plan: Plan, bench_exe: &Path, want_f1: bool, want_f2: bool) -> Vec<Row> {
     let mut rows = Vec::new();
     if want_f1 {
         for &n in plan.f1_fleets {
-            rows.push(match f1(n, plan.f1_window).await {
+            rows.push(match f1(bench_exe, n, plan.f1_window).await {
                 Ok(r) => r,
                 Err(why) => Row::failed("F1", format!("{F1} (N = {n})"), why),
             });
@@ -62,16 +243,13 @@ pub async fn run(plan: Plan, want_f1: bool, want_f2: bool) -> Vec<Row> {
     rows
 }
 
-async fn f1(n: usize, window: Duration) -> Result<Row, String> {
+async fn f1(bench_exe: &Path, n: usize, window: Duration) -> Result<Row, String> {
     let port = super::procs::free_port()?;
-    let ip = frontseat_config::InterprocessConfig {
-        enabled: true,
-        listen: vec![format!("tcp/127.0.0.1:{port}")],
-        ..Default::default()
-    };
-    let zcfg = frontseat_gateway::zenoh_config(&ip, frontseat_gateway::DEFAULT_MAX_PAYLOAD)
-        .map_err(|e| e.to_string())?;
-    let vehicles = zenoh::open(zcfg).await.map_err(|e| e.to_string())?;
+    let mut publisher = Publisher::spawn(bench_exe, port, n, window)?;
+    let said = publisher.line(Duration::from_secs(10)).await?;
+    if said != "listening" {
+        return Err(format!("the F1 publisher said {said:?}"));
+    }
     let mut cfg = TopsideConfig::default();
     cfg.zenoh.connect = vec![format!("tcp/127.0.0.1:{port}")];
     cfg.web.listen = "127.0.0.1:0".into();
@@ -87,38 +265,9 @@ async fn f1(n: usize, window: Duration) -> Result<Row, String> {
     let top = Topside::start_observed(&cfg, Some(observer))
         .await
         .map_err(|e| e.to_string())?;
-    let keys: Vec<String> = (0..n)
-        .map(|i| {
-            key_for(
-                &format!("v{i}"),
-                groups::GOBY_MIDDLEWARE_FRONTSEAT_NODE_STATUS.name(),
-            )
-        })
-        .collect();
-    let type_name = groups::GOBY_MIDDLEWARE_FRONTSEAT_NODE_STATUS.type_name();
-    // Every vehicle at 10 Hz, spread over the 100 ms period.
-    let period = Duration::from_millis(100);
-    let mut tick = tokio::time::interval(period / n.max(1) as u32);
-    tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Burst);
-    let publish = |i: usize, k: u64| {
-        let ns = NodeStatus {
-            time: unix_now(),
-            local_fix: Some(CartesianCoordinate {
-                x: k as f64,
-                y: i as f64,
-                ..Default::default()
-            }),
-            ..Default::default()
-        };
-        put_message(&vehicles, &keys[i], type_name, &ns, None)
-    };
     // Warm up until the topside hears the first vehicle (the session must connect first).
     let warm = tokio::time::timeout(Duration::from_secs(10), async {
-        loop {
-            let _ = publish(0, 0);
-            if hist.lock().unwrap_or_else(|p| p.into_inner()).1 > 0 {
-                break;
-            }
+        while hist.lock().unwrap_or_else(|p| p.into_inner()).1 == 0 {
             tokio::time::sleep(Duration::from_millis(20)).await;
         }
     })
@@ -128,35 +277,40 @@ async fn f1(n: usize, window: Duration) -> Result<Row, String> {
         return Err("the topside never heard the publisher".into());
     }
     *hist.lock().unwrap_or_else(|p| p.into_inner()) = (Hist::new(), 0);
-    let cpu0 = super::procs::cpu_time(std::process::id());
+    let me = std::process::id();
+    let child = publisher.child.id();
+    let (cpu0, child0) = (super::procs::cpu_time(me), super::procs::cpu_time(child));
     let rss0 = rss_kib();
-    let t0 = tokio::time::Instant::now();
-    let (mut sent, mut errors, mut k) = (0u64, 0u64, 0u64);
-    while t0.elapsed() < window {
-        for i in 0..n {
-            tick.tick().await;
-            match publish(i, k) {
-                Ok(()) => sent += 1,
-                Err(_) => errors += 1,
-            }
-        }
-        k += 1;
-    }
+    let t0 = std::time::Instant::now();
+    publisher.go()?;
+    let report = publisher.line(window + Duration::from_secs(10)).await;
     let secs = t0.elapsed().as_secs_f64();
-    let cpu1 = super::procs::cpu_time(std::process::id());
+    let (cpu1, child1) = (super::procs::cpu_time(me), super::procs::cpu_time(child));
     // Let the last ones arrive (after the CPU window: waiting costs nothing).
     tokio::time::sleep(Duration::from_millis(200)).await;
     let rss1 = rss_kib();
     top.shutdown().await;
-    let _ = vehicles.close().await;
+    drop(publisher);
+    let report = report?;
+    let field = |name: &str| -> Option<f64> {
+        let mut it = report.split_whitespace();
+        it.find(|w| *w == name)?;
+        it.next()?.parse().ok()
+    };
+    let (Some(sent), Some(errors)) = (field("sent"), field("errors")) else {
+        return Err(format!("the F1 publisher said {report:?}"));
+    };
+    let (sent, errors) = (sent as u64, errors as u64);
     let (h, received) = {
         let mut g = hist.lock().unwrap_or_else(|p| p.into_inner());
         (std::mem::replace(&mut g.0, Hist::new()), g.1)
     };
-    let cpu = match (cpu0, cpu1) {
-        (Some(a), Some(b)) => format!("{:.1} % of one core", 100.0 * (b - a).as_secs_f64() / secs),
-        _ => "CPU unknown".into(),
+    let share = |a: Option<Duration>, b: Option<Duration>| match (a, b) {
+        (Some(a), Some(b)) => Some(100.0 * (b.saturating_sub(a)).as_secs_f64() / secs),
+        _ => None,
     };
+    let (topside_cpu, publisher_cpu) = (share(cpu0, cpu1), share(child0, child1));
+    let pct = |c: Option<f64>| c.map_or("CPU unknown".into(), |c| format!("{c:.1} % of one core"));
     let rss = match (rss0, rss1) {
         (Some(a), Some(b)) => format!(
             "RSS {} MiB (+{} KiB over the run)",
@@ -170,13 +324,18 @@ async fn f1(n: usize, window: Duration) -> Result<Row, String> {
         &format!("{F1} (N = {n})"),
         &h,
         format!(
-            "{n} platforms × 10 Hz for {secs:.1} s: sent {sent}, put errors {errors}, taken in {received}; process (publishers + topside) {cpu}, {rss}"
+            "{n} platforms × 10 Hz for {secs:.1} s: sent {sent}, put errors {errors}, taken in {received}; topside {}, {rss}; the publishers (a child process) {}",
+            pct(topside_cpu),
+            pct(publisher_cpu),
         ),
         sent as usize,
         sent.saturating_sub(received) as usize,
     );
     if let serde_json::Value::Object(m) = &mut row.extra {
         m.insert("vehicles".into(), json!(n));
+        m.insert("topside_cpu_percent".into(), json!(topside_cpu));
+        m.insert("publishers_cpu_percent".into(), json!(publisher_cpu));
+        m.insert("topside_rss_kib".into(), json!(rss1));
     }
     Ok(row)
 }

@@ -41,6 +41,7 @@ use std::time::{Duration, Instant};
 
 use serde_json::json;
 
+pub use fleet::{PUBLISHER_ENV, publisher_main};
 use report::{Figures, Machine, Row, fmt_count, fmt_duration};
 
 /// What to run and how to print it.
@@ -349,7 +350,11 @@ pub async fn run(args: BenchOptions) -> ExitCode {
         rows.extend(record::run(plan.record).await);
     }
     if sel.any(&["F1", "F2"]) {
-        rows.extend(fleet::run(plan.fleet, sel.wants("F1"), sel.wants("F2")).await);
+        // The F1 publishers run in a child: this executable, found next to `frontseat`.
+        let bench_exe = args
+            .exe
+            .with_file_name(format!("frontseat-bench{}", std::env::consts::EXE_SUFFIX));
+        rows.extend(fleet::run(plan.fleet, &bench_exe, sel.wants("F1"), sel.wants("F2")).await);
     }
     rows.retain(|r| sel.wants(r.id));
     rows.sort_by_key(|r| ROW_IDS.iter().position(|id| *id == r.id));

@@ -3,6 +3,8 @@
 //! included) and a Server-Sent Events reader.
 #![allow(dead_code)]
 
+pub mod browser;
+
 use std::net::SocketAddr;
 use std::time::Duration;
 

@@ -14,6 +14,7 @@
 
 pub mod config;
 pub mod fleet;
+pub mod live;
 pub mod relay;
 
 use std::collections::BTreeMap;
@@ -66,6 +67,8 @@ pub enum TopsideError {
     Zenoh(String),
     #[error("record: {0}")]
     Record(#[from] frontseat_record::RecorderError),
+    #[error("foxglove: {0}")]
+    Foxglove(#[from] frontseat_record::foxglove::FoxgloveError),
 }
 
 /// What came in over Zenoh and what was refused; on the page and in the logs.
@@ -150,6 +153,12 @@ impl RecordTo {
     }
 }
 
+/// Where a sample the model took in goes besides the model: the recording and the live server.
+struct Outputs {
+    record: Option<RecordTo>,
+    live: Option<live::LiveTo>,
+}
+
 /// Starts the recorder of `[record]` when enabled: files named `topside_<UTC>_<seq>.mcap`.
 pub fn start_recorder(
     cfg: &TopsideConfig,
@@ -193,7 +202,7 @@ fn take(
     key: &str,
     payload: &[u8],
     observer: Option<&Observer>,
-    record: Option<&RecordTo>,
+    out: &Outputs,
 ) {
     let Some(platform) = key
         .split('/')
@@ -230,8 +239,14 @@ fn take(
     drop(f);
     // Recorded as heard, implausible values too (the record is of what came in); a platform the
     // model refused is not, so the file's channels are bounded by max_vehicles.
-    if let (Some(rec), Ok(()) | Err(Refused::Implausible)) = (record, &r) {
-        rec.record(platform, payload);
+    if let Ok(()) | Err(Refused::Implausible) = &r {
+        if let Some(rec) = &out.record {
+            rec.record(platform, payload);
+        }
+        // Served live by the same rule as recorded.
+        if let Some(l) = &out.live {
+            l.publish(platform, payload);
+        }
     }
     match r {
         Ok(()) => {
@@ -255,6 +270,8 @@ pub struct Topside {
     pub counters: Arc<Counters>,
     /// The recorder this topside started itself (not one handed in by [`run`]).
     recorder: Option<Recorder>,
+    /// `[foxglove]`'s live server.
+    live: Option<live::Live>,
 }
 
 impl Topside {
@@ -307,6 +324,7 @@ impl Topside {
             Duration::from_secs_f64(cfg.stale_after_s.clamp(0.001, 3600.0)),
         )));
         let counters = Arc::new(Counters::default());
+        let live = live::start(cfg)?;
         let mut subs = Vec::new();
         for (group, kind) in [
             (
@@ -324,7 +342,10 @@ impl Topside {
         ] {
             let key = frontseat_gateway::key_for("*", group);
             let (fleet, counters, observer) = (fleet.clone(), counters.clone(), observer.clone());
-            let record = record.as_ref().and_then(|i| RecordTo::new(i, group));
+            let out = Outputs {
+                record: record.as_ref().and_then(|i| RecordTo::new(i, group)),
+                live: live.as_ref().and_then(|l| l.to(group)),
+            };
             let sub = session
                 .declare_subscriber(key.clone())
                 .callback(move |s| {
@@ -336,7 +357,7 @@ impl Topside {
                         s.key_expr().as_str(),
                         &payload,
                         observer.as_ref(),
-                        record.as_ref(),
+                        &out,
                     );
                 })
                 .await
@@ -384,7 +405,13 @@ impl Topside {
             server,
             counters,
             recorder: None,
+            live,
         })
+    }
+
+    /// The address `[foxglove]`'s live server is bound to, when enabled.
+    pub fn foxglove_addr(&self) -> Option<SocketAddr> {
+        self.live.as_ref().map(live::Live::local_addr)
     }
 
     /// The file the topside's own recorder writes now.

@@ -76,6 +76,20 @@ pub struct FoxgloveOptions {
     pub request_timeout: Duration,
 }
 
+impl FoxgloveOptions {
+    /// The options of a `[record.foxglove]` (or the topside's `[foxglove]`) section, the token
+    /// from the environment when set there.
+    pub fn from_config(c: &frontseat_config::FoxgloveConfig) -> Self {
+        Self {
+            bind: c.bind.clone(),
+            token: c.effective_token(),
+            max_clients: c.max_clients,
+            client_queue: c.client_queue,
+            ..Default::default()
+        }
+    }
+}
+
 /// Default of [`FoxgloveOptions::request_timeout`].
 pub const REQUEST_TIMEOUT: Duration = Duration::from_secs(10);
 

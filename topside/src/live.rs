@@ -40,13 +40,7 @@ pub fn start(cfg: &TopsideConfig) -> Result<Option<Live>, FoxgloveError> {
     if !cfg.foxglove.enabled {
         return Ok(None);
     }
-    let opts = FoxgloveOptions {
-        bind: cfg.foxglove.bind.clone(),
-        token: cfg.foxglove.effective_token(),
-        max_clients: cfg.foxglove.max_clients,
-        client_queue: cfg.foxglove.client_queue,
-        ..Default::default()
-    };
+    let opts = FoxgloveOptions::from_config(&cfg.foxglove);
     let (server, feed) = FoxgloveServer::serve(&opts, "topside")?;
     tracing::info!(addr = %server.local_addr(), "topside foxglove live server (read-only) listening");
     Ok(Some(Live {

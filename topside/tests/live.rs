@@ -5,14 +5,17 @@
 //! alone, to each vehicle's own node_status. Beyond loopback without a token is refused by the
 //! config check, and a wrong token by the server.
 
+mod common;
+
 use std::collections::BTreeMap;
 use std::time::Duration;
 
 use base64::Engine as _;
+use common::{free_port, publisher};
 use frontseat_actors::groups;
 use frontseat_actors::proto::goby::middleware::frontseat::protobuf::NodeStatus;
 use frontseat_config::ServiceConfig as _;
-use frontseat_gateway::{key_for, put_message, zenoh};
+use frontseat_gateway::{key_for, put_message};
 use frontseat_topside::{Topside, TopsideConfig};
 use futures_util::{SinkExt, StreamExt};
 use prost_reflect::{DescriptorPool, DynamicMessage};
@@ -20,24 +23,6 @@ use tokio_tungstenite::tungstenite::Message;
 use tokio_tungstenite::tungstenite::client::IntoClientRequest;
 
 const BOUND: Duration = Duration::from_secs(20);
-
-fn free_port() -> u16 {
-    std::net::TcpListener::bind("127.0.0.1:0")
-        .unwrap()
-        .local_addr()
-        .unwrap()
-        .port()
-}
-
-async fn publisher(port: u16) -> zenoh::Session {
-    let ip = frontseat_config::InterprocessConfig {
-        enabled: true,
-        listen: vec![format!("tcp/127.0.0.1:{port}")],
-        ..Default::default()
-    };
-    let cfg = frontseat_gateway::zenoh_config(&ip, 65536).unwrap();
-    zenoh::open(cfg).await.unwrap()
-}
 
 type Ws =
     tokio_tungstenite::WebSocketStream<tokio_tungstenite::MaybeTlsStream<tokio::net::TcpStream>>;

@@ -104,7 +104,8 @@ struct Found {
 /// u64, publish time u64), then the bytes from offset 22.
 const MESSAGE_HEADER: usize = 22;
 
-/// A Message record's header and where its bytes start; `None` if the record is too short.
+/// A Message record's channel id, sequence and log time; `None` if the record is shorter than
+/// its fixed header.
 fn message_header(body: &[u8]) -> Option<(u16, u32, u64)> {
     Some((
         u16::from_le_bytes(le::<2>(body, 0)?),

@@ -517,6 +517,61 @@ fn next_in_chunk(data: &[u8], pos: usize) -> Result<Option<InChunk<'_>>, String>
 mod tests {
     use super::*;
 
+    /// A file written with and without chunks: the same messages, bytes and channels, borrowed
+    /// (`next_message_ref`, from the chunk or from the reused buffer of a loose message) and owned.
+    #[test]
+    fn messages_in_and_outside_chunks_read_alike() {
+        for chunked in [true, false] {
+            let mut out = std::io::Cursor::new(Vec::new());
+            let mut w = mcap::WriteOptions::new()
+                .use_chunks(chunked)
+                .create(&mut out)
+                .unwrap();
+            let s = w.add_schema("t.T", "protobuf", b"schema").unwrap();
+            let c = w
+                .add_channel(s, "g::one", "protobuf", &BTreeMap::new())
+                .unwrap();
+            for (i, bytes) in [&b"first"[..], &b""[..], &b"third message"[..]]
+                .iter()
+                .enumerate()
+            {
+                let header = mcap::records::MessageHeader {
+                    channel_id: c,
+                    sequence: i as u32,
+                    log_time: 1_000 + i as u64,
+                    publish_time: 1_000 + i as u64,
+                };
+                w.write_to_known_channel(&header, bytes).unwrap();
+            }
+            w.finish().unwrap();
+            drop(w);
+            let bytes = out.into_inner();
+            let mut r = Recording::new(bytes.as_slice());
+            let mut got = Vec::new();
+            while let Some(m) = r.next_message_ref().unwrap() {
+                assert_eq!(m.channel.map(|c| &*c.topic), Some("g::one"));
+                got.push((m.sequence, m.log_time, m.data.to_vec()));
+            }
+            assert_eq!(r.truncated(), None, "chunked: {chunked}");
+            let owned: Vec<_> = {
+                let mut r = Recording::new(bytes.as_slice());
+                std::iter::from_fn(|| r.next_message().unwrap())
+                    .map(|m| (m.sequence, m.log_time, m.data))
+                    .collect()
+            };
+            assert_eq!(got, owned);
+            assert_eq!(
+                got,
+                [
+                    (0, 1_000, b"first".to_vec()),
+                    (1, 1_001, Vec::new()),
+                    (2, 1_002, b"third message".to_vec()),
+                ],
+                "chunked: {chunked}"
+            );
+        }
+    }
+
     #[test]
     fn garbage_is_not_mcap_and_does_not_panic() {
         let mut r = Recording::new(&b"definitely not an mcap file at all"[..]);

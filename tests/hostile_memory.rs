@@ -178,7 +178,11 @@ async fn raw_goby3_publisher(gobyd: &StandinGobyd, base: &str) -> PubSocket {
 
 /// One request on its own connection; the status code, or 0 when the server closed first.
 async fn http(port: u16, method: &str, path: &str, headers: &str, body: &[u8]) -> u16 {
-    let Ok(Ok(mut s)) = timeout(Duration::from_secs(10), TcpStream::connect(("127.0.0.1", port))).await
+    let Ok(Ok(mut s)) = timeout(
+        Duration::from_secs(10),
+        TcpStream::connect(("127.0.0.1", port)),
+    )
+    .await
     else {
         return 0;
     };
@@ -218,7 +222,10 @@ async fn until_nav(
         match timeout_at(deadline, rx.recv()).await {
             Ok(Some(n)) if (n.msg.global_fix.lat - lat).abs() < 1e-6 => break,
             Ok(Some(_)) => {}
-            _ => panic!("{what}: no node_status at lat {lat} through gobyd\n{}", log(dir)),
+            _ => panic!(
+                "{what}: no node_status at lat {lat} through gobyd\n{}",
+                log(dir)
+            ),
         }
     }
 }
@@ -298,7 +305,12 @@ async fn floods_on_every_surface_leave_the_interface_alive_bounded_and_the_vehic
     // A Goby3 helm through gobyd: DRIVE and a plain course, as pHelmIvP would; it reads
     // node_status to see the vehicle's navigation arrive.
     let helm_bus = Bus::new();
-    let _helm = goby3_client(&helm_bus, &base, "goby3_course_helm", "FrontSeatTranslation");
+    let _helm = goby3_client(
+        &helm_bus,
+        &base,
+        "goby3_course_helm",
+        "FrontSeatTranslation",
+    );
     let (_s, mut nav_rx) =
         helm_bus.subscribe_channel(&groups::GOBY_MIDDLEWARE_FRONTSEAT_NODE_STATUS, "t", 64);
     let hb = helm_bus.clone();
@@ -329,7 +341,11 @@ async fn floods_on_every_surface_leave_the_interface_alive_bounded_and_the_vehic
     until_nav(&mut nav_rx, 42.358, "warm-up", &dir).await;
     let deadline = Instant::now() + LONG;
     while at_vehicle.lock().unwrap().cmds == 0 {
-        assert!(Instant::now() < deadline, "no CMD reached the vehicle\n{}", log(&dir));
+        assert!(
+            Instant::now() < deadline,
+            "no CMD reached the vehicle\n{}",
+            log(&dir)
+        );
         tokio::time::sleep(Duration::from_millis(20)).await;
     }
     let auth = format!("Authorization: Bearer {TOKEN}\r\n");
@@ -351,7 +367,10 @@ async fn floods_on_every_surface_leave_the_interface_alive_bounded_and_the_vehic
         assert!(
             rss <= baseline + RSS_BOUND_KIB,
             "RSS {rss} KiB after the {name} flood, over {baseline} KiB + {RSS_BOUND_KIB}: {:?}",
-            stages.iter().map(|s| (s.name, s.rss_kib)).collect::<Vec<_>>()
+            stages
+                .iter()
+                .map(|s| (s.name, s.rss_kib))
+                .collect::<Vec<_>>()
         );
         let v = at_vehicle.lock().unwrap();
         assert!(
@@ -408,7 +427,11 @@ async fn floods_on_every_surface_leave_the_interface_alive_bounded_and_the_vehic
                     0 => (&h, course_json("1e308", "1.5", "2")),
                     1 => (&h, course_json("90", "1e308", "-5.1e307")),
                     2 => (&h, course_json("7200", "-1e20", "1e308")),
-                    3 => (&h, b"{\"group\":\"goby::middleware::frontseat::desired_course\",\"message\":{".to_vec()),
+                    3 => (
+                        &h,
+                        b"{\"group\":\"goby::middleware::frontseat::desired_course\",\"message\":{"
+                            .to_vec(),
+                    ),
                     4 => (json, course_json("90", "1", "1")),
                     _ => (&h, vec![b'{'; 200_000]),
                 };
@@ -428,7 +451,11 @@ async fn floods_on_every_surface_leave_the_interface_alive_bounded_and_the_vehic
     // The page still answers a legitimate client (slots were released).
     let deadline = Instant::now() + LONG;
     while http(wport, "GET", "/api/info", &auth, b"").await != 200 {
-        assert!(Instant::now() < deadline, "the web page never answered again\n{}", log(&dir));
+        assert!(
+            Instant::now() < deadline,
+            "the web page never answered again\n{}",
+            log(&dir)
+        );
         tokio::time::sleep(Duration::from_millis(100)).await;
     }
     after("web", &mut child, &mut stages);
@@ -461,7 +488,11 @@ async fn floods_on_every_surface_leave_the_interface_alive_bounded_and_the_vehic
     let cmds_before = at_vehicle.lock().unwrap().cmds;
     let deadline = Instant::now() + LONG;
     while at_vehicle.lock().unwrap().cmds <= cmds_before {
-        assert!(Instant::now() < deadline, "no CMD after the gobyd flood\n{}", log(&dir));
+        assert!(
+            Instant::now() < deadline,
+            "no CMD after the gobyd flood\n{}",
+            log(&dir)
+        );
         tokio::time::sleep(Duration::from_millis(20)).await;
     }
     after("gobyd", &mut child, &mut stages);

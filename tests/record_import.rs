@@ -1,7 +1,8 @@
 //! `frontseat log import` in the real binary, on a goby_logger file laid out as Goby3 writes it
 //! (record/tests/fixtures/README.md): every PROTOBUF message arrives in the MCAP, including a type
 //! this binary was never compiled with (decoded with the descriptors the .goby file carried), the
-//! CSTR entries are counted and skipped, and damaged or hostile files never panic the importer.
+//! CSTR and DCCL entries are skipped and counted per group (in the output and in the MCAP
+//! metadata), and damaged or hostile files never panic the importer.
 
 mod common;
 
@@ -39,6 +40,12 @@ fn a_goby_logger_file_imports_with_its_own_descriptors() {
     let err = String::from_utf8_lossy(&run.stderr);
     assert!(run.status.success(), "{err}");
     assert!(err.contains("6 CSTR entries skipped"), "{err}");
+    assert!(
+        err.contains(
+            "9 DCCL entries skipped (no DCCL codec here; by group: example::acomms::modem_status 3, example::acomms::usbl_fix 6)"
+        ),
+        "{err}"
+    );
     assert!(err.contains("42 messages written"), "{err}");
 
     let i = info::info(Recording::open(&out).unwrap()).unwrap();
@@ -48,6 +55,31 @@ fn a_goby_logger_file_imports_with_its_own_descriptors() {
     assert_eq!(count(DESIRED), Some(6));
     assert_eq!(count(SALINITY), Some(6));
     assert_eq!(i.run.get("source").map(String::as_str), Some("goby_logger"));
+    // The file itself says what was left out, per group, and `log info` shows it.
+    let skipped: Vec<(&str, u64)> = i
+        .not_imported
+        .iter()
+        .map(|(k, n)| (k.as_str(), *n))
+        .collect();
+    assert_eq!(
+        skipped,
+        [
+            ("CSTR example::operator_note", 6),
+            ("DCCL example::acomms::modem_status", 3),
+            ("DCCL example::acomms::usbl_fix", 6),
+        ]
+    );
+    let shown = frontseat()
+        .args(["log", "info"])
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(
+        String::from_utf8_lossy(&shown.stdout)
+            .contains("not imported (no codec or schema here): DCCL example::acomms::usbl_fix: 6"),
+        "{}",
+        String::from_utf8_lossy(&shown.stdout)
+    );
     // Goby3's microsecond stamps are kept: 29 s from the first to the last node_status.
     let ns = i.groups.iter().find(|g| g.group == NODE_STATUS).unwrap();
     assert_eq!(ns.last - ns.first, 29_000_000_000);

@@ -110,6 +110,14 @@ impl FoxgloveConfig {
             .or_else(|| self.token.clone())
     }
 
+    /// The errors of this section at `prefix` (e.g. "foxglove"), for services whose config
+    /// lives outside this crate (the topside's `[foxglove]`).
+    pub fn errors_at(&self, prefix: &str) -> Vec<FieldError> {
+        let mut c = Checker::default();
+        self.check(prefix, &mut c);
+        c.errors
+    }
+
     pub(crate) fn check(&self, prefix: &str, c: &mut Checker) {
         match self.bind.parse::<std::net::SocketAddr>() {
             Err(_) => c.push(FieldError::new(

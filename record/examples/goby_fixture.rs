@@ -17,6 +17,7 @@ use prost_reflect::{DescriptorPool, DynamicMessage, Value};
 
 const PROTOBUF: u16 = 1;
 const CSTR: u16 = 0;
+const DCCL: u16 = 2;
 const FILE_DESC_GROUP: &str = "goby::log::ProtobufFileDescriptor";
 const FILE_DESC_TYPE: &str = "google.protobuf.FileDescriptorProto";
 
@@ -81,8 +82,9 @@ impl GobyWriter {
             let mut d = scheme.to_be_bytes().to_vec();
             d.extend(type_name.as_bytes());
             self.raw(0xFFFE, 0, ix, &d);
-            // new_type_hook[PROTOBUF]: the type's file and its dependencies, dependencies first.
-            if scheme == PROTOBUF {
+            // new_type_hook[PROTOBUF] and [DCCL] (dccl_log_plugin.h: the same plugin base): the
+            // type's file and its dependencies, dependencies first.
+            if scheme == PROTOBUF || scheme == DCCL {
                 self.add_type(type_name);
             }
         }
@@ -202,6 +204,23 @@ fn main() {
             );
             // A CSTR entry (scheme 0): the import skips it and says so.
             w.log(CSTR, "CSTR", "example::operator_note", b"leg start");
+            // DCCL entries (scheme 2) of a type this file has no descriptor for (Goby3 warns
+            // "Unknown protobuf type" and writes none): DCCL-encoded bytes the import skips and
+            // counts per group.
+            w.log(
+                DCCL,
+                "example.acomms.USBLFix",
+                "example::acomms::usbl_fix",
+                &[0x7d, i as u8, 0x12, 0x34],
+            );
+            if i % 10 == 0 {
+                w.log(
+                    DCCL,
+                    "example.acomms.ModemStatus",
+                    "example::acomms::modem_status",
+                    &[0x7e, i as u8],
+                );
+            }
         }
     }
     std::fs::write(&out, &w.out).expect("write the fixture");

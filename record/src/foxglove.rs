@@ -1,7 +1,10 @@
 //! The live view: the groups the recorder would record, served over the Foxglove WebSocket
 //! protocol (`foxglove.websocket.v1`) so Foxglove or Lichtblick shows the vehicle as it runs.
 //! One channel per group (topic = the Goby3 group, protobuf with the same self-contained
-//! FileDescriptorSet the MCAP files carry). Read-only: the server advertises no client
+//! FileDescriptorSet the MCAP files carry). [`FoxgloveServer::start`] serves a bus's groups;
+//! [`FoxgloveServer::serve`] hands back a [`LiveFeed`] instead, for a process whose channels
+//! appear as it runs (the topside: `<platform>/<group>`), each advertised to every client when
+//! added. Read-only: the server advertises no client
 //! capability and answers anything but subscribe/unsubscribe with an error status; nothing a
 //! client sends reaches the bus.
 //!
@@ -37,6 +40,8 @@ pub const SUBPROTOCOL: &str = "foxglove.websocket.v1";
 /// Largest frame a client may send (subscribe lists are small).
 const MAX_INBOUND: usize = 64 * 1024;
 const MAX_SUBSCRIPTIONS: usize = 1024;
+/// Most channels one server advertises (a topside: vehicles × groups).
+pub const MAX_CHANNELS: usize = 4096;
 const BUS_IN_FLIGHT: usize = 1024;
 /// Connections beyond `max_clients` let in to be answered 503 (rather than reset) when full.
 const HANDSHAKE_HEADROOM: usize = 8;
@@ -69,6 +74,20 @@ pub struct FoxgloveOptions {
     /// Longest a connection may take to send its whole upgrade request (from its first byte),
     /// or stay silent; also the ping period × 3 and the longest a send may block after it.
     pub request_timeout: Duration,
+}
+
+impl FoxgloveOptions {
+    /// The options of a `[record.foxglove]` (or the topside's `[foxglove]`) section, the token
+    /// from the environment when set there.
+    pub fn from_config(c: &frontseat_config::FoxgloveConfig) -> Self {
+        Self {
+            bind: c.bind.clone(),
+            token: c.effective_token(),
+            max_clients: c.max_clients,
+            client_queue: c.client_queue,
+            ..Default::default()
+        }
+    }
 }
 
 /// Default of [`FoxgloveOptions::request_timeout`].
@@ -117,12 +136,24 @@ struct Frame {
     bytes: Vec<u8>,
 }
 
+/// What every client hears: a message, or that channels were added (read from the registry).
+enum Event {
+    Frame(Frame),
+    Advertised,
+}
+
+/// The channels advertised so far (channel id = index + 1), and the schemas already built.
+#[derive(Default)]
+struct Registry {
+    channels: Vec<serde_json::Value>,
+    schemas: HashMap<String, Option<String>>,
+}
+
 struct Shared {
     server_info: String,
-    advertise: String,
-    channels: usize,
+    registry: std::sync::Mutex<Registry>,
     token: Option<String>,
-    tx: broadcast::Sender<Arc<Frame>>,
+    tx: broadcast::Sender<Arc<Event>>,
     slots: Arc<Semaphore>,
     counters: Arc<Counters>,
     /// Ping period; a send blocked for three of them ends the client.
@@ -156,6 +187,40 @@ impl FoxgloveServer {
         opts: &FoxgloveOptions,
         name: &str,
     ) -> Result<Self, FoxgloveError> {
+        let (mut server, feed) = Self::serve(opts, name)?;
+        let (t0, wall0) = (Instant::now(), unix_ns(SystemTime::now()));
+        for g in groups.iter().filter(|g| wants(g.name)) {
+            let Some(id) = feed.add_channel(g.name, g.type_name) else {
+                continue;
+            };
+            let feed = feed.clone();
+            let sub = frontseat_actors::generated::subscribe_encoded(
+                bus,
+                g.name,
+                "foxglove",
+                BUS_IN_FLIGHT,
+                move |env| {
+                    let since = env
+                        .published_at
+                        .checked_duration_since(t0)
+                        .unwrap_or_default();
+                    let time_ns =
+                        wall0.saturating_add(u64::try_from(since.as_nanos()).unwrap_or(0));
+                    feed.publish(id, time_ns, env.bytes);
+                    Ok::<(), Undeliverable>(())
+                },
+            );
+            if let Some(s) = sub {
+                server.subs.push(s);
+            }
+        }
+        tracing::info!(addr = %server.addr, channels = server.subs.len(), "foxglove live server (read-only) listening");
+        Ok(server)
+    }
+
+    /// Binds and serves no channel yet: the [`LiveFeed`] adds channels and publishes on them.
+    /// Must be called inside a tokio runtime. `name` is the server name clients show.
+    pub fn serve(opts: &FoxgloveOptions, name: &str) -> Result<(Self, LiveFeed), FoxgloveError> {
         let addr: SocketAddr = opts
             .bind
             .parse()
@@ -164,7 +229,7 @@ impl FoxgloveServer {
         if !addr.ip().is_loopback() && token.is_none() {
             return Err(FoxgloveError::NeedsToken(addr));
         }
-        let pool = crate::schema::compiled_pool().ok_or(FoxgloveError::NoDescriptors)?;
+        crate::schema::compiled_pool().ok_or(FoxgloveError::NoDescriptors)?;
         let std_listener = std::net::TcpListener::bind(addr)
             .and_then(|l| l.set_nonblocking(true).map(|()| l))
             .map_err(|source| FoxgloveError::Listen { addr, source })?;
@@ -174,53 +239,9 @@ impl FoxgloveServer {
             .local_addr()
             .map_err(|source| FoxgloveError::Listen { addr, source })?;
 
-        let (tx, _) = broadcast::channel::<Arc<Frame>>(opts.client_queue.clamp(16, 1 << 16));
+        let (tx, _) = broadcast::channel::<Arc<Event>>(opts.client_queue.clamp(16, 1 << 16));
         let counters = Arc::new(Counters::default());
-        let mut channels = Vec::new();
-        let mut subs = Vec::new();
-        let (t0, wall0) = (Instant::now(), unix_ns(SystemTime::now()));
-        for g in groups.iter().filter(|g| wants(g.name)) {
-            let Some(schema) = crate::schema::descriptor_set(pool, g.type_name) else {
-                continue;
-            };
-            let id = u32::try_from(channels.len() + 1).unwrap_or(u32::MAX);
-            let tx = tx.clone();
-            let sub = frontseat_actors::generated::subscribe_encoded(
-                bus,
-                g.name,
-                "foxglove",
-                BUS_IN_FLIGHT,
-                move |env| {
-                    // Nobody watching: nothing to do (and nothing to copy).
-                    if tx.receiver_count() == 0 {
-                        return Ok(());
-                    }
-                    let since = env
-                        .published_at
-                        .checked_duration_since(t0)
-                        .unwrap_or_default();
-                    let frame = Frame {
-                        channel: id,
-                        time_ns: wall0.saturating_add(u64::try_from(since.as_nanos()).unwrap_or(0)),
-                        bytes: env.bytes,
-                    };
-                    // A send fails only when every client left since the check: fine.
-                    let _ = tx.send(Arc::new(frame));
-                    Ok::<(), Undeliverable>(())
-                },
-            );
-            if let Some(s) = sub {
-                subs.push(s);
-                channels.push(serde_json::json!({
-                    "id": id,
-                    "topic": g.name,
-                    "encoding": "protobuf",
-                    "schemaName": g.type_name,
-                    "schema": base64::engine::general_purpose::STANDARD.encode(&schema),
-                    "schemaEncoding": "protobuf",
-                }));
-            }
-        }
+        let wall0 = unix_ns(SystemTime::now());
         let shared = Arc::new(Shared {
             server_info: serde_json::json!({
                 "op": "serverInfo",
@@ -231,14 +252,16 @@ impl FoxgloveServer {
                 "sessionId": format!("{wall0}"),
             })
             .to_string(),
-            advertise: serde_json::json!({"op": "advertise", "channels": channels}).to_string(),
-            channels: channels.len(),
+            registry: std::sync::Mutex::new(Registry::default()),
             token,
             tx,
             slots: Arc::new(Semaphore::new(opts.max_clients.max(1))),
             counters: counters.clone(),
             ping: (opts.request_timeout / 3).max(Duration::from_millis(10)),
         });
+        let feed = LiveFeed {
+            shared: shared.clone(),
+        };
         let app = axum::Router::new()
             .route("/", axum::routing::get(upgrade))
             .with_state(shared);
@@ -256,14 +279,16 @@ impl FoxgloveServer {
                 tracing::error!(error = %e, "foxglove live server stopped");
             }
         });
-        tracing::info!(addr = %local, channels = subs.len(), "foxglove live server (read-only) listening");
-        Ok(Self {
-            addr: local,
-            subs,
-            task,
-            counters,
-            conns,
-        })
+        Ok((
+            Self {
+                addr: local,
+                subs: Vec::new(),
+                task,
+                counters,
+                conns,
+            },
+            feed,
+        ))
     }
 
     /// The address bound (the port when 0 was asked).
@@ -301,6 +326,78 @@ impl FoxgloveServer {
 impl Drop for FoxgloveServer {
     fn drop(&mut self) {
         self.close();
+    }
+}
+
+/// Adds channels to a running server and publishes on them; cheap to clone. Never waits: a
+/// message nobody watches is dropped at once, and a slow client misses messages (counted).
+#[derive(Clone)]
+pub struct LiveFeed {
+    shared: Arc<Shared>,
+}
+
+impl std::fmt::Debug for LiveFeed {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("LiveFeed")
+    }
+}
+
+impl LiveFeed {
+    /// Advertises a channel `topic` of protobuf type `type_name` (its schema from the compiled
+    /// descriptors) to every client, now and later; its id, or `None` when the type is unknown
+    /// or [`MAX_CHANNELS`] are advertised already.
+    pub fn add_channel(&self, topic: &str, type_name: &str) -> Option<u32> {
+        let mut r = self
+            .shared
+            .registry
+            .lock()
+            .unwrap_or_else(|p| p.into_inner());
+        if r.channels.len() >= MAX_CHANNELS {
+            return None;
+        }
+        let schema = match r.schemas.get(type_name) {
+            Some(s) => s.clone(),
+            None => {
+                let s = crate::schema::compiled_pool()
+                    .and_then(|pool| crate::schema::descriptor_set(pool, type_name))
+                    .map(|d| base64::engine::general_purpose::STANDARD.encode(d));
+                r.schemas.insert(type_name.to_string(), s.clone());
+                s
+            }
+        }?;
+        let id = u32::try_from(r.channels.len() + 1).ok()?;
+        r.channels.push(serde_json::json!({
+            "id": id,
+            "topic": topic,
+            "encoding": "protobuf",
+            "schemaName": type_name,
+            "schema": schema,
+            "schemaEncoding": "protobuf",
+        }));
+        drop(r);
+        // No client yet: the next one reads the registry when it connects.
+        let _ = self.shared.tx.send(Arc::new(Event::Advertised));
+        Some(id)
+    }
+
+    /// True while a client is connected (so a caller may skip building a message).
+    pub fn watched(&self) -> bool {
+        self.shared.tx.receiver_count() > 0
+    }
+
+    /// Sends `bytes` (the encoded message) on `channel`, stamped `time_ns` (ns since the Unix
+    /// epoch), to the clients subscribed to it.
+    pub fn publish(&self, channel: u32, time_ns: u64, bytes: Vec<u8>) {
+        // Nobody watching: nothing to do.
+        if !self.watched() {
+            return;
+        }
+        // A send fails only when every client left since the check: fine.
+        let _ = self.shared.tx.send(Arc::new(Event::Frame(Frame {
+            channel,
+            time_ns,
+            bytes,
+        })));
     }
 }
 
@@ -395,12 +492,38 @@ async fn send(socket: &mut WebSocket, m: Message, s: &Shared) -> bool {
     )
 }
 
+/// The `advertise` op for the channels past the first `known`, and how many are known after it;
+/// `None` when there is nothing new.
+fn advertise_new(s: &Shared, known: usize) -> Option<(Message, usize)> {
+    let r = s.registry.lock().unwrap_or_else(|p| p.into_inner());
+    let new = r.channels.get(known..).filter(|n| !n.is_empty())?;
+    let text = serde_json::json!({"op": "advertise", "channels": new}).to_string();
+    Some((Message::Text(text.into()), r.channels.len()))
+}
+
 async fn client(mut socket: WebSocket, s: &Shared) {
+    // Subscribed before the registry is read: a channel added in between is in the snapshot
+    // or announced by an event, never missed.
     let mut rx = s.tx.subscribe();
-    for text in [&s.server_info, &s.advertise] {
-        if !send(&mut socket, Message::Text(text.clone().into()), s).await {
-            return;
+    if !send(&mut socket, Message::Text(s.server_info.clone().into()), s).await {
+        return;
+    }
+    // Channels this client was told of (ids 1..=known); Foxglove expects an advertise op at
+    // the start even when it lists none.
+    let mut known = 0usize;
+    let first = match advertise_new(s, 0) {
+        Some((m, n)) => {
+            known = n;
+            m
         }
+        None => Message::Text(
+            serde_json::json!({"op": "advertise", "channels": []})
+                .to_string()
+                .into(),
+        ),
+    };
+    if !send(&mut socket, first, s).await {
+        return;
     }
     // channel id -> subscription id
     let mut subscribed: HashMap<u32, u32> = HashMap::new();
@@ -416,7 +539,7 @@ async fn client(mut socket: WebSocket, s: &Shared) {
             inbound = socket.recv() => {
                 let reply = match inbound {
                     None | Some(Err(_)) | Some(Ok(Message::Close(_))) => return,
-                    Some(Ok(Message::Text(t))) => handle(&t, &mut subscribed, s),
+                    Some(Ok(Message::Text(t))) => handle(&t, &mut subscribed, known, s),
                     Some(Ok(Message::Binary(_))) => {
                         s.counters.bad_requests.fetch_add(1, Ordering::Relaxed);
                         Some(status(2, "read-only server: client publishing is not offered"))
@@ -429,11 +552,20 @@ async fn client(mut socket: WebSocket, s: &Shared) {
                     return;
                 }
             }
-            frame = rx.recv() => {
-                let f = match frame {
-                    Ok(f) => f,
-                    Err(broadcast::error::RecvError::Lagged(n)) => {
-                        s.counters.lagged.fetch_add(n, Ordering::Relaxed);
+            event = rx.recv() => {
+                let f = match event.as_deref() {
+                    Ok(Event::Frame(f)) => f,
+                    // Missed events may have been advertisements: the registry has them all.
+                    Ok(Event::Advertised) | Err(broadcast::error::RecvError::Lagged(_)) => {
+                        if let Err(broadcast::error::RecvError::Lagged(n)) = event {
+                            s.counters.lagged.fetch_add(n, Ordering::Relaxed);
+                        }
+                        if let Some((m, n)) = advertise_new(s, known) {
+                            known = n;
+                            if !send(&mut socket, m, s).await {
+                                return;
+                            }
+                        }
                         continue;
                     }
                     Err(broadcast::error::RecvError::Closed) => return,
@@ -453,7 +585,12 @@ async fn client(mut socket: WebSocket, s: &Shared) {
     }
 }
 
-fn handle(text: &str, subscribed: &mut HashMap<u32, u32>, s: &Shared) -> Option<Message> {
+fn handle(
+    text: &str,
+    subscribed: &mut HashMap<u32, u32>,
+    known: usize,
+    s: &Shared,
+) -> Option<Message> {
     let op: ClientOp = match serde_json::from_str(text) {
         Ok(op) => op,
         Err(_) => {
@@ -467,8 +604,8 @@ fn handle(text: &str, subscribed: &mut HashMap<u32, u32>, s: &Shared) -> Option<
     match op {
         ClientOp::Subscribe { subscriptions } => {
             for it in subscriptions {
-                let known = it.channel_id >= 1 && (it.channel_id as usize) <= s.channels;
-                if !known || subscribed.len() >= MAX_SUBSCRIPTIONS {
+                let advertised = it.channel_id >= 1 && (it.channel_id as usize) <= known;
+                if !advertised || subscribed.len() >= MAX_SUBSCRIPTIONS {
                     s.counters.bad_requests.fetch_add(1, Ordering::Relaxed);
                     return Some(status(
                         2,

@@ -4,8 +4,10 @@
 //! so types this binary was never compiled with are imported too; a type whose descriptors the
 //! file lacks falls back to the types compiled into this binary.
 //!
-//! Only the PROTOBUF scheme is converted: DCCL payloads need the DCCL codec, and CSTR, MAVLink
-//! and C++ objects have no protobuf schema; those entries are counted per scheme and skipped.
+//! Only the PROTOBUF scheme is converted: DCCL payloads need the DCCL codec (Goby3 decodes them
+//! with it even though their descriptors are in the file), and CSTR, MAVLink and C++ objects have
+//! no protobuf schema; those entries are skipped and counted per scheme and per group, in the
+//! command's output and in the MCAP file's [`META_IMPORT_SKIPPED`] metadata.
 
 use std::collections::{BTreeMap, HashMap};
 use std::io::{Read, Write};
@@ -15,7 +17,7 @@ use prost_reflect::prost_types::FileDescriptorProto;
 use prost_reflect::{DescriptorPool, DynamicMessage};
 
 use crate::goby_log::{GobyLogError, GobyReadStats, GobyReader};
-use crate::{CHANNEL_ORIGIN, META_RECORDER, META_RUN, PROFILE};
+use crate::{CHANNEL_ORIGIN, META_IMPORT_SKIPPED, META_RECORDER, META_RUN, PROFILE};
 
 /// Goby3's MarshallingScheme::PROTOBUF (marshalling/interface.h).
 pub const SCHEME_PROTOBUF: u16 = 1;
@@ -26,6 +28,8 @@ const FILE_DESC_TYPE: &str = "google.protobuf.FileDescriptorProto";
 const MAX_DESCRIPTOR_FILES: usize = 4096;
 /// Channels created in the output (distinct group/type pairs): bounded for the same reason.
 const MAX_CHANNELS: usize = 4096;
+/// Where skipped entries are counted once [`MAX_CHANNELS`] (scheme, group) pairs are listed.
+pub const OTHER_GROUPS: &str = "(other groups)";
 
 #[derive(Debug, thiserror::Error)]
 pub enum ImportError {
@@ -47,6 +51,9 @@ pub struct ImportStats {
     pub bad_descriptors: u64,
     /// Entries of other schemes, by scheme name.
     pub skipped_schemes: BTreeMap<String, u64>,
+    /// The same entries by (scheme name, group); at most [`MAX_CHANNELS`] pairs, the rest under
+    /// the group [`OTHER_GROUPS`].
+    pub skipped_groups: BTreeMap<(String, String), u64>,
     /// PROTOBUF entries whose type no descriptor describes.
     pub no_schema: u64,
     /// PROTOBUF entries whose bytes do not decode as their type.
@@ -72,7 +79,21 @@ impl ImportStats {
             self.version, self.written, self.descriptor_files
         );
         for (k, v) in &self.skipped_schemes {
-            s += &format!("; {v} {k} entries skipped (no protobuf schema)");
+            let why = if k == "DCCL" {
+                "no DCCL codec here"
+            } else {
+                "no protobuf schema"
+            };
+            let by_group: Vec<String> = self
+                .skipped_groups
+                .iter()
+                .filter(|((scheme, _), _)| scheme == k)
+                .map(|((_, group), n)| format!("{group} {n}"))
+                .collect();
+            s += &format!(
+                "; {v} {k} entries skipped ({why}; by group: {})",
+                by_group.join(", ")
+            );
         }
         for (n, what) in [
             (self.no_schema, "without a descriptor for their type"),
@@ -155,10 +176,15 @@ pub fn import<R: Read, W: Write + std::io::Seek>(
         {
             add_descriptor(&mut pool, &e.data, &mut stats);
         } else if e.scheme != SCHEME_PROTOBUF {
-            *stats
-                .skipped_schemes
-                .entry(scheme_name(e.scheme))
-                .or_default() += 1;
+            let scheme = scheme_name(e.scheme);
+            let mut key = (scheme.clone(), e.group.clone());
+            if stats.skipped_groups.len() >= MAX_CHANNELS
+                && !stats.skipped_groups.contains_key(&key)
+            {
+                key.1 = OTHER_GROUPS.to_string();
+            }
+            *stats.skipped_groups.entry(key).or_default() += 1;
+            *stats.skipped_schemes.entry(scheme).or_default() += 1;
         } else {
             let desc = pool
                 .get_message_by_name(&e.type_name)
@@ -231,10 +257,23 @@ pub fn import<R: Read, W: Write + std::io::Seek>(
     m.insert("dropped_queue".into(), "0".into());
     m.insert("dropped_unwritable".into(), "0".into());
     m.insert("run_dropped".into(), "0".into());
+    for (scheme, n) in &stats.skipped_schemes {
+        m.insert(format!("skipped_{}", scheme.to_lowercase()), n.to_string());
+    }
     writer.write_metadata(&mcap::records::Metadata {
         name: META_RECORDER.into(),
         metadata: m,
     })?;
+    if !stats.skipped_groups.is_empty() {
+        writer.write_metadata(&mcap::records::Metadata {
+            name: META_IMPORT_SKIPPED.into(),
+            metadata: stats
+                .skipped_groups
+                .iter()
+                .map(|((scheme, group), n)| (format!("{scheme} {group}"), n.to_string()))
+                .collect(),
+        })?;
+    }
     writer.finish()?;
     Ok(stats)
 }

@@ -8,7 +8,7 @@ use std::io::Read;
 
 use crate::reader::{ReadError, Recording};
 use crate::time::{iso_utc, secs};
-use crate::{META_RECORDER, META_RUN};
+use crate::{META_IMPORT_SKIPPED, META_RECORDER, META_RUN};
 
 /// A silence this many times the group's mean interval (and at least [`MIN_GAP_NS`]) is a gap.
 const GAP_FACTOR: u64 = 5;
@@ -51,6 +51,8 @@ pub struct Info {
     pub run: BTreeMap<String, String>,
     /// Messages the recorder dropped (from its closing metadata; unknown when cut short).
     pub dropped: Option<u64>,
+    /// Entries `log import` could not convert, by `<SCHEME> <group>` (DCCL, CSTR, ...).
+    pub not_imported: BTreeMap<String, u64>,
     pub truncated: Option<String>,
 }
 
@@ -133,6 +135,12 @@ pub fn info<R: Read>(mut rec: Recording<R>) -> Result<Info, ReadError> {
                 let n = |k: &str| m.get(k).and_then(|v| v.parse::<u64>().ok()).unwrap_or(0);
                 out.dropped = Some(n("dropped_queue") + n("dropped_unwritable"));
             }
+            META_IMPORT_SKIPPED => {
+                out.not_imported = m
+                    .iter()
+                    .filter_map(|(k, v)| Some((k.clone(), v.parse::<u64>().ok()?)))
+                    .collect();
+            }
             _ => {}
         }
     }
@@ -176,6 +184,9 @@ impl Info {
                     "dropped by the recorder: unknown (the file was not closed)"
                 );
             }
+        }
+        for (k, n) in &self.not_imported {
+            let _ = writeln!(s, "not imported (no codec or schema here): {k}: {n}");
         }
         match &self.truncated {
             Some(t) => {

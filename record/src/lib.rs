@@ -34,6 +34,9 @@ pub const PROFILE: &str = "frontseat";
 pub const META_RUN: &str = "frontseat.run";
 /// Name of the metadata record written when a file is closed: what the recorder counted.
 pub const META_RECORDER: &str = "frontseat.recorder";
+/// Name of the metadata record `log import` writes listing the entries it could not convert:
+/// key `<SCHEME> <group>` (e.g. `DCCL goby::acomms::...`), value the count.
+pub const META_IMPORT_SKIPPED: &str = "frontseat.import.skipped";
 /// Channel metadata key telling where the channel's messages came from (local, imported, replayed).
 pub const CHANNEL_ORIGIN: &str = "origin";
 /// Channel metadata key naming the vehicle of a channel in a file that holds several (the

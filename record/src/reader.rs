@@ -64,6 +64,57 @@ pub struct Message {
     pub data: Vec<u8>,
 }
 
+/// One message, borrowed from the reader until the next call (replay's path: no copy of the
+/// bytes, and the channel already looked up).
+#[derive(Clone, Copy, Debug)]
+pub struct MessageRef<'a> {
+    pub channel_id: u16,
+    /// The channel, if the file defined it before this message.
+    pub channel: Option<&'a Channel>,
+    pub sequence: u32,
+    /// Nanoseconds since the Unix epoch.
+    pub log_time: u64,
+    pub data: &'a [u8],
+}
+
+impl MessageRef<'_> {
+    pub fn to_owned(&self) -> Message {
+        Message {
+            channel_id: self.channel_id,
+            sequence: self.sequence,
+            log_time: self.log_time,
+            data: self.data.to_vec(),
+        }
+    }
+}
+
+/// Where the message [`Recording::advance`] found lies: its header and its bytes, in the open
+/// chunk or (a message outside any chunk) in `Recording::loose`.
+#[derive(Clone, Copy)]
+struct Found {
+    channel_id: u16,
+    sequence: u32,
+    log_time: u64,
+    in_chunk: bool,
+    start: usize,
+    end: usize,
+}
+
+/// The fixed header of a Message record (MCAP spec: channel id u16, sequence u32, log time
+/// u64, publish time u64), then the bytes from offset 22.
+const MESSAGE_HEADER: usize = 22;
+
+/// A Message record's channel id, sequence and log time; `None` if the record is shorter than
+/// its fixed header.
+fn message_header(body: &[u8]) -> Option<(u16, u32, u64)> {
+    Some((
+        u16::from_le_bytes(le::<2>(body, 0)?),
+        u32::from_le_bytes(le::<4>(body, 2)?),
+        u64::from_le_bytes(le::<8>(body, 6)?),
+    ))
+    .filter(|_| body.len() >= MESSAGE_HEADER)
+}
+
 /// A recording opened for reading from its start: call [`Recording::next_message`] until
 /// `None`, then [`Recording::truncated`] says whether the file ended early.
 pub struct Recording<R: Read = std::fs::File> {
@@ -78,6 +129,8 @@ pub struct Recording<R: Read = std::fs::File> {
     done: bool,
     /// The records of the chunk being read (decompressed, checked) and how far into them.
     chunk: Option<(Vec<u8>, usize)>,
+    /// The bytes of the last message found outside a chunk (reused: no allocation per message).
+    loose: Vec<u8>,
 }
 
 impl Recording<std::fs::File> {
@@ -109,6 +162,7 @@ impl<R: Read> Recording<R> {
             saw_footer: false,
             done: false,
             chunk: None,
+            loose: Vec::new(),
         }
     }
 
@@ -116,20 +170,69 @@ impl<R: Read> Recording<R> {
     /// for a source that cannot be read or a file that is not MCAP at all; damage after the
     /// first record ends the reading and is reported by [`Recording::truncated`].
     pub fn next_message(&mut self) -> Result<Option<Message>, ReadError> {
+        Ok(self.next_message_ref()?.map(|m| m.to_owned()))
+    }
+
+    /// As [`Recording::next_message`], the message borrowed (valid until the next call) with its
+    /// channel: what a reader that only passes the bytes on (replay) uses, with no copy.
+    pub fn next_message_ref(&mut self) -> Result<Option<MessageRef<'_>>, ReadError> {
+        let Some(f) = self.advance()? else {
+            return Ok(None);
+        };
+        let data = if f.in_chunk {
+            self.chunk.as_ref().and_then(|(d, _)| d.get(f.start..f.end))
+        } else {
+            self.loose.get(f.start..f.end)
+        };
+        // `advance` located these bytes in the buffer it left in place: always present.
+        let Some(data) = data else {
+            return Ok(None);
+        };
+        Ok(Some(MessageRef {
+            channel_id: f.channel_id,
+            channel: self.channels.get(&f.channel_id),
+            sequence: f.sequence,
+            log_time: f.log_time,
+            data,
+        }))
+    }
+
+    /// Reads up to the next message and says where it lies.
+    fn advance(&mut self) -> Result<Option<Found>, ReadError> {
         while !self.done {
             if let Some((data, pos)) = self.chunk.take() {
                 match next_in_chunk(&data, pos) {
                     Ok(None) => {}
                     Ok(Some((opcode, body, next))) => {
+                        // Messages (nearly every record) are located, not parsed into an owned
+                        // record: replay reads a million a second.
+                        if opcode == mcap::records::op::MESSAGE {
+                            let found =
+                                message_header(body).map(|(channel_id, sequence, log_time)| {
+                                    Found {
+                                        channel_id,
+                                        sequence,
+                                        log_time,
+                                        in_chunk: true,
+                                        start: next - body.len() + MESSAGE_HEADER,
+                                        end: next,
+                                    }
+                                });
+                            self.chunk = Some((data, next));
+                            match found {
+                                Some(f) => return Ok(Some(f)),
+                                None => self.end_early(format!(
+                                    "a damaged record in a chunk: a length inside record 0x{:02x} runs past its end",
+                                    mcap::records::op::MESSAGE
+                                ))?,
+                            }
+                            continue;
+                        }
                         let parsed = parse_checked(opcode, body);
                         self.chunk = Some((data, next));
                         match parsed {
                             Ok(None) => {}
-                            Ok(Some(rec)) => {
-                                if let Some(m) = self.take_record(rec) {
-                                    return Ok(Some(m));
-                                }
-                            }
+                            Ok(Some(rec)) => self.take_record(rec),
                             Err(e) => {
                                 self.end_early(format!("a damaged record in a chunk: {e}"))?
                             }
@@ -177,16 +280,29 @@ impl<R: Read> Recording<R> {
                         }
                         continue;
                     }
-                    let rec = match parse_checked(opcode, data) {
-                        Ok(Some(r)) => r,
-                        Ok(None) => continue,
-                        Err(e) => {
-                            self.end_early(format!("a damaged record: {e}"))?;
+                    if opcode == mcap::records::op::MESSAGE {
+                        let Some((channel_id, sequence, log_time)) = message_header(data) else {
+                            self.end_early(format!(
+                                "a damaged record: a length inside record 0x{opcode:02x} runs past its end"
+                            ))?;
                             continue;
-                        }
-                    };
-                    if let Some(m) = self.take_record(rec) {
-                        return Ok(Some(m));
+                        };
+                        self.loose.clear();
+                        self.loose
+                            .extend_from_slice(data.get(MESSAGE_HEADER..).unwrap_or_default());
+                        return Ok(Some(Found {
+                            channel_id,
+                            sequence,
+                            log_time,
+                            in_chunk: false,
+                            start: 0,
+                            end: self.loose.len(),
+                        }));
+                    }
+                    match parse_checked(opcode, data) {
+                        Ok(Some(r)) => self.take_record(r),
+                        Ok(None) => {}
+                        Err(e) => self.end_early(format!("a damaged record: {e}"))?,
                     }
                 }
                 Err(e) => {
@@ -204,8 +320,9 @@ impl<R: Read> Recording<R> {
         Ok(None)
     }
 
-    /// Keeps what a record tells (schemas, channels, metadata, the footer); a message is returned.
-    fn take_record(&mut self, rec: Record<'static>) -> Option<Message> {
+    /// Keeps what a record tells (schemas, channels, metadata, the footer); messages are found
+    /// by [`Recording::advance`] before they get here.
+    fn take_record(&mut self, rec: Record<'static>) {
         match rec {
             Record::Schema { header, data } => {
                 self.schemas.insert(
@@ -228,19 +345,10 @@ impl<R: Read> Recording<R> {
                     },
                 );
             }
-            Record::Message { header, data } => {
-                return Some(Message {
-                    channel_id: header.channel_id,
-                    sequence: header.sequence,
-                    log_time: header.log_time,
-                    data: data.into_owned(),
-                });
-            }
             Record::Metadata(m) => self.metadata.push((m.name, m.metadata)),
             Record::Footer(_) => self.saw_footer = true,
             _ => {}
         }
-        None
     }
 
     fn end_early(&mut self, why: String) -> Result<(), ReadError> {
@@ -303,7 +411,8 @@ fn parse_checked(opcode: u8, body: &[u8]) -> Result<Option<Record<'static>>, Str
             .and_then(map)
             .is_some(),
         op::METADATA => string(0, n).and_then(map).is_some(),
-        op::MESSAGE => n >= 22,
+        // Messages are read by `message_header` and never come here.
+        op::MESSAGE => return Ok(None),
         op::FOOTER => n >= 20,
         _ => return Ok(None),
     };
@@ -407,6 +516,61 @@ fn next_in_chunk(data: &[u8], pos: usize) -> Result<Option<InChunk<'_>>, String>
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A file written with and without chunks: the same messages, bytes and channels, borrowed
+    /// (`next_message_ref`, from the chunk or from the reused buffer of a loose message) and owned.
+    #[test]
+    fn messages_in_and_outside_chunks_read_alike() {
+        for chunked in [true, false] {
+            let mut out = std::io::Cursor::new(Vec::new());
+            let mut w = mcap::WriteOptions::new()
+                .use_chunks(chunked)
+                .create(&mut out)
+                .unwrap();
+            let s = w.add_schema("t.T", "protobuf", b"schema").unwrap();
+            let c = w
+                .add_channel(s, "g::one", "protobuf", &BTreeMap::new())
+                .unwrap();
+            for (i, bytes) in [&b"first"[..], &b""[..], &b"third message"[..]]
+                .iter()
+                .enumerate()
+            {
+                let header = mcap::records::MessageHeader {
+                    channel_id: c,
+                    sequence: i as u32,
+                    log_time: 1_000 + i as u64,
+                    publish_time: 1_000 + i as u64,
+                };
+                w.write_to_known_channel(&header, bytes).unwrap();
+            }
+            w.finish().unwrap();
+            drop(w);
+            let bytes = out.into_inner();
+            let mut r = Recording::new(bytes.as_slice());
+            let mut got = Vec::new();
+            while let Some(m) = r.next_message_ref().unwrap() {
+                assert_eq!(m.channel.map(|c| &*c.topic), Some("g::one"));
+                got.push((m.sequence, m.log_time, m.data.to_vec()));
+            }
+            assert_eq!(r.truncated(), None, "chunked: {chunked}");
+            let owned: Vec<_> = {
+                let mut r = Recording::new(bytes.as_slice());
+                std::iter::from_fn(|| r.next_message().unwrap())
+                    .map(|m| (m.sequence, m.log_time, m.data))
+                    .collect()
+            };
+            assert_eq!(got, owned);
+            assert_eq!(
+                got,
+                [
+                    (0, 1_000, b"first".to_vec()),
+                    (1, 1_001, Vec::new()),
+                    (2, 1_002, b"third message".to_vec()),
+                ],
+                "chunked: {chunked}"
+            );
+        }
+    }
 
     #[test]
     fn garbage_is_not_mcap_and_does_not_panic() {

@@ -5,7 +5,9 @@
 //! helm_state) are never replayed, every replayed message carries `Origin::Replayed`, and the
 //! bus is claimed for replay so no live driver can share it.
 
+use std::collections::HashMap;
 use std::path::Path;
+use std::sync::Arc;
 
 use frontseat_actors::bus::{Bus, BusRole, Layer, Origin, PublishMeta};
 use frontseat_actors::groups::{ALL, GroupInfo};
@@ -129,7 +131,11 @@ async fn pass<R: std::io::Read>(
     let mut file_start: Option<u64> = None;
     let mut first_sent: Option<(u64, tokio::time::Instant)> = None;
     let mut since_yield = 0u32;
-    while let Some(m) = rec.next_message()? {
+    // What each channel id resolves to (its group, or skip), decided once per channel rather
+    // than per message; keyed by the channel's topic allocation, so a channel the file
+    // redefines is decided again.
+    let mut routes: HashMap<u16, (Arc<str>, Option<&'static str>)> = HashMap::new();
+    while let Some(m) = rec.next_message_ref()? {
         let start = *file_start.get_or_insert(m.log_time);
         let rel = m.log_time.saturating_sub(start);
         if rel < from_ns {
@@ -138,18 +144,26 @@ async fn pass<R: std::io::Read>(
         if to_ns.is_some_and(|t| rel > t) {
             break;
         }
-        let Some(topic) = rec.channel(m.channel_id).map(|c| c.topic.clone()) else {
+        let Some(channel) = m.channel else {
             stats.skipped += 1;
             continue;
         };
-        let Some(group) = allowed.iter().find(|g| **g == &*topic) else {
+        let route = match routes.get(&m.channel_id) {
+            Some((topic, route)) if Arc::ptr_eq(topic, &channel.topic) => *route,
+            _ => {
+                let route = allowed
+                    .iter()
+                    .find(|g| **g == &*channel.topic)
+                    .copied()
+                    .filter(|g| opts.groups.as_ref().is_none_or(|r| r.is_match(g)));
+                routes.insert(m.channel_id, (channel.topic.clone(), route));
+                route
+            }
+        };
+        let Some(group) = route else {
             stats.skipped += 1;
             continue;
         };
-        if opts.groups.as_ref().is_some_and(|r| !r.is_match(group)) {
-            stats.skipped += 1;
-            continue;
-        }
         match opts.speed {
             Speed::Factor(f) => {
                 let (t0, w0) = *first_sent.get_or_insert((m.log_time, tokio::time::Instant::now()));
@@ -176,7 +190,7 @@ async fn pass<R: std::io::Read>(
             trace: None,
             origin: Origin::Replayed,
         };
-        match frontseat_actors::generated::interprocess_publish_encoded(bus, group, &m.data, meta) {
+        match frontseat_actors::generated::interprocess_publish_encoded(bus, group, m.data, meta) {
             Ok(_) => stats.published += 1,
             Err(e) => {
                 stats.undecodable += 1;

@@ -59,13 +59,7 @@ impl RecordService {
         }
         let opts = RecorderOptions::from_config(cfg, name)?;
         let foxglove = if cfg.foxglove.enabled {
-            let fo = FoxgloveOptions {
-                bind: cfg.foxglove.bind.clone(),
-                token: cfg.foxglove.effective_token(),
-                max_clients: cfg.foxglove.max_clients,
-                client_queue: cfg.foxglove.client_queue,
-                ..Default::default()
-            };
+            let fo = FoxgloveOptions::from_config(&cfg.foxglove);
             let shown = if name.is_empty() { "frontseat" } else { name };
             Some(FoxgloveServer::start(
                 bus,

@@ -35,8 +35,13 @@ pub struct TopsideConfig {
     pub vehicle: Vec<VehicleLink>,
     /// Recording what the topside hears (every vehicle's node_status, status and desired_course)
     /// to MCAP files named `topside_<UTC>_<seq>.mcap`, one channel per vehicle and group (topic
-    /// `<platform>/<group>`). The live Foxglove server (`record.foxglove`) is not offered here.
+    /// `<platform>/<group>`). Its live server is `[foxglove]`, not `record.foxglove`.
     pub record: frontseat_config::RecordConfig,
+    /// What the topside hears served live to Foxglove or Lichtblick over the Foxglove WebSocket
+    /// protocol, read-only: one channel per vehicle and group (topic `<platform>/<group>`, as in
+    /// the recording), advertised when the vehicle is first heard. Loopback by default; any
+    /// other address needs a token (`token` or FRONTSEAT_FOXGLOVE_TOKEN).
+    pub foxglove: frontseat_config::FoxgloveConfig,
 }
 
 impl Default for TopsideConfig {
@@ -49,6 +54,7 @@ impl Default for TopsideConfig {
             track_points: 5000,
             vehicle: Vec::new(),
             record: frontseat_config::RecordConfig::default(),
+            foxglove: frontseat_config::FoxgloveConfig::default(),
         }
     }
 }
@@ -203,9 +209,10 @@ impl ServiceConfig for TopsideConfig {
             e.push(FieldError::new(
                 "record.foxglove.enabled",
                 true,
-                "the topside records to files only: serve Foxglove from each vehicle's interface",
+                "the topside's live server is its own [foxglove] section",
             ));
         }
+        e.extend(self.foxglove.errors_at("foxglove"));
         for (i, v) in self.vehicle.iter().enumerate() {
             if frontseat_gateway::plan::check_platform(&v.name).is_err() {
                 e.push(FieldError::new(

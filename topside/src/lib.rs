@@ -17,6 +17,7 @@
 
 pub mod config;
 pub mod fleet;
+pub mod live;
 pub mod relay;
 pub mod scope;
 
@@ -72,6 +73,8 @@ pub enum TopsideError {
     Zenoh(String),
     #[error("record: {0}")]
     Record(#[from] frontseat_record::RecorderError),
+    #[error("foxglove: {0}")]
+    Foxglove(#[from] frontseat_record::foxglove::FoxgloveError),
 }
 
 /// What came in over Zenoh and what was refused; on the page and in the logs.
@@ -201,6 +204,8 @@ struct Sink {
     counters: Arc<Counters>,
     observer: Option<Observer>,
     record: Option<RecordTo>,
+    /// The live Foxglove server's channel for this group (`[foxglove]`).
+    live: Option<live::LiveTo>,
 }
 
 impl Sink {
@@ -259,8 +264,14 @@ impl Sink {
         drop(f);
         // Recorded as heard, implausible values too (the record is of what came in); a platform
         // the model refused is not, so the file's channels are bounded by max_vehicles.
-        if let (Some(rec), Ok(()) | Err(Refused::Implausible)) = (&self.record, &r) {
-            rec.record(platform, payload);
+        if let Ok(()) | Err(Refused::Implausible) = &r {
+            if let Some(rec) = &self.record {
+                rec.record(platform, payload);
+            }
+            // Served live by the same rule as recorded.
+            if let Some(l) = &self.live {
+                l.publish(platform, payload);
+            }
         }
         match r {
             Ok(()) => {
@@ -287,6 +298,8 @@ pub struct Topside {
     pub counters: Arc<Counters>,
     /// The recorder this topside started itself (not one handed in by [`run`]).
     recorder: Option<Recorder>,
+    /// `[foxglove]`'s live server.
+    live: Option<live::Live>,
 }
 
 impl Topside {
@@ -340,6 +353,7 @@ impl Topside {
         )));
         let scope = Arc::new(Mutex::new(Scope::new(cfg.max_vehicles)));
         let counters = Arc::new(Counters::default());
+        let live = live::start(cfg)?;
         let mut subs = Vec::new();
         // One subscription per interprocess group (the scope shows them all), so the group is
         // known from the subscription and only the platform is read from the key.
@@ -366,6 +380,7 @@ impl Topside {
                 record: kind
                     .and(record.as_ref())
                     .and_then(|i| RecordTo::new(i, info.name)),
+                live: kind.and(live.as_ref()).and_then(|l| l.to(info.name)),
             };
             let sub = session
                 .declare_subscriber(key.clone())
@@ -419,7 +434,13 @@ impl Topside {
             server,
             counters,
             recorder: None,
+            live,
         })
+    }
+
+    /// The address `[foxglove]`'s live server is bound to, when enabled.
+    pub fn foxglove_addr(&self) -> Option<SocketAddr> {
+        self.live.as_ref().map(live::Live::local_addr)
     }
 
     /// The file the topside's own recorder writes now.

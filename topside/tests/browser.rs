@@ -53,7 +53,7 @@ async fn vehicle(sim: &SimHandle, name: &str, index: u32) -> Vehicle {
     cfg.driver.basic_simulator.start.lat = cfg.origin.lat + 0.00027 * f64::from(index);
     cfg.driver.basic_simulator.start.lon = cfg.origin.lon;
     let bus = Bus::new();
-    let service = InterfaceService::start(&cfg, &bus)
+    let service = InterfaceService::start(&cfg, &bus, frontseat_drivers::BUILT_IN)
         .await
         .expect("interface");
     let zenoh_port = free_port();

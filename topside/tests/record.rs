@@ -3,30 +3,25 @@
 //! MCAP file holds each vehicle's messages on its own channel `<platform>/<group>`, decoded with
 //! the file's own schemas by this crate's reader and by the reference Python reader.
 
+mod common;
+
 use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
+use common::{free_port, publisher};
 use frontseat_actors::groups;
 use frontseat_actors::proto::goby::middleware::frontseat::protobuf::{
     CartesianCoordinate, NodeStatus,
 };
-use frontseat_gateway::{key_for, put_message, zenoh};
+use frontseat_gateway::{key_for, put_message};
 use frontseat_record::{CHANNEL_PLATFORM, Recording};
 use frontseat_topside::{Topside, TopsideConfig};
 use prost::Message as _;
 
 const BOUND: Duration = Duration::from_secs(15);
-
-fn free_port() -> u16 {
-    std::net::TcpListener::bind("127.0.0.1:0")
-        .unwrap()
-        .local_addr()
-        .unwrap()
-        .port()
-}
 
 struct Dir(PathBuf);
 impl Drop for Dir {
@@ -43,16 +38,6 @@ fn scratch(what: &str) -> Dir {
     let _ = std::fs::remove_dir_all(&p);
     std::fs::create_dir_all(&p).unwrap();
     Dir(p)
-}
-
-async fn publisher(port: u16) -> zenoh::Session {
-    let ip = frontseat_config::InterprocessConfig {
-        enabled: true,
-        listen: vec![format!("tcp/127.0.0.1:{port}")],
-        ..Default::default()
-    };
-    let cfg = frontseat_gateway::zenoh_config(&ip, 65536).unwrap();
-    zenoh::open(cfg).await.unwrap()
 }
 
 fn node_status(name: &str, x: f64) -> NodeStatus {

@@ -130,9 +130,15 @@ pub async fn run(plan: Plan) -> Vec<Row> {
         speed: Speed::Max,
         ..Default::default()
     };
+    let cpu0 = crate::procs::cpu_time(std::process::id());
     let t0 = Instant::now();
     let r = replay(&bus, &path, &opts).await;
     let took = t0.elapsed();
+    // On a loaded machine the wall time includes time the replay waited for a core; the
+    // process CPU time says what the replay itself costs.
+    let replay_cpu = cpu0
+        .zip(crate::procs::cpu_time(std::process::id()))
+        .map(|(a, b)| b.saturating_sub(a));
     let mut got = 0u64;
     while rx.try_recv().is_ok() {
         got += 1;
@@ -141,6 +147,17 @@ pub async fn run(plan: Plan) -> Vec<Row> {
     let r2 = match r {
         Ok(s) if s.published > 0 => {
             let speedup = wall.as_secs_f64() / took.as_secs_f64().max(1e-9);
+            let per_cpu = replay_cpu.map(|c| s.published as f64 / c.as_secs_f64().max(1e-9));
+            let cpu_text = match (replay_cpu, per_cpu) {
+                (Some(c), Some(r)) => format!(
+                    "; {:.2} s of process CPU over {:.2} s of wall time ({} msg per CPU-second, {:.0}× real time per CPU-second)",
+                    c.as_secs_f64(),
+                    took.as_secs_f64(),
+                    fmt_count(r),
+                    wall.as_secs_f64() / c.as_secs_f64().max(1e-9)
+                ),
+                _ => String::new(),
+            };
             Row {
                 id: "R2",
                 what: R2.into(),
@@ -149,13 +166,16 @@ pub async fn run(plan: Plan) -> Vec<Row> {
                     fmt_count(s.published as f64 / took.as_secs_f64().max(1e-9)),
                     s.published
                 )),
-                detail: "R1's file read back, decoded and published onto a bus with one subscriber"
-                    .into(),
+                detail: format!(
+                    "R1's file read back, decoded and published onto a bus with one subscriber{cpu_text}"
+                ),
                 extra: json!({
                     "published": s.published,
                     "received": got,
                     "msg_per_s": s.published as f64 / took.as_secs_f64().max(1e-9),
                     "times_real_time": speedup,
+                    "cpu_s": replay_cpu.map(|c| c.as_secs_f64()),
+                    "msg_per_cpu_s": per_cpu,
                 }),
             }
         }

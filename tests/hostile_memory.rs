@@ -39,11 +39,15 @@ use zeromq::{PubSocket, ReqSocket, Socket, SocketRecv, SocketSend, ZmqMessage};
 const BIN: &str = env!("CARGO_BIN_EXE_frontseat");
 const LONG: Duration = Duration::from_secs(60);
 const TOKEN: &str = "hostile-memory-test-token";
-/// Growth of the interface's resident set over its warm baseline allowed after every flood.
+/// Growth of the interface's resident set over its warm baseline allowed after all floods.
 /// Every queue on these paths is bounded (bus subscribers, web hub history and tabs, the
-/// Goby3 import, log rate limiters); what remains is allocator high-water. Measured on the
-/// 2-core VM: see the README's "Hostile input" note.
-const RSS_BOUND_KIB: u64 = 24 * 1024;
+/// Goby3 export and import, log rate limiters): the first flood of a kind fills them to their
+/// bounds and the allocator keeps the pages (high-water), so this bound is loose; the tight one
+/// is [`REPEAT_SLACK_KIB`]. Measured figures: the README's "Hostile input and memory".
+const RSS_BOUND_KIB: u64 = 96 * 1024;
+/// What a second, identical flood may add over the first: memory that grew with the volume of
+/// hostile input (a leak, an unbounded queue) shows here, a high-water mark does not.
+const REPEAT_SLACK_KIB: u64 = 8 * 1024;
 const DESIRED_T: &str = "goby.middleware.frontseat.protobuf.DesiredCourse";
 const MAX_SPEED: f64 = 5.0;
 const MAX_DEPTH: f64 = 300.0;
@@ -230,6 +234,23 @@ async fn until_nav(
     }
 }
 
+/// The last stage (a flood repeated) added at most [`REPEAT_SLACK_KIB`] over the one before.
+fn repeat_flat(stages: &[Stage]) {
+    let [.., first, again] = stages else {
+        panic!("two stages needed");
+    };
+    assert!(
+        again.rss_kib <= first.rss_kib + REPEAT_SLACK_KIB,
+        "RSS grew by {} KiB when the {} flood was repeated (over {REPEAT_SLACK_KIB}): {:?}",
+        again.rss_kib.saturating_sub(first.rss_kib),
+        first.name,
+        stages
+            .iter()
+            .map(|s| (s.name, s.rss_kib))
+            .collect::<Vec<_>>()
+    );
+}
+
 struct Stage {
     name: &'static str,
     rss_kib: u64,
@@ -294,7 +315,10 @@ async fn floods_on_every_surface_leave_the_interface_alive_bounded_and_the_vehic
                     for r in 0..rounds {
                         if wr.write_all(&hostile_nav_batch(r)).await.is_err() { return; }
                     }
-                    // A sentinel the helm side must see: the flood was all read.
+                    // The flood's CTRL lines said "not payload": the vehicle says PAYLOAD
+                    // again (commands may flow), then a sentinel the helm side must see: the
+                    // flood was all read.
+                    if wr.write_all(b"CTRL,STATE:PAYLOAD\r\n").await.is_err() { return; }
                     if wr.write_all(nav(42.3591).as_bytes()).await.is_err() { return; }
                     let _ = done_tx.send(()).await;
                 }
@@ -380,122 +404,131 @@ async fn floods_on_every_surface_leave_the_interface_alive_bounded_and_the_vehic
         );
     };
 
-    // 1. The vehicle: 30 rounds of 4 000 hostile lines (≈ 7 MB), then a sentinel fix.
-    flood_tx.send(30).await.unwrap();
-    timeout(LONG, done_rx.recv())
-        .await
-        .expect("the driver read the whole flood in time");
-    until_nav(&mut nav_rx, 42.3591, "after the vehicle flood", &dir).await;
-    after("vehicle", &mut child, &mut stages);
-
-    // 2. The web commander: unread event streams up to max_clients and past it, trickling
-    // clients, then hostile setpoints (with the token), broken JSON, no token, oversized bodies.
-    let mut streams = Vec::new();
-    for _ in 0..12 {
-        if let Ok(mut s) = TcpStream::connect(("127.0.0.1", wport)).await {
-            let req = format!(
-                "GET /api/events?token={TOKEN} HTTP/1.1\r\nHost: 127.0.0.1:{wport}\r\nAccept: text/event-stream\r\n\r\n"
-            );
-            let _ = s.write_all(req.as_bytes()).await;
-            streams.push(s);
-        }
+    // 1. The vehicle, twice: 30 rounds of 4 000 hostile lines (≈ 7 MB), then a sentinel fix.
+    for name in ["vehicle", "vehicle again"] {
+        flood_tx.send(30).await.unwrap();
+        timeout(LONG, done_rx.recv())
+            .await
+            .expect("the driver read the whole flood in time");
+        until_nav(&mut nav_rx, 42.3591, name, &dir).await;
+        after(name, &mut child, &mut stages);
     }
-    let mut tricklers = Vec::new();
-    for _ in 0..6 {
-        let port = wport;
-        tricklers.push(tokio::spawn(async move {
-            let Ok(mut s) = TcpStream::connect(("127.0.0.1", port)).await else {
-                return;
-            };
-            for b in b"POST /api/send HTTP/1.1\r\nHost: x\r\nContent-Length: 99999\r\n\r\n{" {
-                if s.write_all(&[*b]).await.is_err() {
+    repeat_flat(&stages);
+
+    for name in ["web", "web again"] {
+        // 2. The web commander: unread event streams up to max_clients and past it, trickling
+        // clients, then hostile setpoints (with the token), broken JSON, no token, oversized bodies.
+        let mut streams = Vec::new();
+        for _ in 0..12 {
+            if let Ok(mut s) = TcpStream::connect(("127.0.0.1", wport)).await {
+                let req = format!(
+                    "GET /api/events?token={TOKEN} HTTP/1.1\r\nHost: 127.0.0.1:{wport}\r\nAccept: text/event-stream\r\n\r\n"
+                );
+                let _ = s.write_all(req.as_bytes()).await;
+                streams.push(s);
+            }
+        }
+        let mut tricklers = Vec::new();
+        for _ in 0..6 {
+            let port = wport;
+            tricklers.push(tokio::spawn(async move {
+                let Ok(mut s) = TcpStream::connect(("127.0.0.1", port)).await else {
                     return;
-                }
-                tokio::time::sleep(Duration::from_millis(200)).await;
-            }
-        }));
-    }
-    let json = "Content-Type: application/json\r\n";
-    let with_token = format!("{auth}{json}");
-    let mut clients = Vec::new();
-    for c in 0..8 {
-        let h = with_token.clone();
-        clients.push(tokio::spawn(async move {
-            let mut codes = [0u32; 6];
-            for i in 0..60 {
-                let (hd, body): (&str, Vec<u8>) = match (c + i) % 6 {
-                    0 => (&h, course_json("1e308", "1.5", "2")),
-                    1 => (&h, course_json("90", "1e308", "-5.1e307")),
-                    2 => (&h, course_json("7200", "-1e20", "1e308")),
-                    3 => (
-                        &h,
-                        b"{\"group\":\"goby::middleware::frontseat::desired_course\",\"message\":{"
-                            .to_vec(),
-                    ),
-                    4 => (json, course_json("90", "1", "1")),
-                    _ => (&h, vec![b'{'; 200_000]),
                 };
-                let code = http(wport, "POST", "/api/send", hd, &body).await;
-                codes[(c + i) % 6] += u32::from(code != 0);
-            }
-            codes
-        }));
+                for b in b"POST /api/send HTTP/1.1\r\nHost: x\r\nContent-Length: 99999\r\n\r\n{" {
+                    if s.write_all(&[*b]).await.is_err() {
+                        return;
+                    }
+                    tokio::time::sleep(Duration::from_millis(200)).await;
+                }
+            }));
+        }
+        let json = "Content-Type: application/json\r\n";
+        let with_token = format!("{auth}{json}");
+        let mut clients = Vec::new();
+        for c in 0..8 {
+            let h = with_token.clone();
+            clients.push(tokio::spawn(async move {
+                let mut codes = [0u32; 6];
+                for i in 0..60 {
+                    let (hd, body): (&str, Vec<u8>) = match (c + i) % 6 {
+                        0 => (&h, course_json("1e308", "1.5", "2")),
+                        1 => (&h, course_json("90", "1e308", "-5.1e307")),
+                        2 => (&h, course_json("7200", "-1e20", "1e308")),
+                        3 => (
+                            &h,
+                            b"{\"group\":\"goby::middleware::frontseat::desired_course\",\"message\":{"
+                                .to_vec(),
+                        ),
+                        4 => (json, course_json("90", "1", "1")),
+                        _ => (&h, vec![b'{'; 200_000]),
+                    };
+                    let code = http(wport, "POST", "/api/send", hd, &body).await;
+                    codes[(c + i) % 6] += u32::from(code != 0);
+                }
+                codes
+            }));
+        }
+        for c in clients {
+            c.await.unwrap();
+        }
+        for t in tricklers {
+            let _ = timeout(LONG, t).await;
+        }
+        drop(streams);
+        // The page still answers a legitimate client (slots were released).
+        let deadline = Instant::now() + LONG;
+        while http(wport, "GET", "/api/info", &auth, b"").await != 200 {
+            assert!(
+                Instant::now() < deadline,
+                "the web page never answered again\n{}",
+                log(&dir)
+            );
+            tokio::time::sleep(Duration::from_millis(100)).await;
+        }
+        after(name, &mut child, &mut stages);
     }
-    for c in clients {
-        c.await.unwrap();
-    }
-    for t in tricklers {
-        let _ = timeout(LONG, t).await;
-    }
-    drop(streams);
-    // The page still answers a legitimate client (slots were released).
-    let deadline = Instant::now() + LONG;
-    while http(wport, "GET", "/api/info", &auth, b"").await != 200 {
-        assert!(
-            Instant::now() < deadline,
-            "the web page never answered again\n{}",
-            log(&dir)
-        );
-        tokio::time::sleep(Duration::from_millis(100)).await;
-    }
-    after("web", &mut child, &mut stages);
+    repeat_flat(&stages);
 
-    // 3. gobyd: 40 000 desired_course frames of 4 KiB (absurd values, an unknown field padding
-    // them), ≈ 160 MB, as fast as the socket takes them.
     let mut publ = raw_goby3_publisher(&gobyd, &base).await;
-    let group = groups::GOBY_MIDDLEWARE_FRONTSEAT_DESIRED_COURSE.name();
-    let mut sent = 0u64;
-    for i in 0..40_000u32 {
-        let mut payload = DesiredCourse {
-            time: 1.7e9,
-            heading: Some(if i % 2 == 0 { 1e308 } else { 7200.0 }),
-            speed: Some(if i % 3 == 0 { 1e308 } else { -5.1e307 }),
-            depth: Some(1e20),
-            ..Default::default()
+    for name in ["gobyd", "gobyd again"] {
+        // 3. gobyd: 40 000 desired_course frames of 4 KiB (absurd values, an unknown field padding
+        // them), ≈ 160 MB, as fast as the socket takes them.
+        let group = groups::GOBY_MIDDLEWARE_FRONTSEAT_DESIRED_COURSE.name();
+        let mut sent = 0u64;
+        for i in 0..40_000u32 {
+            let mut payload = DesiredCourse {
+                time: 1.7e9,
+                heading: Some(if i % 2 == 0 { 1e308 } else { 7200.0 }),
+                speed: Some(if i % 3 == 0 { 1e308 } else { -5.1e307 }),
+                depth: Some(1e20),
+                ..Default::default()
+            }
+            .encode_to_vec();
+            // Field 4000, length-delimited, 4 KiB: decoders skip it, the bytes still travel.
+            payload.extend_from_slice(&[0x82, 0xfa, 0x01, 0x80, 0x20]);
+            payload.extend(std::iter::repeat_n(0x55u8, 4096));
+            let f = frame::encode(group, DESIRED_T, 6666, 0xbad, &payload);
+            if publ.send(ZmqMessage::from(f)).await.is_ok() {
+                sent += 1;
+            }
         }
-        .encode_to_vec();
-        // Field 4000, length-delimited, 4 KiB: decoders skip it, the bytes still travel.
-        payload.extend_from_slice(&[0x82, 0xfa, 0x01, 0x80, 0x20]);
-        payload.extend(std::iter::repeat_n(0x55u8, 4096));
-        let f = frame::encode(group, DESIRED_T, 6666, 0xbad, &payload);
-        if publ.send(ZmqMessage::from(f)).await.is_ok() {
-            sent += 1;
+        assert!(sent > 30_000, "the flood did not go out ({sent} frames)");
+        // The helm still hears the vehicle through gobyd, and the vehicle still obeys it.
+        until_nav(&mut nav_rx, 42.358, "after the gobyd flood", &dir).await;
+        let cmds_before = at_vehicle.lock().unwrap().cmds;
+        let deadline = Instant::now() + LONG;
+        while at_vehicle.lock().unwrap().cmds <= cmds_before {
+            assert!(
+                Instant::now() < deadline,
+                "no CMD after the gobyd flood\n{}",
+                log(&dir)
+            );
+            tokio::time::sleep(Duration::from_millis(20)).await;
         }
+        after(name, &mut child, &mut stages);
     }
-    assert!(sent > 30_000, "the flood did not go out ({sent} frames)");
-    // The helm still hears the vehicle through gobyd, and the vehicle still obeys it.
-    until_nav(&mut nav_rx, 42.358, "after the gobyd flood", &dir).await;
-    let cmds_before = at_vehicle.lock().unwrap().cmds;
-    let deadline = Instant::now() + LONG;
-    while at_vehicle.lock().unwrap().cmds <= cmds_before {
-        assert!(
-            Instant::now() < deadline,
-            "no CMD after the gobyd flood\n{}",
-            log(&dir)
-        );
-        tokio::time::sleep(Duration::from_millis(20)).await;
-    }
-    after("gobyd", &mut child, &mut stages);
+    repeat_flat(&stages);
 
     eprintln!(
         "interface RSS (KiB): {}",

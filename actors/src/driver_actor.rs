@@ -67,6 +67,8 @@ pub struct DriverActorState {
     subs: Vec<Subscription>,
     ticker: Option<tokio::task::JoinHandle<()>>,
     faults: Option<FaultPort>,
+    /// The links' sender: told of each event handled, so they read on (flow control).
+    io: IoSender,
 }
 
 /// A driver that panics or is killed runs no `post_stop` (ractor skips it then), but its state is
@@ -143,8 +145,11 @@ impl Actor for DriverActor {
         );
         let mut driver = (args.factory)();
         let me = myself.clone();
+        let io = IoSender::bounded(crate::link::MAX_IO_IN_FLIGHT, move |ev| {
+            me.cast(DriverMsg::Io(ev)).is_ok()
+        });
         driver.start(DriverContext {
-            io: IoSender::new(move |ev| me.cast(DriverMsg::Io(ev)).is_ok()),
+            io: io.clone(),
             clock: args.clock,
         });
         let ticker = myself.send_interval(args.clock.wall(Duration::from_millis(100)), || {
@@ -165,6 +170,7 @@ impl Actor for DriverActor {
             subs,
             ticker: Some(ticker),
             faults: args.faults,
+            io,
         };
         state.publish_status_if_changed(true);
         Ok(state)
@@ -210,7 +216,10 @@ impl Actor for DriverActor {
                 }
                 DriverActorInbox::InterfaceStatus(env) => state.driver.interface_status(&env.msg),
             },
-            DriverMsg::Io(ev) => state.driver.handle_io(ev, now, &mut sink),
+            DriverMsg::Io(ev) => {
+                state.driver.handle_io(ev, now, &mut sink);
+                state.io.handled();
+            }
             DriverMsg::Tick => {
                 state.driver.do_loop(now, &mut sink);
                 state

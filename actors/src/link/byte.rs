@@ -167,6 +167,12 @@ where
     let mut deframer = Deframer::new(cfg.framing);
     let mut buf = vec![0u8; 4096];
     let reason = loop {
+        // Flow control: no more reading while the driver has a backlog (see IoSender); the
+        // writer still ends the loop if it fails meanwhile.
+        tokio::select! {
+            _ = io.ready() => {}
+            w = &mut writer => break w.unwrap_or_else(|e| format!("writer ended: {e}")),
+        }
         tokio::select! {
             r = rd.read(&mut buf) => match r {
                 Ok(0) => break "end of stream (device or connection gone)".to_string(),

@@ -27,20 +27,97 @@ pub enum DriverIoEvent {
 }
 
 /// Where a driver's I/O tasks send what they observe (the driver actor's mailbox).
+///
+/// The actor's mailbox is unbounded, and a reader task reads as fast as the peer writes: a
+/// vehicle flooding its link (issue 31: 120 000 hostile lines grew the interface by 40 MiB
+/// each time) would queue all of it. A bounded sender counts the events not yet handled; the
+/// links wait in [`IoSender::ready`] before reading more once `max_in_flight` are queued, so
+/// the flood waits in the kernel's socket buffer and the vehicle's TCP window, not in our heap.
 #[derive(Clone)]
 pub struct IoSender {
     send: std::sync::Arc<dyn Fn(DriverIoEvent) -> bool + Send + Sync>,
+    in_flight: Option<std::sync::Arc<InFlight>>,
 }
 
+struct InFlight {
+    max: usize,
+    queued: std::sync::atomic::AtomicUsize,
+    freed: tokio::sync::Notify,
+}
+
+/// Events a driver actor may have queued from its links before they stop reading.
+pub const MAX_IO_IN_FLIGHT: usize = 256;
+
 impl IoSender {
+    /// Without flow control: for tests and hosts that drain their channel themselves.
     pub fn new(send: impl Fn(DriverIoEvent) -> bool + Send + Sync + 'static) -> Self {
         Self {
             send: std::sync::Arc::new(send),
+            in_flight: None,
+        }
+    }
+    /// With flow control: the receiver calls [`IoSender::handled`] once per event it took.
+    pub fn bounded(
+        max_in_flight: usize,
+        send: impl Fn(DriverIoEvent) -> bool + Send + Sync + 'static,
+    ) -> Self {
+        Self {
+            send: std::sync::Arc::new(send),
+            in_flight: Some(std::sync::Arc::new(InFlight {
+                max: max_in_flight.max(1),
+                queued: std::sync::atomic::AtomicUsize::new(0),
+                freed: tokio::sync::Notify::new(),
+            })),
         }
     }
     /// False once the driver actor is gone: the I/O task should end.
     pub fn send(&self, ev: DriverIoEvent) -> bool {
-        (self.send)(ev)
+        use std::sync::atomic::Ordering;
+        if let Some(f) = &self.in_flight {
+            f.queued.fetch_add(1, Ordering::AcqRel);
+        }
+        let sent = (self.send)(ev);
+        if !sent && let Some(f) = &self.in_flight {
+            f.queued.fetch_sub(1, Ordering::AcqRel);
+        }
+        sent
+    }
+    /// The receiver took one event off its queue.
+    pub fn handled(&self) {
+        use std::sync::atomic::Ordering;
+        if let Some(f) = &self.in_flight {
+            let before = f
+                .queued
+                .fetch_update(Ordering::AcqRel, Ordering::Acquire, |n| {
+                    Some(n.saturating_sub(1))
+                })
+                .unwrap_or(0);
+            if before >= f.max {
+                f.freed.notify_waiters();
+            }
+        }
+    }
+    /// Waits until fewer than the bound are queued (at once without flow control). A link calls
+    /// it before each read.
+    pub async fn ready(&self) {
+        use std::sync::atomic::Ordering;
+        let Some(f) = &self.in_flight else {
+            return;
+        };
+        loop {
+            // Created before the check, so a `handled` between the two still wakes it.
+            let freed = f.freed.notified();
+            if f.queued.load(Ordering::Acquire) < f.max {
+                return;
+            }
+            freed.await;
+        }
+    }
+    /// Events sent and not yet handled (0 without flow control).
+    pub fn queued(&self) -> usize {
+        self.in_flight
+            .as_ref()
+            .map_or(0, |f| f.queued.load(std::sync::atomic::Ordering::Acquire))
     }
 }
 
@@ -146,6 +223,8 @@ async fn run_connection(stream: TcpStream, cfg: &LinkConfig, io: &IoSender) -> S
     let mut buf = Vec::with_capacity(256);
     let reason = loop {
         buf.clear();
+        // Flow control: no more reading while the driver has a backlog (see IoSender).
+        io.ready().await;
         // Bound the line: read at most max_line_bytes + 1 before deciding it is oversized.
         let limit = (cfg.max_line_bytes + 1) as u64;
         let mut limited = (&mut reader).take(limit);

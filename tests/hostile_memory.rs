@@ -530,6 +530,15 @@ async fn floods_on_every_surface_leave_the_interface_alive_bounded_and_the_vehic
     }
     repeat_flat(&stages);
 
+    // Bad input is logged rate-limited (5 lines per 10 s per kind): the floods are ~240 000
+    // bad lines and ~100 000 unconvertible fixes; without the limiter these were each a line.
+    let text = std::fs::read_to_string(dir.join("interface.log")).unwrap_or_default();
+    let fixes = text.matches("cannot compute local_fix").count();
+    let bad = text.matches("bad NAV line from the frontseat").count();
+    assert!(
+        fixes <= 100 && bad <= 100,
+        "the hostile vehicle flooded the log: {fixes} unconvertible-fix lines, {bad} bad-line lines"
+    );
     eprintln!(
         "interface RSS (KiB): {}",
         stages

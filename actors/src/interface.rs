@@ -986,7 +986,7 @@ pub fn compute_missing(
                     altitude: None,
                 }
             }
-            Err(e) => tracing::warn!(error = %e, "cannot compute global_fix"),
+            Err(e) => warn_fix("global_fix", &e),
         }
     } else if ns.local_fix.is_none() {
         match frame.to_local(g.lat, g.lon) {
@@ -997,8 +997,24 @@ pub fn compute_missing(
                     z: Some(-g.depth()),
                 })
             }
-            Err(e) => tracing::warn!(error = %e, "cannot compute local_fix"),
+            Err(e) => warn_fix("local_fix", &e),
         }
+    }
+}
+
+/// A fix that cannot be converted came from the vehicle (or a helm): one rate-limited WARN, so a
+/// vehicle sending positions far off the datum cannot flood the journal (a hostile vehicle made
+/// this line hundreds of times a second).
+fn warn_fix(what: &str, e: &dyn std::fmt::Display) {
+    static LOG: std::sync::LazyLock<std::sync::Mutex<RateLimitedLog>> =
+        std::sync::LazyLock::new(|| std::sync::Mutex::new(RateLimitedLog::for_bad_input()));
+    let mut log = LOG.lock().unwrap_or_else(|p| p.into_inner());
+    if let LogDecision::Log { suppressed_before } = log.decide(tokio::time::Instant::now()) {
+        tracing::warn!(
+            error = %e,
+            "cannot compute {what}{}",
+            more(suppressed_before, "fixes not converted", log.window())
+        );
     }
 }
 

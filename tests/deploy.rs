@@ -254,8 +254,10 @@ fn example_configs_pass_check() {
             "interface"
         } else if name.starts_with("sim") {
             "sim"
+        } else if name.starts_with("topside") {
+            "topside"
         } else {
-            panic!("example {name}: name it after its service (interface*, sim*)");
+            panic!("example {name}: name it after its service (interface*, sim*, topside*)");
         };
         let out = Command::new(BIN)
             .args([sub, "--check", "-c"])

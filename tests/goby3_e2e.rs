@@ -8,6 +8,8 @@
 
 mod common;
 
+use common::goby3::goby3_client;
+
 use common::procs::{Kill, free_port, scratch, wait_for_tcp};
 use frontseat_actors::bus::test_util::UntypedBus as _;
 
@@ -23,11 +25,10 @@ use frontseat_actors::proto::goby::middleware::frontseat::protobuf::{
     DesiredCourse, HelmState, HelmStateReport, NodeStatus,
 };
 use frontseat_actors::proto::goby::middleware::protobuf::HealthState;
-use frontseat_config::Goby3Config;
+use frontseat_gateway::goby3::Goby3Handle;
 use frontseat_gateway::goby3::standin::{StandinGobyd, StandinTransport};
-use frontseat_gateway::goby3::{self, Goby3Handle, Goby3Settings};
 use frontseat_gateway::zenoh;
-use frontseat_gateway::{GatewayOptions, client_config, key_for};
+use frontseat_gateway::{client_config, key_for};
 use frontseat_moos::Broker;
 use prost::Message;
 use tokio::time::{Instant, timeout_at};
@@ -81,22 +82,6 @@ fn interface(dir: &Path, sim_port: u16, extra: &str) -> Kill {
 /// A Goby3 helm: a Goby3 client of gobyd on its own bus, as a separate process would be.
 fn goby3_helm(bus: &Bus, base: &str) -> Goby3Handle {
     goby3_client(bus, base, "goby3_course_helm", "FrontSeatTranslation")
-}
-
-/// A Goby3 client of gobyd named `client`, carrying the groups of the `hosted` actor.
-fn goby3_client(bus: &Bus, base: &str, client: &str, hosted: &str) -> Goby3Handle {
-    let cfg = Goby3Config {
-        enabled: true,
-        socket_name: base.to_string(),
-        client_name: client.into(),
-        settle_ms: 100,
-        reconnect_initial_ms: 20,
-        reconnect_max_ms: 200,
-        manager_timeout_seconds: 1.0,
-        ..Default::default()
-    };
-    let settings = Goby3Settings::from_config(&cfg, "auv1").unwrap();
-    goby3::start(bus, settings, &[hosted], GatewayOptions::default()).unwrap()
 }
 
 async fn standin(base: &str) -> StandinGobyd {

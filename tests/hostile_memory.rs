@@ -11,6 +11,8 @@
 
 mod common;
 
+use common::goby3::goby3_client;
+
 use common::logcap::accept_start;
 use common::procs::{Kill, free_port, scratch};
 use frontseat_actors::bus::test_util::UntypedBus as _;
@@ -25,10 +27,8 @@ use frontseat_actors::groups;
 use frontseat_actors::proto::goby::middleware::frontseat::protobuf::{
     DesiredCourse, HelmState, HelmStateReport, NodeStatus,
 };
-use frontseat_config::Goby3Config;
-use frontseat_gateway::GatewayOptions;
 use frontseat_gateway::goby3::standin::{StandinGobyd, StandinTransport};
-use frontseat_gateway::goby3::{self, Goby3Handle, Goby3Settings, frame, manager};
+use frontseat_gateway::goby3::{frame, manager};
 use prost::Message;
 use tokio::io::{AsyncBufReadExt, AsyncReadExt, AsyncWriteExt};
 use tokio::net::TcpStream;
@@ -144,22 +144,6 @@ fn hostile_nav_batch(round: usize) -> Vec<u8> {
         }
     }
     out
-}
-
-/// A Goby3 client of gobyd named `client`, carrying the groups of the `hosted` actor.
-fn goby3_client(bus: &Bus, base: &str, client: &str, hosted: &str) -> Goby3Handle {
-    let cfg = Goby3Config {
-        enabled: true,
-        socket_name: base.to_string(),
-        client_name: client.into(),
-        settle_ms: 100,
-        reconnect_initial_ms: 20,
-        reconnect_max_ms: 200,
-        manager_timeout_seconds: 1.0,
-        ..Default::default()
-    };
-    let settings = Goby3Settings::from_config(&cfg, "auv1").unwrap();
-    goby3::start(bus, settings, &[hosted], GatewayOptions::default()).unwrap()
 }
 
 /// A publisher that joins gobyd with the manager handshake and then sends whatever it likes.

@@ -6,6 +6,8 @@
 
 mod common;
 
+use common::goby3::goby3_client;
+
 use frontseat_actors::bus::test_util::UntypedBus as _;
 use std::path::Path;
 use std::process::Stdio;
@@ -15,10 +17,8 @@ use common::procs::{Kill, scratch};
 use frontseat_actors::bus::{Bus, Origin};
 use frontseat_actors::groups;
 use frontseat_actors::proto::goby::middleware::frontseat::protobuf::{DesiredCourse, NodeStatus};
-use frontseat_config::Goby3Config;
-use frontseat_gateway::GatewayOptions;
+use frontseat_gateway::goby3::Goby3Handle;
 use frontseat_gateway::goby3::standin::{StandinGobyd, StandinTransport};
-use frontseat_gateway::goby3::{self, Goby3Handle, Goby3Settings};
 use frontseat_record::recorder::{RecordMeta, Recorder, RecorderOptions};
 use tokio::time::{Instant, timeout_at};
 
@@ -26,21 +26,6 @@ const LONG: Duration = Duration::from_secs(60);
 /// Recorded interval between two node_status.
 const STEP: Duration = Duration::from_millis(100);
 const N: u32 = 10;
-
-fn goby3_client(bus: &Bus, base: &str, client: &str, hosted: &str) -> Goby3Handle {
-    let cfg = Goby3Config {
-        enabled: true,
-        socket_name: base.to_string(),
-        client_name: client.into(),
-        settle_ms: 100,
-        reconnect_initial_ms: 20,
-        reconnect_max_ms: 200,
-        manager_timeout_seconds: 1.0,
-        ..Default::default()
-    };
-    let settings = Goby3Settings::from_config(&cfg, "auv1").unwrap();
-    goby3::start(bus, settings, &[hosted], GatewayOptions::default()).unwrap()
-}
 
 /// A recording of a vehicle: N node_status STEP apart, and a desired_course with each.
 fn record(path: &Path) {

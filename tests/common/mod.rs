@@ -2,6 +2,7 @@
 //! interface config pointing at it, and waiting for published statuses with a deadline.
 #![allow(dead_code)]
 
+pub mod goby3;
 pub mod logcap;
 pub mod otlp;
 pub mod phelm;

@@ -1,5 +1,6 @@
 //! The interface compiler's output (codegen/, run by build.rs from `interface_yaml/`): `proto` (the
-//! prost messages), `groups` (one typed constant per group), `ports` (per actor: its publish
+//! prost messages), `groups` (one typed constant per group), `extensions` (each vehicle's
+//! extension groups and how they are gated, from `interface_yaml/vehicles/`), `ports` (per actor: its publish
 //! methods and its inbox), the gateway's type-erased helpers for interprocess groups, and
 //! `RESOLVED_INTERFACES_YAML`. Edit the yaml or the .proto files and rebuild; never this output.
 
@@ -9,6 +10,6 @@ mod out {
 }
 
 pub use out::{
-    EncodedEnvelope, EncodedError, RESOLVED_INTERFACES_YAML, groups, interprocess_publish_encoded,
-    interprocess_subscribe_encoded, ports, proto, subscribe_encoded,
+    EncodedEnvelope, EncodedError, RESOLVED_INTERFACES_YAML, extensions, groups,
+    interprocess_publish_encoded, interprocess_subscribe_encoded, ports, proto, subscribe_encoded,
 };

@@ -24,13 +24,13 @@ use crate::clock::SimClock;
 use crate::command_gate::{GateContext, Limits, check_course};
 use crate::driver::DriverFactory;
 use crate::driver_actor::{DriverActor, DriverArgs};
+use crate::extensions::{Encoded, Kind as ExtensionKind, Spec as ExtensionSpec};
 use crate::nav_gate::{NavField, NavLimits, NavViolation, OnViolation, check_navigation};
 use crate::ports::{FrontSeatInterfaceInbox, FrontSeatInterfacePorts};
 use crate::proto::frontseat::protobuf::{InterfaceDetail, NavFieldCount};
 use crate::proto::goby::middleware::frontseat::protobuf::{
-    CartesianCoordinate, CommandRequest, CommandResponse, DesiredCourse, FrontSeatError,
-    FrontSeatState, HelmError, InterfaceData, InterfaceState, InterfaceStatus, NodeStatus, Raw,
-    VehicleType,
+    CartesianCoordinate, CommandRequest, CommandResponse, FrontSeatError, FrontSeatState,
+    HelmError, InterfaceData, InterfaceState, InterfaceStatus, NodeStatus, Raw, VehicleType,
 };
 use crate::proto::goby::middleware::protobuf::LatLonPoint;
 use crate::ratelog::{LogDecision, RateLimitedLog, more, summary};
@@ -156,37 +156,20 @@ pub fn command_timeout(cfg: &InterfaceConfig) -> Duration {
 /// Why the service ended (the supervision tree's word; the interface's path kept for its users).
 pub use crate::supervisor::ServiceExit;
 
-/// A mirror of Goby3's CommandRequest carrying a vehicle extension: its base request, and the
-/// same request with its course replaced by the one the safety envelope made safe.
-trait ExtendedCommand: Clone {
-    fn base(&self) -> CommandRequest;
-    fn with_course(self, course: Option<DesiredCourse>) -> Self;
+/// A vehicle extension the interface could not handle: our own bus encoded it (or our driver
+/// did), so this is a bug, not vehicle input; logged all the same at a bounded rate (a line at
+/// the 1st, 2nd, 4th, … drop).
+fn extension_dropped(type_name: &str, why: &str) {
+    static DROPPED: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+    let n = DROPPED.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
+    if n.is_power_of_two() {
+        tracing::warn!(
+            type_name,
+            dropped_total = n,
+            "vehicle extension dropped: {why}"
+        );
+    }
 }
-
-macro_rules! extended_command {
-    ($t:ty) => {
-        impl ExtendedCommand for $t {
-            fn base(&self) -> CommandRequest {
-                CommandRequest {
-                    desired_course: self.desired_course,
-                    response_requested: self.response_requested,
-                    request_id: self.request_id,
-                    cancel_request_id: self.cancel_request_id,
-                }
-            }
-            fn with_course(self, desired_course: Option<DesiredCourse>) -> Self {
-                Self {
-                    desired_course,
-                    ..self
-                }
-            }
-        }
-    };
-}
-
-extended_command!(crate::proto::frontseat::protobuf::bluefin::CommandRequest);
-extended_command!(crate::proto::frontseat::protobuf::iver::CommandRequest);
-extended_command!(crate::proto::frontseat::protobuf::ardupilot::CommandRequest);
 
 pub enum FsiMsg {
     Bus(FrontSeatInterfaceInbox),
@@ -517,27 +500,62 @@ impl FsiState {
         }
     }
 
+    /// A vehicle extension from a helm (`interface_yaml/vehicles/`), gated by its kind: a
+    /// command as command_request, a mode request in listen or command, data as
+    /// data_to_frontseat; what passes goes to the driver whole, tagged with its type.
+    fn handle_extension_to_frontseat(&mut self, env: Envelope<Encoded>) {
+        let spec = env.msg.spec;
+        let passed = match spec.kind {
+            ExtensionKind::Command => self.gate_extended(env),
+            ExtensionKind::Mode => self.gate_mode_command(env),
+            ExtensionKind::Data => {
+                if self.listen_or_command() {
+                    let meta = env.meta();
+                    Some((env.msg.bytes.clone(), meta))
+                } else {
+                    self.counters.data_gated += 1;
+                    tracing::debug!(
+                        group = spec.group,
+                        "{} data_to_frontseat dropped: not in listen or command",
+                        spec.vehicle
+                    );
+                    None
+                }
+            }
+            // Toward the helms: the interface publishes these, it never receives them.
+            ExtensionKind::Navigation | ExtensionKind::NavigationCopy => None,
+        };
+        if let Some((bytes, meta)) = passed {
+            let ext = crate::driver::DriverExtension {
+                type_name: Some(spec.type_name.to_string()),
+                value: Some(bytes),
+                vehicle: Some(spec.vehicle.to_string()),
+            };
+            self.ports
+                .publish_extension_to_frontseat_with(Arc::new(ext), meta);
+        }
+    }
+
     /// A vehicle-extended CommandRequest (Bluefin's field 1000, Iver3's 1001): the same gate,
     /// pending table and refusals as [`Self::handle_command`]; the request to forward whole
-    /// (extension included, course made safe) to the driver, or None when it was refused.
-    fn gate_extended<M: ExtendedCommand>(
+    /// (vehicle fields included, course made safe) to the driver, or None when it was refused.
+    fn gate_extended(
         &mut self,
-        env: Envelope<M>,
-    ) -> Option<(M, crate::bus::PublishMeta)> {
-        let base = env.msg.base();
+        env: Envelope<Encoded>,
+    ) -> Option<(Vec<u8>, crate::bus::PublishMeta)> {
+        let base = self.extension_base(&env)?;
         let state = self.sm.state();
         if !self.shutting_down && state == InterfaceState::InterfaceCommand {
-            let mirror = (*env.msg).clone();
+            let spec = env.msg.spec;
+            let mirror = env.msg.bytes.clone();
             // Its desired_course crosses the same safety envelope as any other setpoint.
             let checked = self.through_envelope(Envelope::rewrap(env, base))?;
+            let joined = self.rejoin_or_log(spec, &*checked.msg, &mirror)?;
             if base.response_requested() {
                 self.pending
                     .insert(base.request_id, self.now() + self.s.command_timeout);
             }
-            return Some((
-                mirror.with_course(checked.msg.desired_course),
-                checked.meta(),
-            ));
+            return Some((joined, checked.meta()));
         }
         self.counters.commands_gated += 1;
         let (code, why) = if self.shutting_down {
@@ -558,23 +576,21 @@ impl FsiState {
     /// A vehicle mode/arming request (the ArduPilot extension): GUIDED is how COMMAND is
     /// reached, so it passes in listen as well as command; a course riding along still needs
     /// command and the safety envelope, as everywhere.
-    fn gate_mode_command<M: ExtendedCommand>(
+    fn gate_mode_command(
         &mut self,
-        env: Envelope<M>,
-    ) -> Option<(M, crate::bus::PublishMeta)> {
-        if self.sm.state() == InterfaceState::InterfaceCommand
-            || env.msg.base().desired_course.is_some()
-        {
+        env: Envelope<Encoded>,
+    ) -> Option<(Vec<u8>, crate::bus::PublishMeta)> {
+        let base = self.extension_base(&env)?;
+        if self.sm.state() == InterfaceState::InterfaceCommand || base.desired_course.is_some() {
             return self.gate_extended(env);
         }
-        let base = env.msg.base();
         if self.listen_or_command() {
             if base.response_requested() {
                 self.pending
                     .insert(base.request_id, self.now() + self.s.command_timeout);
             }
             let meta = env.meta();
-            return Some(((*env.msg).clone(), meta));
+            return Some((env.msg.bytes.clone(), meta));
         }
         self.counters.commands_gated += 1;
         let (code, why) = if self.shutting_down {
@@ -593,6 +609,34 @@ impl FsiState {
         };
         self.refuse(&base, code, why);
         None
+    }
+
+    /// The Goby3 CommandRequest inside a vehicle's command mirror (same field numbers). The
+    /// bytes were encoded from a typed message on our own bus, so a failure is a bug: logged.
+    fn extension_base(&self, env: &Envelope<Encoded>) -> Option<CommandRequest> {
+        match <CommandRequest as prost::Message>::decode(env.msg.bytes.as_slice()) {
+            Ok(base) => Some(base),
+            Err(e) => {
+                extension_dropped(env.msg.spec.type_name, &e.to_string());
+                None
+            }
+        }
+    }
+
+    /// The gated base re-joined with the vehicle's own fields of `mirror`.
+    fn rejoin_or_log<B: prost::Message>(
+        &self,
+        spec: &ExtensionSpec,
+        base: &B,
+        mirror: &[u8],
+    ) -> Option<Vec<u8>> {
+        match crate::extension::rejoin(base, mirror, spec.base_fields) {
+            Ok(b) => Some(b),
+            Err(e) => {
+                extension_dropped(spec.type_name, &e.to_string());
+                None
+            }
+        }
     }
 
     fn listen_or_command(&self) -> bool {
@@ -694,56 +738,32 @@ impl FsiState {
         }
     }
 
-    /// A vehicle extension that passed the gate, to the driver whole, tagged with the type of
-    /// the group it came on.
-    fn to_driver<M: prost::Message>(
-        &self,
-        from: &crate::bus::Group<M>,
-        vehicle: &str,
-        msg: &M,
-        meta: crate::bus::PublishMeta,
-    ) {
-        let ext = crate::driver::DriverExtension::encode(from.type_name(), vehicle, msg);
-        self.ports
-            .publish_extension_to_frontseat_with(Arc::new(ext), meta);
-    }
-
-    /// A driver's extended data, by its type: Bluefin's (its node_status, none today, crosses
-    /// the same gate) and Iver3's extended $OSI (the same navigation as its plain
-    /// data_from_frontseat, gated alike but counted there only), each onto its vehicle's group.
+    /// A driver's extended data (its type one of `interface_yaml/vehicles/`' groups toward the
+    /// helms): its node_status crosses the navigation gate (counted unless the kind says it is a
+    /// copy of navigation counted on data_from_frontseat), then it goes out on its group.
     fn handle_extension_data(&mut self, env: Envelope<crate::driver::DriverExtension>) {
-        use crate::proto::frontseat::protobuf::{bluefin, iver};
         let meta = env.meta();
-        let bf = crate::groups::FRONTSEAT_BLUEFIN_BLUEFIN_DATA_FROM_FRONTSEAT;
-        let iv = crate::groups::FRONTSEAT_IVER_IVER_DATA_FROM_FRONTSEAT;
-        let bad = match (
-            env.msg.decode::<bluefin::InterfaceData>(bf.type_name()),
-            env.msg.decode::<iver::InterfaceData>(iv.type_name()),
-        ) {
-            (Some(Ok(mut data)), _) => {
-                self.gate_extension_nav(&mut data.node_status, true);
-                self.ports
-                    .publish_bluefin_data_from_frontseat_with(Arc::new(data), meta);
-                return;
-            }
-            (_, Some(Ok(mut data))) => {
-                self.gate_extension_nav(&mut data.node_status, false);
-                self.ports
-                    .publish_iver_data_from_frontseat_with(Arc::new(data), meta);
-                return;
-            }
-            (Some(Err(e)), _) | (_, Some(Err(e))) => e.to_string(),
-            (None, None) => "no vehicle group has this type".to_string(),
-        };
-        // A driver bug, not vehicle input: logged at a bounded rate all the same.
-        static DROPPED: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
-        let n = DROPPED.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
-        if n.is_power_of_two() {
-            tracing::warn!(
-                type_name = env.msg.type_name(),
-                dropped_total = n,
-                "extension data from the driver dropped: {bad}"
+        let Some(spec) = crate::extensions::to_helm(env.msg.type_name()) else {
+            extension_dropped(
+                env.msg.type_name(),
+                "no vehicle group toward the helms has this type",
             );
+            return;
+        };
+        let mirror = env.msg.value();
+        let mut base = match <InterfaceData as prost::Message>::decode(mirror) {
+            Ok(b) => b,
+            Err(e) => return extension_dropped(spec.type_name, &e.to_string()),
+        };
+        self.gate_extension_nav(
+            &mut base.node_status,
+            spec.kind == ExtensionKind::Navigation,
+        );
+        let Some(joined) = self.rejoin_or_log(spec, &base, mirror) else {
+            return;
+        };
+        if let Err(e) = self.ports.publish_encoded(spec.group, &joined, meta) {
+            extension_dropped(spec.type_name, &e.to_string());
         }
     }
 
@@ -1209,51 +1229,7 @@ impl FrontSeatInterface {
                         tracing::debug!("data_to_frontseat dropped: not in listen or command");
                     }
                 }
-                I::BluefinCommandRequest(env) => {
-                    if let Some((req, meta)) = st.gate_extended(env) {
-                        st.to_driver(
-                            &crate::groups::FRONTSEAT_BLUEFIN_BLUEFIN_COMMAND_REQUEST,
-                            "Bluefin",
-                            &req,
-                            meta,
-                        );
-                    }
-                }
-                I::IverCommandRequest(env) => {
-                    if let Some((req, meta)) = st.gate_extended(env) {
-                        st.to_driver(
-                            &crate::groups::FRONTSEAT_IVER_IVER_COMMAND_REQUEST,
-                            "Iver3",
-                            &req,
-                            meta,
-                        );
-                    }
-                }
-                I::ArdupilotCommandRequest(env) => {
-                    if let Some((req, meta)) = st.gate_mode_command(env) {
-                        st.to_driver(
-                            &crate::groups::FRONTSEAT_ARDUPILOT_ARDUPILOT_COMMAND_REQUEST,
-                            "ArduPilot",
-                            &req,
-                            meta,
-                        );
-                    }
-                }
-                I::BluefinDataToFrontseat(env) => {
-                    if st.listen_or_command() {
-                        st.to_driver(
-                            &crate::groups::FRONTSEAT_BLUEFIN_BLUEFIN_DATA_TO_FRONTSEAT,
-                            "Bluefin",
-                            &*env.msg,
-                            env.meta(),
-                        );
-                    } else {
-                        st.counters.data_gated += 1;
-                        tracing::debug!(
-                            "bluefin data_to_frontseat dropped: not in listen or command"
-                        );
-                    }
-                }
+                I::VehicleExtension(env) => st.handle_extension_to_frontseat(env),
                 I::RawSendRequest(env) => st.handle_raw_send(env),
                 I::HelmState(env) => {
                     let helm = env.msg.state();

@@ -20,6 +20,7 @@ pub mod command_gate;
 pub mod driver;
 pub mod driver_actor;
 pub mod drivers;
+pub mod extension;
 pub mod generated;
 pub mod health;
 pub mod interface;
@@ -38,4 +39,4 @@ pub mod translation;
 /// the drivers, which report bad lines and truncate raw lines through them while they move to
 /// `vehicles/` (issue 26, in parallel). New code uses `frontseat_telemetry` directly.
 pub use frontseat_telemetry::{self as telemetry, metrics};
-pub use generated::{groups, ports, proto};
+pub use generated::{extensions, groups, ports, proto};

@@ -11,7 +11,7 @@ use std::path::PathBuf;
 pub enum Rule {
     /// The file is not valid yaml, or a value has the wrong shape.
     Syntax,
-    /// A top-level key other than `application`, `interprocess`, `interthread`.
+    /// A top-level key other than `application`, `vehicle`, `interprocess`, `interthread`.
     UnknownKey,
     /// A layer other than `interprocess` / `interthread`.
     UnknownLayer,
@@ -29,6 +29,9 @@ pub enum Rule {
     InvalidName,
     /// Two groups that would generate the same Rust name (constant, method or inbox variant).
     NameCollision,
+    /// A bad `extension:`: unknown kind, wrong direction or layer, no `vehicle:`, or a type that
+    /// is not a mirror of the message it extends.
+    Extension,
 }
 
 /// One located problem in the interface yaml.

@@ -9,6 +9,8 @@ use std::path::Path;
 use proc_macro2::{Ident, Span, TokenStream};
 use quote::{format_ident, quote};
 
+use heck::ToUpperCamelCase;
+
 use crate::error::Error;
 use crate::model::{Model, Port};
 use crate::yaml::{Direction, Layer};
@@ -91,6 +93,7 @@ pub fn generate(
 
     let groups_mod = groups_module(model, &bus);
     let ports_mod = ports_module(model, &bus);
+    let extensions_mod = extensions_module(model);
     let gateway = gateway_items(model, &bus);
     let resolved = resolved_yaml(model);
     // A raw string keeps the yaml readable in the generated file.
@@ -104,6 +107,7 @@ pub fn generate(
     let file = quote! {
         #proto_mod
         #groups_mod
+        #extensions_mod
         #ports_mod
         #gateway
         /// The resolved interface of every application, in the shape of `interface_yaml/`
@@ -283,6 +287,84 @@ fn ports_module(model: &Model, bus: &TokenStream) -> TokenStream {
     }
 }
 
+/// The vehicle extension groups (`extension:` in `interface_yaml/vehicles/`), as data: what
+/// the interface needs to gate any vehicle's extension without knowing the vehicle.
+fn extensions_module(model: &Model) -> TokenStream {
+    let specs = model.extensions.iter().map(|x| {
+        let g = &model.groups[x.group];
+        let group = &g.name;
+        let type_name = &g.type_name;
+        let vehicle = &x.vehicle;
+        let actor = &x.actor;
+        let kind = format_ident!("{}", x.kind.key().to_upper_camel_case());
+        let base = &x.base_fields;
+        quote! {
+            Spec {
+                vehicle: #vehicle,
+                group: #group,
+                type_name: #type_name,
+                actor: #actor,
+                kind: Kind::#kind,
+                base_fields: &[#(#base),*],
+            }
+        }
+    });
+    quote! {
+        /// The vehicle extension groups, declared with `extension:` in each vehicle's own yaml
+        /// (`interface_yaml/vehicles/`). Each type is a mirror of the Goby3 message it extends:
+        /// its base fields have Goby3's numbers, the rest are the vehicle's.
+        pub mod extensions {
+            /// How the interface gates an extension group.
+            #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+            pub enum Kind {
+                /// A CommandRequest: command state, its course through the safety envelope.
+                Command,
+                /// A mode CommandRequest: listen or command; a course riding along as `Command`.
+                Mode,
+                /// An InterfaceData to the vehicle: listen or command.
+                Data,
+                /// An InterfaceData to the helms: its node_status through the navigation gate.
+                Navigation,
+                /// As `Navigation`, for a copy of navigation already counted.
+                NavigationCopy,
+            }
+
+            /// One extension group.
+            #[derive(Debug)]
+            pub struct Spec {
+                /// The vehicle, in words (refusals name it).
+                pub vehicle: &'static str,
+                pub group: &'static str,
+                /// The mirror's proto full name.
+                pub type_name: &'static str,
+                /// The actor that gates it.
+                pub actor: &'static str,
+                pub kind: Kind,
+                /// The base message's field numbers; a mirror's other fields are the vehicle's.
+                pub base_fields: &'static [u32],
+            }
+
+            /// A message on an extension group, encoded: how every vehicle's reaches its gate.
+            #[derive(Debug)]
+            pub struct Encoded {
+                pub spec: &'static Spec,
+                pub bytes: Vec<u8>,
+            }
+
+            /// Every extension group, sorted by group name.
+            pub const ALL: &[Spec] = &[#(#specs),*];
+
+            /// The extension group toward the helms whose type is `type_name`.
+            pub fn to_helm(type_name: &str) -> Option<&'static Spec> {
+                ALL.iter().find(|s| {
+                    s.type_name == type_name
+                        && matches!(s.kind, Kind::Navigation | Kind::NavigationCopy)
+                })
+            }
+        }
+    }
+}
+
 fn publish_methods(model: &Model, p: &Port) -> TokenStream {
     let g = &model.groups[p.group];
     let konst = format_ident!("{}", g.const_name);
@@ -309,38 +391,81 @@ fn publish_methods(model: &Model, p: &Port) -> TokenStream {
 
 fn inbox(model: &Model, actor: &str, subs: &[Port]) -> TokenStream {
     let inbox = format_ident!("{}Inbox", actor);
-    let variants = subs.iter().map(|p| {
-        let g = &model.groups[p.group];
-        let v = format_ident!("{}", p.ident);
-        let ty = type_path(&g.rust_type);
-        let doc = format!(" `{}` ({}).", g.name, g.type_name);
-        quote! {
+    let plain: Vec<&Port> = subs.iter().filter(|p| p.extension.is_none()).collect();
+    let vehicle: Vec<&Port> = subs.iter().filter(|p| p.extension.is_some()).collect();
+    let mut variants: Vec<TokenStream> = plain
+        .iter()
+        .map(|p| {
+            let g = &model.groups[p.group];
+            let v = format_ident!("{}", p.ident);
+            let ty = type_path(&g.rust_type);
+            let doc = format!(" `{}` ({}).", g.name, g.type_name);
+            quote! {
+                #[doc = #doc]
+                #v(Envelope<#ty>)
+            }
+        })
+        .collect();
+    if !vehicle.is_empty() {
+        let list: Vec<String> = vehicle
+            .iter()
+            .map(|p| format!("`{}`", model.groups[p.group].name))
+            .collect();
+        let doc = format!(
+            " A vehicle extension group ({}), encoded, with its spec: one variant for every \
+             vehicle's, so a new vehicle adds no variant.",
+            list.join(", ")
+        );
+        variants.push(quote! {
             #[doc = #doc]
-            #v(Envelope<#ty>)
-        }
-    });
-    let subscribes = subs.iter().map(|p| {
+            VehicleExtension(Envelope<super::extensions::Encoded>)
+        });
+    }
+    let mut subscribes: Vec<TokenStream> = plain
+        .iter()
+        .map(|p| {
+            let g = &model.groups[p.group];
+            let v = format_ident!("{}", p.ident);
+            let konst = format_ident!("{}", g.const_name);
+            quote! {
+                let d = deliver.clone();
+                subs.push(bus.subscribe(&groups::#konst, subscriber, capacity, move |env| {
+                    d(Self::#v(env))
+                }));
+            }
+        })
+        .collect();
+    subscribes.extend(vehicle.iter().map(|p| {
         let g = &model.groups[p.group];
-        let v = format_ident!("{}", p.ident);
         let konst = format_ident!("{}", g.const_name);
+        let index = p.extension.unwrap_or_default();
         quote! {
             let d = deliver.clone();
             subs.push(bus.subscribe(&groups::#konst, subscriber, capacity, move |env| {
-                d(Self::#v(env))
+                let bytes = ::prost::Message::encode_to_vec(&*env.msg);
+                let spec = &super::extensions::ALL[#index];
+                d(Self::VehicleExtension(Envelope::rewrap(env, super::extensions::Encoded { spec, bytes })))
             }));
         }
-    });
+    }));
     let count = subs.len();
-    let arms = subs.iter().map(|p| {
-        let v = format_ident!("{}", p.ident);
-        quote!(Self::#v(env) => env.group)
-    });
+    let mut arms: Vec<TokenStream> = plain
+        .iter()
+        .map(|p| {
+            let v = format_ident!("{}", p.ident);
+            quote!(Self::#v(env) => env.group)
+        })
+        .collect();
+    if !vehicle.is_empty() {
+        arms.push(quote!(Self::VehicleExtension(env) => env.group));
+    }
     let names: Vec<&str> = subs
         .iter()
         .map(|p| model.groups[p.group].name.as_str())
         .collect();
     let doc = format!(
-        " One delivery to actor `{actor}`: one variant per group it subscribes to in `interface_yaml/`."
+        " One delivery to actor `{actor}`: one variant per group it subscribes to in `interface_yaml/` \
+         (every vehicle extension group in the one `VehicleExtension`)."
     );
     quote! {
         #[doc = #doc]

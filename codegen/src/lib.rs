@@ -1,4 +1,4 @@
-//! The interface compiler: reads `interface_yaml/*.yaml` and `interface_yaml/proto/**.proto`,
+//! The interface compiler: reads `interface_yaml/*.yaml` (and `interface_yaml/vehicles/*.yaml`) and `interface_yaml/proto/**.proto`,
 //! checks the declarations (types exist, one type per group, subscribers agree with publishers, no
 //! duplicates, known layers and keys) and writes typed Rust wiring into `OUT_DIR`: prost messages,
 //! one constant per group, per-actor ports and inboxes. Used from `actors/build.rs`; see
@@ -14,7 +14,9 @@ mod yaml;
 use std::path::{Path, PathBuf};
 
 pub use error::{Diagnostic, Error, Rule};
-pub use model::{ActorModel, ApplicationModel, GroupModel, Model, Port};
+pub use model::{
+    ActorModel, ApplicationModel, ExtensionKind, ExtensionModel, GroupModel, Model, Port,
+};
 pub use yaml::{Direction, Layer};
 
 /// The name of the generated file in the output directory.
@@ -33,8 +35,23 @@ pub struct Compiled {
     pub inputs: Vec<PathBuf>,
 }
 
-/// The `*.yaml` / `*.yml` files directly in `dir`, sorted by name.
+/// The subfolder of the interface folder that holds one yaml file per vehicle protocol (its
+/// extension groups), so that adding a vehicle adds a file instead of editing a shared one.
+pub const VEHICLES_DIR: &str = "vehicles";
+
+/// The `*.yaml` / `*.yml` files directly in `dir` and in its [`VEHICLES_DIR`] (when there is
+/// one), sorted by path.
 pub fn yaml_files(dir: &Path) -> Result<Vec<PathBuf>, Error> {
+    let mut files = yaml_files_in(dir)?;
+    let vehicles = dir.join(VEHICLES_DIR);
+    if vehicles.is_dir() {
+        files.extend(yaml_files_in(&vehicles)?);
+    }
+    files.sort();
+    Ok(files)
+}
+
+fn yaml_files_in(dir: &Path) -> Result<Vec<PathBuf>, Error> {
     let io = |source| Error::Io {
         path: dir.to_path_buf(),
         source,
@@ -46,7 +63,6 @@ pub fn yaml_files(dir: &Path) -> Result<Vec<PathBuf>, Error> {
             files.push(path);
         }
     }
-    files.sort();
     Ok(files)
 }
 
@@ -130,6 +146,10 @@ fn try_build_script(yaml_dir: &Path) -> Result<(), Error> {
     let proto_dir = yaml_dir.join("proto");
     // Directories too, so that adding a file reruns the build.
     println!("cargo:rerun-if-changed={}", yaml_dir.display());
+    println!(
+        "cargo:rerun-if-changed={}",
+        yaml_dir.join(VEHICLES_DIR).display()
+    );
     rerun_dirs(&proto_dir);
     let out_dir = PathBuf::from(std::env::var_os("OUT_DIR").ok_or(Error::Env("OUT_DIR"))?);
     let files = yaml_files(&yaml_dir)?;

@@ -36,6 +36,80 @@ pub struct Port {
     pub group: usize,
     /// `node_status` (publish method suffix) or `NodeStatus` (inbox variant).
     pub ident: String,
+    /// Index into `Model::extensions` when this port is a vehicle extension: a subscription is
+    /// then delivered in the actor's one `VehicleExtension` variant, encoded, with its spec.
+    pub extension: Option<usize>,
+}
+
+/// How the interface treats a vehicle's extension group (`extension:` in the vehicle's yaml).
+/// The type is a mirror of the Goby3 message it extends (same base fields and numbers, plus
+/// the vehicle's own), so the interface gates it by its base fields alone.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ExtensionKind {
+    /// A CommandRequest from a helm: in command state only, its course through the safety envelope.
+    Command,
+    /// A CommandRequest that changes the vehicle's mode (how command is reached): in listen or
+    /// command; a course riding along is gated as `command`.
+    Mode,
+    /// An InterfaceData from a helm: in listen or command.
+    Data,
+    /// An InterfaceData from the vehicle to the helms: its node_status crosses the navigation gate.
+    Navigation,
+    /// As `navigation`, for a second copy of navigation the driver also sent plainly (gated the
+    /// same, counted once).
+    NavigationCopy,
+}
+
+impl ExtensionKind {
+    pub const ALL: [ExtensionKind; 5] = [
+        ExtensionKind::Command,
+        ExtensionKind::Mode,
+        ExtensionKind::Data,
+        ExtensionKind::Navigation,
+        ExtensionKind::NavigationCopy,
+    ];
+
+    pub fn key(self) -> &'static str {
+        match self {
+            ExtensionKind::Command => "command",
+            ExtensionKind::Mode => "mode",
+            ExtensionKind::Data => "data",
+            ExtensionKind::Navigation => "navigation",
+            ExtensionKind::NavigationCopy => "navigation_copy",
+        }
+    }
+
+    /// The Goby3 message a mirror of this kind extends.
+    pub fn base(self) -> &'static str {
+        match self {
+            ExtensionKind::Command | ExtensionKind::Mode => {
+                "goby.middleware.frontseat.protobuf.CommandRequest"
+            }
+            _ => "goby.middleware.frontseat.protobuf.InterfaceData",
+        }
+    }
+
+    /// Toward the vehicle (the interface subscribes) or toward the helms (it publishes).
+    pub fn direction(self) -> Direction {
+        match self {
+            ExtensionKind::Navigation | ExtensionKind::NavigationCopy => Direction::Publishes,
+            _ => Direction::Subscribes,
+        }
+    }
+}
+
+/// One vehicle extension group.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct ExtensionModel {
+    /// Index into `Model::groups`.
+    pub group: usize,
+    pub kind: ExtensionKind,
+    /// The file's `vehicle:`.
+    pub vehicle: String,
+    /// The actor that gates it.
+    pub actor: String,
+    /// The field numbers of the base message (the rest of a mirror's fields are the vehicle's).
+    pub base_fields: Vec<u32>,
 }
 
 /// A resolved actor.
@@ -61,6 +135,8 @@ pub struct Model {
     pub applications: Vec<ApplicationModel>,
     pub groups: Vec<GroupModel>,
     pub actors: Vec<ActorModel>,
+    /// Every vehicle extension group, sorted by group name.
+    pub extensions: Vec<ExtensionModel>,
 }
 
 struct Diags<'a> {
@@ -139,6 +215,8 @@ pub fn resolve(files: &[InterfaceFile], pool: &DescriptorPool, out: &mut Vec<Dia
         entry: &'a Entry,
         type_name: String,
         rust_type: Vec<String>,
+        /// The entry's `extension:` (kind, vehicle, base field numbers), checked.
+        extension: Option<(ExtensionKind, String, Vec<u32>)>,
     }
     let mut good: Vec<Good> = Vec::new();
     let mut seen: HashMap<(&str, Layer, Direction, &str, &str), Pos> = HashMap::new();
@@ -218,6 +296,17 @@ pub fn resolve(files: &[InterfaceFile], pool: &DescriptorPool, out: &mut Vec<Dia
                 continue;
             }
             seen.insert(key, e.pos);
+            let extension = match &e.extension {
+                None => None,
+                Some(x) => match check_extension(f, e, x, &type_name, pool) {
+                    Ok(ext) => Some(ext),
+                    Err(message) => {
+                        diags.push(&f.path, x.pos, Rule::Extension, message);
+                        ok = false;
+                        None
+                    }
+                },
+            };
             if ok {
                 good.push(Good {
                     file: &f.path,
@@ -225,6 +314,7 @@ pub fn resolve(files: &[InterfaceFile], pool: &DescriptorPool, out: &mut Vec<Dia
                     entry: e,
                     type_name,
                     rust_type,
+                    extension,
                 });
             }
         }
@@ -330,6 +420,7 @@ pub fn resolve(files: &[InterfaceFile], pool: &DescriptorPool, out: &mut Vec<Dia
     }
 
     let mut actors: BTreeMap<&str, ActorModel> = BTreeMap::new();
+    let mut extensions: Vec<ExtensionModel> = Vec::new();
     // Where each actor's generated identifier came from, to name both sides of a collision.
     let mut idents: HashMap<(&str, Direction, String), (usize, &PathBuf, Pos)> = HashMap::new();
     for (i, g) in good.iter().enumerate() {
@@ -390,7 +481,21 @@ pub fn resolve(files: &[InterfaceFile], pool: &DescriptorPool, out: &mut Vec<Dia
                     (e.actor.value.as_str(), e.direction, ident.clone()),
                     (gi, g.file, e.group.pos),
                 );
-                ports.push(Port { group: gi, ident });
+                let extension = g.extension.as_ref().map(|(kind, vehicle, base_fields)| {
+                    extensions.push(ExtensionModel {
+                        group: gi,
+                        kind: *kind,
+                        vehicle: vehicle.clone(),
+                        actor: e.actor.value.clone(),
+                        base_fields: base_fields.clone(),
+                    });
+                    extensions.len() - 1
+                });
+                ports.push(Port {
+                    group: gi,
+                    ident,
+                    extension,
+                });
             }
         }
     }
@@ -420,10 +525,113 @@ pub fn resolve(files: &[InterfaceFile], pool: &DescriptorPool, out: &mut Vec<Dia
     }
     applications.sort_by(|a, b| a.name.cmp(&b.name));
 
+    // Sorted by group, and the ports' indices with them.
+    let mut order: Vec<usize> = (0..extensions.len()).collect();
+    order.sort_by(|&a, &b| {
+        (&groups[extensions[a].group].name, &extensions[a].actor)
+            .cmp(&(&groups[extensions[b].group].name, &extensions[b].actor))
+    });
+    let mut new_index = vec![0; extensions.len()];
+    for (new, &old) in order.iter().enumerate() {
+        new_index[old] = new;
+    }
+    let extensions: Vec<ExtensionModel> = order.iter().map(|&i| extensions[i].clone()).collect();
+    let mut actors: Vec<ActorModel> = actors.into_values().collect();
+    for a in &mut actors {
+        for p in a.publishes.iter_mut().chain(a.subscribes.iter_mut()) {
+            if let Some(x) = p.extension.as_mut() {
+                *x = new_index[*x];
+            }
+        }
+    }
+
     Model {
         applications,
         groups,
-        actors: actors.into_values().collect(),
+        actors,
+        extensions,
+    }
+}
+
+/// The rules of an `extension:` entry: a known kind, in the direction and layer it implies, in a
+/// file that names its `vehicle:`, on a type that mirrors the message the kind extends (every
+/// base field present with its number, type and label). The kind, the vehicle and the base's
+/// field numbers, or the message saying what is wrong.
+fn check_extension(
+    f: &InterfaceFile,
+    e: &Entry,
+    x: &crate::yaml::Located,
+    type_name: &str,
+    pool: &DescriptorPool,
+) -> Result<(ExtensionKind, String, Vec<u32>), String> {
+    let Some(kind) = ExtensionKind::ALL.into_iter().find(|k| k.key() == x.value) else {
+        let known: Vec<String> = ExtensionKind::ALL
+            .iter()
+            .map(|k| format!("`{}`", k.key()))
+            .collect();
+        return Err(format!(
+            "unknown extension kind `{}` (expected one of {})",
+            x.value,
+            known.join(", ")
+        ));
+    };
+    if e.direction != kind.direction() {
+        return Err(format!(
+            "extension `{}` is declared under `{}`, but the interface {} it",
+            kind.key(),
+            e.direction.key(),
+            if kind.direction() == Direction::Publishes {
+                "publishes"
+            } else {
+                "subscribes to"
+            }
+        ));
+    }
+    if e.layer != Layer::Interprocess {
+        return Err(format!(
+            "extension `{}` must be `interprocess`: a helm in another process uses it",
+            kind.key()
+        ));
+    }
+    let Some(vehicle) = f.vehicle.as_ref().filter(|v| !v.value.is_empty()) else {
+        return Err(
+            "an `extension:` entry needs the file's `vehicle:` (the vehicle's name in refusals)"
+                .to_string(),
+        );
+    };
+    let base = pool
+        .get_message_by_name(kind.base())
+        .ok_or_else(|| format!("the base message `{}` is not compiled", kind.base()))?;
+    // An unknown type was reported already; no second message about it.
+    let Some(mirror) = pool.get_message_by_name(type_name) else {
+        return Ok((kind, vehicle.value.clone(), Vec::new()));
+    };
+    let mut base_fields = Vec::new();
+    for bf in base.fields() {
+        let same = mirror.get_field(bf.number()).is_some_and(|mf| {
+            mf.name() == bf.name()
+                && mf.cardinality() == bf.cardinality()
+                && kind_name(&mf.kind()) == kind_name(&bf.kind())
+        });
+        if !same {
+            return Err(format!(
+                "`{type_name}` is not a mirror of `{}`: field {} `{}` must be there with the same \
+                 number, name, type and label (a mirror has every base field and adds its own)",
+                kind.base(),
+                bf.number(),
+                bf.name()
+            ));
+        }
+        base_fields.push(bf.number());
+    }
+    Ok((kind, vehicle.value.clone(), base_fields))
+}
+
+fn kind_name(k: &prost_reflect::Kind) -> String {
+    match k {
+        prost_reflect::Kind::Message(m) => m.full_name().to_string(),
+        prost_reflect::Kind::Enum(en) => en.full_name().to_string(),
+        other => format!("{other:?}"),
     }
 }
 

@@ -1,7 +1,9 @@
 //! Reading one interface yaml file into located declarations.
 //!
 //! The shape is Goby3's: `application:`, then layers (`interprocess:` / `interthread:`), each with
-//! `publishes:` / `subscribes:` lists of `{group, type, actor}`. Every map is read with a
+//! `publishes:` / `subscribes:` lists of `{group, type, actor}`. A vehicle's own file
+//! (`interface_yaml/vehicles/`) adds `vehicle:` (its name in refusals) and marks its extension
+//! groups with `extension:` (how the interface gates them, see model.rs). Every map is read with a
 //! hand-written visitor that records unknown keys with their position instead of failing on the
 //! first one, so that one build reports every mistake in the file with its line.
 
@@ -68,6 +70,8 @@ pub struct Entry {
     pub group: Located,
     pub type_name: Located,
     pub actor: Located,
+    /// `extension:` — a vehicle extension group and how it is gated.
+    pub extension: Option<Located>,
 }
 
 /// One yaml file, after the shape checks.
@@ -75,6 +79,8 @@ pub struct Entry {
 pub struct InterfaceFile {
     pub path: PathBuf,
     pub application: Located,
+    /// `vehicle:` — the vehicle a file of extension groups belongs to.
+    pub vehicle: Option<Located>,
     pub entries: Vec<Entry>,
 }
 
@@ -176,7 +182,7 @@ pub fn read_file(path: &Path, text: &str, diags: &mut Vec<Diagnostic>) -> Option
                         key.pos,
                         Rule::UnknownKey,
                         format!(
-                            "unknown key `{}` in a `{}` entry (expected `group`, `type`, `actor`)",
+                            "unknown key `{}` in a `{}` entry (expected `group`, `type`, `actor`, `extension`)",
                             key.value,
                             direction.key()
                         ),
@@ -219,6 +225,7 @@ pub fn read_file(path: &Path, text: &str, diags: &mut Vec<Diagnostic>) -> Option
                         group: trimmed(group),
                         type_name: trimmed(type_name),
                         actor: trimmed(actor),
+                        extension: raw.extension.map(trimmed),
                     });
                 }
             }
@@ -228,6 +235,7 @@ pub fn read_file(path: &Path, text: &str, diags: &mut Vec<Diagnostic>) -> Option
         Some(app) if !app.value.trim().is_empty() => Some(InterfaceFile {
             path: path.to_path_buf(),
             application: trimmed(app),
+            vehicle: top.vehicle.map(trimmed),
             entries,
         }),
         Some(app) => {
@@ -272,6 +280,7 @@ fn located(s: Spanned<String>) -> Located {
 
 struct TopLevel {
     application: Option<Located>,
+    vehicle: Option<Located>,
     layers: Vec<(Layer, Pos, LayerBody)>,
     unknown: Vec<Located>,
     first_key: Option<Pos>,
@@ -295,6 +304,7 @@ impl<'de> Visitor<'de> for TopVisitor {
     fn visit_map<A: MapAccess<'de>>(self, mut map: A) -> Result<TopLevel, A::Error> {
         let mut top = TopLevel {
             application: None,
+            vehicle: None,
             layers: Vec::new(),
             unknown: Vec::new(),
             first_key: None,
@@ -305,6 +315,9 @@ impl<'de> Visitor<'de> for TopVisitor {
             match key.value.as_str() {
                 "application" => {
                     top.application = Some(located(map.next_value::<Spanned<String>>()?));
+                }
+                "vehicle" => {
+                    top.vehicle = Some(located(map.next_value::<Spanned<String>>()?));
                 }
                 "interprocess" | "interthread" => {
                     let layer = if key.value == "interprocess" {
@@ -373,6 +386,7 @@ struct RawEntry {
     group: Option<Located>,
     type_name: Option<Located>,
     actor: Option<Located>,
+    extension: Option<Located>,
     unknown: Vec<Located>,
 }
 
@@ -396,6 +410,7 @@ impl<'de> Visitor<'de> for EntryVisitor {
             group: None,
             type_name: None,
             actor: None,
+            extension: None,
             unknown: Vec::new(),
         };
         while let Some(key) = map.next_key::<Spanned<String>>()? {
@@ -404,6 +419,7 @@ impl<'de> Visitor<'de> for EntryVisitor {
                 "group" => &mut entry.group,
                 "type" => &mut entry.type_name,
                 "actor" => &mut entry.actor,
+                "extension" => &mut entry.extension,
                 _ => {
                     map.next_value::<IgnoredAny>()?;
                     entry.unknown.push(key);

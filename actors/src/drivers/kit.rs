@@ -4,10 +4,11 @@
 //! watchdog [`DataWatch`]), handing a line or a frame to the link and mirroring it on raw_out
 //! ([`send_line`], [`send_bytes`]), answering a request ([`Asker`], [`refuse`], [`failure`]),
 //! the commands waiting for the vehicle's acknowledgement with a deadline and a bound
-//! ([`AckQueue`]), a vehicle mirror's base request ([`base_command!`]), and the rate-limit check
-//! before a bad-input warning. Each piece is small on purpose: a driver keeps its own counters,
-//! its own error codes and its own log lines (their text and their `tracing` target are what
-//! operators filter on), and takes from here only what was identical.
+//! ([`AckQueue`]), taking the one extension type a driver speaks ([`own_extension`]), a vehicle
+//! mirror's base request ([`base_command!`]), and the rate-limit check before a bad-input
+//! warning. Each piece is small on purpose: a driver keeps its own counters, its own error codes
+//! and its own log lines (their text and their `tracing` target are what operators filter on),
+//! and takes from here only what was identical.
 
 use std::collections::VecDeque;
 use std::time::Duration;
@@ -379,6 +380,23 @@ pub fn decoded<M: prost::Message + Default>(
     }
 }
 
+/// The extension a driver takes when it is of the one `type_name` it speaks, decoded; any other
+/// type, or bytes that do not decode, refused as an unknown one (a command that asked for a
+/// response is answered) and None.
+pub fn own_extension<M: prost::Message + Default>(
+    ext: &crate::driver::DriverExtension,
+    type_name: &str,
+    sig: &mut dyn SignalSink,
+    driver: &str,
+) -> Option<M> {
+    if ext.type_name() == type_name {
+        decoded(ext, sig, driver)
+    } else {
+        crate::driver::refuse_extension(sig, ext, driver);
+        None
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -651,6 +669,49 @@ mod tests {
         assert_eq!(
             (b.response_requested, b.request_id, b.cancel_request_id),
             (Some(true), Some(4), Some(3))
+        );
+    }
+
+    #[test]
+    fn own_extension_decodes_its_type_and_refuses_the_rest() {
+        use crate::driver::DriverExtension;
+        use crate::proto::frontseat::protobuf::iver::CommandRequest as Iver;
+        const MINE: &str = "frontseat.protobuf.iver.CommandRequest";
+        let mut sink = RecordingSink::default();
+        let asked = Iver {
+            request_id: Some(5),
+            response_requested: Some(true),
+            ..Default::default()
+        };
+        let ext = DriverExtension::encode(MINE, "Iver3", &asked);
+        let got: Option<Iver> = own_extension(&ext, MINE, &mut sink, "iver3");
+        assert_eq!(got.as_ref(), Some(&asked));
+        assert!(sink.responses.is_empty());
+        // Another vehicle's command: refused and answered.
+        let other = DriverExtension::encode("x.bluefin.CommandRequest", "Bluefin", &asked);
+        assert_eq!(
+            own_extension::<Iver>(&other, MINE, &mut sink, "iver3"),
+            None
+        );
+        // Its own type whose extension field (1001) does not decode, though the base does:
+        // refused and answered too.
+        let mut bytes = prost::Message::encode_to_vec(&asked);
+        bytes.extend([0xCA, 0x3E, 0x01, 0x07]);
+        let broken = DriverExtension {
+            type_name: Some(MINE.into()),
+            value: Some(bytes),
+            vehicle: Some("Iver3".into()),
+        };
+        assert_eq!(
+            own_extension::<Iver>(&broken, MINE, &mut sink, "iver3"),
+            None
+        );
+        assert_eq!(
+            answers(&sink),
+            vec![
+                (Some(5), Some(false), Some(REFUSED)),
+                (Some(5), Some(false), Some(REFUSED))
+            ]
         );
     }
 }

@@ -19,12 +19,10 @@ use crate::modes::{Control, Firmware};
 use frontseat_config::{ArdupilotVehicle, InterfaceConfig, MavlinkAddress};
 
 use frontseat_actors::clock::SimClock;
-use frontseat_actors::driver::{
-    Driver, DriverContext, DriverExtension, DriverIoEvent, SignalSink, refuse_extension,
-};
+use frontseat_actors::driver::{Driver, DriverContext, DriverExtension, DriverIoEvent, SignalSink};
 use frontseat_actors::drivers::kit::{
-    AckQueue, Asker, Awaiting, DataWatch, OwnedTask, TIMED_OUT, base_command, decoded, log_due,
-    raw_binary, refuse, send_bytes, state_of,
+    AckQueue, Asker, Awaiting, DataWatch, OwnedTask, TIMED_OUT, base_command, log_due,
+    own_extension, raw_binary, refuse, send_bytes, state_of,
 };
 use frontseat_actors::link::LineWriter;
 use frontseat_actors::link::byte::{self, ByteLinkConfig, LinkStats, Transport};
@@ -721,13 +719,8 @@ impl ArdupilotDriver {
 
 impl Driver for ArdupilotDriver {
     fn send_extension(&mut self, ext: &DriverExtension, now: Duration, sig: &mut dyn SignalSink) {
-        match ext.type_name() {
-            COMMAND => {
-                if let Some(r) = decoded::<ArdupilotCommandRequest>(ext, sig, self.name()) {
-                    self.send_ardupilot_command(&r, now, sig);
-                }
-            }
-            _ => refuse_extension(sig, ext, self.name()),
+        if let Some(r) = own_extension::<ArdupilotCommandRequest>(ext, COMMAND, sig, self.name()) {
+            self.send_ardupilot_command(&r, now, sig);
         }
     }
 

@@ -11,11 +11,11 @@ use frontseat_config::{InterfaceConfig, IverModeAssignments};
 use crate::edge::{self as codec, IverMode, Sentence, ack_type};
 use frontseat_actors::clock::SimClock;
 use frontseat_actors::driver::{
-    Driver, DriverContext, DriverExtension, DriverIoEvent, SignalSink, raw_ascii, refuse_extension,
+    Driver, DriverContext, DriverExtension, DriverIoEvent, SignalSink, raw_ascii,
 };
 use frontseat_actors::drivers::kit::{
-    AckQueue, Asker, Awaiting, LinkState, OwnedTask, TIMED_OUT, base_command, decoded, log_due,
-    refuse, send_line, state_of,
+    AckQueue, Asker, Awaiting, LinkState, OwnedTask, TIMED_OUT, base_command, log_due,
+    own_extension, refuse, send_line, state_of,
 };
 use frontseat_actors::drivers::vehicle_link;
 use frontseat_actors::link::LineWriter;
@@ -375,13 +375,8 @@ fn emit(sig: &mut dyn SignalSink, data: IverInterfaceData) {
 
 impl Driver for Iver3Driver {
     fn send_extension(&mut self, ext: &DriverExtension, now: Duration, sig: &mut dyn SignalSink) {
-        match ext.type_name() {
-            COMMAND => {
-                if let Some(r) = decoded::<IverCommandRequest>(ext, sig, self.name()) {
-                    self.send_iver_command(&r, now, sig);
-                }
-            }
-            _ => refuse_extension(sig, ext, self.name()),
+        if let Some(r) = own_extension::<IverCommandRequest>(ext, COMMAND, sig, self.name()) {
+            self.send_iver_command(&r, now, sig);
         }
     }
 

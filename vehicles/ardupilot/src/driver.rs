@@ -668,7 +668,7 @@ impl ArdupilotDriver {
                 if let Err(why) = self.nav_ready() {
                     refuse(
                         &base,
-                        &format!("navigation not ready for GUIDED: {why}"),
+                        format!("navigation not ready for GUIDED: {why}"),
                         sig,
                     );
                     return;
@@ -787,7 +787,7 @@ impl Driver for ArdupilotDriver {
         if self.state != FrontSeatState::FrontseatAcceptingCommands {
             refuse(
                 req,
-                &format!(
+                format!(
                     "vehicle not armed in GUIDED ({}): ArduPilot ignores targets outside GUIDED",
                     self.mode_words()
                 ),

@@ -5,10 +5,10 @@
 //! ([`send_line`], [`send_bytes`]), answering a request ([`Asker`], [`refuse`], [`failure`]),
 //! the commands waiting for the vehicle's acknowledgement with a deadline and a bound
 //! ([`AckQueue`]), taking the one extension type a driver speaks ([`own_extension`]), a vehicle
-//! mirror's base request ([`base_command!`]), and the rate-limit check before a bad-input
-//! warning. Each piece is small on purpose: a driver keeps its own counters, its own error codes
-//! and its own log lines (their text and their `tracing` target are what operators filter on),
-//! and takes from here only what was identical.
+//! mirror's base request ([`base_command!`]), a timeout read from the config ([`config_secs`]),
+//! and the rate-limit check before a bad-input warning. Each piece is small on purpose: a driver
+//! keeps its own counters, its own error codes and its own log lines (their text and their
+//! `tracing` target are what operators filter on), and takes from here only what was identical.
 
 use std::collections::VecDeque;
 use std::time::Duration;
@@ -322,6 +322,17 @@ macro_rules! base_command {
     }};
 }
 pub use crate::base_command;
+
+/// The longest time a driver takes from its config (about 31 years): longer is taken as this,
+/// so a deadline `now + it` cannot overflow.
+pub const MAX_CONFIG_SECS: f64 = 1e9;
+
+/// Seconds from the config as a Duration: negative or NaN is zero, anything past
+/// [`MAX_CONFIG_SECS`] (infinity too) is that. Validation only asks for finite values, and
+/// `Duration::from_secs_f64` panics on a finite 1e20.
+pub fn config_secs(s: f64) -> Duration {
+    Duration::try_from_secs_f64(s.clamp(0.0, MAX_CONFIG_SECS)).unwrap_or(Duration::ZERO)
+}
 
 /// The failed answer to a request: Goby3's `CommandResponse` with `request_successful = false`,
 /// an error code of the driver's own and the reason in words.
@@ -713,5 +724,17 @@ mod tests {
                 (Some(5), Some(false), Some(REFUSED))
             ]
         );
+    }
+
+    #[test]
+    fn config_seconds_are_clamped_never_a_panic() {
+        assert_eq!(config_secs(2.5), Duration::from_millis(2_500));
+        assert_eq!(config_secs(0.0), Duration::ZERO);
+        assert_eq!(config_secs(-3.0), Duration::ZERO);
+        assert_eq!(config_secs(f64::NAN), Duration::ZERO);
+        let cap = Duration::from_secs(1_000_000_000);
+        assert_eq!(config_secs(1e20), cap, "finite, passes validation");
+        assert_eq!(config_secs(f64::INFINITY), cap);
+        assert!(S(1_000_000).checked_add(config_secs(1e300)).is_some());
     }
 }

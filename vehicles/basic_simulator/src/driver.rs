@@ -14,7 +14,7 @@ use frontseat_sim::codec::{self, FieldError, LineError, Outbound};
 
 use frontseat_actors::clock::SimClock;
 use frontseat_actors::driver::{Driver, DriverContext, DriverIoEvent, SignalSink, raw_ascii};
-use frontseat_actors::drivers::kit::{LinkState, OwnedTask, refuse, send_line};
+use frontseat_actors::drivers::kit::{LinkState, OwnedTask, config_secs, refuse, send_line};
 use frontseat_actors::link::{self, LinkConfig};
 use frontseat_actors::proto::goby::middleware::frontseat::protobuf::{
     CommandRequest, CommandResponse, EulerAngles, FrontSeatState, InterfaceData, NodeStatus, Raw,
@@ -55,7 +55,7 @@ impl Settings {
                 max_line_bytes: 4096,
             },
             start_line,
-            nav_timeout: Duration::from_secs_f64(b.nav_timeout.max(0.0)),
+            nav_timeout: config_secs(b.nav_timeout),
         }
     }
 }

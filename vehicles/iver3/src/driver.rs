@@ -14,7 +14,7 @@ use frontseat_actors::driver::{
     Driver, DriverContext, DriverExtension, DriverIoEvent, SignalSink, raw_ascii,
 };
 use frontseat_actors::drivers::kit::{
-    AckQueue, Asker, Awaiting, LinkState, OwnedTask, TIMED_OUT, base_command, log_due,
+    AckQueue, Asker, Awaiting, LinkState, OwnedTask, TIMED_OUT, base_command, config_secs, log_due,
     own_extension, refuse, send_line, state_of,
 };
 use frontseat_actors::drivers::vehicle_link;
@@ -101,8 +101,8 @@ impl Settings {
             remote_helm_version_major: c.remote_helm_version_major.unwrap_or(5),
             oms_timeout: c.oms_timeout.min(120),
             modes: ModeTable(c.mode_assignments.clone()),
-            providing_data_timeout: Duration::from_secs_f64(c.providing_data_timeout.max(0.0)),
-            ack_timeout: Duration::from_secs_f64(c.link.ack_timeout.max(0.0)),
+            providing_data_timeout: config_secs(c.providing_data_timeout),
+            ack_timeout: config_secs(c.link.ack_timeout),
         }
     }
 }
@@ -898,5 +898,33 @@ mod tests {
         assert_eq!(d.counters.bad_lines, 4);
         // $OSD from the other side is recognised and ignored, not an error.
         assert_eq!(d.counters.ignored, 0);
+    }
+
+    #[test]
+    fn a_huge_configured_timeout_is_capped_not_a_panic() {
+        let mut cfg = InterfaceConfig::default();
+        cfg.driver.iver3.remote_helm_version_major = Some(5);
+        // Finite and positive: what validation lets through.
+        cfg.driver.iver3.link.ack_timeout = 1e20;
+        cfg.driver.iver3.providing_data_timeout = 1e20;
+        let s = Settings::from_config(&cfg);
+        assert_eq!(s.ack_timeout, Duration::from_secs(1_000_000_000));
+        let mut d = Iver3Driver::new(s);
+        let mut sink = Sink::default();
+        let (w, _rx) = LineWriter::for_test();
+        let t = Duration::from_secs(1);
+        d.handle_io(DriverIoEvent::Connected(w), t, &mut sink);
+        d.send_command_to_frontseat(
+            &CommandRequest {
+                desired_course: Some(DesiredCourse::default()),
+                response_requested: Some(true),
+                request_id: Some(1),
+                ..Default::default()
+            },
+            t,
+            &mut sink,
+        );
+        d.do_loop(Duration::from_secs(86_400), &mut sink);
+        assert!(sink.responses.is_empty(), "still waiting for its $ACK");
     }
 }

@@ -16,7 +16,7 @@ use crate::edge::{
 use frontseat_actors::clock::SimClock;
 use frontseat_actors::driver::{Driver, DriverContext, DriverIoEvent, SignalSink};
 use frontseat_actors::drivers::kit::{
-    Asker, LinkState, OwnedTask, TIMED_OUT, log_due, raw_binary, refuse, send_bytes,
+    Asker, LinkState, OwnedTask, TIMED_OUT, config_secs, log_due, raw_binary, refuse, send_bytes,
 };
 use frontseat_actors::drivers::vehicle_link;
 use frontseat_actors::link::byte::{self, ByteLinkConfig, LinkStats};
@@ -52,8 +52,8 @@ impl Settings {
                 Framing::Frames(sv2_frames),
             ),
             address: ((c.board_id.min(255) as u16) << 8) | c.task_id.min(255) as u16,
-            providing_data_timeout: Duration::from_secs_f64(c.providing_data_timeout.max(0.0)),
-            ack_timeout: Duration::from_secs_f64(c.link.ack_timeout.max(0.0)),
+            providing_data_timeout: config_secs(c.providing_data_timeout),
+            ack_timeout: config_secs(c.link.ack_timeout),
             publish_navigation: c.publish_navigation,
         }
     }

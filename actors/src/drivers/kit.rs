@@ -239,6 +239,7 @@ pub struct AckQueue<T> {
 }
 
 impl<T> AckQueue<T> {
+    /// A queue for `max` commands (at least one: a command written is always awaited).
     pub fn new(max: usize) -> Self {
         Self {
             waiting: VecDeque::new(),

@@ -5,7 +5,7 @@
 //! helm keeps commanding. It never arms or changes mode on its own: only the ArduPilot
 //! CommandRequest extension does, and only with `allow_mode_commands`.
 
-use std::collections::{BTreeMap, VecDeque};
+use std::collections::BTreeMap;
 use std::sync::Arc;
 use std::time::Duration;
 
@@ -19,10 +19,11 @@ use crate::modes::{Control, Firmware};
 use frontseat_config::{ArdupilotVehicle, InterfaceConfig, MavlinkAddress};
 
 use frontseat_actors::clock::SimClock;
-use frontseat_actors::driver::{
-    Driver, DriverContext, DriverExtension, DriverIoEvent, SignalSink, refuse_extension,
+use frontseat_actors::driver::{Driver, DriverContext, DriverExtension, DriverIoEvent, SignalSink};
+use frontseat_actors::drivers::kit::{
+    AckQueue, Asker, Awaiting, DataWatch, OwnedTask, TIMED_OUT, base_command, log_due,
+    own_extension, raw_binary, refuse, send_bytes, state_of,
 };
-use frontseat_actors::drivers::kit::{decoded, state_of};
 use frontseat_actors::link::LineWriter;
 use frontseat_actors::link::byte::{self, ByteLinkConfig, LinkStats, Transport};
 use frontseat_actors::link::framing::{FrameCutter, Framing};
@@ -31,11 +32,10 @@ use frontseat_actors::proto::frontseat::protobuf::ardupilot::{
     CommandRequest as ArdupilotCommandRequest, ardupilot_command::Action,
 };
 use frontseat_actors::proto::goby::middleware::frontseat::protobuf::{
-    CommandRequest, CommandResponse, EulerAngles, FrontSeatState, InterfaceData, NodeStatus, Raw,
-    Speed, raw::RawType,
+    CommandRequest, EulerAngles, FrontSeatState, InterfaceData, NodeStatus, Raw, Speed,
 };
 use frontseat_actors::proto::goby::middleware::protobuf::LatLonPoint;
-use frontseat_actors::ratelog::{LogDecision, RateLimitedLog};
+use frontseat_actors::ratelog::RateLimitedLog;
 
 /// The type of our ArduPilot extension (field 1002), as its group declares it.
 pub const COMMAND: &str =
@@ -180,19 +180,14 @@ struct Course {
     sent: Option<Duration>,
 }
 
-#[derive(Debug)]
-struct Pending {
-    request_id: Option<i32>,
-    respond: bool,
-    deadline: Duration,
-    /// The COMMAND_LONG awaiting its COMMAND_ACK; None for a course (judged at the deadline).
-    command: Option<MavCmd>,
-}
+/// What a request waits for: the COMMAND_ACK of its COMMAND_LONG, or None for a course (judged
+/// at the deadline).
+type Pending = Option<MavCmd>;
 
 pub struct ArdupilotDriver {
     settings: Settings,
     writer: Option<LineWriter>,
-    link_task: Option<tokio::task::JoinHandle<()>>,
+    link_task: OwnedTask,
     pub link_stats: Arc<LinkStats>,
     tx: Sender,
     /// The autopilot (system, component) spoken to: configured, or the first heard.
@@ -207,11 +202,11 @@ pub struct ArdupilotDriver {
     /// SYS_STATUS says the GPS is present and enabled but unhealthy.
     gps_unhealthy: bool,
     attitude: Option<(f64, f64, f64)>,
-    last_nav: Option<Duration>,
-    providing_data: bool,
+    /// Usable positions.
+    nav: DataWatch,
     nav_problem: Option<String>,
     course: Option<Course>,
-    pending: VecDeque<Pending>,
+    pending: AckQueue<Pending>,
     last_text: Option<(Duration, String)>,
     bad_log: RateLimitedLog,
     text_log: RateLimitedLog,
@@ -224,37 +219,6 @@ fn statustext(bytes: &[u8]) -> String {
     String::from_utf8_lossy(&bytes[..end]).into_owned()
 }
 
-fn binary(bytes: Vec<u8>) -> Raw {
-    let mut r = Raw {
-        raw: Some(bytes),
-        ..Default::default()
-    };
-    r.set_type(RawType::RawBinary);
-    r
-}
-
-fn respond(sig: &mut dyn SignalSink, p: &Pending, ok: bool, code: i32, why: Option<String>) {
-    if p.respond {
-        sig.command_response(CommandResponse {
-            request_successful: Some(ok),
-            request_id: p.request_id,
-            error_code: Some(code),
-            error_string: why,
-        });
-    }
-}
-
-fn fail(req: &CommandRequest, why: &str, sig: &mut dyn SignalSink) {
-    if req.response_requested() {
-        sig.command_response(CommandResponse {
-            request_successful: Some(false),
-            request_id: req.request_id,
-            error_code: Some(1),
-            error_string: Some(why.to_string()),
-        });
-    }
-}
-
 impl ArdupilotDriver {
     pub fn new(settings: Settings) -> Self {
         let tx = Sender::new(settings.own_system_id, settings.own_component_id);
@@ -263,7 +227,7 @@ impl ArdupilotDriver {
         Self {
             settings,
             writer: None,
-            link_task: None,
+            link_task: OwnedTask::default(),
             link_stats: Arc::new(LinkStats::default()),
             tx,
             vehicle,
@@ -276,11 +240,10 @@ impl ArdupilotDriver {
             gps_fix: None,
             gps_unhealthy: false,
             attitude: None,
-            last_nav: None,
-            providing_data: false,
+            nav: DataWatch::default(),
             nav_problem: None,
             course: None,
-            pending: VecDeque::new(),
+            pending: AckQueue::new(MAX_PENDING),
             last_text: None,
             bad_log: RateLimitedLog::for_bad_input(),
             text_log: RateLimitedLog::for_bad_input(),
@@ -316,10 +279,7 @@ impl ArdupilotDriver {
     fn bad(&mut self, what: &str) {
         self.counters.bad_input += 1;
         frontseat_actors::drivers::kit::bad_line();
-        if let LogDecision::Log {
-            suppressed_before: suppressed,
-        } = self.bad_log.decide(tokio::time::Instant::now())
-        {
+        if let Some(suppressed) = log_due(&mut self.bad_log) {
             tracing::warn!(%what, suppressed, "bad input from the ArduPilot vehicle");
         }
     }
@@ -334,17 +294,11 @@ impl ArdupilotDriver {
             self.counters.write_failures += 1;
             return false;
         };
-        match w.write_bytes(frame.clone()) {
-            Ok(()) => {
-                sig.raw_to_frontseat(binary(frame));
-                true
-            }
+        match send_bytes(w, frame, sig) {
+            Ok(()) => true,
             Err(e) => {
                 self.counters.write_failures += 1;
-                if let LogDecision::Log {
-                    suppressed_before: suppressed,
-                } = self.bad_log.decide(tokio::time::Instant::now())
-                {
+                if let Some(suppressed) = log_due(&mut self.bad_log) {
                     tracing::warn!(error = %e, suppressed, "MAVLink frame to the vehicle not sent");
                 }
                 false
@@ -352,19 +306,9 @@ impl ArdupilotDriver {
         }
     }
 
-    fn push_pending(&mut self, p: Pending, sig: &mut dyn SignalSink) {
-        if self.pending.len() >= MAX_PENDING
-            && let Some(old) = self.pending.pop_front()
-        {
-            respond(
-                sig,
-                &old,
-                false,
-                2,
-                Some("too many requests awaiting a verdict".into()),
-            );
-        }
-        self.pending.push_back(p);
+    fn push_pending(&mut self, p: Awaiting<Pending>, sig: &mut dyn SignalSink) {
+        self.pending
+            .push(p, "too many requests awaiting a verdict", sig);
     }
 
     fn command_long(
@@ -446,20 +390,14 @@ impl ArdupilotDriver {
     }
 
     fn fail_course_verdicts(&mut self, why: &str, sig: &mut dyn SignalSink) {
-        let mut keep = VecDeque::new();
-        while let Some(p) = self.pending.pop_front() {
-            if p.command.is_none() {
-                respond(sig, &p, false, 4, Some(why.to_string()));
-            } else {
-                keep.push_back(p);
-            }
+        for p in self.pending.take_all(|command| command.is_none()) {
+            p.asker.fail(sig, 4, why);
         }
-        self.pending = keep;
     }
 
     fn on_frame(&mut self, bytes: Vec<u8>, now: Duration, sig: &mut dyn SignalSink) {
         let decoded = codec::decode(&bytes);
-        sig.raw_from_frontseat(binary(bytes));
+        sig.raw_from_frontseat(raw_binary(bytes));
         let (h, msg) = match decoded {
             Ok(x) => x,
             Err(e @ FrameError::UnknownMessage(_)) => {
@@ -571,7 +509,7 @@ impl ArdupilotDriver {
                 tracing::warn!(%why, "ArduPilot navigation not usable: not providing data");
             }
             self.nav_problem = Some(why);
-            self.providing_data = false;
+            self.nav.lost();
             return;
         }
         if self.nav_problem.take().is_some() {
@@ -602,8 +540,7 @@ impl ArdupilotDriver {
             ..Default::default()
         };
         self.counters.nav_published += 1;
-        self.last_nav = Some(now);
-        self.providing_data = true;
+        self.nav.fresh(now);
         sig.data_from_frontseat(InterfaceData {
             node_status: Some(ns),
             ..Default::default()
@@ -620,10 +557,7 @@ impl ArdupilotDriver {
         self.counters.statustexts += 1;
         let text = text.trim_end_matches('\0').to_string();
         let serious = (severity as u8) <= MavSeverity::MAV_SEVERITY_WARNING as u8;
-        if let LogDecision::Log {
-            suppressed_before: suppressed,
-        } = self.text_log.decide(tokio::time::Instant::now())
-        {
+        if let Some(suppressed) = log_due(&mut self.text_log) {
             if serious {
                 tracing::warn!(%text, ?severity, suppressed, "ArduPilot says");
             } else {
@@ -646,7 +580,7 @@ impl ArdupilotDriver {
         sig: &mut dyn SignalSink,
     ) {
         self.counters.acks += 1;
-        let Some(i) = self.pending.iter().position(|p| p.command == Some(command)) else {
+        let Some(i) = self.pending.position(|p| *p == Some(command)) else {
             if command != MavCmd::MAV_CMD_SET_MESSAGE_INTERVAL {
                 self.counters.unmatched_acks += 1;
             }
@@ -669,9 +603,8 @@ impl ArdupilotDriver {
             .filter(|(t, _)| now.saturating_sub(*t) <= Duration::from_secs(1))
             .map(|(_, s)| format!(": {s}"))
             .unwrap_or_default();
-        respond(
+        p.asker.answer(
             sig,
-            &p,
             ok,
             result as i32,
             (!ok).then(|| format!("vehicle answered {command:?} with {result:?}{reason}")),
@@ -701,20 +634,12 @@ impl ArdupilotDriver {
 
     fn heartbeat_lost(&mut self, sig: &mut dyn SignalSink) {
         self.state = FrontSeatState::FrontseatNotConnected;
-        self.providing_data = false;
+        self.nav.lost();
         self.beat = None;
         self.last_heartbeat = None;
         self.streams_requested = false;
         if self.course.take().is_some() {
             self.fail_course_verdicts("vehicle link lost", sig);
-        }
-    }
-}
-
-impl Drop for ArdupilotDriver {
-    fn drop(&mut self) {
-        if let Some(t) = self.link_task.take() {
-            t.abort();
         }
     }
 }
@@ -726,14 +651,9 @@ impl ArdupilotDriver {
         now: Duration,
         sig: &mut dyn SignalSink,
     ) {
-        let base = CommandRequest {
-            desired_course: req.desired_course,
-            response_requested: req.response_requested,
-            request_id: req.request_id,
-            cancel_request_id: req.cancel_request_id,
-        };
+        let base = base_command!(req);
         if !self.settings.allow_mode_commands {
-            fail(
+            refuse(
                 &base,
                 "ArduPilot mode and arming commands are off ([driver.ardupilot] allow_mode_commands = false)",
                 sig,
@@ -746,15 +666,15 @@ impl ArdupilotDriver {
             Some(Action::Guided) => {
                 // README: GUIDED before the estimate is ready ends in an EKF failsafe to HOLD.
                 if let Err(why) = self.nav_ready() {
-                    fail(
+                    refuse(
                         &base,
-                        &format!("navigation not ready for GUIDED: {why}"),
+                        format!("navigation not ready for GUIDED: {why}"),
                         sig,
                     );
                     return;
                 }
-                if !self.providing_data {
-                    fail(
+                if !self.nav.providing() {
+                    refuse(
                         &base,
                         "navigation not ready for GUIDED: no usable position yet",
                         sig,
@@ -770,22 +690,24 @@ impl ArdupilotDriver {
                 if base.desired_course.is_some() {
                     self.send_command_to_frontseat(&base, now, sig);
                 } else {
-                    fail(&base, "ardupilot_command without an action", sig);
+                    refuse(&base, "ardupilot_command without an action", sig);
                 }
                 return;
             }
         };
         if self.vehicle.is_none() || !self.command_long(cmd, p1, p2, sig) {
-            fail(&base, "not connected to the vehicle: command not sent", sig);
+            refuse(&base, "not connected to the vehicle: command not sent", sig);
             return;
         }
         let with_course = base.desired_course.is_some();
         self.push_pending(
-            Pending {
-                request_id: base.request_id,
-                respond: base.response_requested() && !with_course,
+            Awaiting {
+                asker: Asker {
+                    request_id: base.request_id,
+                    respond: base.response_requested() && !with_course,
+                },
                 deadline: now + self.settings.ack_timeout,
-                command: Some(cmd),
+                what: Some(cmd),
             },
             sig,
         );
@@ -797,13 +719,8 @@ impl ArdupilotDriver {
 
 impl Driver for ArdupilotDriver {
     fn send_extension(&mut self, ext: &DriverExtension, now: Duration, sig: &mut dyn SignalSink) {
-        match ext.type_name() {
-            COMMAND => {
-                if let Some(r) = decoded::<ArdupilotCommandRequest>(ext, sig, self.name()) {
-                    self.send_ardupilot_command(&r, now, sig);
-                }
-            }
-            _ => refuse_extension(sig, ext, self.name()),
+        if let Some(r) = own_extension::<ArdupilotCommandRequest>(ext, COMMAND, sig, self.name()) {
+            self.send_ardupilot_command(&r, now, sig);
         }
     }
 
@@ -814,7 +731,8 @@ impl Driver for ArdupilotDriver {
     fn start(&mut self, ctx: DriverContext) {
         match self.settings.link.clone() {
             Some(link) => {
-                self.link_task = Some(byte::spawn(link, ctx.io, self.link_stats.clone()));
+                self.link_task
+                    .set(byte::spawn(link, ctx.io, self.link_stats.clone()));
             }
             None => tracing::error!(
                 address = %self.settings.address,
@@ -850,7 +768,7 @@ impl Driver for ArdupilotDriver {
         sig: &mut dyn SignalSink,
     ) {
         let Some(c) = &req.desired_course else {
-            fail(
+            refuse(
                 req,
                 "the ArduPilot driver takes desired_course (or the ardupilot_command extension)",
                 sig,
@@ -859,7 +777,7 @@ impl Driver for ArdupilotDriver {
         };
         let (heading, speed) = (c.heading(), c.speed());
         if !(heading.is_finite() && speed.is_finite() && speed >= 0.0) {
-            fail(
+            refuse(
                 req,
                 "desired_course needs a finite heading and a finite, non-negative speed",
                 sig,
@@ -867,9 +785,9 @@ impl Driver for ArdupilotDriver {
             return;
         }
         if self.state != FrontSeatState::FrontseatAcceptingCommands {
-            fail(
+            refuse(
                 req,
-                &format!(
+                format!(
                     "vehicle not armed in GUIDED ({}): ArduPilot ignores targets outside GUIDED",
                     self.mode_words()
                 ),
@@ -896,11 +814,10 @@ impl Driver for ArdupilotDriver {
         }
         if req.response_requested() {
             self.push_pending(
-                Pending {
-                    request_id: req.request_id,
-                    respond: true,
+                Awaiting {
+                    asker: Asker::of(req),
                     deadline: now + self.settings.verdict_after,
-                    command: None,
+                    what: None,
                 },
                 sig,
             );
@@ -948,12 +865,8 @@ impl Driver for ArdupilotDriver {
             );
             self.heartbeat_lost(sig);
         }
-        if self.providing_data
-            && let Some(t) = self.last_nav
-            && now.saturating_sub(t) > self.settings.heartbeat_timeout
-        {
+        if self.nav.expired(now, self.settings.heartbeat_timeout) {
             tracing::warn!("no usable position from the vehicle: not providing data");
-            self.providing_data = false;
         }
         if let Some(c) = self.course {
             if now.saturating_sub(c.renewed) > self.settings.course_timeout {
@@ -968,30 +881,23 @@ impl Driver for ArdupilotDriver {
                 self.send_target(now, sig);
             }
         }
-        while let Some(p) = self.pending.front()
-            && p.deadline <= now
-        {
-            let Some(p) = self.pending.pop_front() else {
-                break;
-            };
-            match p.command {
+        while let Some(p) = self.pending.due(now) {
+            match p.what {
                 None => {
                     let ok = self.state == FrontSeatState::FrontseatAcceptingCommands;
                     let why =
                         (!ok).then(|| format!("vehicle not in GUIDED: {}", self.mode_words()));
-                    respond(sig, &p, ok, if ok { 0 } else { 4 }, why);
+                    p.asker.answer(sig, ok, if ok { 0 } else { 4 }, why);
                 }
                 Some(cmd) => {
                     self.counters.ack_timeouts += 1;
-                    respond(
+                    p.asker.fail(
                         sig,
-                        &p,
-                        false,
-                        3,
-                        Some(format!(
+                        TIMED_OUT,
+                        format!(
                             "no COMMAND_ACK for {cmd:?} within {:?}",
                             self.settings.ack_timeout
-                        )),
+                        ),
                     );
                 }
             }
@@ -1003,7 +909,7 @@ impl Driver for ArdupilotDriver {
     }
 
     fn frontseat_providing_data(&self) -> bool {
-        self.providing_data
+        self.nav.providing()
     }
 
     fn stop(&mut self) {

@@ -14,8 +14,8 @@ use frontseat_sim::codec::{self, FieldError, LineError, Outbound};
 
 use frontseat_actors::clock::SimClock;
 use frontseat_actors::driver::{Driver, DriverContext, DriverIoEvent, SignalSink, raw_ascii};
-use frontseat_actors::drivers::kit::{DataWatch, OwnedTask, failure, send_line};
-use frontseat_actors::link::{self, LineWriter, LinkConfig};
+use frontseat_actors::drivers::kit::{LinkState, OwnedTask, config_secs, refuse, send_line};
+use frontseat_actors::link::{self, LinkConfig};
 use frontseat_actors::proto::goby::middleware::frontseat::protobuf::{
     CommandRequest, CommandResponse, EulerAngles, FrontSeatState, InterfaceData, NodeStatus, Raw,
     Speed,
@@ -55,7 +55,7 @@ impl Settings {
                 max_line_bytes: 4096,
             },
             start_line,
-            nav_timeout: Duration::from_secs_f64(b.nav_timeout.max(0.0)),
+            nav_timeout: config_secs(b.nav_timeout),
         }
     }
 }
@@ -66,10 +66,9 @@ const MAX_IN_FLIGHT: usize = 256;
 
 pub struct BasicSimulatorDriver {
     settings: Settings,
-    writer: Option<LineWriter>,
+    /// Its data watch: NAV lines.
+    link: LinkState,
     link_task: OwnedTask,
-    state: FrontSeatState,
-    nav: DataWatch,
     /// The requests whose CMD lines are on their way, oldest first: the simulator answers every
     /// CMD in order, so each CMD,RESULT belongs to the oldest (Goby3 answers with its last
     /// request instead, so a burst got one request answered several times and the rest never).
@@ -87,10 +86,8 @@ impl BasicSimulatorDriver {
     pub fn new(settings: Settings) -> Self {
         Self {
             settings,
-            writer: None,
+            link: LinkState::default(),
             link_task: OwnedTask::default(),
-            state: FrontSeatState::FrontseatNotConnected,
-            nav: DataWatch::default(),
             in_flight: std::collections::VecDeque::new(),
             unmatched_results: 0,
             bad_lines: 0,
@@ -119,7 +116,7 @@ impl BasicSimulatorDriver {
 
     /// Writes one line; whether it was handed to the connection.
     fn write(&mut self, line: &str, sig: &mut dyn SignalSink) -> bool {
-        let Some(w) = &self.writer else {
+        let Some(w) = self.link.writer() else {
             self.write_failures += 1;
             tracing::debug!(line, "not connected to the frontseat; line not sent");
             return false;
@@ -157,7 +154,7 @@ impl BasicSimulatorDriver {
         match kind {
             "NAV" => match parse_nav(line) {
                 Ok(ns) => {
-                    self.nav.fresh(now);
+                    self.link.data.fresh(now);
                     sig.data_from_frontseat(InterfaceData {
                         node_status: Some(ns),
                         ..Default::default()
@@ -169,7 +166,7 @@ impl BasicSimulatorDriver {
             },
             "CTRL" => {
                 let state = field(fields, "STATE").unwrap_or("");
-                self.state = match state {
+                self.link.state = match state {
                     "PAYLOAD" => FrontSeatState::FrontseatAcceptingCommands,
                     "AUV" => FrontSeatState::FrontseatInControl,
                     _ => FrontSeatState::FrontseatIdle,
@@ -284,9 +281,8 @@ impl Driver for BasicSimulatorDriver {
                     port = self.settings.link.port,
                     "connected to the frontseat; sending START"
                 );
-                self.writer = Some(w);
                 // Connected but not yet told its state: IDLE until CTRL says otherwise.
-                self.state = FrontSeatState::FrontseatIdle;
+                self.link.opened(w, FrontSeatState::FrontseatIdle);
                 let start = self.settings.start_line.clone();
                 let _ = self.write(&start, sig);
             }
@@ -302,9 +298,7 @@ impl Driver for BasicSimulatorDriver {
             }
             DriverIoEvent::Disconnected(reason) => {
                 tracing::warn!(%reason, "frontseat connection lost; reconnecting");
-                self.writer = None;
-                self.state = FrontSeatState::FrontseatNotConnected;
-                self.nav.lost();
+                self.link.lost();
                 // Their answers will not come on a new connection (the interface answers them).
                 self.in_flight.clear();
             }
@@ -328,15 +322,11 @@ impl Driver for BasicSimulatorDriver {
                     self.in_flight.push_back(*req);
                 }
             }
-            None => {
-                if req.response_requested() {
-                    sig.command_response(failure(
-                        req.request_id,
-                        1,
-                        "the basic simulator accepts only desired_course commands",
-                    ));
-                }
-            }
+            None => refuse(
+                req,
+                "the basic simulator accepts only desired_course commands",
+                sig,
+            ),
         }
     }
 
@@ -375,7 +365,7 @@ impl Driver for BasicSimulatorDriver {
             let line = summary(n, "unknown lines", self.unknown_log.window());
             tracing::info!(suppressed = n, "{line}");
         }
-        if self.nav.expired(now, self.settings.nav_timeout) {
+        if self.link.data.expired(now, self.settings.nav_timeout) {
             tracing::warn!(
                 "no NAV for {:?} (sim time): frontseat not providing data",
                 self.settings.nav_timeout
@@ -384,22 +374,23 @@ impl Driver for BasicSimulatorDriver {
     }
 
     fn frontseat_state(&self) -> FrontSeatState {
-        self.state
+        self.link.state
     }
 
     fn frontseat_providing_data(&self) -> bool {
-        self.nav.providing()
+        self.link.data.providing()
     }
 
     fn stop(&mut self) {
         // Dropping the writer lets the link flush and shut the socket down cleanly.
-        self.writer = None;
+        self.link.close();
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use frontseat_actors::link::LineWriter;
     use frontseat_actors::proto::goby::middleware::frontseat::protobuf::DesiredCourse;
     use frontseat_sim::codec::Problem;
 

@@ -24,8 +24,8 @@ use frontseat_actors::driver::{
     Driver, DriverContext, DriverExtension, DriverIoEvent, IoSender, SignalSink, raw_ascii,
     refuse_extension,
 };
-use frontseat_actors::drivers::kit::{DataWatch, OwnedTask, decoded, send_line};
-use frontseat_actors::link::{self, LineWriter, LinkConfig};
+use frontseat_actors::drivers::kit::{LinkState, OwnedTask, decoded, send_line};
+use frontseat_actors::link::{self, LinkConfig};
 use frontseat_actors::proto::frontseat::protobuf::bluefin as bf;
 use frontseat_actors::proto::goby::acomms::protobuf::ModemRaw;
 use frontseat_actors::proto::goby::middleware::frontseat::protobuf::{
@@ -177,10 +177,9 @@ pub struct BluefinDriver {
     settings: Settings,
     wall: WallClock,
     io: Option<IoSender>,
-    writer: Option<LineWriter>,
+    /// Its data watch: `$BFNVG`.
+    link: LinkState,
     link_task: OwnedTask,
-    state: FrontSeatState,
-    nav: DataWatch,
     nvg: Option<Nvg>,
     /// Head may be in flight (written, waiting for its ack).
     queue: VecDeque<Outgoing>,
@@ -208,10 +207,8 @@ impl BluefinDriver {
             settings,
             wall,
             io: None,
-            writer: None,
+            link: LinkState::default(),
             link_task: OwnedTask::default(),
-            state: FrontSeatState::FrontseatNotConnected,
-            nav: DataWatch::default(),
             nvg: None,
             queue: VecDeque::new(),
             pending: VecDeque::new(),
@@ -289,7 +286,7 @@ impl BluefinDriver {
     }
 
     fn write(&mut self, line: &str, sig: &mut dyn SignalSink) -> bool {
-        let Some(w) = &self.writer else {
+        let Some(w) = self.link.writer() else {
             return false;
         };
         match send_line(w, line, sig) {
@@ -305,7 +302,7 @@ impl BluefinDriver {
     /// Writes the head of the queue if nothing is in flight (stop-and-wait); with acks disabled,
     /// writes everything.
     fn try_send(&mut self, now: Duration, sig: &mut dyn SignalSink) {
-        if self.writer.is_none() {
+        if !self.link.is_open() {
             return;
         }
         if self.settings.disable_ack {
@@ -344,7 +341,6 @@ impl BluefinDriver {
     fn initialise(&mut self, now: Duration, sig: &mut dyn SignalSink) {
         self.fail_all("connection to the Huxley re-opened", sig);
         self.demerits = 0;
-        self.state = FrontSeatState::FrontseatIdle;
         for id in self.settings.bplog.clone() {
             self.enqueue(FromPayload::Log { id, on: true }, None, now, sig);
         }
@@ -413,7 +409,7 @@ impl BluefinDriver {
         match msg {
             FromHuxley::Nvg(n) => {
                 self.nvg = Some(n);
-                self.nav.fresh(now);
+                self.link.data.fresh(now);
             }
             FromHuxley::Nvr(r) => {
                 if let Some(ns) = self.node_status(&r, now) {
@@ -426,26 +422,26 @@ impl BluefinDriver {
             FromHuxley::Ack(a) => self.handle_ack(a, now, sig),
             FromHuxley::Msc { .. } => {
                 if self.settings.hook == AcceptingCommandsHook::BfmscTrigger {
-                    self.state = FrontSeatState::FrontseatAcceptingCommands;
+                    self.link.state = FrontSeatState::FrontseatAcceptingCommands;
                 }
             }
             FromHuxley::Mis { status, .. } => {
                 if status.contains("Running") {
                     if self.settings.hook == AcceptingCommandsHook::BfmisRunningTrigger {
-                        self.state = FrontSeatState::FrontseatAcceptingCommands;
-                    } else if self.state != FrontSeatState::FrontseatAcceptingCommands {
-                        self.state = FrontSeatState::FrontseatInControl;
+                        self.link.state = FrontSeatState::FrontseatAcceptingCommands;
+                    } else if self.link.state != FrontSeatState::FrontseatAcceptingCommands {
+                        self.link.state = FrontSeatState::FrontseatInControl;
                     }
                 } else {
-                    self.state = FrontSeatState::FrontseatIdle;
+                    self.link.state = FrontSeatState::FrontseatIdle;
                 }
             }
             FromHuxley::Ctl { control, .. } => {
                 if self.settings.hook == AcceptingCommandsHook::BfctlTrigger {
                     if control {
-                        self.state = FrontSeatState::FrontseatAcceptingCommands;
-                    } else if self.state == FrontSeatState::FrontseatAcceptingCommands {
-                        self.state = FrontSeatState::FrontseatInControl;
+                        self.link.state = FrontSeatState::FrontseatAcceptingCommands;
+                    } else if self.link.state == FrontSeatState::FrontseatAcceptingCommands {
+                        self.link.state = FrontSeatState::FrontseatInControl;
                     }
                 }
             }
@@ -635,8 +631,9 @@ impl BluefinDriver {
             demerits = self.demerits,
             "the Huxley is ignoring our sentences; re-opening the connection"
         );
-        self.writer = None;
-        self.state = FrontSeatState::FrontseatNotConnected;
+        // Not lost: the navigation received stays fresh until its own timeout.
+        self.link.close();
+        self.link.state = FrontSeatState::FrontseatNotConnected;
         self.fail_all("the Huxley stopped acknowledging", sig);
         self.demerits = 0;
         if self.link_task.is_running()
@@ -1043,7 +1040,7 @@ impl Driver for BluefinDriver {
                     port = self.settings.link.port,
                     "connected to the Huxley; enabling its sentences"
                 );
-                self.writer = Some(w);
+                self.link.opened(w, FrontSeatState::FrontseatIdle);
                 self.initialise(now, sig);
             }
             DriverIoEvent::Line(line) => self.handle_line(&line, now, sig),
@@ -1059,9 +1056,7 @@ impl Driver for BluefinDriver {
             }
             DriverIoEvent::Disconnected(reason) => {
                 tracing::warn!(%reason, "Huxley connection lost; reconnecting");
-                self.writer = None;
-                self.state = FrontSeatState::FrontseatNotConnected;
-                self.nav.lost();
+                self.link.lost();
                 self.fail_all("connection to the Huxley lost", sig);
             }
         }
@@ -1120,13 +1115,13 @@ impl Driver for BluefinDriver {
     }
 
     fn do_loop(&mut self, now: Duration, sig: &mut dyn SignalSink) {
-        if self.nav.expired(now, self.settings.missing_nav) {
+        if self.link.data.expired(now, self.settings.missing_nav) {
             tracing::warn!(
                 "no $BFNVG for {:?} (sim time): Huxley not providing data",
                 self.settings.missing_nav
             );
         }
-        if self.writer.is_none() {
+        if !self.link.is_open() {
             return;
         }
         if self
@@ -1151,14 +1146,14 @@ impl Driver for BluefinDriver {
     }
 
     fn frontseat_state(&self) -> FrontSeatState {
-        self.state
+        self.link.state
     }
 
     fn frontseat_providing_data(&self) -> bool {
-        self.nav.providing()
+        self.link.data.providing()
     }
 
     fn stop(&mut self) {
-        self.writer = None;
+        self.link.close();
     }
 }

@@ -3,7 +3,6 @@
 //! data, `$ACK` becomes a CommandResponse, `$C` before any `$OSI` publishes nothing, and the
 //! `Mp` manual-parking mode is recognised. Polls with `$OSD` on every loop tick.
 
-use std::collections::VecDeque;
 use std::sync::Arc;
 use std::time::Duration;
 
@@ -12,10 +11,11 @@ use frontseat_config::{InterfaceConfig, IverModeAssignments};
 use crate::edge::{self as codec, IverMode, Sentence, ack_type};
 use frontseat_actors::clock::SimClock;
 use frontseat_actors::driver::{
-    Driver, DriverContext, DriverExtension, DriverIoEvent, SignalSink, raw_ascii, refuse_extension,
+    Driver, DriverContext, DriverExtension, DriverIoEvent, SignalSink, raw_ascii,
 };
 use frontseat_actors::drivers::kit::{
-    DataWatch, OwnedTask, decoded, failure, log_due, send_line, state_of,
+    AckQueue, Asker, Awaiting, LinkState, OwnedTask, TIMED_OUT, base_command, config_secs, log_due,
+    own_extension, refuse, send_line, state_of,
 };
 use frontseat_actors::drivers::vehicle_link;
 use frontseat_actors::link::LineWriter;
@@ -28,7 +28,7 @@ use frontseat_actors::proto::frontseat::protobuf::iver::{
 use frontseat_actors::proto::goby::middleware::frontseat::protobuf::IverState;
 use frontseat_actors::proto::goby::middleware::frontseat::protobuf::iver_extra_commands::IverCommand;
 use frontseat_actors::proto::goby::middleware::frontseat::protobuf::{
-    CommandRequest, CommandResponse, FrontSeatState, InterfaceData, NodeStatus, Raw,
+    CommandRequest, FrontSeatState, InterfaceData, NodeStatus, Raw,
 };
 use frontseat_actors::ratelog::RateLimitedLog;
 
@@ -101,18 +101,10 @@ impl Settings {
             remote_helm_version_major: c.remote_helm_version_major.unwrap_or(5),
             oms_timeout: c.oms_timeout.min(120),
             modes: ModeTable(c.mode_assignments.clone()),
-            providing_data_timeout: Duration::from_secs_f64(c.providing_data_timeout.max(0.0)),
-            ack_timeout: Duration::from_secs_f64(c.link.ack_timeout.max(0.0)),
+            providing_data_timeout: config_secs(c.providing_data_timeout),
+            ack_timeout: config_secs(c.link.ack_timeout),
         }
     }
-}
-
-#[derive(Debug)]
-struct Pending {
-    ack_type: u32,
-    request_id: Option<i32>,
-    respond: bool,
-    deadline: Duration,
 }
 
 /// What the driver counted (read by tests and the logs).
@@ -130,18 +122,17 @@ pub struct IverCounters {
 
 pub struct Iver3Driver {
     settings: Settings,
-    writer: Option<LineWriter>,
+    link: LinkState,
     link_task: OwnedTask,
     pub link_stats: Arc<LinkStats>,
     /// The NTP copy port's writer while it is open (filled by its own link task).
     ntp: Arc<std::sync::Mutex<Option<LineWriter>>>,
     ntp_task: OwnedTask,
-    state: FrontSeatState,
     mode: IverMode,
-    data: DataWatch,
     /// The latest `$OSI` navigation, so `$C` can republish it with new pitch and roll.
     status: Option<NodeStatus>,
-    pending: VecDeque<Pending>,
+    /// Commands written, each waiting for the `$ACK` of its type.
+    pending: AckQueue<u32>,
     bad_log: RateLimitedLog,
     pub counters: IverCounters,
 }
@@ -150,16 +141,14 @@ impl Iver3Driver {
     pub fn new(settings: Settings) -> Self {
         Self {
             settings,
-            writer: None,
+            link: LinkState::default(),
             link_task: OwnedTask::default(),
             link_stats: Arc::new(LinkStats::default()),
             ntp: Arc::new(std::sync::Mutex::new(None)),
             ntp_task: OwnedTask::default(),
-            state: FrontSeatState::FrontseatNotConnected,
             mode: IverMode::Unknown,
-            data: DataWatch::default(),
             status: None,
-            pending: VecDeque::new(),
+            pending: AckQueue::new(MAX_PENDING),
             bad_log: RateLimitedLog::for_bad_input(),
             counters: IverCounters::default(),
         }
@@ -170,7 +159,7 @@ impl Iver3Driver {
     }
 
     fn write(&mut self, line: &str, sig: &mut dyn SignalSink) -> bool {
-        let Some(w) = &self.writer else {
+        let Some(w) = self.link.writer() else {
             self.counters.write_failures += 1;
             return false;
         };
@@ -195,7 +184,7 @@ impl Iver3Driver {
     }
 
     fn fresh_data(&mut self, now: Duration) {
-        self.data.fresh(now);
+        self.link.data.fresh(now);
     }
 
     fn handle_line(&mut self, line: &str, now: Duration, sig: &mut dyn SignalSink) {
@@ -214,7 +203,7 @@ impl Iver3Driver {
             Sentence::Osi(o) => {
                 self.counters.osi += 1;
                 self.mode = IverMode::from_field(&o.mode);
-                self.state = self.settings.modes.state(self.mode);
+                self.link.state = self.settings.modes.state(self.mode);
                 let mut ns = codec::osi_to_node_status(&o, SimClock::unix_now());
                 if let Some(prev) = &self.status {
                     ns.pose.pitch = prev.pose.pitch;
@@ -256,21 +245,17 @@ impl Iver3Driver {
             }
             Sentence::Ack(a) => {
                 self.counters.acks += 1;
-                match self.pending.iter().position(|p| p.ack_type == a.msg_type) {
-                    Some(i) => {
-                        if let Some(p) = self.pending.remove(i)
-                            && p.respond
-                        {
-                            let ok = a.status == 0;
-                            sig.command_response(CommandResponse {
-                                request_successful: Some(ok),
-                                request_id: p.request_id,
-                                error_code: Some(a.err as i32),
-                                error_string: (!ok).then(|| {
-                                    format!("UVC answered $ACK status {} error {}", a.status, a.err)
-                                }),
-                            });
-                        }
+                match self.pending.take(|t| *t == a.msg_type) {
+                    Some(p) => {
+                        let ok = a.status == 0;
+                        p.asker.answer(
+                            sig,
+                            ok,
+                            a.err as i32,
+                            (!ok).then(|| {
+                                format!("UVC answered $ACK status {} error {}", a.status, a.err)
+                            }),
+                        );
                     }
                     None => {
                         // $ACK of $OSD polls, or of raw commands: nothing to answer.
@@ -305,28 +290,18 @@ impl Iver3Driver {
         now: Duration,
         sig: &mut dyn SignalSink,
     ) {
-        if self.pending.len() >= MAX_PENDING
-            && let Some(old) = self.pending.pop_front()
-            && old.respond
-        {
-            sig.command_response(failure(
-                old.request_id,
-                2,
-                "too many commands awaiting $ACK",
-            ));
-        }
-        self.pending.push_back(Pending {
-            ack_type: ack,
-            request_id,
-            respond,
-            deadline: now + self.settings.ack_timeout,
-        });
-    }
-
-    fn fail(req: &CommandRequest, why: &str, sig: &mut dyn SignalSink) {
-        if req.response_requested() {
-            sig.command_response(failure(req.request_id, 1, why));
-        }
+        self.pending.push(
+            Awaiting {
+                asker: Asker {
+                    request_id,
+                    respond,
+                },
+                deadline: now + self.settings.ack_timeout,
+                what: ack,
+            },
+            "too many commands awaiting $ACK",
+            sig,
+        );
     }
 }
 
@@ -340,22 +315,17 @@ impl Iver3Driver {
         now: Duration,
         sig: &mut dyn SignalSink,
     ) {
-        let base = CommandRequest {
-            desired_course: req.desired_course,
-            response_requested: req.response_requested,
-            request_id: req.request_id,
-            cancel_request_id: req.cancel_request_id,
-        };
+        let base = base_command!(req);
         let extra = req.iver_command.as_ref();
         let sentence = match extra.map(|c| (c.command(), c.mission.as_deref().unwrap_or(""))) {
             Some((IverCommand::StartMission, "")) => {
                 tracing::warn!("iver_command START_MISSION without a mission name: refused");
-                Self::fail(&base, "START_MISSION needs a mission name", sig);
+                refuse(&base, "START_MISSION needs a mission name", sig);
                 return;
             }
             Some((IverCommand::StartMission, m)) if !codec::is_field_safe(m) => {
                 self.bad("iver_command mission name is not a plain NMEA field");
-                Self::fail(
+                refuse(
                     &base,
                     "mission name must be printable ASCII without , * $",
                     sig,
@@ -376,13 +346,13 @@ impl Iver3Driver {
             if base.desired_course.is_some() {
                 self.send_command_to_frontseat(&base, now, sig);
             } else {
-                Self::fail(&base, "iver_command without a command", sig);
+                refuse(&base, "iver_command without a command", sig);
             }
             return;
         };
         let line = sentence.to_line();
         if !self.write(&line, sig) {
-            Self::fail(
+            refuse(
                 &base,
                 "not connected to the Iver: mission command not sent",
                 sig,
@@ -405,13 +375,8 @@ fn emit(sig: &mut dyn SignalSink, data: IverInterfaceData) {
 
 impl Driver for Iver3Driver {
     fn send_extension(&mut self, ext: &DriverExtension, now: Duration, sig: &mut dyn SignalSink) {
-        match ext.type_name() {
-            COMMAND => {
-                if let Some(r) = decoded::<IverCommandRequest>(ext, sig, self.name()) {
-                    self.send_iver_command(&r, now, sig);
-                }
-            }
-            _ => refuse_extension(sig, ext, self.name()),
+        if let Some(r) = own_extension::<IverCommandRequest>(ext, COMMAND, sig, self.name()) {
+            self.send_iver_command(&r, now, sig);
         }
     }
 
@@ -447,19 +412,16 @@ impl Driver for Iver3Driver {
         match ev {
             DriverIoEvent::Connected(w) => {
                 tracing::info!(link = %self.settings.link.transport.describe(), "connected to the Iver");
-                self.writer = Some(w);
                 // Open but not yet told its mode: Goby3's "unknown" until the first $OSI.
-                self.state = FrontSeatState::FrontseatNotConnected;
+                self.link.opened(w, FrontSeatState::FrontseatNotConnected);
             }
             DriverIoEvent::Line(line) => self.handle_line(&line, now, sig),
             DriverIoEvent::Frame(_) => self.bad("binary frame on a Remote Helm link"),
             DriverIoEvent::BadInput(what) => self.bad(&what),
             DriverIoEvent::Disconnected(reason) => {
                 tracing::warn!(%reason, "Iver link lost; reopening");
-                self.writer = None;
-                self.state = FrontSeatState::FrontseatNotConnected;
+                self.link.lost();
                 self.mode = IverMode::Unknown;
-                self.data.lost();
             }
         }
     }
@@ -471,7 +433,7 @@ impl Driver for Iver3Driver {
         sig: &mut dyn SignalSink,
     ) {
         let Some(c) = &req.desired_course else {
-            Self::fail(
+            refuse(
                 req,
                 "the Iver3 driver sends only desired_course ($OMS)",
                 sig,
@@ -487,7 +449,7 @@ impl Driver for Iver3Driver {
         );
         let line = Sentence::Oms(oms).to_line();
         if !self.write(&line, sig) {
-            Self::fail(req, "not connected to the Iver: $OMS not sent", sig);
+            refuse(req, "not connected to the Iver: $OMS not sent", sig);
             return;
         }
         self.await_ack(
@@ -520,7 +482,7 @@ impl Driver for Iver3Driver {
     }
 
     fn do_loop(&mut self, now: Duration, sig: &mut dyn SignalSink) {
-        if self.writer.is_some() {
+        if self.link.is_open() {
             let osd = Sentence::Osd {
                 gps: true,
                 compass: true,
@@ -530,42 +492,39 @@ impl Driver for Iver3Driver {
             .to_line();
             self.write(&osd, sig);
         }
-        if self.data.expired(now, self.settings.providing_data_timeout) {
+        if self
+            .link
+            .data
+            .expired(now, self.settings.providing_data_timeout)
+        {
             tracing::warn!(
                 "no $OSI or $C from the Iver for {:?}: not providing data",
                 self.settings.providing_data_timeout
             );
         }
-        while let Some(p) = self.pending.front()
-            && p.deadline <= now
-        {
-            let Some(p) = self.pending.pop_front() else {
-                break;
-            };
+        while let Some(p) = self.pending.due(now) {
             self.counters.ack_timeouts += 1;
-            if p.respond {
-                sig.command_response(failure(
-                    p.request_id,
-                    3,
-                    format!(
-                        "no $ACK from the UVC within {:?}",
-                        self.settings.ack_timeout
-                    ),
-                ));
-            }
+            p.asker.fail(
+                sig,
+                TIMED_OUT,
+                format!(
+                    "no $ACK from the UVC within {:?}",
+                    self.settings.ack_timeout
+                ),
+            );
         }
     }
 
     fn frontseat_state(&self) -> FrontSeatState {
-        self.state
+        self.link.state
     }
 
     fn frontseat_providing_data(&self) -> bool {
-        self.data.providing()
+        self.link.data.providing()
     }
 
     fn stop(&mut self) {
-        self.writer = None;
+        self.link.close();
         *self.ntp.lock().unwrap_or_else(|p| p.into_inner()) = None;
     }
 }
@@ -939,5 +898,33 @@ mod tests {
         assert_eq!(d.counters.bad_lines, 4);
         // $OSD from the other side is recognised and ignored, not an error.
         assert_eq!(d.counters.ignored, 0);
+    }
+
+    #[test]
+    fn a_huge_configured_timeout_is_capped_not_a_panic() {
+        let mut cfg = InterfaceConfig::default();
+        cfg.driver.iver3.remote_helm_version_major = Some(5);
+        // Finite and positive: what validation lets through.
+        cfg.driver.iver3.link.ack_timeout = 1e20;
+        cfg.driver.iver3.providing_data_timeout = 1e20;
+        let s = Settings::from_config(&cfg);
+        assert_eq!(s.ack_timeout, Duration::from_secs(1_000_000_000));
+        let mut d = Iver3Driver::new(s);
+        let mut sink = Sink::default();
+        let (w, _rx) = LineWriter::for_test();
+        let t = Duration::from_secs(1);
+        d.handle_io(DriverIoEvent::Connected(w), t, &mut sink);
+        d.send_command_to_frontseat(
+            &CommandRequest {
+                desired_course: Some(DesiredCourse::default()),
+                response_requested: Some(true),
+                request_id: Some(1),
+                ..Default::default()
+            },
+            t,
+            &mut sink,
+        );
+        d.do_loop(Duration::from_secs(86_400), &mut sink);
+        assert!(sink.responses.is_empty(), "still waiting for its $ACK");
     }
 }

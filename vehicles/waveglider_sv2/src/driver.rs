@@ -15,13 +15,14 @@ use crate::edge::{
 };
 use frontseat_actors::clock::SimClock;
 use frontseat_actors::driver::{Driver, DriverContext, DriverIoEvent, SignalSink};
-use frontseat_actors::drivers::kit::{DataWatch, OwnedTask, log_due};
+use frontseat_actors::drivers::kit::{
+    Asker, LinkState, OwnedTask, TIMED_OUT, config_secs, log_due, raw_binary, refuse, send_bytes,
+};
 use frontseat_actors::drivers::vehicle_link;
-use frontseat_actors::link::LineWriter;
 use frontseat_actors::link::byte::{self, ByteLinkConfig, LinkStats};
 use frontseat_actors::link::framing::{FrameCutter, Framing};
 use frontseat_actors::proto::goby::middleware::frontseat::protobuf::{
-    CommandRequest, CommandResponse, FrontSeatState, InterfaceData, Raw, raw::RawType,
+    CommandRequest, FrontSeatState, InterfaceData, Raw,
 };
 use frontseat_actors::ratelog::RateLimitedLog;
 
@@ -51,8 +52,8 @@ impl Settings {
                 Framing::Frames(sv2_frames),
             ),
             address: ((c.board_id.min(255) as u16) << 8) | c.task_id.min(255) as u16,
-            providing_data_timeout: Duration::from_secs_f64(c.providing_data_timeout.max(0.0)),
-            ack_timeout: Duration::from_secs_f64(c.link.ack_timeout.max(0.0)),
+            providing_data_timeout: config_secs(c.providing_data_timeout),
+            ack_timeout: config_secs(c.link.ack_timeout),
             publish_navigation: c.publish_navigation,
         }
     }
@@ -61,8 +62,7 @@ impl Settings {
 #[derive(Debug, Clone, Copy)]
 struct Queued {
     heading: u16,
-    request_id: Option<i32>,
-    respond: bool,
+    asker: Asker,
 }
 
 #[derive(Debug, Clone, Copy)]
@@ -89,11 +89,10 @@ pub struct Sv2Counters {
 
 pub struct WavegliderSv2Driver {
     settings: Settings,
-    writer: Option<LineWriter>,
+    /// Its data watch: the C&C's status requests.
+    link: LinkState,
     link_task: OwnedTask,
     pub link_stats: Arc<LinkStats>,
-    state: FrontSeatState,
-    status: DataWatch,
     queued: Option<Queued>,
     in_flight: Option<InFlight>,
     bad_log: RateLimitedLog,
@@ -104,11 +103,9 @@ impl WavegliderSv2Driver {
     pub fn new(settings: Settings) -> Self {
         Self {
             settings,
-            writer: None,
+            link: LinkState::default(),
             link_task: OwnedTask::default(),
             link_stats: Arc::new(LinkStats::default()),
-            state: FrontSeatState::FrontseatNotConnected,
-            status: DataWatch::default(),
             queued: None,
             in_flight: None,
             bad_log: RateLimitedLog::for_bad_input(),
@@ -124,7 +121,7 @@ impl WavegliderSv2Driver {
     }
 
     fn send(&mut self, p: Packet, sig: &mut dyn SignalSink) -> bool {
-        let Some(w) = &self.writer else {
+        let Some(w) = self.link.writer() else {
             self.counters.write_failures += 1;
             return false;
         };
@@ -135,11 +132,8 @@ impl WavegliderSv2Driver {
                 return false;
             }
         };
-        match w.write_bytes(bytes.clone()) {
-            Ok(()) => {
-                sig.raw_to_frontseat(binary(bytes));
-                true
-            }
+        match send_bytes(w, bytes, sig) {
+            Ok(()) => true,
             Err(e) => {
                 self.counters.write_failures += 1;
                 if let Some(suppressed) = log_due(&mut self.bad_log) {
@@ -150,19 +144,8 @@ impl WavegliderSv2Driver {
         }
     }
 
-    fn respond(sig: &mut dyn SignalSink, c: &Queued, ok: bool, code: i32, why: Option<String>) {
-        if c.respond {
-            sig.command_response(CommandResponse {
-                request_successful: Some(ok),
-                request_id: c.request_id,
-                error_code: Some(code),
-                error_string: why,
-            });
-        }
-    }
-
     fn handle_frame(&mut self, bytes: &[u8], now: Duration, sig: &mut dyn SignalSink) {
-        sig.raw_from_frontseat(binary(bytes.to_vec()));
+        sig.raw_from_frontseat(raw_binary(bytes.to_vec()));
         let frame = match Frame::from_unescaped(bytes) {
             Ok(f) => f,
             Err(e) => return self.bad(&e.to_string()),
@@ -197,7 +180,7 @@ impl WavegliderSv2Driver {
                 ..
             } => {
                 self.counters.status_requests += 1;
-                self.status.fresh(now);
+                self.link.data.fresh(now);
                 let waiting = self.queued.is_some();
                 self.send(
                     Packet {
@@ -250,12 +233,10 @@ impl WavegliderSv2Driver {
                 if sent {
                     self.counters.commands_sent += 1;
                     if let Some(old) = self.in_flight.take() {
-                        Self::respond(
+                        old.cmd.asker.fail(
                             sig,
-                            &old.cmd,
-                            false,
-                            3,
-                            Some("no ACK/NAK from the C&C before the next command".into()),
+                            TIMED_OUT,
+                            "no ACK/NAK from the C&C before the next command",
                         );
                     }
                     self.in_flight = Some(InFlight {
@@ -264,7 +245,7 @@ impl WavegliderSv2Driver {
                         deadline: now + self.settings.ack_timeout,
                     });
                 } else {
-                    Self::respond(sig, &cmd, false, 1, Some("C&C link gone".into()));
+                    cmd.asker.fail(sig, 1, "C&C link gone");
                 }
             }
             Message::QueuedMessageAckNak { response_code, .. } => {
@@ -278,9 +259,8 @@ impl WavegliderSv2Driver {
                         );
                     }
                     let ok = response_code == 0;
-                    Self::respond(
+                    f.cmd.asker.answer(
                         sig,
-                        &f.cmd,
                         ok,
                         i32::from(response_code),
                         (!ok).then(|| {
@@ -307,12 +287,10 @@ impl WavegliderSv2Driver {
                 if original_msg_type & !WAITING_BIT == msg_type::ACK
                     && let Some(f) = self.in_flight.take()
                 {
-                    Self::respond(
+                    f.cmd.asker.fail(
                         sig,
-                        &f.cmd,
-                        false,
                         i32::from(response_code),
-                        Some(format!("C&C NAK (code {response_code})")),
+                        format!("C&C NAK (code {response_code})"),
                     );
                 }
             }
@@ -325,15 +303,6 @@ impl WavegliderSv2Driver {
             }
         }
     }
-}
-
-fn binary(bytes: Vec<u8>) -> Raw {
-    let mut r = Raw {
-        raw: Some(bytes),
-        ..Default::default()
-    };
-    r.set_type(RawType::RawBinary);
-    r
 }
 
 impl Driver for WavegliderSv2Driver {
@@ -353,18 +322,16 @@ impl Driver for WavegliderSv2Driver {
         match ev {
             DriverIoEvent::Connected(w) => {
                 tracing::info!(link = %self.settings.link.transport.describe(), "connected to the Wave Glider C&C");
-                self.writer = Some(w);
                 // As Goby3: accepting as soon as the port is open; the C&C decides by polling.
-                self.state = FrontSeatState::FrontseatAcceptingCommands;
+                self.link
+                    .opened(w, FrontSeatState::FrontseatAcceptingCommands);
             }
             DriverIoEvent::Frame(b) => self.handle_frame(&b, now, sig),
             DriverIoEvent::Line(_) => self.bad("text line on an SV2 frame link"),
             DriverIoEvent::BadInput(what) => self.bad(&what),
             DriverIoEvent::Disconnected(reason) => {
                 tracing::warn!(%reason, "Wave Glider link lost; reopening");
-                self.writer = None;
-                self.state = FrontSeatState::FrontseatNotConnected;
-                self.status.lost();
+                self.link.lost();
             }
         }
     }
@@ -375,34 +342,29 @@ impl Driver for WavegliderSv2Driver {
         _now: Duration,
         sig: &mut dyn SignalSink,
     ) {
-        let new = Queued {
-            heading: 0,
-            request_id: req.request_id,
-            respond: req.response_requested(),
-        };
         let Some(heading) = req
             .desired_course
             .as_ref()
             .and_then(|c| codec::heading_to_wire(c.heading()))
         else {
-            Self::respond(
+            refuse(
+                req,
+                "the Wave Glider takes only a finite desired_course heading",
                 sig,
-                &new,
-                false,
-                1,
-                Some("the Wave Glider takes only a finite desired_course heading".into()),
             );
             return;
         };
         // One slot, as Goby3: a newer heading replaces one the C&C has not pulled yet.
-        if let Some(old) = self.queued.replace(Queued { heading, ..new }) {
+        let new = Queued {
+            heading,
+            asker: Asker::of(req),
+        };
+        if let Some(old) = self.queued.replace(new) {
             self.counters.superseded += 1;
-            Self::respond(
+            old.asker.fail(
                 sig,
-                &old,
-                false,
                 2,
-                Some("superseded by a newer command before the C&C pulled it".into()),
+                "superseded by a newer command before the C&C pulled it",
             );
         }
     }
@@ -425,7 +387,8 @@ impl Driver for WavegliderSv2Driver {
 
     fn do_loop(&mut self, now: Duration, sig: &mut dyn SignalSink) {
         if self
-            .status
+            .link
+            .data
             .expired(now, self.settings.providing_data_timeout)
         {
             tracing::warn!(
@@ -438,29 +401,27 @@ impl Driver for WavegliderSv2Driver {
         {
             self.in_flight = None;
             self.counters.ack_timeouts += 1;
-            Self::respond(
+            f.cmd.asker.fail(
                 sig,
-                &f.cmd,
-                false,
-                3,
-                Some(format!(
+                TIMED_OUT,
+                format!(
                     "no ACK/NAK from the C&C within {:?}",
                     self.settings.ack_timeout
-                )),
+                ),
             );
         }
     }
 
     fn frontseat_state(&self) -> FrontSeatState {
-        self.state
+        self.link.state
     }
 
     fn frontseat_providing_data(&self) -> bool {
-        self.status.providing()
+        self.link.data.providing()
     }
 
     fn stop(&mut self) {
-        self.writer = None;
+        self.link.close();
     }
 }
 
@@ -484,6 +445,7 @@ impl FrameCutter for Sv2Frames {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use frontseat_actors::link::LineWriter;
     use frontseat_actors::proto::goby::middleware::frontseat::protobuf::DesiredCourse;
     use tokio::sync::mpsc::Receiver;
 

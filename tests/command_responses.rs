@@ -15,6 +15,7 @@ use std::time::Duration;
 use common::*;
 use frontseat_actors::bus::Bus;
 use frontseat_actors::driver::{Driver, DriverContext, DriverFactory, DriverIoEvent, SignalSink};
+use frontseat_actors::drivers::select_with_env;
 use frontseat_actors::groups;
 use frontseat_actors::interface::{InterfaceService, InterfaceSettings, command_timeout};
 use frontseat_actors::proto::goby::middleware::frontseat::protobuf::{
@@ -98,7 +99,11 @@ async fn responses_to_one_command(
             waiting: Vec::new(),
         }) as Box<dyn Driver>
     });
-    let service = InterfaceService::start_with(InterfaceSettings::from_config(&cfg), &bus, factory)
+    // The scripted vehicle stands in for the driver the config names: the interface waits by
+    // that driver's acknowledgement budget (the registry's word), as it would for the real one.
+    let selected = select_with_env(&cfg, &|_| None, frontseat_drivers::BUILT_IN).unwrap();
+    let settings = InterfaceSettings::from_config(&cfg).for_driver(&selected);
+    let service = InterfaceService::start_with(settings, &bus, factory)
         .await
         .unwrap();
     let helm = helm_heartbeat(&bus, HelmState::HelmDrive);
@@ -158,7 +163,7 @@ async fn a_slow_vehicle_within_its_drivers_ack_budget_is_answered_by_the_vehicle
     let mut cfg = warped();
     cfg.driver.name = "waveglider_sv2".into();
     cfg.driver.waveglider_sv2.link.ack_timeout = 10.0;
-    assert_eq!(command_timeout(&cfg), Duration::from_secs(11));
+    assert_eq!(timeout_for(&cfg), Duration::from_secs(11));
     let got = responses_to_one_command(cfg, false).await;
     assert_eq!(got.len(), 1, "only the vehicle's answer: {got:?}");
     assert_eq!(got[0].request_successful, Some(true));
@@ -169,7 +174,7 @@ async fn an_answer_after_the_interfaces_timeout_still_reaches_the_helm() {
     // The basic simulator answers at once, so the interface's own timeout is 5 s: the scripted
     // vehicle's answer at 7 s comes after our failure, and is forwarded all the same.
     let cfg = warped();
-    assert_eq!(command_timeout(&cfg), Duration::from_secs(5));
+    assert_eq!(timeout_for(&cfg), Duration::from_secs(5));
     let got = responses_to_one_command(cfg, false).await;
     assert_eq!(got.len(), 2, "{got:?}");
     assert_eq!(got[0].request_successful, Some(false));
@@ -183,5 +188,13 @@ fn the_timeout_follows_the_bluefin_resend_budget() {
     cfg.driver.name = "bluefin".into();
     cfg.driver.bluefin.nmea_resend_attempts = 3;
     cfg.driver.bluefin.nmea_resend_interval = 5;
-    assert_eq!(command_timeout(&cfg), Duration::from_secs(16));
+    assert_eq!(timeout_for(&cfg), Duration::from_secs(16));
+}
+
+/// The interface's own answer time for the driver `cfg` selects (its ack budget, from the registry).
+fn timeout_for(cfg: &frontseat_config::InterfaceConfig) -> Duration {
+    let driver = select_with_env(cfg, &|_| None, frontseat_drivers::BUILT_IN)
+        .map(|d| d.ack_budget)
+        .unwrap_or(Duration::MAX);
+    command_timeout(driver)
 }

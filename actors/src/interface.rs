@@ -83,6 +83,9 @@ pub struct InterfaceSettings {
 }
 
 impl InterfaceSettings {
+    /// The settings of `cfg` for a driver the config alone describes: no acknowledgement budget
+    /// beyond the interface's own, and raw requests checked as lines (frames for a plugin).
+    /// [`Self::for_driver`] gives the selected driver's word on both.
     pub fn from_config(cfg: &InterfaceConfig) -> Self {
         let secs = |s: f64| Duration::from_secs_f64(s.max(0.0));
         Self {
@@ -105,13 +108,28 @@ impl InterfaceSettings {
             max_restarts: cfg.supervision.max_restarts,
             restart_window: secs(cfg.supervision.restart_window_s),
             queue_capacity: cfg.bus.queue_capacity.max(1),
-            command_timeout: command_timeout(cfg),
+            command_timeout: command_timeout(Duration::ZERO),
             driver_name: cfg.driver.name.clone(),
             limits: Limits::from(&cfg.limits),
             nav_limits: NavLimits::from(&cfg.limits.navigation),
-            raw: RawPolicy::from_config(cfg),
+            raw: RawPolicy::from_config(
+                cfg,
+                if cfg.driver.library.is_some() {
+                    crate::raw_gate::RawFraming::Frames
+                } else {
+                    crate::raw_gate::RawFraming::Lines
+                },
+            ),
             fault_ports: cfg.chaos.enabled,
         }
+    }
+
+    /// With what the selected driver says of its vehicle: how long it may take to answer a
+    /// command, and how its wire delimits a raw request.
+    pub fn for_driver(mut self, driver: &crate::drivers::SelectedDriver) -> Self {
+        self.command_timeout = command_timeout(driver.ack_budget);
+        self.raw.framing = driver.raw_framing;
+        self
     }
 
     /// The DriverActor's restart policy (`[supervision]`): restarted however it ends (a panic, a
@@ -133,24 +151,15 @@ impl InterfaceSettings {
 const MIN_COMMAND_TIMEOUT: Duration = Duration::from_secs(5);
 
 /// How long the interface waits before answering a command itself (failed): past the selected
-/// driver's own acknowledgement budget (Bluefin: nmea_resend_attempts × nmea_resend_interval; the
-/// serial vehicles: their link's ack_timeout), plus a second, so the driver's real answer (a
+/// driver's own acknowledgement budget (`ack_budget`: Bluefin's nmea_resend_attempts ×
+/// nmea_resend_interval, the serial vehicles' link ack_timeout; the driver's word,
+/// [`crate::drivers::BuiltIn::ack_budget`]), plus a second, so the driver's real answer (a
 /// Bluefin "pending", then its ack) is the one the helm gets, as in Goby3, which forwards every
 /// driver answer and never answers on its own (frontseat_interface.cpp:205-208).
-pub fn command_timeout(cfg: &InterfaceConfig) -> Duration {
-    let secs = |s: f64| Duration::try_from_secs_f64(s).unwrap_or(MIN_COMMAND_TIMEOUT);
-    let budget = match cfg.driver.name.as_str() {
-        frontseat_config::BLUEFIN => {
-            let b = &cfg.driver.bluefin;
-            Duration::from_secs(
-                u64::from(b.nmea_resend_attempts.max(1)) * u64::from(b.nmea_resend_interval.max(1)),
-            )
-        }
-        frontseat_config::IVER3 => secs(cfg.driver.iver3.link.ack_timeout),
-        frontseat_config::WAVEGLIDER_SV2 => secs(cfg.driver.waveglider_sv2.link.ack_timeout),
-        _ => Duration::ZERO,
-    };
-    (budget + Duration::from_secs(1)).max(MIN_COMMAND_TIMEOUT)
+pub fn command_timeout(ack_budget: Duration) -> Duration {
+    ack_budget
+        .saturating_add(Duration::from_secs(1))
+        .max(MIN_COMMAND_TIMEOUT)
 }
 
 /// Why the service ended (the supervision tree's word; the interface's path kept for its users).
@@ -1424,8 +1433,9 @@ impl InterfaceService {
         bus: &Bus,
         built_in: &[crate::drivers::BuiltIn],
     ) -> Result<Self, StartError> {
-        let factory = crate::drivers::factory(cfg, built_in)?;
-        Self::start_with(InterfaceSettings::from_config(cfg), bus, factory).await
+        let driver = crate::drivers::select(cfg, built_in)?;
+        let settings = InterfaceSettings::from_config(cfg).for_driver(&driver);
+        Self::start_with(settings, bus, driver.factory).await
     }
 
     pub async fn start_with(

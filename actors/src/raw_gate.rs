@@ -12,7 +12,8 @@ use crate::proto::goby::middleware::frontseat::protobuf::Raw;
 /// How the selected driver delimits its messages on the wire.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum RawFraming {
-    /// ASCII lines ended by CR/LF (the basic simulator, Bluefin Huxley, Iver3 UVC).
+    /// ASCII lines ended by CR/LF (the basic simulator, Bluefin Huxley, Iver3 UVC): one request
+    /// may not carry a second line.
     Lines,
     /// Binary frames the driver delimits itself (plugins, binary protocols): only the size and
     /// the source are checked here.
@@ -28,25 +29,21 @@ pub struct RawPolicy {
 }
 
 impl RawPolicy {
-    pub fn from_config(cfg: &InterfaceConfig) -> Self {
-        use frontseat_config::{BASIC_SIMULATOR, BLUEFIN, IVER3};
-        let lines = cfg.driver.library.is_none()
-            && [BASIC_SIMULATOR, BLUEFIN, IVER3].contains(&cfg.driver.name.as_str());
+    /// `[raw_send]` for a driver whose wire is delimited by `framing` (the driver's own word:
+    /// [`crate::drivers::BuiltIn::raw_framing`]).
+    pub fn from_config(cfg: &InterfaceConfig, framing: RawFraming) -> Self {
         Self {
             sources: cfg.raw_send.sources.clone(),
             max_bytes: cfg.raw_send.max_bytes,
-            framing: if lines {
-                RawFraming::Lines
-            } else {
-                RawFraming::Frames
-            },
+            framing,
         }
     }
 }
 
 impl Default for RawPolicy {
+    /// The defaults, for a line protocol (the stricter check: one request is one line).
     fn default() -> Self {
-        Self::from_config(&InterfaceConfig::default())
+        Self::from_config(&InterfaceConfig::default(), RawFraming::Lines)
     }
 }
 

@@ -5,7 +5,19 @@
 //! turns them into the schema, and [`example`] walks that schema to comment the example file.
 #![forbid(unsafe_code)]
 
+// Each vehicle's `[driver.<vehicle>]` section lives in its vehicle's folder (see the opening of
+// each file for why it is compiled here).
+#[path = "../../vehicles/ardupilot/config.rs"]
 mod ardupilot;
+#[path = "../../vehicles/basic_simulator/config.rs"]
+mod basic_simulator;
+#[path = "../../vehicles/bluefin/config.rs"]
+mod bluefin;
+#[path = "../../vehicles/iver3/config.rs"]
+mod iver3;
+#[path = "../../vehicles/waveglider_sv2/config.rs"]
+mod waveglider_sv2;
+
 mod check;
 mod error;
 mod example;
@@ -31,17 +43,19 @@ pub use ardupilot::{
     ArdupilotConfig, ArdupilotModeAssignment, ArdupilotStreamRates, ArdupilotVehicle,
     MavlinkAddress,
 };
+pub use basic_simulator::{BasicSimulatorConfig, SimStartConfig, SimVehicleConfig};
+pub use bluefin::{AcceptingCommandsHook, BluefinConfig, RpmTableEntry};
 pub use error::{ConfigError, FieldError};
 pub use gateway::{GatewayConfig, GatewaySupervisionConfig};
 pub use goby3::{Goby3Config, Goby3Transport};
 pub use interface::{
-    ARDUPILOT, AcceptingCommandsHook, BASIC_SIMULATOR, BLUEFIN, BUILT_IN_DRIVERS,
-    BasicSimulatorConfig, BluefinConfig, BusConfig, ChaosConfig, DriverConfig, FlowControlConfig,
-    FrontSeatStateName, IVER3, InterfaceConfig, Iver3Config, IverModeAssignments, LimitsConfig,
+    ARDUPILOT, BASIC_SIMULATOR, BLUEFIN, BUILT_IN_DRIVERS, BusConfig, ChaosConfig, DriverConfig,
+    FlowControlConfig, FrontSeatStateName, IVER3, InterfaceConfig, LimitsConfig,
     MAX_QUEUE_CAPACITY, NavLimitsConfig, ParityConfig, RawSendConfig, RawSource, RestartConfig,
-    RestartPolicy, RpmTableEntry, SimStartConfig, SimVehicleConfig, SupervisionConfig,
-    TransportKind, VehicleLinkConfig, VehicleType, WAVEGLIDER_SV2, WavegliderSv2Config,
+    RestartPolicy, SupervisionConfig, TransportKind, VehicleLinkConfig, VehicleType,
+    WAVEGLIDER_SV2,
 };
+pub use iver3::{Iver3Config, IverModeAssignments};
 pub use record::{FOXGLOVE_TOKEN_ENV, FoxgloveConfig, RecordCompression, RecordConfig};
 pub use sections::{
     DEFAULT_MAX_EXPORT_BATCH_SIZE, DEFAULT_MAX_QUEUE_SIZE, DEFAULT_METRICS_INTERVAL_S,
@@ -49,6 +63,7 @@ pub use sections::{
     InterprocessMode, LatLonConfig, MoosConfig, TelemetryConfig,
 };
 pub use sim::{CurrentConfig, FaultKind, MAX_LINE_BYTES_LIMIT, ScheduledFaultConfig, SimConfig};
+pub use waveglider_sv2::WavegliderSv2Config;
 pub use web::{MIN_TOKEN_CHARS, WEB_TOKEN_ENV, WebConfig};
 pub use zenoh_security::{ZenohAccessConfig, ZenohSecurity, ZenohTlsConfig, endpoint_protocol};
 

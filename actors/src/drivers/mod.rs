@@ -8,15 +8,49 @@
 pub mod kit;
 pub mod plugin;
 
+use std::time::Duration;
+
 use crate::driver::{Driver, DriverFactory};
+use crate::raw_gate::RawFraming;
 use frontseat_config::InterfaceConfig;
 
-/// A built-in driver: the name `driver.name` selects it by, and how it is built from a config
-/// (settings read once; the factory makes a fresh driver for every (re)start).
+/// A built-in driver: the name `driver.name` selects it by, how it is built from a config
+/// (settings read once; the factory makes a fresh driver for every (re)start), and what the
+/// interface must know of its vehicle without naming it.
 #[derive(Clone, Copy)]
 pub struct BuiltIn {
     pub name: &'static str,
     pub factory: fn(&InterfaceConfig) -> DriverFactory,
+    /// How long the vehicle may take to answer a command under this config (its resends or
+    /// its ack timeout): the interface waits past it before answering failed itself, so the
+    /// vehicle's own answer is the one the helm gets.
+    pub ack_budget: fn(&InterfaceConfig) -> Duration,
+    /// How the vehicle's wire delimits messages: what the raw gate lets one raw_send_request be.
+    pub raw_framing: RawFraming,
+}
+
+/// For a driver whose vehicle answers at once (or never): no budget beyond the interface's own.
+pub fn no_ack_budget(_: &InterfaceConfig) -> Duration {
+    Duration::ZERO
+}
+
+/// The driver the config selects, with what the interface needs to know of it.
+#[derive(Clone)]
+pub struct SelectedDriver {
+    pub factory: DriverFactory,
+    /// [`BuiltIn::ack_budget`] under the config (zero for a plugin).
+    pub ack_budget: Duration,
+    /// [`BuiltIn::raw_framing`] (frames for a plugin: only its size and source are checked).
+    pub raw_framing: RawFraming,
+}
+
+impl std::fmt::Debug for SelectedDriver {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("SelectedDriver")
+            .field("ack_budget", &self.ack_budget)
+            .field("raw_framing", &self.raw_framing)
+            .finish()
+    }
 }
 
 impl std::fmt::Debug for BuiltIn {
@@ -41,13 +75,30 @@ pub fn factory(
     factory_with_env(cfg, &|k| std::env::var(k).ok(), built_in)
 }
 
-/// [`factory`] with the environment given (tests). A plugin is checked before this returns:
-/// a missing file, a missing symbol or an ABI mismatch is an error here, not a restart loop.
+/// [`factory`] with the environment given (tests).
 pub fn factory_with_env(
     cfg: &InterfaceConfig,
     env: &dyn Fn(&str) -> Option<String>,
     built_in: &[BuiltIn],
 ) -> Result<DriverFactory, DriverSelectError> {
+    select_with_env(cfg, env, built_in).map(|s| s.factory)
+}
+
+/// The driver the environment and the config select, with its properties.
+pub fn select(
+    cfg: &InterfaceConfig,
+    built_in: &[BuiltIn],
+) -> Result<SelectedDriver, DriverSelectError> {
+    select_with_env(cfg, &|k| std::env::var(k).ok(), built_in)
+}
+
+/// [`select`] with the environment given (tests). A plugin is checked before this returns:
+/// a missing file, a missing symbol or an ABI mismatch is an error here, not a restart loop.
+pub fn select_with_env(
+    cfg: &InterfaceConfig,
+    env: &dyn Fn(&str) -> Option<String>,
+    built_in: &[BuiltIn],
+) -> Result<SelectedDriver, DriverSelectError> {
     // A Goby3 driver library named by the environment or the config selects our built-in
     // driver (normally already applied when the config was loaded; applied here too so every
     // caller of the factory agrees with the service).
@@ -71,12 +122,20 @@ pub fn factory_with_env(
     }
     if let Some(settings) = plugin::PluginSettings::select(cfg, env)? {
         settings.preflight()?;
-        return Ok(std::sync::Arc::new(move || {
-            Box::new(plugin::PluginDriver::new(settings.clone())) as Box<dyn Driver>
-        }));
+        return Ok(SelectedDriver {
+            factory: std::sync::Arc::new(move || {
+                Box::new(plugin::PluginDriver::new(settings.clone())) as Box<dyn Driver>
+            }),
+            ack_budget: Duration::ZERO,
+            raw_framing: RawFraming::Frames,
+        });
     }
     match built_in.iter().find(|b| b.name == cfg.driver.name) {
-        Some(b) => Ok((b.factory)(cfg)),
+        Some(b) => Ok(SelectedDriver {
+            factory: (b.factory)(cfg),
+            ack_budget: (b.ack_budget)(cfg),
+            raw_framing: b.raw_framing,
+        }),
         None => Err(DriverSelectError::Unknown {
             name: cfg.driver.name.clone(),
             built_in: built_in

@@ -20,4 +20,7 @@ pub const DRIVER: frontseat_actors::drivers::BuiltIn = frontseat_actors::drivers
                 as Box<dyn frontseat_actors::driver::Driver>
         })
     },
+    // The simulator answers every command at once.
+    ack_budget: frontseat_actors::drivers::no_ack_budget,
+    raw_framing: frontseat_actors::raw_gate::RawFraming::Lines,
 };

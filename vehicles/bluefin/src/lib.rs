@@ -32,4 +32,12 @@ pub const DRIVER: frontseat_actors::drivers::BuiltIn = frontseat_actors::drivers
                 as Box<dyn frontseat_actors::driver::Driver>
         })
     },
+    ack_budget: |cfg| {
+        // Goby3's resend budget: nmea_resend_attempts writes, nmea_resend_interval apart.
+        let b = &cfg.driver.bluefin;
+        std::time::Duration::from_secs(
+            u64::from(b.nmea_resend_attempts.max(1)) * u64::from(b.nmea_resend_interval.max(1)),
+        )
+    },
+    raw_framing: frontseat_actors::raw_gate::RawFraming::Lines,
 };

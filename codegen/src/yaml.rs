@@ -137,7 +137,7 @@ pub fn read_file(path: &Path, text: &str, diags: &mut Vec<Diagnostic>) -> Option
                 key.pos,
                 Rule::UnknownKey,
                 format!(
-                    "unknown key `{}` (expected `application`, `interprocess` or `interthread`)",
+                    "unknown key `{}` (expected `application`, `vehicle`, `interprocess` or `interthread`)",
                     key.value
                 ),
             );

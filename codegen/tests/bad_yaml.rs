@@ -60,7 +60,7 @@ const CASES: &[(&str, Rule, u64, &str)] = &[
         "unknown_key.yaml",
         Rule::UnknownKey,
         3,
-        "unknown key `version` (expected `application`, `interprocess` or `interthread`)",
+        "unknown key `version` (expected `application`, `vehicle`, `interprocess` or `interthread`)",
     ),
     (
         "missing_field.yaml",
@@ -93,6 +93,36 @@ const CASES: &[(&str, Rule, u64, &str)] = &[
         "expected string scalar",
     ),
     ("syntax.yaml", Rule::Syntax, 7, ""),
+    (
+        "extension_unknown_kind.yaml",
+        Rule::Extension,
+        9,
+        "unknown extension kind `steer_anywhere` (expected one of `command`, `mode`, `data`, `navigation`, `navigation_copy`)",
+    ),
+    (
+        "extension_direction.yaml",
+        Rule::Extension,
+        9,
+        "extension `command` is declared under `publishes`, but the interface subscribes to it",
+    ),
+    (
+        "extension_no_vehicle.yaml",
+        Rule::Extension,
+        8,
+        "an `extension:` entry needs the file's `vehicle:`",
+    ),
+    (
+        "extension_not_mirror.yaml",
+        Rule::Extension,
+        9,
+        "`frontseat.protobuf.bluefin.InterfaceData` is not a mirror of `goby.middleware.frontseat.protobuf.CommandRequest`: field 1 `desired_course`",
+    ),
+    (
+        "extension_interthread.yaml",
+        Rule::Extension,
+        9,
+        "extension `data` must be `interprocess`",
+    ),
 ];
 
 #[test]

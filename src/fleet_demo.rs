@@ -19,7 +19,7 @@ use frontseat_actors::proto::goby::middleware::frontseat::protobuf::NodeStatus;
 use frontseat_config::{InterprocessConfig, InterprocessMode};
 use frontseat_demo_helm::trail::{self, LeaderFix, Slot, TrailParams};
 use frontseat_demo_helm::{self as demo_helm, DemoParams, TrackPoint};
-use frontseat_gateway::{GatewayOptions, key_for};
+use frontseat_helm_side::{GatewayOptions, key_for};
 use frontseat_launch::LaunchConfig;
 use frontseat_launch::config::{LatLon, ProcessEntry, ReadyConfig, ReadyKind, VehicleEntry};
 use prost::Message;
@@ -339,9 +339,9 @@ async fn fly(
         platform: String::new(),
         ..Default::default()
     };
-    let zcfg = frontseat_gateway::zenoh_config(&ip, frontseat_gateway::DEFAULT_MAX_PAYLOAD)
+    let zcfg = frontseat_helm_side::zenoh_config(&ip, frontseat_helm_side::DEFAULT_MAX_PAYLOAD)
         .map_err(|e| e.to_string())?;
-    let session = frontseat_gateway::zenoh::open(zcfg)
+    let session = frontseat_helm_side::zenoh::open(zcfg)
         .await
         .map_err(|e| format!("cannot open the Zenoh session: {e}"))?;
     let names = names(n);
@@ -349,9 +349,9 @@ async fn fly(
     let mut gateways = Vec::new();
     for name in &names {
         let bus = Bus::new();
-        let plan =
-            frontseat_gateway::plan(groups::ALL, name, &["DemoHelm"]).map_err(|e| e.to_string())?;
-        let g = frontseat_gateway::start_on(
+        let plan = frontseat_helm_side::plan(groups::ALL, name, &["DemoHelm"])
+            .map_err(|e| e.to_string())?;
+        let g = frontseat_helm_side::start_on(
             &bus,
             session.clone(),
             plan,
@@ -372,7 +372,7 @@ async fn fly(
         .declare_subscriber(leader_key.clone())
         .callback(move |s| {
             let bytes = s.payload().to_bytes();
-            let fix = (bytes.len() <= frontseat_gateway::DEFAULT_MAX_PAYLOAD)
+            let fix = (bytes.len() <= frontseat_helm_side::DEFAULT_MAX_PAYLOAD)
                 .then(|| NodeStatus::decode(&*bytes).ok())
                 .flatten()
                 .and_then(|ns| {
@@ -392,7 +392,7 @@ async fn fly(
                 }
                 None => {
                     let k = counted.refused.fetch_add(1, Ordering::Relaxed) + 1;
-                    if frontseat_gateway::wire::worth_logging(k) {
+                    if frontseat_helm_side::wire::worth_logging(k) {
                         tracing::warn!(
                             count = k,
                             "leader node_status refused (oversized, undecodable or implausible)"

@@ -13,8 +13,8 @@ use frontseat_actors::service_child::{Service, service_child_with};
 use frontseat_actors::supervisor::{ChildSpec, SupervisorHandle};
 use frontseat_config::Goby3Config;
 use frontseat_config::{GatewayConfig, InterfaceConfig};
-use frontseat_gateway::goby3::{Goby3Handle, Goby3Settings};
-use frontseat_gateway::{GatewayError, GatewayHandle, GatewayOptions};
+use frontseat_helm_side::goby3::{Goby3Handle, Goby3Settings};
+use frontseat_helm_side::{GatewayError, GatewayHandle, GatewayOptions};
 
 /// The actors `frontseat interface` hosts, hence what its gateway exports and imports.
 pub fn interface_actors(cfg: &InterfaceConfig) -> Vec<&'static str> {
@@ -34,8 +34,8 @@ pub async fn start_for_interface(
     if !cfg.interprocess.enabled {
         return Ok(None);
     }
-    let platform = frontseat_gateway::resolve_platform(&cfg.interprocess, &cfg.name)?;
-    frontseat_gateway::start(
+    let platform = frontseat_helm_side::resolve_platform(&cfg.interprocess, &cfg.name)?;
+    frontseat_helm_side::start(
         bus,
         &cfg.interprocess,
         &platform,
@@ -58,7 +58,7 @@ pub fn start_goby3(
         return Ok(None);
     }
     let settings = Goby3Settings::from_config(cfg, name)?;
-    frontseat_gateway::goby3::start(bus, settings, hosted, GatewayOptions::default()).map(Some)
+    frontseat_helm_side::goby3::start(bus, settings, hosted, GatewayOptions::default()).map(Some)
 }
 
 /// The Goby3 transport as a child of a root supervisor, for `hosted` actors.
@@ -137,7 +137,7 @@ fn gateway_children(cfg: &GatewayConfig, platform: &str, bus: &Bus) -> Vec<Child
                 (&sup.zenoh).into(),
                 ctx,
                 |(icfg, platform, bus)| async move {
-                    frontseat_gateway::start(
+                    frontseat_helm_side::start(
                         &bus,
                         &icfg,
                         &platform,
@@ -174,8 +174,8 @@ fn gateway_children(cfg: &GatewayConfig, platform: &str, bus: &Bus) -> Vec<Child
         cfg.name.clone()
     };
     children.push(
-        frontseat_actors::translation::child_spec(
-            frontseat_actors::translation::TranslationArgs {
+        frontseat_helm_side::translation::child_spec(
+            frontseat_helm_side::translation::TranslationArgs {
                 cfg: cfg.moos.with_warp(1.0),
                 vehicle,
                 bus: bus.clone(),
@@ -195,7 +195,7 @@ pub async fn moos_gateway(cfg: GatewayConfig) -> ExitCode {
     let bus = Bus::new();
     let notifier = std::sync::Arc::new(frontseat_actors::systemd::Notifier::from_env());
     let reporter = frontseat_actors::systemd::spawn_translation_reporter(notifier.clone(), &bus);
-    let platform = match frontseat_gateway::resolve_platform(&cfg.interprocess, &cfg.name) {
+    let platform = match frontseat_helm_side::resolve_platform(&cfg.interprocess, &cfg.name) {
         Ok(p) => p,
         Err(e) => {
             tracing::error!(error = %e, "cannot start the MOOS gateway");

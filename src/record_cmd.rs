@@ -410,7 +410,8 @@ pub async fn replay(args: ReplayArgs) -> ExitCode {
             }
         };
         let vehicle = recorded_vehicle(&args.file).unwrap_or_default();
-        let settings = match frontseat_gateway::goby3::Goby3Settings::from_config(&cfg, &vehicle) {
+        let settings = match frontseat_helm_side::goby3::Goby3Settings::from_config(&cfg, &vehicle)
+        {
             Ok(s) => s,
             Err(e) => {
                 eprintln!("{e}");
@@ -419,11 +420,11 @@ pub async fn replay(args: ReplayArgs) -> ExitCode {
         };
         let endpoint = settings.transport.manager_endpoint();
         // Only the vehicle's publications go out; nothing from gobyd comes in.
-        let h = match frontseat_gateway::goby3::start_publisher(
+        let h = match frontseat_helm_side::goby3::start_publisher(
             &bus,
             settings,
             &["FrontSeatInterface"],
-            frontseat_gateway::GatewayOptions::default(),
+            frontseat_helm_side::GatewayOptions::default(),
         ) {
             Ok(h) => h,
             Err(e) => {
@@ -459,7 +460,7 @@ pub async fn replay(args: ReplayArgs) -> ExitCode {
         cfg.connect = args.connect.clone();
         let vehicle = recorded_vehicle(&args.file).unwrap_or_default();
         cfg.platform = args.platform.clone().unwrap_or_default();
-        let platform = match frontseat_gateway::resolve_platform(&cfg, &vehicle) {
+        let platform = match frontseat_helm_side::resolve_platform(&cfg, &vehicle) {
             Ok(p) => p,
             Err(e) => {
                 eprintln!("{e}");
@@ -467,12 +468,12 @@ pub async fn replay(args: ReplayArgs) -> ExitCode {
             }
         };
         // The replay stands in for the vehicle's interface: it exports what that publishes.
-        match frontseat_gateway::start(
+        match frontseat_helm_side::start(
             &bus,
             &cfg,
             &platform,
             &["FrontSeatInterface"],
-            frontseat_gateway::GatewayOptions::default(),
+            frontseat_helm_side::GatewayOptions::default(),
         )
         .await
         {

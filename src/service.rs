@@ -88,8 +88,8 @@ pub fn interface_children(
     );
     if let Some(moos) = &config.moos {
         children.push(
-            frontseat_actors::translation::child_spec(
-                frontseat_actors::translation::TranslationArgs {
+            frontseat_helm_side::translation::child_spec(
+                frontseat_helm_side::translation::TranslationArgs {
                     cfg: moos.with_warp(config.sim_warp_factor),
                     vehicle: config.name.clone(),
                     bus: bus.clone(),

@@ -5,7 +5,7 @@
 //! vehicle's common name hears its node_status; one that lists only another vehicle hears that
 //! other vehicle (so its TLS link works) and never this one. Every wait is bounded.
 
-#[path = "../actors/gateway/tests/support/certs.rs"]
+#[path = "../helm_side/tests/support/certs.rs"]
 mod certs;
 mod common;
 
@@ -20,7 +20,7 @@ use frontseat_actors::proto::goby::middleware::frontseat::protobuf::{
     CartesianCoordinate, NodeStatus,
 };
 use frontseat_config::{InterprocessConfig, ServiceConfig, ZenohAccessConfig, ZenohTlsConfig};
-use frontseat_gateway::{key_for, put_message, zenoh};
+use frontseat_helm_side::{key_for, put_message, zenoh};
 use frontseat_topside::{Topside, TopsideConfig};
 
 const BIN: &str = env!("CARGO_BIN_EXE_frontseat");
@@ -146,7 +146,7 @@ allow_common_names = ["topside"]
     // link, so its TLS works), and not the binary, which goes on publishing meanwhile.
     let auv2_port = free_port();
     let auv2 = zenoh::open(
-        frontseat_gateway::zenoh_config(
+        frontseat_helm_side::zenoh_config(
             &InterprocessConfig {
                 enabled: true,
                 listen: vec![format!("tls/127.0.0.1:{auv2_port}")],

@@ -25,10 +25,10 @@ use frontseat_actors::proto::goby::middleware::frontseat::protobuf::{
     DesiredCourse, HelmState, HelmStateReport, NodeStatus,
 };
 use frontseat_actors::proto::goby::middleware::protobuf::HealthState;
-use frontseat_gateway::goby3::Goby3Handle;
-use frontseat_gateway::goby3::standin::{StandinGobyd, StandinTransport};
-use frontseat_gateway::zenoh;
-use frontseat_gateway::{client_config, key_for};
+use frontseat_helm_side::goby3::Goby3Handle;
+use frontseat_helm_side::goby3::standin::{StandinGobyd, StandinTransport};
+use frontseat_helm_side::zenoh;
+use frontseat_helm_side::{client_config, key_for};
 use frontseat_moos::Broker;
 use prost::Message;
 use tokio::time::{Instant, timeout_at};

@@ -21,9 +21,9 @@ use common::phelm::{ScriptedHelm, heading_near};
 use frontseat_actors::bus::Bus;
 use frontseat_actors::groups;
 use frontseat_config::Goby3Config;
-use frontseat_gateway::GatewayOptions;
-use frontseat_gateway::goby3::standin::{StandinGobyd, StandinTransport};
-use frontseat_gateway::goby3::{self, Goby3Settings};
+use frontseat_helm_side::GatewayOptions;
+use frontseat_helm_side::goby3::standin::{StandinGobyd, StandinTransport};
+use frontseat_helm_side::goby3::{self, Goby3Settings};
 use frontseat_moos::Broker;
 use tokio::time::{Instant, timeout_at};
 

@@ -27,8 +27,8 @@ use frontseat_actors::groups;
 use frontseat_actors::proto::goby::middleware::frontseat::protobuf::{
     DesiredCourse, HelmState, HelmStateReport, NodeStatus,
 };
-use frontseat_gateway::goby3::standin::{StandinGobyd, StandinTransport};
-use frontseat_gateway::goby3::{frame, manager};
+use frontseat_helm_side::goby3::standin::{StandinGobyd, StandinTransport};
+use frontseat_helm_side::goby3::{frame, manager};
 use prost::Message;
 use tokio::io::{AsyncBufReadExt, AsyncReadExt, AsyncWriteExt};
 use tokio::net::TcpStream;

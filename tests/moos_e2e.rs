@@ -18,8 +18,8 @@ use frontseat_actors::proto::frontseat::protobuf::TranslationStatus;
 use frontseat_actors::proto::goby::middleware::frontseat::protobuf::{
     DesiredCourse, HelmState, HelmStateReport, InterfaceState, NodeStatus,
 };
-use frontseat_actors::translation::{self, TranslationHandle};
 use frontseat_config::MoosConfig;
+use frontseat_helm_side::translation::{self, TranslationHandle};
 use frontseat_moos::{Broker, MoosClient, MoosClientConfig, MoosEvent, MoosMessage};
 use tokio::sync::mpsc::{self, UnboundedReceiver};
 use tokio::time::{Instant, timeout_at};

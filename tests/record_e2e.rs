@@ -211,8 +211,8 @@ fn record_demo(dir: &Path) -> PathBuf {
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn replay_reaches_a_helm_over_zenoh_in_order_and_never_commands() {
     use frontseat_actors::proto::goby::middleware::frontseat::protobuf::NodeStatus;
-    use frontseat_gateway::zenoh;
-    use frontseat_gateway::{client_config, key_for};
+    use frontseat_helm_side::zenoh;
+    use frontseat_helm_side::{client_config, key_for};
     use prost::Message;
 
     let dir = scratch("record", "replay-zenoh");

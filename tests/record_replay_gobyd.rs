@@ -17,8 +17,8 @@ use common::procs::{Kill, scratch};
 use frontseat_actors::bus::{Bus, Origin};
 use frontseat_actors::groups;
 use frontseat_actors::proto::goby::middleware::frontseat::protobuf::{DesiredCourse, NodeStatus};
-use frontseat_gateway::goby3::Goby3Handle;
-use frontseat_gateway::goby3::standin::{StandinGobyd, StandinTransport};
+use frontseat_helm_side::goby3::Goby3Handle;
+use frontseat_helm_side::goby3::standin::{StandinGobyd, StandinTransport};
 use frontseat_record::recorder::{RecordMeta, Recorder, RecorderOptions};
 use tokio::time::{Instant, timeout_at};
 

@@ -20,8 +20,8 @@ use frontseat_actors::proto::frontseat::protobuf::InterfaceDetail;
 use frontseat_actors::proto::goby::middleware::frontseat::protobuf::{
     DesiredCourse, HelmState, HelmStateReport, InterfaceState, InterfaceStatus, NodeStatus,
 };
-use frontseat_gateway::zenoh;
-use frontseat_gateway::{client_config, key_for, put_message};
+use frontseat_helm_side::zenoh;
+use frontseat_helm_side::{client_config, key_for, put_message};
 use opentelemetry::propagation::TextMapPropagator;
 use opentelemetry::trace::{Span as _, TraceContextExt, Tracer, TracerProvider as _};
 use opentelemetry_sdk::propagation::TraceContextPropagator;

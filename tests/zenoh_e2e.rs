@@ -16,8 +16,8 @@ use frontseat_actors::groups;
 use frontseat_actors::proto::goby::middleware::frontseat::protobuf::{
     DesiredCourse, HelmState, HelmStateReport, InterfaceState, InterfaceStatus, NodeStatus,
 };
-use frontseat_gateway::zenoh::{self, Wait};
-use frontseat_gateway::{client_config, key_for, put_message};
+use frontseat_helm_side::zenoh::{self, Wait};
+use frontseat_helm_side::{client_config, key_for, put_message};
 use prost::Message;
 
 const WARP: f64 = 10.0;

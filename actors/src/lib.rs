@@ -33,7 +33,6 @@ pub mod sim_glue;
 pub mod state_machine;
 pub mod supervisor;
 pub mod systemd;
-pub mod translation;
 
 /// Telemetry and metrics are their own crate (`frontseat-telemetry`); these two paths stay for
 /// the drivers, which report bad lines and truncate raw lines through them while they move to

@@ -4,7 +4,7 @@
 //! times are vehicle seconds: wall seconds times --warp, which must match the interface's
 //! sim_warp_factor when the simulator runs warped.
 //!
-//! cargo run -p frontseat-gateway --example helm -- [--connect tcp/127.0.0.1:7447]
+//! cargo run -p frontseat-helm-side --example helm -- [--connect tcp/127.0.0.1:7447]
 //!     [--platform auv1] [--t1 60] [--t2 60] [--speed 1.5] [--warp 1] [--timeout 600]
 //! Exits 0 when the triangle is done, 1 on timeout, 2 on bad arguments.
 
@@ -15,7 +15,7 @@ use frontseat_actors::groups;
 use frontseat_actors::proto::goby::middleware::frontseat::protobuf::{
     DesiredCourse, HelmState, HelmStateReport, InterfaceState, InterfaceStatus, NodeStatus,
 };
-use frontseat_gateway::{client_config, key_for, put_message};
+use frontseat_helm_side::{client_config, key_for, put_message};
 use prost::Message;
 
 struct Args {

@@ -5,7 +5,7 @@
 //!   2. desired_course: Zenoh put → CMD line read at the frontseat (p50/p99).
 //!   3. raw_in at 10 000 lines/s for 3 s: lines delivered/lost over Zenoh.
 //!
-//! cargo build --release -p frontseat && cargo run --release -p frontseat-gateway \
+//! cargo build --release -p frontseat && cargo run --release -p frontseat-helm-side \
 //!     --example zenoh_bench -- [PATH/TO/frontseat] [samples]
 
 use std::collections::HashMap;
@@ -17,7 +17,7 @@ use frontseat_actors::groups;
 use frontseat_actors::proto::goby::middleware::frontseat::protobuf::{
     DesiredCourse, HelmState, HelmStateReport, InterfaceState, InterfaceStatus, NodeStatus, Raw,
 };
-use frontseat_gateway::{client_config, key_for, put_message};
+use frontseat_helm_side::{client_config, key_for, put_message};
 use hdrhistogram::Histogram;
 use prost::Message;
 use tokio::io::{AsyncBufReadExt, AsyncWriteExt, BufReader};

@@ -185,12 +185,12 @@ pub fn config(data: &[u8]) {
     }
 }
 
-/// The Goby3 link's ZMTP length guard (`frontseat_gateway::goby3::guard::Meter`) over the bytes
+/// The Goby3 link's ZMTP length guard (`frontseat_helm_side::goby3::guard::Meter`) over the bytes
 /// gobyd sends: the verdict (and the limit it names) must not depend on how the stream is cut
 /// into reads — whole, byte by byte, or split at a point the input picks — and a refusal is
 /// always over the limit.
 pub fn zmtp_guard(data: &[u8]) {
-    use frontseat_gateway::goby3::guard::Meter;
+    use frontseat_helm_side::goby3::guard::Meter;
     let limit = 1024 + u64::from(data.first().copied().unwrap_or(0)) * 64;
     let whole = Meter::new(limit).feed(data);
     let mut m = Meter::new(limit);

@@ -666,7 +666,7 @@ where
             tracing_subscriber::filter::Targets::new()
                 .with_target("frontseat", tracing::Level::TRACE)
                 .with_target("frontseat_actors", tracing::Level::TRACE)
-                .with_target("frontseat_gateway", tracing::Level::TRACE)
+                .with_target("frontseat_helm_side", tracing::Level::TRACE)
                 .with_target("frontseat_sim", tracing::Level::INFO),
         );
     if tracing_subscriber::registry()

@@ -3,8 +3,8 @@
 
 use frontseat_actors::bus::Bus;
 use frontseat_config::Goby3Config;
-use frontseat_gateway::GatewayOptions;
-use frontseat_gateway::goby3::{self, Goby3Handle, Goby3Settings};
+use frontseat_helm_side::GatewayOptions;
+use frontseat_helm_side::goby3::{self, Goby3Handle, Goby3Settings};
 
 /// A Goby3 client of gobyd at `base` named `client`, carrying the groups of the `hosted` actor,
 /// for platform auv1; quick reconnects so a test waits little.

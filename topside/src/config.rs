@@ -214,7 +214,7 @@ impl ServiceConfig for TopsideConfig {
         }
         e.extend(self.foxglove.errors_at("foxglove"));
         for (i, v) in self.vehicle.iter().enumerate() {
-            if frontseat_gateway::plan::check_platform(&v.name).is_err() {
+            if frontseat_helm_side::plan::check_platform(&v.name).is_err() {
                 e.push(FieldError::new(
                     format!("vehicle[{i}].name"),
                     format!("{:?}", v.name),

@@ -187,7 +187,7 @@ pub fn start_recorder(
 
 fn bump(c: &AtomicU64, what: &str, key: &str) {
     let n = c.fetch_add(1, Ordering::Relaxed) + 1;
-    if frontseat_gateway::wire::worth_logging(n) {
+    if frontseat_helm_side::wire::worth_logging(n) {
         tracing::warn!(key = %key.chars().take(120).collect::<String>(), count = n, "topside: {what}");
     }
 }
@@ -216,11 +216,11 @@ impl Sink {
         let Some(platform) = key
             .split('/')
             .next()
-            .filter(|p| frontseat_gateway::plan::check_platform(p).is_ok())
+            .filter(|p| frontseat_helm_side::plan::check_platform(p).is_ok())
         else {
             return bump(&counters.bad_key, "bad platform in key expression", key);
         };
-        if payload.len() > frontseat_gateway::DEFAULT_MAX_PAYLOAD {
+        if payload.len() > frontseat_helm_side::DEFAULT_MAX_PAYLOAD {
             return bump(&counters.oversized, "oversized payload refused", key);
         }
         let now = tokio::time::Instant::now();
@@ -292,8 +292,8 @@ impl Sink {
 /// The running topside.
 pub struct Topside {
     addr: SocketAddr,
-    session: frontseat_gateway::zenoh::Session,
-    _subs: Vec<frontseat_gateway::zenoh::pubsub::Subscriber<()>>,
+    session: frontseat_helm_side::zenoh::Session,
+    _subs: Vec<frontseat_helm_side::zenoh::pubsub::Subscriber<()>>,
     server: tokio::task::JoinHandle<()>,
     pub counters: Arc<Counters>,
     /// The recorder this topside started itself (not one handed in by [`run`]).
@@ -341,9 +341,9 @@ impl Topside {
             tls: cfg.zenoh.tls.clone(),
             access: cfg.zenoh.access.clone(),
         };
-        let zcfg = frontseat_gateway::zenoh_config(&ip, frontseat_gateway::DEFAULT_MAX_PAYLOAD)
+        let zcfg = frontseat_helm_side::zenoh_config(&ip, frontseat_helm_side::DEFAULT_MAX_PAYLOAD)
             .map_err(|e| TopsideError::Zenoh(e.to_string()))?;
-        let session = frontseat_gateway::zenoh::open(zcfg)
+        let session = frontseat_helm_side::zenoh::open(zcfg)
             .await
             .map_err(|e| TopsideError::Zenoh(e.to_string()))?;
         let fleet = Arc::new(Mutex::new(Fleet::new(
@@ -371,7 +371,7 @@ impl Topside {
                 }
                 _ => None,
             };
-            let key = frontseat_gateway::key_for("*", info.name);
+            let key = frontseat_helm_side::key_for("*", info.name);
             let sink = Sink {
                 fleet: fleet.clone(),
                 scope: scope.clone(),

@@ -18,7 +18,7 @@ use frontseat_actors::bus::test_util::UntypedBus as _;
 use frontseat_actors::groups;
 use frontseat_actors::interface::InterfaceService;
 use frontseat_config::{InterfaceConfig, InterprocessConfig, WebConfig};
-use frontseat_gateway::{GatewayHandle, GatewayOptions};
+use frontseat_helm_side::{GatewayHandle, GatewayOptions};
 use frontseat_sim::{SimHandle, SimOptions, SimServer};
 use frontseat_topside::config::VehicleLink;
 use frontseat_topside::{Topside, TopsideConfig};
@@ -62,7 +62,7 @@ async fn vehicle(sim: &SimHandle, name: &str, index: u32) -> Vehicle {
         listen: vec![format!("tcp/127.0.0.1:{zenoh_port}")],
         ..Default::default()
     };
-    let gateway = frontseat_gateway::start(
+    let gateway = frontseat_helm_side::start(
         &bus,
         &ip,
         name,

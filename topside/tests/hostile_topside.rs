@@ -10,7 +10,7 @@ use frontseat_actors::groups;
 use frontseat_actors::proto::goby::middleware::frontseat::protobuf::{
     CartesianCoordinate, NodeStatus,
 };
-use frontseat_gateway::{key_for, put_message, zenoh};
+use frontseat_helm_side::{key_for, put_message, zenoh};
 use frontseat_topside::{Topside, TopsideConfig};
 use serde_json::Value;
 use tokio::io::{AsyncReadExt, AsyncWriteExt};
@@ -69,7 +69,7 @@ async fn a_flood_on_the_fleet_keys_stays_inside_the_topsides_bounds() {
         listen: vec![format!("tcp/127.0.0.1:{port}")],
         ..Default::default()
     };
-    let z = zenoh::open(frontseat_gateway::zenoh_config(&ip, 65536).unwrap())
+    let z = zenoh::open(frontseat_helm_side::zenoh_config(&ip, 65536).unwrap())
         .await
         .unwrap();
     let mut cfg = TopsideConfig::default();

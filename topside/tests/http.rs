@@ -9,7 +9,7 @@ use frontseat_actors::groups;
 use frontseat_actors::proto::goby::middleware::frontseat::protobuf::{
     CartesianCoordinate, DesiredCourse, InterfaceState, InterfaceStatus, NodeStatus,
 };
-use frontseat_gateway::{key_for, put_message, zenoh};
+use frontseat_helm_side::{key_for, put_message, zenoh};
 use frontseat_topside::{Topside, TopsideConfig};
 use serde_json::Value;
 use tokio::io::{AsyncReadExt, AsyncWriteExt};
@@ -77,7 +77,7 @@ async fn publisher(port: u16) -> zenoh::Session {
         listen: vec![format!("tcp/127.0.0.1:{port}")],
         ..Default::default()
     };
-    let cfg = frontseat_gateway::zenoh_config(&ip, 65536).unwrap();
+    let cfg = frontseat_helm_side::zenoh_config(&ip, 65536).unwrap();
     zenoh::open(cfg).await.unwrap()
 }
 

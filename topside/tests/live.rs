@@ -15,7 +15,7 @@ use common::{free_port, publisher};
 use frontseat_actors::groups;
 use frontseat_actors::proto::goby::middleware::frontseat::protobuf::NodeStatus;
 use frontseat_config::ServiceConfig as _;
-use frontseat_gateway::{key_for, put_message};
+use frontseat_helm_side::{key_for, put_message};
 use frontseat_topside::{Topside, TopsideConfig};
 use futures_util::{SinkExt, StreamExt};
 use prost_reflect::{DescriptorPool, DynamicMessage};

@@ -16,7 +16,7 @@ use frontseat_actors::groups;
 use frontseat_actors::proto::goby::middleware::frontseat::protobuf::{
     CartesianCoordinate, NodeStatus,
 };
-use frontseat_gateway::{key_for, put_message};
+use frontseat_helm_side::{key_for, put_message};
 use frontseat_record::{CHANNEL_PLATFORM, Recording};
 use frontseat_topside::{Topside, TopsideConfig};
 use prost::Message as _;

@@ -11,10 +11,10 @@ use frontseat_actors::proto::goby::middleware::frontseat::protobuf::{
     CartesianCoordinate, NodeStatus,
 };
 use frontseat_config::{InterprocessConfig, ServiceConfig, ZenohAccessConfig, ZenohTlsConfig};
-use frontseat_gateway::{key_for, put_message, zenoh};
+use frontseat_helm_side::{key_for, put_message, zenoh};
 use frontseat_topside::{Topside, TopsideConfig};
 
-#[path = "../../actors/gateway/tests/support/certs.rs"]
+#[path = "../../helm_side/tests/support/certs.rs"]
 mod certs;
 use certs::{Ca, TempDir, free_port};
 
@@ -28,7 +28,7 @@ async fn vehicle(port: u16, tls: ZenohTlsConfig) -> zenoh::Session {
         tls: Some(tls),
         ..Default::default()
     };
-    zenoh::open(frontseat_gateway::zenoh_config(&ip, 65536).unwrap())
+    zenoh::open(frontseat_helm_side::zenoh_config(&ip, 65536).unwrap())
         .await
         .unwrap()
 }

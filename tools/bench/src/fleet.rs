@@ -15,7 +15,7 @@ use frontseat_actors::groups;
 use frontseat_actors::proto::goby::middleware::frontseat::protobuf::{
     CartesianCoordinate, NodeStatus,
 };
-use frontseat_gateway::{key_for, put_message, zenoh};
+use frontseat_helm_side::{key_for, put_message, zenoh};
 use frontseat_topside::{Topside, TopsideConfig};
 use serde_json::json;
 
@@ -94,7 +94,7 @@ async fn publish(port: u16, n: usize, window: Duration) -> Result<(), String> {
         listen: vec![format!("tcp/127.0.0.1:{port}")],
         ..Default::default()
     };
-    let zcfg = frontseat_gateway::zenoh_config(&ip, frontseat_gateway::DEFAULT_MAX_PAYLOAD)
+    let zcfg = frontseat_helm_side::zenoh_config(&ip, frontseat_helm_side::DEFAULT_MAX_PAYLOAD)
         .map_err(|e| e.to_string())?;
     let vehicles = zenoh::open(zcfg).await.map_err(|e| e.to_string())?;
     let (go_tx, mut go) = tokio::sync::oneshot::channel::<()>();

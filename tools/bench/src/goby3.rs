@@ -1,7 +1,7 @@
 //! Rows G1 and G2: the Goby3 path. The real interface runs in this process with its Goby3
 //! gateway; a second Goby3 gateway on a bus of its own plays the helm's process (as
 //! `frontseat moos-gateway` or a Goby3 helm would), and the two meet through the stand-in gobyd
-//! (`frontseat_gateway::goby3::standin`: gobyd's manager handshake and XPUB/XSUB proxy) over
+//! (`frontseat_helm_side::goby3::standin`: gobyd's manager handshake and XPUB/XSUB proxy) over
 //! loopback TCP. Every hop a deployed Goby3 system has is here — our ZeroMQ sockets, the length
 //! guards in front of them, gobyd's proxy — in one process, so one clock stamps both ends.
 
@@ -10,9 +10,9 @@ use std::time::{Duration, Instant};
 use frontseat_actors::bus::Bus;
 use frontseat_actors::interface::InterfaceService;
 use frontseat_config::{Goby3Config, Goby3Transport, InterfaceConfig};
-use frontseat_gateway::GatewayOptions;
-use frontseat_gateway::goby3::standin::{StandinGobyd, StandinTransport};
-use frontseat_gateway::goby3::{self, Goby3Handle, Goby3Settings};
+use frontseat_helm_side::GatewayOptions;
+use frontseat_helm_side::goby3::standin::{StandinGobyd, StandinTransport};
+use frontseat_helm_side::goby3::{self, Goby3Handle, Goby3Settings};
 
 use super::frontseat::{ScriptedFrontseat, Stamps};
 use super::inproc::{

@@ -13,8 +13,8 @@ use frontseat_actors::ports::{
 use frontseat_actors::proto::goby::middleware::frontseat::protobuf::{
     DesiredCourse, HelmState, HelmStateReport, InterfaceState, InterfaceStatus, NodeStatus, Raw,
 };
-use frontseat_actors::translation;
 use frontseat_config::{InterfaceConfig, MoosConfig};
+use frontseat_helm_side::translation;
 use frontseat_moos::{Broker, MoosClient, MoosClientConfig, MoosEvent};
 use serde_json::json;
 use tokio::sync::mpsc::UnboundedReceiver;

@@ -17,7 +17,7 @@ use frontseat_actors::groups;
 use frontseat_actors::proto::goby::middleware::frontseat::protobuf::{
     DesiredCourse, HelmState, HelmStateReport, InterfaceState, InterfaceStatus, NodeStatus, Raw,
 };
-use frontseat_gateway::{client_config, key_for, put_message, zenoh};
+use frontseat_helm_side::{client_config, key_for, put_message, zenoh};
 use serde_json::json;
 
 use super::frontseat::{ScriptedFrontseat, Stamps, seq_of};

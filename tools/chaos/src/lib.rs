@@ -39,12 +39,12 @@ use frontseat_actors::proto::goby::middleware::frontseat::protobuf::{
 };
 use frontseat_actors::sim_glue::{self, EmbeddedSimulator};
 use frontseat_actors::supervisor::SupervisorHandle;
-use frontseat_actors::translation;
-use frontseat_gateway::GatewayOptions;
-use frontseat_gateway::goby3::{
+use frontseat_helm_side::GatewayOptions;
+use frontseat_helm_side::goby3::{
     self, Goby3Handle,
     standin::{StandinGobyd, StandinTransport},
 };
+use frontseat_helm_side::translation;
 
 /// The config `frontseat chaos` uses without `-c`: chaos enabled, warped, short reconnect and
 /// restart delays, and a restart limit that a fault every few hundred milliseconds stays under.

@@ -14,9 +14,9 @@ use frontseat_actors::proto::goby::middleware::frontseat::protobuf::{
     DesiredCourse, NodeStatus, Raw,
 };
 use frontseat_config::{Goby3Config, Goby3Transport};
-use frontseat_gateway::GatewayOptions;
-use frontseat_gateway::goby3::standin::{StandinGobyd, StandinTransport};
-use frontseat_gateway::goby3::{self, Goby3Handle, Goby3Settings, Goby3Stats, frame, manager};
+use frontseat_helm_side::GatewayOptions;
+use frontseat_helm_side::goby3::standin::{StandinGobyd, StandinTransport};
+use frontseat_helm_side::goby3::{self, Goby3Handle, Goby3Settings, Goby3Stats, frame, manager};
 use prost::Message;
 use zeromq::{PubSocket, ReqSocket, Socket, SocketRecv, SocketSend, ZmqMessage};
 

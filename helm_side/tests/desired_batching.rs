@@ -7,7 +7,7 @@
 use std::path::PathBuf;
 
 use bytes::BytesMut;
-use frontseat_actors::translation::{DesiredBuffer, DesiredVar};
+use frontseat_helm_side::translation::{DesiredBuffer, DesiredVar};
 use frontseat_moos::codec::{MsgType, PacketDecoder};
 
 /// The DB→client TCP payload bytes of every stream, concatenated per stream, from a hex dump.

@@ -20,11 +20,11 @@ use ractor::{Actor, ActorProcessingErr, ActorRef};
 use tokio::sync::{mpsc, watch};
 use tokio::time::Instant;
 
-use crate::bus::{Bus, Subscription, Undeliverable};
-use crate::chaos::FaultPort;
-use crate::ports::{FrontSeatTranslationInbox, FrontSeatTranslationPorts};
-use crate::proto::frontseat::protobuf::TranslationStatus;
-use crate::proto::goby::middleware::frontseat::protobuf::{
+use frontseat_actors::bus::{Bus, Subscription, Undeliverable};
+use frontseat_actors::chaos::FaultPort;
+use frontseat_actors::ports::{FrontSeatTranslationInbox, FrontSeatTranslationPorts};
+use frontseat_actors::proto::frontseat::protobuf::TranslationStatus;
+use frontseat_actors::proto::goby::middleware::frontseat::protobuf::{
     DesiredCourse, HelmState, HelmStateReport, NodeStatus, source,
 };
 
@@ -426,7 +426,7 @@ pub async fn spawn(
     spawn_with_faults(cfg, vehicle_name, bus, None).await
 }
 
-/// [`spawn`] with a fault port (`[chaos] enabled` only, crate::chaos): a `translation_panic`
+/// [`spawn`] with a fault port (`[chaos] enabled` only, frontseat_actors::chaos): a `translation_panic`
 /// fault panics the running translation on its data path.
 pub async fn spawn_with_faults(
     cfg: &MoosConfig,
@@ -470,7 +470,7 @@ pub async fn spawn_with_faults(
         health,
         buffer: DesiredBuffer::default(),
         counters: TranslationCounters::default(),
-        bad_mail_log: crate::ratelog::RateLimitedLog::for_bad_input(),
+        bad_mail_log: frontseat_actors::ratelog::RateLimitedLog::for_bad_input(),
         connects: 0,
         community: cfg.community.clone(),
         status_tx,
@@ -500,7 +500,7 @@ struct Task {
     buffer: DesiredBuffer,
     counters: TranslationCounters,
     /// A helm posting DESIRED_* as strings would log one WARN per mail without it.
-    bad_mail_log: crate::ratelog::RateLimitedLog,
+    bad_mail_log: frontseat_actors::ratelog::RateLimitedLog,
     connects: u64,
     community: String,
     status_tx: watch::Sender<TranslationStatus>,
@@ -543,9 +543,9 @@ impl Task {
                             actor = "FrontSeatTranslation",
                             nav_time = env.msg.time,
                         );
-                        crate::telemetry::set_parent(&span, env.trace.as_ref());
+                        frontseat_telemetry::set_parent(&span, env.trace.as_ref());
                         let _g = span.enter();
-                        if let Some(t) = crate::telemetry::current_trace() {
+                        if let Some(t) = frontseat_telemetry::current_trace() {
                             self.last_nav_trace = t.trace_id().to_string();
                         }
                         self.post_node_status(&env.msg)
@@ -669,14 +669,14 @@ impl Task {
         let Some(value) = m.as_double() else {
             self.counters.bad_mail += 1;
             self.counters_tx.send_replace(self.counters);
-            if let crate::ratelog::LogDecision::Log { suppressed_before } =
+            if let frontseat_actors::ratelog::LogDecision::Log { suppressed_before } =
                 self.bad_mail_log.decide(tokio::time::Instant::now())
             {
                 tracing::warn!(
                     %key,
                     data_type = ?m.data_type,
                     "DESIRED_* is not a double; ignored{}",
-                    crate::ratelog::more(
+                    frontseat_actors::ratelog::more(
                         suppressed_before,
                         "bad DESIRED_* mails",
                         self.bad_mail_log.window()
@@ -712,8 +712,11 @@ impl Task {
     /// carry it.
     fn log_due_summary(&mut self) {
         if let Some(n) = self.bad_mail_log.summary_due(Instant::now()) {
-            let line =
-                crate::ratelog::summary(n, "bad DESIRED_* mails", self.bad_mail_log.window());
+            let line = frontseat_actors::ratelog::summary(
+                n,
+                "bad DESIRED_* mails",
+                self.bad_mail_log.window(),
+            );
             tracing::warn!(
                 suppressed = n,
                 bad_mail_total = self.counters.bad_mail,
@@ -860,9 +863,9 @@ impl Actor for TranslationActor {
 /// The supervisor's child spec of the translation.
 pub fn child_spec(
     args: TranslationArgs,
-    policy: crate::supervisor::Policy,
-) -> crate::supervisor::ChildSpec {
-    crate::supervisor::ChildSpec {
+    policy: frontseat_actors::supervisor::Policy,
+) -> frontseat_actors::supervisor::ChildSpec {
+    frontseat_actors::supervisor::ChildSpec {
         name: "FrontSeatTranslation".into(),
         policy,
         about: Default::default(),
@@ -881,10 +884,10 @@ pub fn child_spec(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::proto::goby::middleware::frontseat::protobuf::{
+    use frontseat_actors::proto::goby::middleware::frontseat::protobuf::{
         CartesianCoordinate, EulerAngles, Source, Speed,
     };
-    use crate::proto::goby::middleware::protobuf::LatLonPoint;
+    use frontseat_actors::proto::goby::middleware::protobuf::LatLonPoint;
 
     fn d(posts: &[(&'static str, NavValue)], key: &str) -> Option<f64> {
         posts

@@ -1,15 +1,20 @@
-//! The gateway: carries the `interprocess` groups of `interface_yaml/` between this
+//! The helm side: every transport between the interface's bus and its helms, in one place. The
+//! gateway carries the `interprocess` groups of `interface_yaml/` between this
 //! process's bus and other processes or hosts. What is exported and imported follows from the
 //! actors the process hosts (see [`plan`]); nothing is wired by hand. Key expression
 //! `<platform>/<group with "::" → "/">`, payload the protobuf bytes, encoding
 //! `application/protobuf;<message type>`, attachment the W3C traceparent of the publisher.
 //! Kept out of frontseat-actors so that crate's tests do not pay Zenoh's build. The same plan
-//! also drives a second transport, [`goby3`]: a client of an existing Goby3 system's gobyd.
+//! also drives a second transport, [`goby3`]: a client of an existing Goby3 system's gobyd. The
+//! third, [`translation`], is Goby3's FrontSeatTranslation to a MOOSDB where pHelmIvP runs.
+//! Nothing here can end the process or touch the vehicle link: every one of them is a helm-side
+//! child of the supervision tree.
 #![forbid(unsafe_code)]
 
 pub mod goby3;
 pub mod plan;
 pub mod session;
+pub mod translation;
 pub mod wire;
 
 use std::sync::Arc;

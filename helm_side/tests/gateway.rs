@@ -9,7 +9,7 @@ use frontseat_actors::bus::{Bus, Origin, PublishMeta, TraceContext};
 use frontseat_actors::groups;
 use frontseat_actors::proto::goby::middleware::frontseat::protobuf::{DesiredCourse, NodeStatus};
 use frontseat_config::InterprocessConfig;
-use frontseat_gateway::{GatewayOptions, GatewayStats, client_config, put_message};
+use frontseat_helm_side::{GatewayOptions, GatewayStats, client_config, put_message};
 use prost::Message;
 use std::sync::Arc;
 use zenoh::Wait;
@@ -74,7 +74,7 @@ async fn until_received<T>(
 }
 
 async fn wait_stats(
-    gw: &frontseat_gateway::GatewayHandle,
+    gw: &frontseat_helm_side::GatewayHandle,
     what: &str,
     pred: impl Fn(&GatewayStats) -> bool,
 ) -> GatewayStats {
@@ -97,7 +97,7 @@ async fn interface_and_translation_processes_exchange_their_groups_with_trace() 
     let port = free_port();
     let bus_if = Bus::new();
     let bus_tr = Bus::new();
-    let gw_if = frontseat_gateway::start(
+    let gw_if = frontseat_helm_side::start(
         &bus_if,
         &peer(Some(port), None),
         "auv1",
@@ -106,7 +106,7 @@ async fn interface_and_translation_processes_exchange_their_groups_with_trace() 
     )
     .await
     .unwrap();
-    let gw_tr = frontseat_gateway::start(
+    let gw_tr = frontseat_helm_side::start(
         &bus_tr,
         &peer(None, Some(port)),
         "auv1",
@@ -177,7 +177,7 @@ async fn imported_messages_are_not_exported_again_but_local_ones_are() {
     let bus = Bus::new();
     // Both actors in one process: desired_course is exported (translation publishes it) and
     // imported (the interface subscribes it) — the case where an echo could happen.
-    let gw = frontseat_gateway::start(
+    let gw = frontseat_helm_side::start(
         &bus,
         &peer(Some(port), None),
         "auv1",
@@ -246,7 +246,7 @@ async fn garbage_wrong_type_oversized_and_bad_trace_are_counted_and_survived() {
         max_payload: 1024,
         ..Default::default()
     };
-    let gw = frontseat_gateway::start(
+    let gw = frontseat_helm_side::start(
         &bus,
         &peer(Some(port), None),
         "auv1",

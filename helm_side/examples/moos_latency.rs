@@ -19,8 +19,8 @@ use std::time::{Duration, Instant};
 
 use frontseat_actors::bus::Bus;
 use frontseat_actors::interface::InterfaceService;
-use frontseat_actors::translation;
 use frontseat_config::{InterfaceConfig, MoosConfig};
+use frontseat_helm_side::translation;
 use frontseat_moos::{Broker, MoosClient, MoosClientConfig, MoosEvent};
 use tokio::sync::mpsc;
 

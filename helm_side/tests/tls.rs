@@ -13,7 +13,7 @@ use frontseat_actors::groups;
 use frontseat_actors::proto::goby::middleware::frontseat::protobuf::{DesiredCourse, NodeStatus};
 use frontseat_config::{InterfaceConfig, InterprocessConfig, ServiceConfig, ZenohAccessConfig};
 use frontseat_config::{ZenohTlsConfig, parse};
-use frontseat_gateway::{GatewayOptions, key_for, put_message, zenoh};
+use frontseat_helm_side::{GatewayOptions, key_for, put_message, zenoh};
 use prost::Message;
 use tokio::sync::mpsc::{UnboundedReceiver, unbounded_channel};
 
@@ -54,7 +54,7 @@ async fn session(
         access,
         ..Default::default()
     };
-    let cfg = frontseat_gateway::zenoh_config(&ip, 65536).unwrap();
+    let cfg = frontseat_helm_side::zenoh_config(&ip, 65536).unwrap();
     zenoh::open(cfg).await.unwrap()
 }
 
@@ -124,7 +124,7 @@ async fn with_mutual_tls_the_topside_hears_the_vehicle() {
         tls: Some(ca.tls_for("auv1")),
         ..Default::default()
     };
-    let gw = frontseat_gateway::start(
+    let gw = frontseat_helm_side::start(
         &bus,
         &ip,
         "auv1",

@@ -5,8 +5,8 @@
 //! parse to the right endpoints and hold; the deliberately malformed frames are refused.
 
 use frontseat_actors::proto::goby::middleware::frontseat::protobuf as fs;
-use frontseat_gateway::goby3::frame::{self, FrameError};
-use frontseat_gateway::goby3::manager::{self, Transport};
+use frontseat_helm_side::goby3::frame::{self, FrameError};
+use frontseat_helm_side::goby3::manager::{self, Transport};
 use prost::Message;
 use serde_json::Value;
 

@@ -74,7 +74,7 @@ pub trait BusMessage: prost::Message + Default + Clone + Send + Sync + 'static {
 impl<T: prost::Message + Default + Clone + Send + Sync + 'static> BusMessage for T {}
 
 /// The trace context an envelope carries (defined with the telemetry, which makes it).
-pub use crate::telemetry::TraceContext;
+pub use frontseat_telemetry::TraceContext;
 
 /// Whether a message was published in this process or imported from another (so the gateway
 /// does not export it again), and through which door (so the interface can decide who may use
@@ -362,7 +362,7 @@ impl Bus {
         let mut gone = Vec::new();
         // Hop spans exist only while traces are exported; otherwise the envelope just passes
         // on whatever context the publisher was given (e.g. imported from another process).
-        let telemetry = crate::telemetry::enabled();
+        let telemetry = frontseat_telemetry::enabled();
         let publish_span = telemetry.then(|| {
             let s = tracing::trace_span!(
                 target: "frontseat_actors",
@@ -371,7 +371,7 @@ impl Bus {
                 message_type = group.type_name,
             );
             if tracing::Span::current().is_none() {
-                crate::telemetry::set_parent(&s, meta.trace.as_ref());
+                frontseat_telemetry::set_parent(&s, meta.trace.as_ref());
             }
             s
         });
@@ -398,7 +398,7 @@ impl Bus {
                 });
                 let _deliver_guard = deliver_span.as_ref().map(|s| s.enter());
                 let trace = if telemetry {
-                    crate::telemetry::current_trace()
+                    frontseat_telemetry::current_trace()
                 } else {
                     meta.trace.clone()
                 };

@@ -26,8 +26,6 @@ pub enum DriverMsg {
     Bus(DriverActorInbox),
     Io(DriverIoEvent),
     Tick,
-    /// Orderly stop: close the frontseat connection, then stop.
-    Stop,
 }
 
 impl DriverMsg {
@@ -37,7 +35,6 @@ impl DriverMsg {
             DriverMsg::Io(DriverIoEvent::Line(_)) => "io.line",
             DriverMsg::Io(_) => "io.event",
             DriverMsg::Tick => "tick",
-            DriverMsg::Stop => "stop",
         }
     }
 }
@@ -226,10 +223,6 @@ impl Actor for DriverActor {
                     .heartbeat
                     .store(crate::clock::heartbeat_now(), Ordering::Relaxed);
             }
-            DriverMsg::Stop => {
-                state.driver.stop();
-                myself.stop(Some("orderly shutdown".into()));
-            }
         }
         state.publish_status_if_changed(false);
         Ok(())
@@ -240,7 +233,7 @@ impl Actor for DriverActor {
         _myself: ActorRef<DriverMsg>,
         state: &mut DriverActorState,
     ) -> Result<(), ActorProcessingErr> {
-        // An orderly stop however it was asked for (`Stop`, or its supervisor stopping it)
+        // An orderly stop (its supervisor stopping it, or the interface stopping that supervisor)
         // closes the frontseat connection cleanly; a driver's stop may run twice.
         state.driver.stop();
         if let Some(t) = state.ticker.take() {

@@ -174,10 +174,7 @@ mod tests {
                 name: Some("helm-said".into()),
                 ..Default::default()
             }),
-            iver_state: Some(IverState {
-                mode: Some(3),
-                ..Default::default()
-            }),
+            iver_state: Some(IverState { mode: Some(3) }),
             ..Default::default()
         };
         let bytes = data.encode_to_vec();

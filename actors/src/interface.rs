@@ -287,7 +287,7 @@ pub struct FsiState {
     raw_refused_log: RateLimitedLog,
     /// The detail's counters for the OTel metrics (crate::metrics): written here, read by the
     /// exporter.
-    metrics: Arc<crate::metrics::VehicleMetrics>,
+    metrics: Arc<frontseat_telemetry::metrics::VehicleMetrics>,
     shutting_down: bool,
     exit: watch::Sender<Option<ServiceExit>>,
     subs: Vec<Subscription>,
@@ -379,7 +379,7 @@ impl FsiState {
             nav_fields_dropped: Some(self.counters.nav_fields_dropped),
             raw_sent: Some(self.counters.raw_sent),
             raw_refused: Some(self.counters.raw_refused),
-            record_dropped: crate::metrics::recorder_drops_if_recording(),
+            record_dropped: frontseat_telemetry::metrics::recorder_drops_if_recording(),
         };
         let detail = with_telemetry(detail, &self.metrics);
         self.ports.publish_detail(detail);
@@ -474,7 +474,7 @@ impl FsiState {
         };
         match check_course(course, &self.s.limits, &self.gate) {
             Ok(safe) => {
-                crate::metrics::VehicleMetrics::add(&self.metrics.setpoints_sent);
+                frontseat_telemetry::metrics::VehicleMetrics::add(&self.metrics.setpoints_sent);
                 self.gate.last_commanded_heading = safe.heading;
                 if safe == *course {
                     return Some(env);
@@ -713,7 +713,7 @@ impl FsiState {
     fn handle_data_from_frontseat(&mut self, env: Envelope<InterfaceData>) {
         let mut data = (*env.msg).clone();
         if data.node_status.is_some() {
-            crate::metrics::VehicleMetrics::add(&self.metrics.nav_received);
+            frontseat_telemetry::metrics::VehicleMetrics::add(&self.metrics.nav_received);
         }
         if let Some(ns) = data.node_status.as_mut()
             && !self.nav_fit_for_helm(ns, true)
@@ -791,7 +791,7 @@ impl FsiState {
                         source = source_name(source),
                         raw_refused_total = self.counters.raw_refused,
                         "raw_send_request refused: {why}: {:?}{}",
-                        crate::telemetry::truncate(&String::from_utf8_lossy(
+                        frontseat_telemetry::truncate(&String::from_utf8_lossy(
                             env.msg.raw.as_deref().unwrap_or_default()
                         )),
                         more(
@@ -816,7 +816,7 @@ impl FsiState {
                 source = source_name(source),
                 raw_sent_total = self.counters.raw_sent,
                 "raw_send_request to the frontseat: {:?}{}",
-                crate::telemetry::truncate(&String::from_utf8_lossy(
+                frontseat_telemetry::truncate(&String::from_utf8_lossy(
                     raw.raw.as_deref().unwrap_or_default()
                 )),
                 more(suppressed_before, "raw sends", self.raw_log.window())
@@ -1049,8 +1049,11 @@ fn warn_fix(what: &str, e: &dyn std::fmt::Display) {
 
 /// The detail's counters copied for the OTel metrics, and the process's span counts added to it:
 /// the metrics and the status say the same thing.
-fn with_telemetry(mut d: InterfaceDetail, m: &crate::metrics::VehicleMetrics) -> InterfaceDetail {
-    use crate::metrics::VehicleMetrics as M;
+fn with_telemetry(
+    mut d: InterfaceDetail,
+    m: &frontseat_telemetry::metrics::VehicleMetrics,
+) -> InterfaceDetail {
+    use frontseat_telemetry::metrics::VehicleMetrics as M;
     M::set(&m.setpoints_refused, d.setpoints_refused());
     M::set(&m.nav_refused, d.nav_refused());
     M::set(&m.nav_fields_dropped, d.nav_fields_dropped());
@@ -1061,7 +1064,7 @@ fn with_telemetry(mut d: InterfaceDetail, m: &crate::metrics::VehicleMetrics) ->
     M::set(&m.driver_restarts, u64::from(d.driver_restarts()));
     let state = d.status.map(|s| s.state() as i32).unwrap_or_default();
     m.state.store(state, std::sync::atomic::Ordering::Relaxed);
-    if let Some(c) = crate::telemetry::span_counts_if_exporting() {
+    if let Some(c) = frontseat_telemetry::span_counts_if_exporting() {
         d.spans_dropped = Some(c.dropped());
         d.spans_exported = Some(c.exported);
     }
@@ -1146,7 +1149,7 @@ impl Actor for FrontSeatInterface {
             nav_drop_log: RateLimitedLog::for_bad_input(),
             raw_log: RateLimitedLog::for_bad_input(),
             raw_refused_log: RateLimitedLog::for_bad_input(),
-            metrics: crate::metrics::register(&args.settings.name, state_name),
+            metrics: frontseat_telemetry::metrics::register(&args.settings.name, state_name),
             shutting_down: false,
             exit: args.exit,
             subs,

@@ -1,16 +1,23 @@
-//! The frontseat runtime: the in-process bus, the generated wiring (messages, groups, ports), the
-//! FrontSeatInterface and its supervised DriverActor, the driver contract (`driver`), driver
-//! selection and the driver kit every vehicle's driver uses (`drivers`; the drivers themselves
-//! live in their vehicle crates under `vehicles/`, listed by `vehicles/registry`), the glue that
-//! embeds the simulator and systemd notification. `docs/ARCHITECTURE.md` follows the data through these modules. Pure logic lives
-//! in plain modules; actors are thin shells around it. What only exercises the runtime lives
-//! outside it and uses this crate's public API:
-//! the chaos harness (`tools/chaos`), the benchmark (`tools/bench`) and the demo helm
-//! (`examples/demo_helm`); their ports are still generated here with every application's, and
-//! generated ports are the only way any other crate publishes or subscribes (the bus's own
-//! publish/subscribe are `pub(crate)`; tests use `bus::test_util` behind the `test-util`
-//! feature). Fault injection reaches the interface, driver and translation only through their
-//! fault ports (`chaos`), opened only with `[chaos] enabled`.
+//! The frontseat runtime, and only the runtime: the in-process bus (`bus`) and the generated
+//! wiring (messages, groups, ports, and the vehicle extension table `extensions`, all from
+//! `interface_yaml/`), the FrontSeatInterface with its state machine and its two gates
+//! (`interface`, `state_machine`, `command_gate`, `nav_gate`, `raw_gate`, and `extension` for
+//! any vehicle's extension groups), the DriverActor under its nested supervisor (`driver_actor`,
+//! `supervisor`, `service_child`), the driver contract (`driver`), driver selection and the
+//! driver kit every vehicle's driver uses (`drivers`), the byte links drivers read through
+//! (`link`), goby_coroner's health answer (`health`), systemd notification (`systemd`), the
+//! embedded simulator's place on the bus for the demo and tests (`sim_glue`) and the
+//! fault ports (`chaos`). It names no vehicle and no helm transport: the drivers live in their
+//! vehicle crates under `vehicles/` (listed by `vehicles/registry`), the transports to helms
+//! (Zenoh, gobyd, the MOOS translation) in `helm_side/`, telemetry in `telemetry/`.
+//! `docs/ARCHITECTURE.md` follows the data through these modules. Pure logic lives in plain
+//! modules; actors are thin shells around it. What only exercises the runtime — the chaos
+//! harness (`tools/chaos`), the benchmark (`tools/bench`), the demo helm
+//! (`examples/demo_helm`) — lives outside it; their ports are generated here with every
+//! application's, and generated ports are the only way any other crate publishes or subscribes
+//! (the bus's own publish/subscribe are `pub(crate)`; tests use `bus::test_util` behind the
+//! `test-util` feature). Fault injection reaches the interface, driver and translation only
+//! through their fault ports (`chaos`), opened only with `[chaos] enabled`.
 #![forbid(unsafe_code)]
 
 pub mod bus;
@@ -34,8 +41,4 @@ pub mod state_machine;
 pub mod supervisor;
 pub mod systemd;
 
-/// Telemetry and metrics are their own crate (`frontseat-telemetry`); these two paths stay for
-/// the drivers, which report bad lines and truncate raw lines through them while they move to
-/// `vehicles/` (issue 26, in parallel). New code uses `frontseat_telemetry` directly.
-pub use frontseat_telemetry::{self as telemetry, metrics};
 pub use generated::{extensions, groups, ports, proto};

@@ -537,7 +537,7 @@ impl SupervisorState {
             .down_since
             .get_or_insert_with(std::time::SystemTime::now);
         if child.spec.policy.side == Side::Helm {
-            crate::metrics::helm_side_down();
+            frontseat_telemetry::metrics::helm_side_down();
         }
         let why = failure
             .as_ref()

@@ -356,9 +356,9 @@ pub fn log_due(log: &mut RateLimitedLog) -> Option<u64> {
 
 /// The counter every driver bumps for a line or frame it could not read (one metric for all
 /// drivers, so an operator's alert does not name the vehicle).
-pub use crate::metrics::bad_line;
+pub use frontseat_telemetry::metrics::bad_line;
 /// A line cut to a length fit for a log line.
-pub use crate::telemetry::truncate;
+pub use frontseat_telemetry::truncate;
 
 pub fn state_of(name: frontseat_config::FrontSeatStateName) -> FrontSeatState {
     match name {

@@ -248,7 +248,7 @@ async fn run_connection(stream: TcpStream, cfg: &LinkConfig, io: &IoSender) -> S
                             target: "frontseat_actors",
                             "frontseat.socket_read",
                             bytes = buf.len(),
-                            line = crate::telemetry::truncate(line),
+                            line = frontseat_telemetry::truncate(line),
                             peer = %cfg.host,
                         );
                         let sent = span.in_scope(|| io.send(DriverIoEvent::Line(line.to_string())));

@@ -3,6 +3,9 @@
 //!
 //! The doc comments on the config structs are the single source of field descriptions: schemars
 //! turns them into the schema, and [`example`] walks that schema to comment the example file.
+//! Each vehicle's `[driver.<vehicle>]` section is written in its vehicle's folder
+//! (`vehicles/<vehicle>/config.rs`) and compiled here by `#[path]`: the vehicle crates depend on
+//! this one, and the whole config (defaults, validation, schema, example) is made in one place.
 #![forbid(unsafe_code)]
 
 // Each vehicle's `[driver.<vehicle>]` section lives in its vehicle's folder (see the opening of

@@ -463,10 +463,16 @@ fn inbox(model: &Model, actor: &str, subs: &[Port]) -> TokenStream {
         .iter()
         .map(|p| model.groups[p.group].name.as_str())
         .collect();
-    let doc = format!(
-        " One delivery to actor `{actor}`: one variant per group it subscribes to in `interface_yaml/` \
-         (every vehicle extension group in the one `VehicleExtension`)."
-    );
+    let doc = if vehicle.is_empty() {
+        format!(
+            " One delivery to actor `{actor}`: one variant per group it subscribes to in `interface_yaml/`."
+        )
+    } else {
+        format!(
+            " One delivery to actor `{actor}`: one variant per group it subscribes to in `interface_yaml/` \
+             (every vehicle extension group in the one `VehicleExtension`)."
+        )
+    };
     quote! {
         #[doc = #doc]
         #[derive(Debug)]

@@ -189,7 +189,10 @@ async fn the_topside_records_each_vehicle_on_its_own_channel_and_both_readers_de
     assert_eq!(info.dropped, Some(0));
     assert_eq!(info.run.get("vehicle").map(String::as_str), Some("topside"));
     let series = frontseat_record::plot::series(Recording::open(&file).unwrap()).unwrap();
-    assert_eq!(series.vehicles, ["auv1", "auv2"]);
+    // In order of first appearance, which is whichever vehicle's sample the topside heard first.
+    let mut vehicles = series.vehicles.clone();
+    vehicles.sort();
+    assert_eq!(vehicles, ["auv1", "auv2"]);
     assert_eq!(series.actual.len() as u64, messages);
 
     // The reference Python reader decodes every message with the file's schemas.

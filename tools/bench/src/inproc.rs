@@ -56,6 +56,9 @@ pub(super) const GRACE: Duration = Duration::from_millis(300);
 
 /// The depth limit of the bench's interfaces: above any sequence number a row writes in DEPTH.
 const SEQUENCE_DEPTH_LIMIT: f64 = 1e9;
+/// The navigation gate's depth bound for the bench: above any sequence number a NAV line carries
+/// (and the largest `[limits.navigation] max_depth` validation accepts).
+const NAV_SEQUENCE_DEPTH_LIMIT: f64 = 1e5;
 
 /// Runs P1, P2, P6, then M1 and M2 on one interface (those of them `sel` wants; M1 and M2
 /// together); returns their rows in that order.
@@ -94,6 +97,11 @@ async fn run_inner(plan: Plan, sel: &super::Selection) -> Result<Vec<Row>, Strin
     // run): the safety envelope's depth limit (300 m by default) would refuse all but the first
     // 300 and the row would measure nothing. Every other limit stays at its default.
     cfg.limits.max_depth = SEQUENCE_DEPTH_LIMIT;
+    // P1, P6 and M1 carry theirs in the NAV line's DEPTH (up to p1 + p6 + m1 = 65 000 in a full
+    // run): the navigation gate drops a depth past 11 000 m (the deepest ocean), so M1, which
+    // comes after P1's 10 000 lines, lost every sample in a full run. The gate's own bound is
+    // raised as far as validation allows; every other navigation bound stays at its default.
+    cfg.limits.navigation.max_depth = NAV_SEQUENCE_DEPTH_LIMIT;
     let capacity = cfg.bus.queue_capacity;
 
     let bus = Bus::new();

@@ -673,6 +673,20 @@ pub fn resolved_yaml(model: &Model) -> String {
             out.push_str("---\n");
         }
         out.push_str(&format!("application: {}\n", app.name));
+        // A vehicle's file: its extension entries say so, and which vehicle.
+        let extension = |group: &str, actor: &str| {
+            model
+                .extensions
+                .iter()
+                .find(|x| model.groups[x.group].name == group && x.actor == actor)
+        };
+        if let Some(x) = app
+            .entries
+            .iter()
+            .find_map(|(_, _, group, _, actor)| extension(group, actor))
+        {
+            out.push_str(&format!("vehicle: {}\n", x.vehicle));
+        }
         for layer in [Layer::Interprocess, Layer::Interthread] {
             if !app.entries.iter().any(|e| e.0 == layer) {
                 continue;
@@ -692,6 +706,9 @@ pub fn resolved_yaml(model: &Model) -> String {
                     out.push_str(&format!(
                         "    - group: {group}\n      type: {type_name}\n      actor: {actor}\n"
                     ));
+                    if let Some(x) = extension(group, actor) {
+                        out.push_str(&format!("      extension: {}\n", x.kind.key()));
+                    }
                 }
             }
         }

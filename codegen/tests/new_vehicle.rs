@@ -68,4 +68,20 @@ fn a_new_vehicle_yaml_joins_the_extension_table_without_a_new_inbox_variant() {
             .contains("group: \"frontseat::example::example_command_request\"")
     );
     assert!(!before.rust.contains("example_command_request"));
+
+    // `frontseat interfaces` prints the vehicle file as it was written.
+    let app = after
+        .resolved_yaml
+        .split("---\n")
+        .find(|a| a.starts_with("application: vehicle_example\n"))
+        .unwrap_or_else(|| panic!("{}", after.resolved_yaml));
+    assert!(app.contains("vehicle: Example\n"), "{app}");
+    assert!(
+        app.contains(
+            "    - group: frontseat::example::example_command_request\n      \
+             type: frontseat.protobuf.iver.CommandRequest\n      actor: FrontSeatInterface\n      \
+             extension: command\n"
+        ),
+        "{app}"
+    );
 }

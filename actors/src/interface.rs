@@ -553,6 +553,15 @@ impl FsiState {
         env: Envelope<Encoded>,
     ) -> Option<(Vec<u8>, crate::bus::PublishMeta)> {
         let base = self.extension_base(&env)?;
+        self.gate_extended_base(env, base)
+    }
+
+    /// [`Self::gate_extended`] with the base already decoded from the mirror.
+    fn gate_extended_base(
+        &mut self,
+        env: Envelope<Encoded>,
+        base: CommandRequest,
+    ) -> Option<(Vec<u8>, crate::bus::PublishMeta)> {
         let state = self.sm.state();
         if !self.shutting_down && state == InterfaceState::InterfaceCommand {
             let spec = env.msg.spec;
@@ -591,7 +600,7 @@ impl FsiState {
     ) -> Option<(Vec<u8>, crate::bus::PublishMeta)> {
         let base = self.extension_base(&env)?;
         if self.sm.state() == InterfaceState::InterfaceCommand || base.desired_course.is_some() {
-            return self.gate_extended(env);
+            return self.gate_extended_base(env, base);
         }
         if self.listen_or_command() {
             if base.response_requested() {

@@ -29,6 +29,6 @@ pub const DRIVER: frontseat_actors::drivers::BuiltIn = frontseat_actors::drivers
     },
     // A mode or arming command waits for COMMAND_ACK this long (3 s by default, within the
     // interface's own 5 s; a longer one is now waited for too).
-    ack_budget: |cfg| frontseat_actors::drivers::kit::config_secs(cfg.driver.ardupilot.ack_timeout),
+    ack_budget: |cfg| Settings::from_config(cfg).ack_timeout,
     raw_framing: frontseat_actors::raw_gate::RawFraming::Frames,
 };

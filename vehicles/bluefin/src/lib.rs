@@ -32,12 +32,11 @@ pub const DRIVER: frontseat_actors::drivers::BuiltIn = frontseat_actors::drivers
                 as Box<dyn frontseat_actors::driver::Driver>
         })
     },
+    // Goby3's resend budget, as the driver reads it: nmea_resend_attempts writes,
+    // nmea_resend_interval apart.
     ack_budget: |cfg| {
-        // Goby3's resend budget: nmea_resend_attempts writes, nmea_resend_interval apart.
-        let b = &cfg.driver.bluefin;
-        std::time::Duration::from_secs(
-            u64::from(b.nmea_resend_attempts.max(1)) * u64::from(b.nmea_resend_interval.max(1)),
-        )
+        let s = Settings::from_config(cfg);
+        s.resend_interval.saturating_mul(s.resend_attempts)
     },
     raw_framing: frontseat_actors::raw_gate::RawFraming::Lines,
 };

@@ -27,8 +27,7 @@ pub const DRIVER: frontseat_actors::drivers::BuiltIn = frontseat_actors::drivers
                 as Box<dyn frontseat_actors::driver::Driver>
         })
     },
-    ack_budget: |cfg| {
-        frontseat_actors::drivers::kit::config_secs(cfg.driver.iver3.link.ack_timeout)
-    },
+    // The driver's own ack timeout, as it reads it.
+    ack_budget: |cfg| Settings::from_config(cfg).ack_timeout,
     raw_framing: frontseat_actors::raw_gate::RawFraming::Lines,
 };

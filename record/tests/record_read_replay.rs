@@ -27,6 +27,15 @@ fn node_status(i: u32) -> NodeStatus {
     n
 }
 
+/// A file recorder that writes however little the test machine's disk has free: these tests
+/// record a few kilobytes, and the disk guard (below half of `min_free_mb` the recorder stops
+/// writing) has its own test, `a_disk_below_the_floor_stops_writing_and_counts_the_drops`.
+fn small_file(path: impl Into<std::path::PathBuf>) -> RecorderOptions {
+    let mut o = RecorderOptions::file(path);
+    o.min_free_bytes = 0;
+    o
+}
+
 fn meta() -> RecordMeta {
     RecordMeta {
         vehicle: "auv1".into(),
@@ -57,7 +66,7 @@ fn recorded_messages_read_back_with_their_schema_metadata_and_origin() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("run.mcap");
     let bus = Bus::new();
-    let rec = Recorder::start(&bus, RecorderOptions::file(&path), meta()).unwrap();
+    let rec = Recorder::start(&bus, small_file(&path), meta()).unwrap();
     assert!(
         rec.groups().contains(&NODE_STATUS.name()),
         "both layers, every group"
@@ -159,7 +168,7 @@ fn recorded_messages_read_back_with_their_schema_metadata_and_origin() {
 #[test]
 fn include_and_exclude_choose_groups() {
     let dir = tempfile::tempdir().unwrap();
-    let mut o = RecorderOptions::file(dir.path().join("x.mcap"));
+    let mut o = small_file(dir.path().join("x.mcap"));
     o.include = vec![regex::Regex::new("^goby::").unwrap()];
     o.exclude = vec![regex::Regex::new("desired_course$").unwrap()];
     let bus = Bus::new();
@@ -174,7 +183,7 @@ fn a_file_cut_mid_chunk_reads_up_to_its_last_whole_chunk() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("torn.mcap");
     let bus = Bus::new();
-    let mut o = RecorderOptions::file(&path);
+    let mut o = small_file(&path);
     o.flush = Duration::from_millis(50);
     let rec = Recorder::start(&bus, o, meta()).unwrap();
     for i in 0..100 {
@@ -205,6 +214,29 @@ fn a_file_cut_mid_chunk_reads_up_to_its_last_whole_chunk() {
     assert_eq!(i.messages, 100);
     assert!(i.truncated.is_some());
     assert_eq!(i.dropped, None, "unknown when the file was not closed");
+}
+
+#[test]
+fn a_disk_below_the_floor_stops_writing_and_counts_the_drops() {
+    // No disk has this much free, so the guard trips at start: the file is closed (and readable,
+    // its metadata says nothing was written) and every message is a counted drop, not an error.
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("full.mcap");
+    let bus = Bus::new();
+    let mut o = RecorderOptions::file(&path);
+    o.min_free_bytes = u64::MAX;
+    let rec = Recorder::start(&bus, o, meta()).unwrap();
+    for i in 0..10 {
+        bus.publish(&NODE_STATUS, node_status(i));
+    }
+    wait_written(&rec, 10);
+    let s = rec.stop();
+    assert_eq!(s.written, 0, "{s:?}");
+    assert_eq!(s.dropped_unwritable, 10, "{s:?}");
+    assert!(s.disk_low >= 1, "{s:?}");
+    let i = info::info(Recording::open(&path).unwrap()).unwrap();
+    assert_eq!(i.messages, 0);
+    assert_eq!(i.dropped, Some(0), "closed when the disk ran low, before any drop");
 }
 
 #[test]
@@ -264,7 +296,7 @@ async fn replay_keeps_order_and_timing_and_marks_origin() {
     {
         // Record node_status at 10 Hz (real time: the recorder stamps with the bus's clock).
         let bus = Bus::new();
-        let rec = Recorder::start(&bus, RecorderOptions::file(&path), meta()).unwrap();
+        let rec = Recorder::start(&bus, small_file(&path), meta()).unwrap();
         for i in 0..20 {
             bus.publish(&NODE_STATUS, node_status(i));
             bus.publish(&DESIRED, DesiredCourse::default());
@@ -328,7 +360,7 @@ async fn replay_window_and_group_filter() {
     let path = dir.path().join("w.mcap");
     {
         let bus = Bus::new();
-        let rec = Recorder::start(&bus, RecorderOptions::file(&path), meta()).unwrap();
+        let rec = Recorder::start(&bus, small_file(&path), meta()).unwrap();
         for i in 0..30 {
             bus.publish(&NODE_STATUS, node_status(i));
             std::thread::sleep(Duration::from_millis(10));

@@ -142,7 +142,13 @@ async fn a_replay_reaches_goby3_clients_through_gobyd_with_its_timing_and_no_com
     while got.len() < N as usize {
         let env = timeout_at(deadline, nav.recv())
             .await
-            .unwrap_or_else(|_| panic!("{} of {N} node_status arrived; replay: {err}", got.len()))
+            .unwrap_or_else(|_| {
+                let times: Vec<f64> = got.iter().map(|g: &(f64, _)| g.0).collect();
+                panic!(
+                    "{} of {N} node_status arrived ({times:?}); replay: {err}",
+                    got.len()
+                )
+            })
             .unwrap();
         assert_eq!(env.origin, Origin::Goby3, "came in through gobyd");
         got.push((env.msg.time, env.published_at));

@@ -236,7 +236,11 @@ fn a_disk_below_the_floor_stops_writing_and_counts_the_drops() {
     assert!(s.disk_low >= 1, "{s:?}");
     let i = info::info(Recording::open(&path).unwrap()).unwrap();
     assert_eq!(i.messages, 0);
-    assert_eq!(i.dropped, Some(0), "closed when the disk ran low, before any drop");
+    assert_eq!(
+        i.dropped,
+        Some(0),
+        "closed when the disk ran low, before any drop"
+    );
 }
 
 #[test]

@@ -27,6 +27,10 @@ use crate::wire;
 
 /// Goby3 polls the hold state every 100 ms.
 const HOLD_POLL: Duration = Duration::from_millis(100);
+/// How long a link told to stop keeps its sockets after publishing: zeromq's PUB hands a message
+/// to background queues and has neither flush nor linger, so dropping it at once loses the last
+/// messages (a replay's end; the interface's last status at shutdown). libzmq lingers too.
+const LINGER: Duration = Duration::from_millis(250);
 
 pub(crate) struct Link {
     pub settings: Goby3Settings,
@@ -313,10 +317,14 @@ pub(crate) async fn run(
                 c.connects.fetch_add(1, Ordering::Relaxed);
                 link.set_up(true);
                 tracing::info!(manager = %manager_ep, platform = %s.platform, "joined gobyd: Goby3 link up");
+                let exported_before = c.exported.load(Ordering::Relaxed);
                 let why = link
                     .serve(&mut session, &mut out, &exporter, &importer, &mut stop)
                     .await;
                 let stopped = matches!(why, LinkError::Stopped);
+                if stopped && c.exported.load(Ordering::Relaxed) > exported_before {
+                    tokio::time::sleep(LINGER).await;
+                }
                 if !stopped {
                     // Logged and counted before the flag drops, so whoever sees it down finds why.
                     c.link_losses.fetch_add(1, Ordering::Relaxed);

@@ -47,6 +47,9 @@ pub const DATA: &str =
 /// Sentences waiting to be written before new ones are refused: a Huxley that stops acking
 /// must not grow our memory.
 pub const MAX_QUEUE: usize = 256;
+/// Sentences the Huxley answered "pending" (status 3) and not yet finally: a Huxley that answers
+/// pending to everything must not grow our memory either. Past this the oldest is given up.
+pub const MAX_PENDING: usize = 256;
 /// Payload statuses kept for the heartbeat (they expire by themselves).
 const MAX_PAYLOAD_STATUSES: usize = 64;
 /// Longest line accepted from the Huxley.
@@ -68,6 +71,9 @@ pub mod error_code {
     pub const QUEUE_FULL: i32 = 13;
     /// Cancelled by a later request's cancel_request_id.
     pub const CANCELLED: i32 = 14;
+    /// Answered "pending" and then crowded out by `MAX_PENDING` newer pending sentences before
+    /// the Huxley gave its final answer.
+    pub const PENDING_OVERFLOW: i32 = 15;
 }
 
 #[derive(Clone, Debug)]
@@ -154,6 +160,8 @@ pub struct BluefinStats {
     pub queue_full: u64,
     /// Lines that could not be handed to the socket.
     pub write_failures: u64,
+    /// Pending sentences given up because `MAX_PENDING` newer ones were pending too.
+    pub pending_overflow: u64,
     /// Connections re-opened because the Huxley stopped acknowledging.
     pub unresponsive_resets: u64,
 }
@@ -572,6 +580,19 @@ impl BluefinDriver {
             .is_some_and(|h| h.written_at.is_some() && h.ack_id.eq_ignore_ascii_case(&a.command));
         if a.status == AckStatus::Pending {
             if head_in_flight && let Some(h) = self.queue.pop_front() {
+                if self.pending.len() >= MAX_PENDING
+                    && let Some(old) = self.pending.pop_front()
+                {
+                    self.stats.pending_overflow += 1;
+                    let what = format!(
+                        "{MAX_PENDING} sentences are pending at the Huxley; giving up the oldest ({}) without its final answer",
+                        old.ack_id
+                    );
+                    self.problem(&what, &old.line);
+                    if let Some(id) = old.request {
+                        Self::answer(sig, id, false, error_code::PENDING_OVERFLOW, what);
+                    }
+                }
                 self.pending.push_back(h);
             } else {
                 self.unmatched(&a);

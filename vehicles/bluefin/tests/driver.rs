@@ -360,6 +360,44 @@ fn a_final_ack_for_a_pending_command_does_not_release_the_sentence_in_flight() {
 }
 
 #[test]
+fn a_huxley_that_answers_only_pending_cannot_grow_the_pending_list() {
+    // Goby3 keeps every pending sentence until its final answer (`pending_`, unbounded); we keep
+    // MAX_PENDING and fail the oldest, so the helm hears that request will get no answer.
+    use frontseat_bluefin::driver::MAX_PENDING;
+    let mut h = H::new();
+    h.ack_everything();
+    let n = i32::try_from(MAX_PENDING).unwrap() + 10;
+    for id in 1..=n {
+        h.command(&course(180.0, 1.5, 10.0, id));
+        let w = h.written();
+        assert_eq!(w.len(), 1, "request {id}");
+        assert!(w[0].starts_with("$BPRMB"), "{w:?}");
+        h.ack("RMB", 3, "");
+    }
+    assert_eq!(h.d.queue_lengths(), (0, MAX_PENDING));
+    assert_eq!(h.d.stats.pending_overflow, 10);
+    let failed: Vec<_> = h
+        .sink
+        .responses
+        .iter()
+        .filter(|r| r.request_successful == Some(false))
+        .map(|r| (r.request_id, r.error_code))
+        .collect();
+    let want: Vec<_> = (1..=10)
+        .map(|id| (Some(id), Some(error_code::PENDING_OVERFLOW)))
+        .collect();
+    assert_eq!(failed, want, "the oldest ten, in order, and nothing else");
+    // The next final answer belongs to the oldest request still pending.
+    h.ack("RMB", 2, "");
+    let last = h.sink.responses.last().unwrap();
+    assert_eq!(
+        (last.request_id, last.request_successful),
+        (Some(11), Some(true))
+    );
+    assert_eq!(h.d.queue_lengths(), (0, MAX_PENDING - 1));
+}
+
+#[test]
 fn an_unmatched_ack_is_counted_and_clears_nothing() {
     let mut h = H::new();
     h.ack_everything();

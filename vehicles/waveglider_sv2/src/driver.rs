@@ -115,6 +115,8 @@ impl WavegliderSv2Driver {
 
     fn bad(&mut self, what: &str) {
         self.counters.bad_frames += 1;
+        // The process-wide count (frontseat.bad_lines, the interface's detail) every driver bumps.
+        frontseat_actors::drivers::kit::bad_line();
         if let Some(suppressed) = log_due(&mut self.bad_log) {
             tracing::warn!(%what, suppressed, "bad input from the Wave Glider C&C");
         }
@@ -609,7 +611,9 @@ mod tests {
         // Polling stops: not providing data after 30 s.
         d.do_loop(Duration::from_secs(31), &mut sink);
         assert!(!d.frontseat_providing_data());
-        // Bad frames and stray lines are counted.
+        // Bad frames and stray lines are counted, here and in the process-wide metric (only
+        // ever grows, so other tests bumping it at once cannot make this fail).
+        let process_wide = frontseat_telemetry::metrics::bad_lines();
         d.handle_io(
             DriverIoEvent::Frame(vec![0x7E, 1, 2]),
             Duration::ZERO,
@@ -617,6 +621,7 @@ mod tests {
         );
         d.handle_io(DriverIoEvent::Line("x".into()), Duration::ZERO, &mut sink);
         assert_eq!(d.counters.bad_frames, 2);
+        assert!(frontseat_telemetry::metrics::bad_lines() >= process_wide + 2);
         d.handle_io(
             DriverIoEvent::Disconnected("x".into()),
             Duration::ZERO,

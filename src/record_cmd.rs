@@ -8,6 +8,7 @@ use std::process::ExitCode;
 use clap::{Args, Subcommand, ValueEnum};
 use frontseat_actors::bus::Bus;
 use frontseat_config::InterfaceConfig;
+use frontseat_helm_side::outlet::{Onto, Outlet};
 use frontseat_record::recorder::{RecordMeta, config_digest};
 use frontseat_record::replay::{ReplayOptions, Speed};
 use frontseat_record::service::RecordService;
@@ -78,72 +79,31 @@ pub fn log(args: LogArgs) -> ExitCode {
             force,
         } => import(&file, output, force),
         LogCommand::Plot { file, out } => {
-            let rec = match Recording::open(&file) {
-                Ok(r) => r,
-                Err(e) => return fail(&e),
-            };
-            let s = match frontseat_record::plot::series(rec) {
+            let s = match Recording::open(&file).and_then(frontseat_record::plot::series) {
                 Ok(s) => s,
                 Err(e) => return fail(&e),
             };
-            if let Err(e) = std::fs::create_dir_all(&out) {
-                eprintln!("cannot create {}: {e}", out.display());
-                return ExitCode::from(1);
-            }
-            for (name, text) in [
-                ("track.svg", frontseat_record::plot::track_svg(&s)),
-                ("time.svg", frontseat_record::plot::time_svg(&s)),
-            ] {
-                let p = out.join(name);
-                if let Err(e) = std::fs::write(&p, text) {
-                    eprintln!("cannot write {}: {e}", p.display());
-                    return ExitCode::from(1);
-                }
-            }
-            eprintln!(
-                "{} node_status and {} desired_course samples; wrote {} and {}",
-                s.actual.len(),
-                s.commanded.len(),
-                out.join("track.svg").display(),
-                out.join("time.svg").display()
-            );
-            ExitCode::SUCCESS
-        }
-        LogCommand::Info { file, json } => {
-            let rec = match Recording::open(&file) {
-                Ok(r) => r,
-                Err(e) => return fail(&e),
-            };
-            match info::info(rec) {
-                Ok(i) if json => {
-                    let groups: Vec<_> = i
-                        .groups
-                        .iter()
-                        .map(|g| {
-                            serde_json::json!({
-                                "group": g.group, "type": g.type_name, "count": g.count,
-                                "bytes": g.bytes, "rate_hz": g.rate_hz(),
-                                "max_gap_s": g.max_interval as f64 / 1e9, "gaps": g.gaps,
-                                "not_local": g.not_local,
-                            })
-                        })
-                        .collect();
-                    let v = serde_json::json!({
-                        "messages": i.messages,
-                        "start_ns": i.start, "end_ns": i.end,
-                        "duration_s": i.end.saturating_sub(i.start) as f64 / 1e9,
-                        "run": i.run, "dropped": i.dropped, "truncated": i.truncated,
-                        "groups": groups,
-                    });
-                    println!("{v:#}");
-                    ExitCode::SUCCESS
-                }
-                Ok(i) => {
-                    print!("{}", i.render());
+            match frontseat_record::plot::write_dir(&s, &out) {
+                Ok([track, time]) => {
+                    eprintln!(
+                        "{} node_status and {} desired_course samples; wrote {} and {}",
+                        s.actual.len(),
+                        s.commanded.len(),
+                        track.display(),
+                        time.display()
+                    );
                     ExitCode::SUCCESS
                 }
                 Err(e) => fail(&e),
             }
+        }
+        LogCommand::Info { file, json } => {
+            match Recording::open(&file).and_then(info::info) {
+                Ok(i) if json => println!("{:#}", i.to_json()),
+                Ok(i) => print!("{}", i.render()),
+                Err(e) => return fail(&e),
+            }
+            ExitCode::SUCCESS
         }
         LogCommand::Export {
             file,
@@ -151,36 +111,13 @@ pub fn log(args: LogArgs) -> ExitCode {
             format,
             output,
         } => {
-            let rec = match Recording::open(&file) {
-                Ok(r) => r,
-                Err(e) => return fail(&e),
-            };
             let format = match format {
                 ExportFormat::Csv => export::Format::Csv,
                 ExportFormat::Json => export::Format::Json,
             };
-            let result = match &output {
-                Some(p) => match std::fs::File::create(p) {
-                    Ok(f) => {
-                        let mut w = std::io::BufWriter::new(f);
-                        let r = export::export(rec, &group, format, &mut w);
-                        std::io::Write::flush(&mut w)
-                            .map_err(export::ExportError::Write)
-                            .and(r)
-                    }
-                    Err(e) => {
-                        eprintln!("cannot create {}: {e}", p.display());
-                        return ExitCode::from(1);
-                    }
-                },
-                None => {
-                    let mut w = std::io::BufWriter::new(std::io::stdout().lock());
-                    let r = export::export(rec, &group, format, &mut w);
-                    std::io::Write::flush(&mut w)
-                        .map_err(export::ExportError::Write)
-                        .and(r)
-                }
-            };
+            let result = Recording::open(&file)
+                .map_err(export::ExportError::Read)
+                .and_then(|rec| export::export_to(rec, &group, format, output.as_deref()));
             match result {
                 Ok(done) => {
                     eprintln!(
@@ -204,52 +141,15 @@ pub fn log(args: LogArgs) -> ExitCode {
 }
 
 fn import(file: &Path, output: Option<PathBuf>, force: bool) -> ExitCode {
-    let out = output.unwrap_or_else(|| file.with_extension("mcap"));
-    if out == file {
-        eprintln!("{}: the output would replace the input", out.display());
-        return ExitCode::from(2);
-    }
-    if out.exists() && !force {
-        eprintln!("{} exists (--force to replace it)", out.display());
-        return ExitCode::from(2);
-    }
-    let src = match std::fs::File::open(file) {
-        Ok(f) => std::io::BufReader::new(f),
-        Err(e) => {
-            eprintln!("cannot open {}: {e}", file.display());
-            return ExitCode::from(1);
-        }
-    };
-    // Written beside the target and renamed at the end: an interrupted import leaves no
-    // half-written file under the name a user would open.
-    let mut tmp_name = out.as_os_str().to_owned();
-    tmp_name.push(".part");
-    let tmp = PathBuf::from(tmp_name);
-    let dst = match std::fs::File::create(&tmp) {
-        Ok(f) => std::io::BufWriter::new(f),
-        Err(e) => {
-            eprintln!("cannot create {}: {e}", tmp.display());
-            return ExitCode::from(1);
-        }
-    };
-    let name = file
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_default();
-    match frontseat_record::import::import(src, dst, &name) {
-        Ok(stats) => {
-            if let Err(e) = std::fs::rename(&tmp, &out) {
-                eprintln!("cannot rename {} to {}: {e}", tmp.display(), out.display());
-                return ExitCode::from(1);
-            }
+    match frontseat_record::import::import_file(file, output, force) {
+        Ok((out, stats)) => {
             eprintln!("{}", stats.render());
             eprintln!("wrote {}", out.display());
             ExitCode::SUCCESS
         }
         Err(e) => {
-            let _ = std::fs::remove_file(&tmp);
-            eprintln!("{}: {e}", file.display());
-            ExitCode::from(1)
+            eprintln!("{e}");
+            ExitCode::from(if e.is_usage() { 2 } else { 1 })
         }
     }
 }
@@ -342,6 +242,40 @@ impl ReplayArgs {
 }
 
 impl ReplayArgs {
+    /// The transport the replay publishes on (None: this process's bus only).
+    fn onto(&self) -> Result<Option<Onto>, String> {
+        let to = if self.no_zenoh {
+            ReplayTo::Bus
+        } else {
+            self.onto
+        };
+        let vehicle = || recorded_vehicle(&self.file).unwrap_or_default();
+        Ok(match to {
+            ReplayTo::Bus => None,
+            ReplayTo::Gobyd => Some(Onto::Gobyd {
+                cfg: self.goby3_config()?,
+                vehicle: vehicle(),
+                wait: std::time::Duration::try_from_secs_f64(self.goby_wait.clamp(0.1, 3600.0))
+                    .unwrap_or(std::time::Duration::from_secs(15)),
+            }),
+            ReplayTo::Zenoh => {
+                let mut cfg = frontseat_config::InterprocessConfig {
+                    enabled: true,
+                    ..Default::default()
+                };
+                if !self.listen.is_empty() {
+                    cfg.listen = self.listen.clone();
+                }
+                cfg.connect = self.connect.clone();
+                cfg.platform = self.platform.clone().unwrap_or_default();
+                Some(Onto::Zenoh {
+                    cfg,
+                    vehicle: vehicle(),
+                })
+            }
+        })
+    }
+
     pub fn options(&self) -> Result<ReplayOptions, String> {
         let speed = match self.speed.as_str() {
             "max" => Speed::Max,
@@ -389,140 +323,35 @@ pub async fn replay(args: ReplayArgs) -> ExitCode {
         }
     };
     let bus = Bus::new();
-    let to = if args.no_zenoh {
-        ReplayTo::Bus
-    } else {
-        args.onto
-    };
-    let mut gateway = None;
-    let mut goby3 = None;
-    if to == ReplayTo::Gobyd {
-        // Claimed before gobyd is joined: a replay bus never carries a live driver.
-        if let Err(held) = bus.claim(frontseat_actors::bus::BusRole::Replay) {
-            eprintln!("the bus is already claimed by {held:?}");
+    let outlet = match args.onto() {
+        Ok(None) => None,
+        Ok(Some(onto)) => match Outlet::open(&bus, onto).await {
+            Ok(o) => {
+                eprintln!("frontseat replay: {}", o.description());
+                Some(o)
+            }
+            Err(e) => {
+                eprintln!("{e}");
+                return ExitCode::from(if e.is_usage() { 2 } else { 1 });
+            }
+        },
+        Err(e) => {
+            eprintln!("{e}");
             return ExitCode::from(2);
         }
-        let cfg = match args.goby3_config() {
-            Ok(c) => c,
-            Err(e) => {
-                eprintln!("{e}");
-                return ExitCode::from(2);
-            }
-        };
-        let vehicle = recorded_vehicle(&args.file).unwrap_or_default();
-        let settings = match frontseat_helm_side::goby3::Goby3Settings::from_config(&cfg, &vehicle)
-        {
-            Ok(s) => s,
-            Err(e) => {
-                eprintln!("{e}");
-                return ExitCode::from(2);
-            }
-        };
-        let endpoint = settings.transport.manager_endpoint();
-        // Only the vehicle's publications go out; nothing from gobyd comes in.
-        let h = match frontseat_helm_side::goby3::start_publisher(
-            &bus,
-            settings,
-            &["FrontSeatInterface"],
-            frontseat_helm_side::GatewayOptions::default(),
-        ) {
-            Ok(h) => h,
-            Err(e) => {
-                eprintln!("cannot start the Goby3 link: {e}");
-                return ExitCode::from(1);
-            }
-        };
-        // Messages published before gobyd is joined would be dropped: wait (bounded) for it.
-        let wait = std::time::Duration::try_from_secs_f64(args.goby_wait.clamp(0.1, 3600.0))
-            .unwrap_or(std::time::Duration::from_secs(15));
-        let joined = tokio::time::timeout(wait, async {
-            while !h.link_up() {
-                tokio::time::sleep(std::time::Duration::from_millis(20)).await;
-            }
-        })
-        .await;
-        if joined.is_err() {
-            eprintln!("gobyd did not answer at {endpoint} within {wait:?}");
-            h.close().await;
-            return ExitCode::from(1);
-        }
-        eprintln!("frontseat replay: publishing through gobyd at {endpoint}");
-        goby3 = Some(h);
-    }
-    if to == ReplayTo::Zenoh {
-        let mut cfg = frontseat_config::InterprocessConfig {
-            enabled: true,
-            ..Default::default()
-        };
-        if !args.listen.is_empty() {
-            cfg.listen = args.listen.clone();
-        }
-        cfg.connect = args.connect.clone();
-        let vehicle = recorded_vehicle(&args.file).unwrap_or_default();
-        cfg.platform = args.platform.clone().unwrap_or_default();
-        let platform = match frontseat_helm_side::resolve_platform(&cfg, &vehicle) {
-            Ok(p) => p,
-            Err(e) => {
-                eprintln!("{e}");
-                return ExitCode::from(2);
-            }
-        };
-        // The replay stands in for the vehicle's interface: it exports what that publishes.
-        match frontseat_helm_side::start(
-            &bus,
-            &cfg,
-            &platform,
-            &["FrontSeatInterface"],
-            frontseat_helm_side::GatewayOptions::default(),
-        )
-        .await
-        {
-            Ok(g) => {
-                eprintln!("frontseat replay: publishing on Zenoh platform {platform}");
-                gateway = Some(g);
-            }
-            Err(e) => {
-                eprintln!("cannot start Zenoh: {e}");
-                return ExitCode::from(1);
-            }
-        }
-    }
+    };
     let started = std::time::Instant::now();
     let result = tokio::select! {
         r = frontseat_record::replay::replay(&bus, &args.file, &opts) => Some(r),
         _ = crate::shutdown::shutdown_signal() => None,
     };
-    if let Some(g) = gateway {
-        // As for gobyd below: the end of the replay leaves the export queue before closing.
-        if let Some(Ok(r)) = &result {
-            let deadline = tokio::time::Instant::now() + std::time::Duration::from_secs(5);
-            while {
-                let st = g.stats();
-                st.exported + st.export_errors < r.published
-            } && tokio::time::Instant::now() < deadline
-            {
-                tokio::time::sleep(std::time::Duration::from_millis(10)).await;
-            }
-        }
-        g.close().await;
-    }
-    if let Some(h) = goby3 {
-        // The last messages may still be in the link's queue: let them out (bounded) before
-        // closing, or a replay would lose its end.
-        if let Some(Ok(r)) = &result {
-            let deadline = tokio::time::Instant::now() + std::time::Duration::from_secs(5);
-            loop {
-                let st = h.stats();
-                let out = st.exported + st.dropped_link_down + st.export_errors;
-                if out >= r.published || tokio::time::Instant::now() >= deadline {
-                    break;
-                }
-                tokio::time::sleep(std::time::Duration::from_millis(10)).await;
-            }
-        }
-        let st = h.stats();
-        h.close().await;
-        tracing::info!(?st, "Goby3 link closed");
+    if let Some(o) = outlet {
+        // The end of the replay leaves the export queue (bounded) before the link closes.
+        let published = match &result {
+            Some(Ok(r)) => Some(r.published),
+            _ => None,
+        };
+        o.close(published).await;
     }
     match result {
         None => ExitCode::SUCCESS,

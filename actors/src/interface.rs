@@ -432,12 +432,7 @@ impl FsiState {
     fn handle_command(&mut self, env: Envelope<CommandRequest>) {
         let state = self.sm.state();
         if self.shutting_down {
-            self.counters.commands_gated += 1;
-            self.refuse(
-                &env.msg,
-                error_code::SHUTTING_DOWN,
-                "interface shutting down".into(),
-            );
+            self.refuse_gated(&env.msg, "command");
         } else if state == InterfaceState::InterfaceCommand {
             let env = match self.through_envelope(env) {
                 Some(env) => env,
@@ -450,17 +445,28 @@ impl FsiState {
             self.ports
                 .publish_command_request_with(env.msg.clone(), env.meta());
         } else {
-            self.counters.commands_gated += 1;
-            tracing::debug!(
-                state = state_words(state),
-                "command dropped: not in command state"
-            );
-            self.refuse(
-                &env.msg,
-                error_code::NOT_IN_COMMAND,
-                format!("not in command state (state: {})", state_words(state)),
-            );
+            self.refuse_gated(&env.msg, "command");
         }
+    }
+
+    /// Refuses and counts a request the state gate stops: shutting down, or not in the state(s)
+    /// it `needs` ("command", "listen or command"). One wording for every kind of request.
+    fn refuse_gated(&mut self, req: &CommandRequest, needs: &str) {
+        self.counters.commands_gated += 1;
+        let state = state_words(self.sm.state());
+        let (code, why) = if self.shutting_down {
+            (
+                error_code::SHUTTING_DOWN,
+                "interface shutting down".to_string(),
+            )
+        } else {
+            (
+                error_code::NOT_IN_COMMAND,
+                format!("not in {needs} state (state: {state})"),
+            )
+        };
+        tracing::debug!(state, reason = %why, "command dropped");
+        self.refuse(req, code, why);
     }
 
     /// The safety envelope (command_gate): the request with its course made safe (heading
@@ -575,19 +581,7 @@ impl FsiState {
             }
             return Some((joined, checked.meta()));
         }
-        self.counters.commands_gated += 1;
-        let (code, why) = if self.shutting_down {
-            (
-                error_code::SHUTTING_DOWN,
-                "interface shutting down".to_string(),
-            )
-        } else {
-            (
-                error_code::NOT_IN_COMMAND,
-                format!("not in command state (state: {})", state_words(state)),
-            )
-        };
-        self.refuse(&base, code, why);
+        self.refuse_gated(&base, "command");
         None
     }
 
@@ -610,22 +604,7 @@ impl FsiState {
             let meta = env.meta();
             return Some((env.msg.bytes.clone(), meta));
         }
-        self.counters.commands_gated += 1;
-        let (code, why) = if self.shutting_down {
-            (
-                error_code::SHUTTING_DOWN,
-                "interface shutting down".to_string(),
-            )
-        } else {
-            (
-                error_code::NOT_IN_COMMAND,
-                format!(
-                    "not in listen or command state (state: {})",
-                    state_words(self.sm.state())
-                ),
-            )
-        };
-        self.refuse(&base, code, why);
+        self.refuse_gated(&base, "listen or command");
         None
     }
 

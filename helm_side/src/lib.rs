@@ -7,11 +7,13 @@
 //! Kept out of frontseat-actors so that crate's tests do not pay Zenoh's build. The same plan
 //! also drives a second transport, [`goby3`]: a client of an existing Goby3 system's gobyd. The
 //! third, [`translation`], is Goby3's FrontSeatTranslation to a MOOSDB where pHelmIvP runs.
+//! [`outlet`] stands in for a vehicle's interface on Zenoh or gobyd (`frontseat replay`).
 //! Nothing here can end the process or touch the vehicle link: every one of them is a helm-side
 //! child of the supervision tree.
 #![forbid(unsafe_code)]
 
 pub mod goby3;
+pub mod outlet;
 pub mod plan;
 pub mod session;
 pub mod translation;

@@ -23,6 +23,11 @@ pub enum ExportError {
     Read(#[from] ReadError),
     #[error("writing the export: {0}")]
     Write(std::io::Error),
+    #[error("cannot create {path}: {source}")]
+    Create {
+        path: String,
+        source: std::io::Error,
+    },
     #[error("no message of group `{0}` in the file")]
     NoSuchGroup(String),
 }
@@ -38,6 +43,36 @@ pub struct Exported {
 
 /// Deepest message nesting flattened into columns; deeper goes into a JSON cell.
 const MAX_DEPTH: usize = 8;
+
+/// [`export`] into the file `path` (created or replaced), or standard output when None.
+pub fn export_to<R: Read>(
+    rec: Recording<R>,
+    group: &str,
+    format: Format,
+    path: Option<&std::path::Path>,
+) -> Result<Exported, ExportError> {
+    fn to<R: Read, W: Write>(
+        rec: Recording<R>,
+        group: &str,
+        format: Format,
+        w: W,
+    ) -> Result<Exported, ExportError> {
+        let mut w = std::io::BufWriter::new(w);
+        let r = export(rec, group, format, &mut w);
+        // A write error at the end (a full disk) is the export's error too.
+        w.flush().map_err(ExportError::Write).and(r)
+    }
+    match path {
+        Some(p) => {
+            let f = std::fs::File::create(p).map_err(|e| ExportError::Create {
+                path: p.display().to_string(),
+                source: e,
+            })?;
+            to(rec, group, format, f)
+        }
+        None => to(rec, group, format, std::io::stdout().lock()),
+    }
+}
 
 /// Writes every message of `group` to `out`.
 pub fn export<R: Read, W: Write>(

@@ -11,6 +11,7 @@
 
 use std::collections::{BTreeMap, HashMap};
 use std::io::{Read, Write};
+use std::path::{Path, PathBuf};
 
 use prost::Message as _;
 use prost_reflect::prost_types::FileDescriptorProto;
@@ -37,6 +38,78 @@ pub enum ImportError {
     Goby(#[from] GobyLogError),
     #[error("writing the MCAP file: {0}")]
     Mcap(#[from] mcap::McapError),
+}
+
+/// Why [`import_file`] did not write its output.
+#[derive(Debug, thiserror::Error)]
+pub enum ImportFileError {
+    #[error("{0}: the output would replace the input")]
+    SameFile(PathBuf),
+    #[error("{0} exists (--force to replace it)")]
+    Exists(PathBuf),
+    #[error("cannot {what} {path}: {source}")]
+    Io {
+        what: &'static str,
+        path: PathBuf,
+        source: std::io::Error,
+    },
+    #[error("{path}: {source}")]
+    Import { path: PathBuf, source: ImportError },
+}
+
+impl ImportFileError {
+    /// Whether the request itself was refused (exit 2) rather than failed.
+    pub fn is_usage(&self) -> bool {
+        matches!(self, Self::SameFile(_) | Self::Exists(_))
+    }
+}
+
+/// [`import`] from the file `file` into `out` (default: `file` with the extension `.mcap`),
+/// refusing to replace an existing output unless `force`. The MCAP is written beside its target
+/// and renamed at the end: an interrupted import leaves no half-written file under the name a user
+/// would open. Returns the output path with the stats.
+pub fn import_file(
+    file: &Path,
+    out: Option<PathBuf>,
+    force: bool,
+) -> Result<(PathBuf, ImportStats), ImportFileError> {
+    let out = out.unwrap_or_else(|| file.with_extension("mcap"));
+    if out == file {
+        return Err(ImportFileError::SameFile(out));
+    }
+    if out.exists() && !force {
+        return Err(ImportFileError::Exists(out));
+    }
+    let io = |what, path: &Path| {
+        let path = path.to_path_buf();
+        move |source| ImportFileError::Io { what, path, source }
+    };
+    let src = std::fs::File::open(file).map_err(io("open", file))?;
+    let mut tmp_name = out.as_os_str().to_owned();
+    tmp_name.push(".part");
+    let tmp = PathBuf::from(tmp_name);
+    let dst = std::fs::File::create(&tmp).map_err(io("create", &tmp))?;
+    let name = file
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    match import(
+        std::io::BufReader::new(src),
+        std::io::BufWriter::new(dst),
+        &name,
+    ) {
+        Ok(stats) => {
+            std::fs::rename(&tmp, &out).map_err(io("rename the import to", &out))?;
+            Ok((out, stats))
+        }
+        Err(source) => {
+            let _ = std::fs::remove_file(&tmp);
+            Err(ImportFileError::Import {
+                path: file.to_path_buf(),
+                source,
+            })
+        }
+    }
 }
 
 /// What an import did.

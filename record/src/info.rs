@@ -149,6 +149,29 @@ pub fn info<R: Read>(mut rec: Recording<R>) -> Result<Info, ReadError> {
 }
 
 impl Info {
+    /// What `frontseat log info --json` prints.
+    pub fn to_json(&self) -> serde_json::Value {
+        let groups: Vec<_> = self
+            .groups
+            .iter()
+            .map(|g| {
+                serde_json::json!({
+                    "group": g.group, "type": g.type_name, "count": g.count,
+                    "bytes": g.bytes, "rate_hz": g.rate_hz(),
+                    "max_gap_s": g.max_interval as f64 / 1e9, "gaps": g.gaps,
+                    "not_local": g.not_local,
+                })
+            })
+            .collect();
+        serde_json::json!({
+            "messages": self.messages,
+            "start_ns": self.start, "end_ns": self.end,
+            "duration_s": self.end.saturating_sub(self.start) as f64 / 1e9,
+            "run": self.run, "dropped": self.dropped, "truncated": self.truncated,
+            "groups": groups,
+        })
+    }
+
     /// The text `frontseat log info` prints.
     pub fn render(&self) -> String {
         let mut s = String::new();

@@ -6,6 +6,7 @@
 use std::collections::HashMap;
 use std::fmt::Write as _;
 use std::io::Read;
+use std::path::{Path, PathBuf};
 
 use prost_reflect::{DescriptorPool, DynamicMessage, MessageDescriptor, ReflectMessage, Value};
 
@@ -180,6 +181,28 @@ pub fn series<R: Read>(mut rec: Recording<R>) -> Result<Series, ReadError> {
 type Field = fn(&Sample) -> Option<f64>;
 
 /// Speed, heading and depth against time, actual (blue) and commanded (orange), as one SVG.
+/// A plot file (or its directory) that could not be written.
+#[derive(Debug, thiserror::Error)]
+#[error("cannot write {path}: {source}")]
+pub struct WriteError {
+    pub path: PathBuf,
+    pub source: std::io::Error,
+}
+
+/// Writes `dir/track.svg` and `dir/time.svg` (creating `dir`); the two paths written.
+pub fn write_dir(s: &Series, dir: &Path) -> Result<[PathBuf; 2], WriteError> {
+    let at = |path: &Path| {
+        let path = path.to_path_buf();
+        move |source| WriteError { path, source }
+    };
+    std::fs::create_dir_all(dir).map_err(at(dir))?;
+    let track = dir.join("track.svg");
+    std::fs::write(&track, track_svg(s)).map_err(at(&track))?;
+    let time = dir.join("time.svg");
+    std::fs::write(&time, time_svg(s)).map_err(at(&time))?;
+    Ok([track, time])
+}
+
 pub fn time_svg(s: &Series) -> String {
     let panels: [(&str, Field); 3] = [
         ("speed (m/s)", |p| p.speed),

@@ -41,7 +41,11 @@ fn sim_codec_corpus() {
 
 #[test]
 fn driver_line_corpus() {
-    replay("driver_line", targets::driver_line);
+    replay_dir(
+        "vehicles/basic_simulator/fuzz/corpus",
+        "driver_line",
+        targets::driver_line,
+    );
 }
 
 #[test]
@@ -88,5 +92,9 @@ fn zmtp_guard_corpus() {
 
 #[test]
 fn mavlink_frame_corpus() {
-    replay("mavlink_frame", targets::mavlink_frame);
+    replay_dir(
+        "vehicles/ardupilot/fuzz/corpus",
+        "mavlink_frame",
+        targets::mavlink_frame,
+    );
 }

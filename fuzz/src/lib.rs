@@ -8,17 +8,18 @@
 //! MOOS buffers are inferred from the codec's signatures.
 #![forbid(unsafe_code)]
 
-use std::time::Duration;
-
-use frontseat_actors::driver::{Driver, DriverIoEvent, SignalSink};
+use frontseat_actors::driver::SignalSink;
 use frontseat_actors::proto::goby::middleware::frontseat::protobuf::{
     CommandResponse, InterfaceData, Raw,
 };
-use frontseat_basic_simulator::{BasicSimulatorDriver, Settings, parse_nav};
 use frontseat_config::{InterfaceConfig, ServiceConfig};
 use frontseat_sim::codec::{self, Inbound, Outbound};
 
 // Each vehicle's target lives with the vehicle (`vehicles/<vehicle>/fuzz/`, beside its corpus).
+#[path = "../../vehicles/ardupilot/fuzz/target.rs"]
+mod ardupilot;
+#[path = "../../vehicles/basic_simulator/fuzz/target.rs"]
+mod basic_simulator;
 #[path = "../../vehicles/bluefin/fuzz/target.rs"]
 mod bluefin;
 #[path = "../../vehicles/iver3/fuzz/target.rs"]
@@ -26,6 +27,8 @@ mod iver3;
 #[path = "../../vehicles/waveglider_sv2/fuzz/target.rs"]
 mod waveglider_sv2;
 
+pub use ardupilot::mavlink_frame;
+pub use basic_simulator::driver_line;
 pub use bluefin::bluefin_codec;
 pub use iver3::iver_sentence;
 pub use waveglider_sv2::sv2_frame;
@@ -92,43 +95,6 @@ impl SignalSink for Count {
         self.raw_in += 1;
     }
     fn raw_to_frontseat(&mut self, _: Raw) {}
-}
-
-/// The basic simulator driver's line handling: `parse_nav` on every line, and every line fed
-/// to an unconnected driver. Every line is published on raw_in exactly once; only a line whose
-/// key is NAV can become data; no command response without a command.
-pub fn driver_line(data: &[u8]) {
-    let mut driver = BasicSimulatorDriver::new(Settings::from_config(&InterfaceConfig::default()));
-    let mut sink = Count::default();
-    let mut lines = 0;
-    let mut navs = 0;
-    let mut now = Duration::ZERO;
-    for raw in data.split(|b| *b == b'\n') {
-        now += Duration::from_millis(100);
-        let raw = raw.strip_suffix(b"\r").unwrap_or(raw);
-        match std::str::from_utf8(raw) {
-            Ok(line) => {
-                if let Ok(ns) = parse_nav(line) {
-                    assert!(ns.pose.heading().is_finite() && ns.speed.over_ground.is_finite());
-                }
-                if line.split(',').next() == Some("NAV") {
-                    navs += 1;
-                }
-                lines += 1;
-                driver.handle_io(DriverIoEvent::Line(line.to_string()), now, &mut sink);
-            }
-            Err(_) => driver.handle_io(
-                DriverIoEvent::BadInput("invalid UTF-8".into()),
-                now,
-                &mut sink,
-            ),
-        }
-        driver.do_loop(now, &mut sink);
-        let _ = (driver.frontseat_state(), driver.frontseat_providing_data());
-    }
-    assert_eq!(sink.raw_in, lines, "every line once on raw_in");
-    assert!(sink.data <= navs, "data only from NAV lines");
-    assert_eq!(sink.responses, 0, "no command response without a command");
 }
 
 /// The MOOS packet decoder: a stream split into packets with a size bound, whole packets, and
@@ -207,53 +173,4 @@ pub fn zmtp_guard(data: &[u8]) {
     if let Err(o) = whole {
         assert!(o.size > o.limit && o.limit == limit, "{o:?}");
     }
-}
-
-/// MAVLink from an ArduPilot vehicle: the `frontseat_ardupilot` deframer over a byte stream
-/// (whole and byte by byte must cut the same frames), decode of every frame, and the ArduPilot
-/// driver's frame handling. Every frame is at most MAX_FRAME bytes and CRC-checked; a decoded
-/// message re-encodes to a frame that decodes and re-encodes to the same bytes; raw_in once per
-/// frame; every published fix finite; no command response unasked.
-pub fn mavlink_frame(data: &[u8]) {
-    use frontseat_actors::link::LineWriter;
-    use frontseat_ardupilot::codec::{Deframer, MAX_FRAME, decode, encode};
-    use frontseat_ardupilot::{ArdupilotDriver, Settings as ApSettings};
-
-    let mut whole = Vec::new();
-    Deframer::new().feed(data, &mut |r| whole.push(r));
-    let mut split = Vec::new();
-    let mut d = Deframer::new();
-    for b in data {
-        d.feed(std::slice::from_ref(b), &mut |r| split.push(r));
-    }
-    let frames = |v: &Vec<Result<Vec<u8>, _>>| -> Vec<Vec<u8>> {
-        v.iter().filter_map(|r| r.as_ref().ok().cloned()).collect()
-    };
-    let frames_whole = frames(&whole);
-    assert_eq!(
-        frames_whole,
-        frames(&split),
-        "frames depend on how reads are cut"
-    );
-
-    let mut driver = ArdupilotDriver::new(ApSettings::from_config(&InterfaceConfig::default()));
-    let mut sink = Count::default();
-    let (w, _rx) = LineWriter::for_test();
-    driver.handle_io(DriverIoEvent::Connected(w), Duration::ZERO, &mut sink);
-    let mut now = Duration::ZERO;
-    for f in &frames_whole {
-        assert!(f.len() <= MAX_FRAME);
-        if let Ok((h, msg)) = decode(f) {
-            let once = encode(h.system_id, h.component_id, h.sequence, &msg);
-            let (_, again) = decode(&once).expect("a re-encoded message decodes");
-            let twice = encode(h.system_id, h.component_id, h.sequence, &again);
-            assert_eq!(once, twice, "message does not round-trip");
-        }
-        now += Duration::from_millis(50);
-        driver.handle_io(DriverIoEvent::Frame(f.clone()), now, &mut sink);
-        driver.do_loop(now, &mut sink);
-    }
-    driver.do_loop(now + Duration::from_secs(60), &mut sink);
-    assert_eq!(sink.raw_in, frames_whole.len());
-    assert_eq!(sink.responses, 0);
 }

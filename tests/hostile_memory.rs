@@ -7,7 +7,9 @@
 //! its warm baseline, the surface still works, and every command line the vehicle received is
 //! finite and inside `[limits]`. A Goby3 helm (a Goby3 client in this test) keeps DRIVE and a
 //! plain course flowing, so the interface is in COMMAND and its gates are what stand between the
-//! floods and the vehicle. The test process's own memory is not measured, only the child's.
+//! floods and the vehicle. That the gobyd flood reached the interface at all is read from the
+//! interface's own detail (its `setpoints_refused`, through gobyd like any Goby3 client would).
+//! The test process's own memory is not measured, only the child's.
 
 mod common;
 
@@ -24,6 +26,7 @@ use std::time::Duration;
 
 use frontseat_actors::bus::{Bus, Envelope};
 use frontseat_actors::groups;
+use frontseat_actors::proto::frontseat::protobuf::InterfaceDetail;
 use frontseat_actors::proto::goby::middleware::frontseat::protobuf::{
     DesiredCourse, HelmState, HelmStateReport, NodeStatus,
 };
@@ -34,7 +37,7 @@ use tokio::io::{AsyncBufReadExt, AsyncReadExt, AsyncWriteExt};
 use tokio::net::TcpStream;
 use tokio::sync::mpsc::UnboundedReceiver;
 use tokio::time::{Instant, timeout, timeout_at};
-use zeromq::{PubSocket, ReqSocket, Socket, SocketRecv, SocketSend, ZmqMessage};
+use zeromq::{PubSocket, ReqSocket, Socket, SocketRecv, SocketSend, SubSocket, ZmqMessage};
 
 const BIN: &str = env!("CARGO_BIN_EXE_frontseat");
 const LONG: Duration = Duration::from_secs(60);
@@ -146,11 +149,11 @@ fn hostile_nav_batch(round: usize) -> Vec<u8> {
     out
 }
 
-/// A publisher that joins gobyd with the manager handshake and then sends whatever it likes.
-async fn raw_goby3_publisher(gobyd: &StandinGobyd, base: &str) -> PubSocket {
+/// gobyd's publish and subscribe endpoints, asked as the Goby3 client `name` would.
+async fn goby3_sockets(gobyd: &StandinGobyd, base: &str, name: &str, pid: i32) -> manager::PubSub {
     let mut req = ReqSocket::new();
     req.connect(gobyd.manager_endpoint()).await.unwrap();
-    req.send(ZmqMessage::from(manager::sockets_request("hostile", 6666)))
+    req.send(ZmqMessage::from(manager::sockets_request(name, pid)))
         .await
         .unwrap();
     let answer = req.recv().await.unwrap();
@@ -158,10 +161,50 @@ async fn raw_goby3_publisher(gobyd: &StandinGobyd, base: &str) -> PubSocket {
     let transport = manager::Transport::Ipc {
         base: base.to_string(),
     };
-    let (ps, _) = manager::parse_sockets_response(&body, "hostile", 6666, &transport).unwrap();
+    manager::parse_sockets_response(&body, name, pid, &transport)
+        .unwrap()
+        .0
+}
+
+/// A publisher that joins gobyd with the manager handshake and then sends whatever it likes.
+async fn raw_goby3_publisher(gobyd: &StandinGobyd, base: &str) -> PubSocket {
+    let ps = goby3_sockets(gobyd, base, "hostile", 6666).await;
     let mut publ = PubSocket::new();
     publ.connect(&ps.publish).await.unwrap();
     publ
+}
+
+/// The interface's `setpoints_refused`, as its detail reaches any Goby3 client through gobyd:
+/// the count of courses the interface itself received and refused, so a flood that never
+/// reached it (lost in gobyd, or never sent) cannot pass for one it survived.
+async fn refused_through_gobyd(
+    gobyd: &StandinGobyd,
+    base: &str,
+) -> (
+    tokio::task::JoinHandle<()>,
+    tokio::sync::watch::Receiver<u64>,
+) {
+    let ps = goby3_sockets(gobyd, base, "detail_reader", 6667).await;
+    let mut sub = SubSocket::new();
+    sub.subscribe(&frame::subscription_prefix(
+        groups::FRONTSEAT_INTERFACE_DETAIL.name(),
+        groups::FRONTSEAT_INTERFACE_DETAIL.type_name(),
+    ))
+    .await
+    .unwrap();
+    sub.connect(&ps.subscribe).await.unwrap();
+    let (tx, rx) = tokio::sync::watch::channel(0);
+    let task = tokio::spawn(async move {
+        while let Ok(m) = sub.recv().await {
+            let Some(bytes) = m.get(0) else { continue };
+            if let Ok(f) = frame::decode(bytes, 1 << 20)
+                && let Ok(d) = InterfaceDetail::decode(f.payload)
+            {
+                let _ = tx.send(d.setpoints_refused.unwrap_or(0));
+            }
+        }
+    });
+    (task, rx)
 }
 
 /// One request on its own connection; the status code, or 0 when the server closed first.
@@ -477,7 +520,14 @@ async fn floods_on_every_surface_leave_the_interface_alive_bounded_and_the_vehic
     repeat_flat(&stages);
 
     let mut publ = raw_goby3_publisher(&gobyd, &base).await;
+    let (detail_task, mut refused) = refused_through_gobyd(&gobyd, &base).await;
+    // The interface publishes its detail with every status (1 Hz at least): wait for the first.
+    timeout(LONG, refused.changed())
+        .await
+        .unwrap_or_else(|_| panic!("no interface detail through gobyd\n{}", log(&dir)))
+        .unwrap();
     for name in ["gobyd", "gobyd again"] {
+        let refused_before = *refused.borrow_and_update();
         // 3. gobyd: 40 000 desired_course frames of 4 KiB (absurd values, an unknown field padding
         // them), ≈ 160 MB, as fast as the socket takes them.
         let group = groups::GOBY_MIDDLEWARE_FRONTSEAT_DESIRED_COURSE.name();
@@ -500,6 +550,25 @@ async fn floods_on_every_surface_leave_the_interface_alive_bounded_and_the_vehic
             }
         }
         assert!(sent > 30_000, "the flood did not go out ({sent} frames)");
+        // The flood reached the interface: its own count of refused courses says so (PUB
+        // sockets drop for slow subscribers, so not all 40 000 need arrive; 100 is a flood).
+        let deadline = Instant::now() + LONG;
+        while *refused.borrow() < refused_before + 100 {
+            let left = deadline.saturating_duration_since(Instant::now());
+            let changed = timeout(left, refused.changed()).await;
+            assert!(
+                matches!(changed, Ok(Ok(()))),
+                "the {name} flood did not reach the interface: setpoints_refused {} → {}\n{}",
+                refused_before,
+                *refused.borrow(),
+                log(&dir)
+            );
+        }
+        eprintln!(
+            "{name}: the interface refused {} of the flood's courses (gobyd forwarded {} frames in all)",
+            *refused.borrow() - refused_before,
+            gobyd.forwarded()
+        );
         // The helm still hears the vehicle through gobyd, and the vehicle still obeys it.
         until_nav(&mut nav_rx, 42.358, "after the gobyd flood", &dir).await;
         let cmds_before = at_vehicle.lock().unwrap().cmds;
@@ -534,6 +603,7 @@ async fn floods_on_every_surface_leave_the_interface_alive_bounded_and_the_vehic
             .join(", ")
     );
     heartbeat.abort();
+    detail_task.abort();
     writer.abort();
     reader.abort();
     drop(child);

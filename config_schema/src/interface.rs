@@ -5,15 +5,11 @@
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
-use crate::basic_simulator::BasicSimulatorConfig;
-use crate::bluefin::BluefinConfig;
 use crate::check::{Checker, at};
 use crate::goby3::Goby3Config;
-use crate::iver3::Iver3Config;
 use crate::sections::{InterprocessConfig, LatLonConfig, MoosConfig, TelemetryConfig};
-use crate::waveglider_sv2::WavegliderSv2Config;
 use crate::web::WebConfig;
-use crate::{FieldError, MAX_WARP, ServiceConfig};
+use crate::{DriverConfig, FieldError, MAX_WARP, ServiceConfig};
 
 /// Goby3's `VehicleType`, written by its proto names.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize, JsonSchema)]
@@ -254,123 +250,6 @@ impl ServiceConfig for InterfaceConfig {
         file: &str,
     ) -> Option<Result<crate::goby3_import::Imported, crate::ConfigError>> {
         Some(crate::goby3_import::import_interface(text, file))
-    }
-}
-
-/// Which frontseat driver to run and its settings.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
-#[serde(deny_unknown_fields, default)]
-pub struct DriverConfig {
-    /// Built-in driver to run when no library is given: "basic_simulator", "bluefin", "iver3",
-    /// "waveglider_sv2" or "ardupilot".
-    pub name: String,
-    /// Path to a driver plugin (shared library) to load instead of a built-in driver;
-    /// FRONTSEAT_DRIVER_LIBRARY in the environment does the same.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    #[schemars(example = &"/usr/local/lib/frontseat/libmy_driver.so")]
-    pub library: Option<String>,
-    /// Settings of the basic simulator driver (Goby3's basic_simulator_config).
-    pub basic_simulator: BasicSimulatorConfig,
-    /// Settings of the Iver3 driver (Goby3's iver_config), used when name = "iver3".
-    pub iver3: Iver3Config,
-    /// Settings of the Wave Glider SV2 driver (Goby3's waveglider_sv2_config), used when
-    /// name = "waveglider_sv2".
-    pub waveglider_sv2: WavegliderSv2Config,
-    /// Settings of the Bluefin Huxley driver (Goby3's bluefin_config), used when name = "bluefin".
-    pub bluefin: BluefinConfig,
-    /// Settings of the ArduPilot (MAVLink) driver, used when name = "ardupilot".
-    pub ardupilot: crate::ardupilot::ArdupilotConfig,
-}
-
-/// Name of the basic simulator driver (the default).
-pub const BASIC_SIMULATOR: &str = "basic_simulator";
-/// Name of the Iver3 (UVC Remote Helm) driver.
-pub const IVER3: &str = "iver3";
-/// Name of the Wave Glider SV2 driver.
-pub const WAVEGLIDER_SV2: &str = "waveglider_sv2";
-/// Name of the Bluefin Huxley driver.
-pub const BLUEFIN: &str = "bluefin";
-/// Name of the ArduPilot (MAVLink) driver.
-pub const ARDUPILOT: &str = "ardupilot";
-/// Every built-in driver.
-pub const BUILT_IN_DRIVERS: [&str; 5] =
-    [BASIC_SIMULATOR, BLUEFIN, IVER3, WAVEGLIDER_SV2, ARDUPILOT];
-
-impl Default for DriverConfig {
-    fn default() -> Self {
-        Self {
-            name: BASIC_SIMULATOR.into(),
-            library: None,
-            basic_simulator: BasicSimulatorConfig::default(),
-            iver3: Iver3Config::default(),
-            waveglider_sv2: WavegliderSv2Config::default(),
-            bluefin: BluefinConfig::default(),
-            ardupilot: crate::ardupilot::ArdupilotConfig::default(),
-        }
-    }
-}
-
-impl DriverConfig {
-    /// Where the selected driver talks to its vehicle, for the start-up log line: an operator
-    /// reading the journal must see the link that is actually in use, not the basic
-    /// simulator's default address when another driver runs.
-    pub fn vehicle_link(&self) -> String {
-        fn serial_or_tcp(link: &VehicleLinkConfig, port: &str, baud: u32) -> String {
-            match link.transport {
-                TransportKind::Serial => format!("serial {port} @ {baud} baud"),
-                TransportKind::Tcp => format!("tcp {}:{}", link.tcp_address, link.tcp_port),
-            }
-        }
-        if let Some(lib) = &self.library {
-            return format!("plugin {lib}");
-        }
-        match self.name.as_str() {
-            BLUEFIN => format!(
-                "tcp {}:{}",
-                self.bluefin.huxley_tcp_address, self.bluefin.huxley_tcp_port
-            ),
-            IVER3 => serial_or_tcp(
-                &self.iver3.link,
-                &self.iver3.serial_port,
-                self.iver3.serial_baud,
-            ),
-            WAVEGLIDER_SV2 => serial_or_tcp(
-                &self.waveglider_sv2.link,
-                &self.waveglider_sv2.pm_serial_port,
-                self.waveglider_sv2.pm_serial_baud,
-            ),
-            ARDUPILOT => format!("mavlink {}", self.ardupilot.address),
-            _ => format!(
-                "tcp {}:{}",
-                self.basic_simulator.tcp_address, self.basic_simulator.tcp_port
-            ),
-        }
-    }
-
-    fn check(&self, prefix: &str, c: &mut Checker) {
-        match &self.library {
-            Some(lib) => c.non_empty(&at(prefix, "library"), lib),
-            None if !BUILT_IN_DRIVERS.contains(&self.name.as_str()) => c.push(FieldError::new(
-                at(prefix, "name"),
-                format!("{:?}", self.name),
-                format!("unknown built-in driver; the built-ins are {BUILT_IN_DRIVERS:?} (or set library)"),
-            )),
-            None => {}
-        }
-        self.basic_simulator
-            .check(&at(prefix, "basic_simulator"), c);
-        // A vehicle driver's settings are checked only when it is the one selected: its
-        // required fields (serial port, Remote Helm version) have no sensible default.
-        if self.library.is_none() && self.name == IVER3 {
-            self.iver3.check(&at(prefix, "iver3"), c);
-        }
-        if self.library.is_none() && self.name == WAVEGLIDER_SV2 {
-            self.waveglider_sv2.check(&at(prefix, "waveglider_sv2"), c);
-        }
-        self.bluefin.check(&at(prefix, "bluefin"), c);
-        if self.library.is_none() && self.name == ARDUPILOT {
-            self.ardupilot.check(&at(prefix, "ardupilot"), c);
-        }
     }
 }
 
@@ -779,6 +658,16 @@ pub enum FlowControlConfig {
 }
 
 pub use crate::state_name::FrontSeatStateName;
+
+impl VehicleLinkConfig {
+    /// "serial PORT @ BAUD baud" or "tcp ADDRESS:PORT", for the start-up log line.
+    pub(crate) fn describe(&self, serial_port: &str, serial_baud: u32) -> String {
+        match self.transport {
+            TransportKind::Serial => format!("serial {serial_port} @ {serial_baud} baud"),
+            TransportKind::Tcp => format!("tcp {}:{}", self.tcp_address, self.tcp_port),
+        }
+    }
+}
 
 /// The link settings both vehicle drivers share (ours; Goby3 has only port and baud).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]

@@ -4,24 +4,14 @@
 //! The doc comments on the config structs are the single source of field descriptions: schemars
 //! turns them into the schema, and [`example`] walks that schema to comment the example file.
 //! Each vehicle's `[driver.<vehicle>]` section is written in its vehicle's folder
-//! (`vehicles/<vehicle>/config.rs`) and compiled here by `#[path]`: the vehicle crates depend on
-//! this one, and the whole config (defaults, validation, schema, example) is made in one place.
+//! (`vehicles/<vehicle>/config.rs`) and compiled here from one list of vehicles
+//! (`driver_sections!` below, see [`drivers`]): the vehicle crates depend on this one, and the
+//! whole config (defaults, validation, schema, example) is made in one place.
 #![forbid(unsafe_code)]
 
-// Each vehicle's `[driver.<vehicle>]` section lives in its vehicle's folder (see the opening of
-// each file for why it is compiled here).
-#[path = "../../vehicles/ardupilot/config.rs"]
-mod ardupilot;
-#[path = "../../vehicles/basic_simulator/config.rs"]
-mod basic_simulator;
-#[path = "../../vehicles/bluefin/config.rs"]
-mod bluefin;
-#[path = "../../vehicles/iver3/config.rs"]
-mod iver3;
-#[path = "../../vehicles/waveglider_sv2/config.rs"]
-mod waveglider_sv2;
-
 mod check;
+#[macro_use]
+mod drivers;
 mod error;
 mod example;
 mod gateway;
@@ -42,23 +32,14 @@ use schemars::JsonSchema;
 use serde::Serialize;
 use serde::de::DeserializeOwned;
 
-pub use ardupilot::{
-    ArdupilotConfig, ArdupilotModeAssignment, ArdupilotStreamRates, ArdupilotVehicle,
-    MavlinkAddress,
-};
-pub use basic_simulator::{BasicSimulatorConfig, SimStartConfig, SimVehicleConfig};
-pub use bluefin::{AcceptingCommandsHook, BluefinConfig, RpmTableEntry};
 pub use error::{ConfigError, FieldError};
 pub use gateway::{GatewayConfig, GatewaySupervisionConfig};
 pub use goby3::{Goby3Config, Goby3Transport};
 pub use interface::{
-    ARDUPILOT, BASIC_SIMULATOR, BLUEFIN, BUILT_IN_DRIVERS, BusConfig, ChaosConfig, DriverConfig,
-    FlowControlConfig, FrontSeatStateName, IVER3, InterfaceConfig, LimitsConfig,
+    BusConfig, ChaosConfig, FlowControlConfig, FrontSeatStateName, InterfaceConfig, LimitsConfig,
     MAX_QUEUE_CAPACITY, NavLimitsConfig, ParityConfig, RawSendConfig, RawSource, RestartConfig,
     RestartPolicy, SupervisionConfig, TransportKind, VehicleLinkConfig, VehicleType,
-    WAVEGLIDER_SV2,
 };
-pub use iver3::{Iver3Config, IverModeAssignments};
 pub use record::{FOXGLOVE_TOKEN_ENV, FoxgloveConfig, RecordCompression, RecordConfig};
 pub use sections::{
     DEFAULT_MAX_EXPORT_BATCH_SIZE, DEFAULT_MAX_QUEUE_SIZE, DEFAULT_METRICS_INTERVAL_S,
@@ -66,9 +47,26 @@ pub use sections::{
     InterprocessMode, LatLonConfig, MoosConfig, TelemetryConfig,
 };
 pub use sim::{CurrentConfig, FaultKind, MAX_LINE_BYTES_LIMIT, ScheduledFaultConfig, SimConfig};
-pub use waveglider_sv2::WavegliderSv2Config;
 pub use web::{MIN_TOKEN_CHARS, WEB_TOKEN_ENV, WebConfig};
 pub use zenoh_security::{ZenohAccessConfig, ZenohSecurity, ZenohTlsConfig, endpoint_protocol};
+
+// The config's list of built-in vehicles, in the order of their `[driver.<vehicle>]` sections.
+// Each section is written in its vehicle's folder and compiled in here (the vehicle crates depend
+// on this one, so a section cannot be a type of its vehicle's own crate); adding a vehicle is its
+// `config.rs` and one entry here (see src/drivers.rs for what the entry makes).
+driver_sections! {
+    /// Settings of the basic simulator driver (Goby3's basic_simulator_config).
+    basic_simulator: "../../vehicles/basic_simulator/config.rs" => BasicSimulatorConfig, BASIC_SIMULATOR;
+    /// Settings of the Iver3 driver (Goby3's iver_config), used when name = "iver3".
+    iver3: "../../vehicles/iver3/config.rs" => Iver3Config, IVER3;
+    /// Settings of the Wave Glider SV2 driver (Goby3's waveglider_sv2_config), used when
+    /// name = "waveglider_sv2".
+    waveglider_sv2: "../../vehicles/waveglider_sv2/config.rs" => WavegliderSv2Config, WAVEGLIDER_SV2;
+    /// Settings of the Bluefin Huxley driver (Goby3's bluefin_config), used when name = "bluefin".
+    bluefin: "../../vehicles/bluefin/config.rs" => BluefinConfig, BLUEFIN;
+    /// Settings of the ArduPilot (MAVLink) driver, used when name = "ardupilot".
+    ardupilot: "../../vehicles/ardupilot/config.rs" => ArdupilotConfig, ARDUPILOT;
+}
 
 /// Largest accepted time warp (sim_warp_factor, moos.time_warp).
 pub const MAX_WARP: f64 = 10_000.0;

@@ -208,8 +208,10 @@ impl Default for ArdupilotConfig {
     }
 }
 
-impl ArdupilotConfig {
-    pub(crate) fn check(&self, prefix: &str, c: &mut Checker) {
+impl crate::drivers::DriverSection for ArdupilotConfig {
+    const CHECKED_WHEN_NOT_SELECTED: bool = false;
+
+    fn check(&self, prefix: &str, c: &mut Checker) {
         if let Err(why) = MavlinkAddress::parse(&self.address) {
             c.push(FieldError::new(at(prefix, "address"), &self.address, why));
         }
@@ -243,6 +245,10 @@ impl ArdupilotConfig {
             &max,
             self.reconnect_max_ms,
         );
+    }
+
+    fn vehicle_link(&self) -> String {
+        format!("mavlink {}", self.address)
     }
 }
 

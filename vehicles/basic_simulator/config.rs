@@ -1,6 +1,6 @@
 //! `[driver.basic_simulator]`: the basic simulator driver's section (Goby3's basic_simulator_config) and the simulated vehicle it starts. Kept with its vehicle (`vehicles/basic_simulator/`, beside its driver,
-//! codec and emulator) and compiled into frontseat-config (`config_schema/src/lib.rs`, by
-//! `#[path]`), where the whole config's defaults, validation, schema and example are made: the
+//! codec and emulator) and compiled into frontseat-config (its line in the list of
+//! vehicles, `driver_sections!` in `config_schema/src/lib.rs`), where the whole config's defaults, validation, schema and example are made: the
 //! vehicle's crate depends on the config, so the section cannot be one of its own types.
 
 use schemars::JsonSchema;
@@ -45,8 +45,10 @@ impl Default for BasicSimulatorConfig {
     }
 }
 
-impl BasicSimulatorConfig {
-    pub(crate) fn check(&self, prefix: &str, c: &mut Checker) {
+impl crate::drivers::DriverSection for BasicSimulatorConfig {
+    const CHECKED_WHEN_NOT_SELECTED: bool = true;
+
+    fn check(&self, prefix: &str, c: &mut Checker) {
         c.non_empty(&at(prefix, "tcp_address"), &self.tcp_address);
         c.port(&at(prefix, "tcp_port"), self.tcp_port);
         self.start.check(&at(prefix, "start"), c);
@@ -62,6 +64,10 @@ impl BasicSimulatorConfig {
             self.reconnect_max_ms,
         );
         c.positive(&at(prefix, "nav_timeout"), self.nav_timeout);
+    }
+
+    fn vehicle_link(&self) -> String {
+        format!("tcp {}:{}", self.tcp_address, self.tcp_port)
     }
 }
 

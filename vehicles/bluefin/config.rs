@@ -1,6 +1,6 @@
 //! `[driver.bluefin]`: the Bluefin Huxley driver's section (Goby3's bluefin_config). Kept with its vehicle (`vehicles/bluefin/`, beside its driver,
-//! codec and emulator) and compiled into frontseat-config (`config_schema/src/lib.rs`, by
-//! `#[path]`), where the whole config's defaults, validation, schema and example are made: the
+//! codec and emulator) and compiled into frontseat-config (its line in the list of
+//! vehicles, `driver_sections!` in `config_schema/src/lib.rs`), where the whole config's defaults, validation, schema and example are made: the
 //! vehicle's crate depends on the config, so the section cannot be one of its own types.
 
 use schemars::JsonSchema;
@@ -101,8 +101,10 @@ impl Default for BluefinConfig {
     }
 }
 
-impl BluefinConfig {
-    pub(crate) fn check(&self, prefix: &str, c: &mut Checker) {
+impl crate::drivers::DriverSection for BluefinConfig {
+    const CHECKED_WHEN_NOT_SELECTED: bool = true;
+
+    fn check(&self, prefix: &str, c: &mut Checker) {
         c.non_empty(&at(prefix, "huxley_tcp_address"), &self.huxley_tcp_address);
         c.port(&at(prefix, "huxley_tcp_port"), self.huxley_tcp_port);
         for (name, v) in [
@@ -136,5 +138,9 @@ impl BluefinConfig {
                 "use_rpm_table_for_speed needs at least 2 entries",
             ));
         }
+    }
+
+    fn vehicle_link(&self) -> String {
+        format!("tcp {}:{}", self.huxley_tcp_address, self.huxley_tcp_port)
     }
 }

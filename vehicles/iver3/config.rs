@@ -1,6 +1,6 @@
 //! `[driver.iver3]`: the Iver3 driver's section (Goby3's iver_config) and its mode table. Kept with its vehicle (`vehicles/iver3/`, beside its driver,
-//! codec and emulator) and compiled into frontseat-config (`config_schema/src/lib.rs`, by
-//! `#[path]`), where the whole config's defaults, validation, schema and example are made: the
+//! codec and emulator) and compiled into frontseat-config (its line in the list of
+//! vehicles, `driver_sections!` in `config_schema/src/lib.rs`), where the whole config's defaults, validation, schema and example are made: the
 //! vehicle's crate depends on the config, so the section cannot be one of its own types.
 
 use schemars::JsonSchema;
@@ -99,8 +99,10 @@ impl Default for Iver3Config {
     }
 }
 
-impl Iver3Config {
-    pub(crate) fn check(&self, prefix: &str, c: &mut Checker) {
+impl crate::drivers::DriverSection for Iver3Config {
+    const CHECKED_WHEN_NOT_SELECTED: bool = false;
+
+    fn check(&self, prefix: &str, c: &mut Checker) {
         self.link.check(
             &at(prefix, "link"),
             &at(prefix, "serial_port"),
@@ -126,5 +128,9 @@ impl Iver3Config {
             &at(prefix, "providing_data_timeout"),
             self.providing_data_timeout,
         );
+    }
+
+    fn vehicle_link(&self) -> String {
+        self.link.describe(&self.serial_port, self.serial_baud)
     }
 }

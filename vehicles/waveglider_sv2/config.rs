@@ -1,6 +1,6 @@
 //! `[driver.waveglider_sv2]`: the Wave Glider SV2 driver's section (Goby3's waveglider_sv2_config). Kept with its vehicle (`vehicles/waveglider_sv2/`, beside its driver,
-//! codec and emulator) and compiled into frontseat-config (`config_schema/src/lib.rs`, by
-//! `#[path]`), where the whole config's defaults, validation, schema and example are made: the
+//! codec and emulator) and compiled into frontseat-config (its line in the list of
+//! vehicles, `driver_sections!` in `config_schema/src/lib.rs`), where the whole config's defaults, validation, schema and example are made: the
 //! vehicle's crate depends on the config, so the section cannot be one of its own types.
 
 use schemars::JsonSchema;
@@ -55,8 +55,10 @@ impl Default for WavegliderSv2Config {
     }
 }
 
-impl WavegliderSv2Config {
-    pub(crate) fn check(&self, prefix: &str, c: &mut Checker) {
+impl crate::drivers::DriverSection for WavegliderSv2Config {
+    const CHECKED_WHEN_NOT_SELECTED: bool = false;
+
+    fn check(&self, prefix: &str, c: &mut Checker) {
         self.link.check(
             &at(prefix, "link"),
             &at(prefix, "pm_serial_port"),
@@ -74,5 +76,9 @@ impl WavegliderSv2Config {
             &at(prefix, "providing_data_timeout"),
             self.providing_data_timeout,
         );
+    }
+
+    fn vehicle_link(&self) -> String {
+        self.link.describe(&self.pm_serial_port, self.pm_serial_baud)
     }
 }

@@ -9,12 +9,13 @@ use frontseat_actors::driver::DriverFactory;
 use frontseat_actors::drivers::{self, BuiltIn, DriverSelectError};
 use frontseat_config::InterfaceConfig;
 
-/// Every built-in driver, in the order `unknown driver` errors list them.
+/// Every built-in driver, in the order `unknown driver` errors list them (the config's order:
+/// `frontseat_config::BUILT_IN_DRIVERS`).
 pub const BUILT_IN: &[BuiltIn] = &[
     frontseat_basic_simulator::DRIVER,
-    frontseat_bluefin::DRIVER,
     frontseat_iver3::DRIVER,
     frontseat_waveglider_sv2::DRIVER,
+    frontseat_bluefin::DRIVER,
     frontseat_ardupilot::DRIVER,
 ];
 
@@ -51,8 +52,8 @@ mod tests {
         assert_eq!(
             e.as_deref(),
             Some(
-                "unknown driver `no_such_vehicle` (built-in drivers: basic_simulator, bluefin, \
-                 iver3, waveglider_sv2, ardupilot)"
+                "unknown driver `no_such_vehicle` (built-in drivers: basic_simulator, iver3, \
+                 waveglider_sv2, bluefin, ardupilot)"
             )
         );
     }

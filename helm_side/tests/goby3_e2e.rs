@@ -440,3 +440,77 @@ async fn with_the_length_guard_off_the_link_still_joins_and_exchanges() {
     gw_if.close().await;
     gobyd.stop().await;
 }
+
+/// The outlet `frontseat replay --onto gobyd` publishes through: no gobyd at its socket is a
+/// failure after the wait it was given (not a usage error), a bus that carries a live driver is
+/// refused before anything starts, and with gobyd up everything it published before `close`
+/// reaches a Goby3 client, in order, the last message included.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn the_replay_outlet_waits_for_gobyd_refuses_a_live_bus_and_delivers_its_last_message() {
+    use frontseat_actors::bus::BusRole;
+    use frontseat_helm_side::outlet::{Onto, Outlet, OutletError};
+
+    let dir = scratch("outlet");
+    let base = dir.join("goby_auv1").display().to_string();
+    let onto = |wait: Duration| Onto::Gobyd {
+        cfg: Goby3Config {
+            enabled: true,
+            socket_name: base.clone(),
+            client_name: "frontseat_replay".into(),
+            manager_timeout_seconds: 0.2,
+            ..Default::default()
+        },
+        vehicle: "auv1".into(),
+        wait,
+    };
+    let absent = Outlet::open(&Bus::new(), onto(Duration::from_millis(500))).await;
+    match absent {
+        Err(e @ OutletError::NoGobyd { .. }) => assert!(!e.is_usage(), "{e}"),
+        Err(e) => panic!("{e}"),
+        Ok(_) => panic!("an outlet opened with no gobyd"),
+    }
+
+    let live = Bus::new();
+    live.claim(BusRole::LiveDriver).unwrap();
+    match Outlet::open(&live, onto(WAIT)).await {
+        Err(e @ OutletError::Claimed(BusRole::LiveDriver)) => assert!(e.is_usage(), "{e}"),
+        Err(e) => panic!("{e}"),
+        Ok(_) => panic!("an outlet shared a bus with a live driver"),
+    }
+
+    let gobyd = StandinGobyd::start(StandinTransport::Ipc { base: base.clone() }, &[])
+        .await
+        .unwrap();
+    let helm_bus = Bus::new();
+    let helm = start(&helm_bus, ipc_settings(&base), &["FrontSeatTranslation"]);
+    let (_s, mut nav) =
+        helm_bus.subscribe_channel(&groups::GOBY_MIDDLEWARE_FRONTSEAT_NODE_STATUS, "t", 64);
+    wait_stats(&helm, "helm link up", |_| helm.link_up()).await;
+
+    let bus = Bus::new();
+    let outlet = Outlet::open(&bus, onto(WAIT)).await.unwrap();
+    assert!(
+        outlet.description().contains("gobyd"),
+        "{}",
+        outlet.description()
+    );
+    for i in 0..5 {
+        bus.publish(
+            &groups::GOBY_MIDDLEWARE_FRONTSEAT_NODE_STATUS,
+            ns(f64::from(i)),
+        );
+    }
+    outlet.close(Some(5)).await;
+    let mut times = Vec::new();
+    while times.len() < 5 {
+        let env = tokio::time::timeout(WAIT, nav.recv())
+            .await
+            .unwrap_or_else(|_| panic!("only {times:?} arrived"))
+            .unwrap();
+        times.push(env.msg.time);
+    }
+    assert_eq!(times, [0.0, 1.0, 2.0, 3.0, 4.0]);
+    helm.close().await;
+    gobyd.stop().await;
+    let _ = std::fs::remove_dir_all(&dir);
+}

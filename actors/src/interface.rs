@@ -430,23 +430,19 @@ impl FsiState {
     }
 
     fn handle_command(&mut self, env: Envelope<CommandRequest>) {
-        let state = self.sm.state();
-        if self.shutting_down {
+        if self.shutting_down || self.sm.state() != InterfaceState::InterfaceCommand {
             self.refuse_gated(&env.msg, "command");
-        } else if state == InterfaceState::InterfaceCommand {
-            let env = match self.through_envelope(env) {
-                Some(env) => env,
-                None => return,
-            };
-            if env.msg.response_requested() {
-                self.pending
-                    .insert(env.msg.request_id, self.now() + self.s.command_timeout);
-            }
-            self.ports
-                .publish_command_request_with(env.msg.clone(), env.meta());
-        } else {
-            self.refuse_gated(&env.msg, "command");
+            return;
         }
+        let Some(env) = self.through_envelope(env) else {
+            return;
+        };
+        if env.msg.response_requested() {
+            self.pending
+                .insert(env.msg.request_id, self.now() + self.s.command_timeout);
+        }
+        self.ports
+            .publish_command_request_with(env.msg.clone(), env.meta());
     }
 
     /// Refuses and counts a request the state gate stops: shutting down, or not in the state(s)

@@ -51,7 +51,7 @@ async fn topside(
     cfg.zenoh.connect = endpoints;
     cfg.zenoh.tls = Some(ca.tls_for("topside"));
     cfg.zenoh.access = Some(ZenohAccessConfig {
-        allow_common_names: allow.iter().map(|s| s.to_string()).collect(),
+        vehicles: allow.iter().map(|s| s.to_string()).collect(),
         ..Default::default()
     });
     assert_eq!(cfg.validate(), vec![], "the topside's config is valid");
@@ -98,7 +98,7 @@ enabled = true
 listen = ["tls/127.0.0.1:{zport}"]
 [interprocess.tls]
 {}[interprocess.access]
-allow_common_names = ["topside"]
+commanders = ["topside"]
 "#,
         tls_toml(&ca.tls_for("auv1"))
     );

@@ -61,26 +61,118 @@ impl Default for ZenohTlsConfig {
     }
 }
 
-/// Access control by certificate common name (Zenoh's `access_control`): when this section is
-/// present, peers whose TLS certificate's common name is listed may do everything (publish,
-/// subscribe, query) and every other peer is denied everything. Needs `tls` with `mutual`.
+/// Access control by certificate common name (Zenoh's `access_control`, generated from this
+/// section): when it is present every peer is denied everything except what its certificate's
+/// common name (CN) is given here. A fleet vehicle's CN is its platform name (the vehicle's
+/// `name`), so a vehicle may publish only under its own keys; only commanders may publish a
+/// helm state or a course to another platform. Needs `tls` with `mutual`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields, default)]
 pub struct ZenohAccessConfig {
-    /// Common names (CN) of the peers' certificates that are allowed: the topside's and the
-    /// other vehicles', e.g. ["topside", "auv2"]. At least one.
-    pub allow_common_names: Vec<String>,
-    /// Also allow plain `tcp/` links over the loopback interface: the vehicle's own helm and
-    /// tools on this host, which present no certificate.
+    /// Common names of the fleet's vehicles, each its own platform name, e.g. ["auv1", "auv2"].
+    /// Such a peer may publish (put, delete, queryable, liveliness token) only under
+    /// `<its name>/**` — its own node_status, status, and its helm's course to itself — and may
+    /// subscribe to anything (another vehicle's node_status, to trail it). It cannot steer
+    /// another vehicle nor speak for one. This vehicle's own name may be listed (one list can
+    /// serve the whole fleet).
+    pub vehicles: Vec<String>,
+    /// Common names that may command: publish and subscribe under every platform, including
+    /// helm_state and desired_course to this vehicle — the topside, an operator's station,
+    /// e.g. ["topside"]. Anyone holding such a certificate can steer the vehicle: keep the list
+    /// short.
+    pub commanders: Vec<String>,
+    /// Also allow plain `tcp/` links over the loopback interface everything: the vehicle's own
+    /// helm and tools on this host, which present no certificate.
     pub allow_local_tcp: bool,
+    /// Replaced by `vehicles` and `commanders` (a name listed here could steer the vehicle):
+    /// refused with a message that says which list each name belongs in.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    #[schemars(skip)]
+    pub allow_common_names: Vec<String>,
 }
 
 impl Default for ZenohAccessConfig {
     fn default() -> Self {
         Self {
-            allow_common_names: Vec::new(),
+            vehicles: Vec::new(),
+            commanders: Vec::new(),
             allow_local_tcp: true,
+            allow_common_names: Vec::new(),
         }
+    }
+}
+
+/// Most names in one of the lists: a fleet of hundreds, each a Zenoh ACL subject and rule.
+pub const MAX_ACCESS_NAMES: usize = 256;
+/// Longest common name accepted (X.509 allows 64 characters; 256 bytes leaves room for UTF-8).
+const MAX_CN_BYTES: usize = 256;
+
+/// Whether `name` can be the first chunk of a key expression (`<name>/**`): Zenoh's wildcard and
+/// verbatim characters and `/` would widen or break it.
+pub fn is_key_chunk(name: &str) -> bool {
+    !name.is_empty() && !name.contains(['/', '*', '$', '?', '#']) && name.trim() == name
+}
+
+impl ZenohAccessConfig {
+    /// Every broken rule of this section at `path` (`interprocess.access`, `zenoh.access`).
+    pub fn check(&self, path: &str) -> Vec<FieldError> {
+        let mut e = Vec::new();
+        let p = |k| at(path, k);
+        if !self.allow_common_names.is_empty() {
+            e.push(FieldError::new(
+                p("allow_common_names"),
+                format!("{:?}", self.allow_common_names),
+                "replaced, because every name listed here could steer this vehicle: put the \
+                 fleet's vehicles in `vehicles = [...]` (each may publish only under its own \
+                 platform) and the topside and operators that may command in \
+                 `commanders = [...]`",
+            ));
+        }
+        if self.vehicles.is_empty()
+            && self.commanders.is_empty()
+            && self.allow_common_names.is_empty()
+        {
+            e.push(FieldError::new(
+                path.to_string(),
+                "vehicles = [], commanders = []",
+                "every peer would be denied; list the fleet's names or leave the section out",
+            ));
+        }
+        for (field, list) in [
+            ("vehicles", &self.vehicles),
+            ("commanders", &self.commanders),
+        ] {
+            if list.len() > MAX_ACCESS_NAMES {
+                e.push(FieldError::new(
+                    p(field),
+                    list.len(),
+                    format!("more than {MAX_ACCESS_NAMES} names"),
+                ));
+                continue;
+            }
+            for (i, cn) in list.iter().enumerate() {
+                let bad = if cn.trim().is_empty() || cn.len() > MAX_CN_BYTES {
+                    Some("not a common name (1 to 256 bytes)")
+                } else if field == "vehicles" && !is_key_chunk(cn) {
+                    Some(
+                        "a vehicle's common name is its platform, the first chunk of its keys: \
+                         no '/', '*', '$', '?', '#' or surrounding spaces",
+                    )
+                } else if field == "commanders" && self.vehicles.contains(cn) {
+                    Some("also in `vehicles`: a name is either a vehicle or a commander")
+                } else {
+                    None
+                };
+                if let Some(why) = bad {
+                    e.push(FieldError::new(
+                        format!("{}[{i}]", p(field)),
+                        format!("{cn:?}"),
+                        why,
+                    ));
+                }
+            }
+        }
+        e
     }
 }
 
@@ -189,7 +281,6 @@ impl ZenohSecurity<'_> {
             }
         }
         if let Some(access) = self.access.filter(|_| self.in_use) {
-            let p = |k| at(&at(prefix, "access"), k);
             match self.tls {
                 None => e.push(FieldError::new(
                     at(prefix, "access"),
@@ -210,23 +301,7 @@ impl ZenohSecurity<'_> {
                 )),
                 Some(_) => {}
             }
-            if access.allow_common_names.is_empty() {
-                e.push(FieldError::new(
-                    p("allow_common_names"),
-                    "[]",
-                    "empty: every peer would be denied; list the fleet's names or leave the \
-                     section out",
-                ));
-            }
-            for (i, cn) in access.allow_common_names.iter().enumerate() {
-                if cn.trim().is_empty() || cn.len() > 256 {
-                    e.push(FieldError::new(
-                        format!("{}[{i}]", p("allow_common_names")),
-                        format!("{cn:?}"),
-                        "not a common name (1 to 256 bytes)",
-                    ));
-                }
-            }
+            e.extend(access.check(&at(prefix, "access")));
         }
         e
     }
@@ -344,5 +419,64 @@ mod tests {
         ));
         assert!(pem_has("-----BEGIN CERTIFICATE-----", "CERTIFICATE"));
         assert!(!pem_has("-----BEGIN CERTIFICATE-----", "PRIVATE KEY"));
+    }
+
+    fn access(vehicles: &[&str], commanders: &[&str]) -> ZenohAccessConfig {
+        ZenohAccessConfig {
+            vehicles: vehicles.iter().map(|s| s.to_string()).collect(),
+            commanders: commanders.iter().map(|s| s.to_string()).collect(),
+            ..Default::default()
+        }
+    }
+
+    fn paths(e: Vec<FieldError>) -> Vec<String> {
+        e.into_iter().map(|e| e.path).collect()
+    }
+
+    #[test]
+    fn access_lists_are_checked() {
+        assert_eq!(
+            paths(access(&["auv1", "auv2"], &["topside"]).check("a")),
+            Vec::<String>::new()
+        );
+        assert_eq!(
+            paths(access(&[], &["topside"]).check("a")),
+            Vec::<String>::new()
+        );
+        assert_eq!(paths(access(&[], &[]).check("a")), vec!["a"]);
+        assert_eq!(
+            paths(access(&["auv/1", "*", " auv2", "a$b", "ok"], &["op/1"]).check("a")),
+            vec![
+                "a.vehicles[0]",
+                "a.vehicles[1]",
+                "a.vehicles[2]",
+                "a.vehicles[3]"
+            ],
+            "a commander's name is never a key chunk, so it may hold '/'"
+        );
+        assert_eq!(
+            paths(access(&["auv1"], &["auv1", ""]).check("a")),
+            vec!["a.commanders[0]", "a.commanders[1]"]
+        );
+        let many: Vec<String> = (0..=MAX_ACCESS_NAMES).map(|i| format!("v{i}")).collect();
+        let big = ZenohAccessConfig {
+            vehicles: many,
+            ..Default::default()
+        };
+        assert_eq!(paths(big.check("a")), vec!["a.vehicles"]);
+    }
+
+    #[test]
+    fn the_old_all_or_nothing_list_is_refused_naming_the_new_fields() {
+        let old: ZenohAccessConfig =
+            toml::from_str("allow_common_names = [\"topside\", \"auv2\"]").unwrap();
+        let e = old.check("interprocess.access");
+        assert_eq!(e.len(), 1, "{e:?}");
+        assert_eq!(e[0].path, "interprocess.access.allow_common_names");
+        let why = &e[0].message;
+        assert!(
+            why.contains("vehicles = [") && why.contains("commanders = ["),
+            "{why}"
+        );
     }
 }

@@ -80,7 +80,8 @@ fn interface_example_has_every_setting_and_commented_ones_work() {
         "#root_ca_certificate = \"/etc/frontseat/tls/ca.pem\"",
         "#mutual = true",
         "#[interprocess.access]",
-        "#allow_common_names = []",
+        "#vehicles = []",
+        "#commanders = []",
     ] {
         assert!(text.contains(key), "example lacks {key:?}:\n{text}");
     }

@@ -80,7 +80,7 @@ fn set_tls(cfg: &mut zenoh::Config, tls: &ZenohTlsConfig) -> Result<(), GatewayE
     )
 }
 
-/// Every message type Zenoh's access control knows: a listed peer may do all, others nothing.
+/// Every message type Zenoh's access control knows.
 const ACL_MESSAGES: [&str; 9] = [
     "put",
     "delete",
@@ -93,6 +93,26 @@ const ACL_MESSAGES: [&str; 9] = [
     "declare_liveliness_subscriber",
 ];
 
+/// What a fleet vehicle may send us about any key: asking (subscriptions, queries), which makes
+/// us send it what it asked for — the fleet's status, for a trail. Reading is not steering.
+const ACL_READ: [&str; 4] = [
+    "declare_subscriber",
+    "query",
+    "liveliness_query",
+    "declare_liveliness_subscriber",
+];
+
+/// What a fleet vehicle may send us only under its own platform: data and the declarations that
+/// answer or announce data. A helm_state or desired_course put is one of these, so a vehicle's
+/// certificate steers no vehicle but its own.
+const ACL_SPEAK: [&str; 5] = [
+    "put",
+    "delete",
+    "reply",
+    "declare_queryable",
+    "liveliness_token",
+];
+
 /// Name of the loopback interface, as Zenoh's access control sees a link's interface.
 const LOOPBACK_INTERFACE: &str = if cfg!(target_os = "linux") {
     "lo"
@@ -100,37 +120,79 @@ const LOOPBACK_INTERFACE: &str = if cfg!(target_os = "linux") {
     "lo0"
 };
 
-/// Zenoh's `access_control`: default deny; allow all to the listed certificate common names
-/// (and, when asked, to plain tcp links on the loopback interface). A subject's properties are
-/// and-ed, subjects or-ed.
-fn access_control(access: &ZenohAccessConfig) -> serde_json::Value {
-    let mut subjects = vec![json!({
-        "id": "fleet",
-        "cert_common_names": access.allow_common_names,
-    })];
+/// Zenoh's `access_control`, generated from `[…access]`: default deny, checked by Zenoh on every
+/// message crossing a link, per link, by the common name of the certificate that link presented.
+/// - a commander (and, when asked, a plain tcp link on the loopback interface): every message
+///   on every key, both ways;
+/// - a vehicle: ingress, subscriptions and queries on every key, data and declarations only
+///   under `<its name>/**`; egress, everything it asked for.
+///
+/// Zenoh allows a message when any subject the link matches allows it, and a subject's
+/// properties (common name, interface, protocol) are and-ed.
+pub fn access_control(access: &ZenohAccessConfig) -> serde_json::Value {
+    let mut rules = vec![
+        json!({
+            "id": "everything",
+            "messages": ACL_MESSAGES,
+            "flows": ["ingress", "egress"],
+            "permission": "allow",
+            "key_exprs": ["**"],
+        }),
+        json!({
+            "id": "fleet_send",
+            "messages": ACL_MESSAGES,
+            "flows": ["egress"],
+            "permission": "allow",
+            "key_exprs": ["**"],
+        }),
+        json!({
+            "id": "fleet_read",
+            "messages": ACL_READ,
+            "flows": ["ingress"],
+            "permission": "allow",
+            "key_exprs": ["**"],
+        }),
+    ];
+    let mut subjects = Vec::new();
+    let mut policies = Vec::new();
+    for (i, name) in access.vehicles.iter().enumerate() {
+        let (rule, subject) = (format!("own_keys_{i}"), format!("vehicle_{i}"));
+        rules.push(json!({
+            "id": rule,
+            "messages": ACL_SPEAK,
+            "flows": ["ingress"],
+            "permission": "allow",
+            "key_exprs": [format!("{name}/**")],
+        }));
+        subjects.push(json!({ "id": subject, "cert_common_names": [name] }));
+        policies.push(json!({
+            "id": format!("vehicle_{i}"),
+            "rules": ["fleet_read", rule, "fleet_send"],
+            "subjects": [subject],
+        }));
+    }
+    let mut trusted = Vec::new();
+    if !access.commanders.is_empty() {
+        subjects.push(json!({ "id": "commanders", "cert_common_names": access.commanders }));
+        trusted.push("commanders");
+    }
     if access.allow_local_tcp {
         subjects.push(json!({
             "id": "local_tcp",
             "interfaces": [LOOPBACK_INTERFACE],
             "link_protocols": ["tcp"],
         }));
+        trusted.push("local_tcp");
     }
-    let ids: Vec<String> = subjects
-        .iter()
-        .filter_map(|s| s.get("id").and_then(|v| v.as_str()).map(str::to_owned))
-        .collect();
+    if !trusted.is_empty() {
+        policies.push(json!({ "id": "trusted", "rules": ["everything"], "subjects": trusted }));
+    }
     json!({
         "enabled": true,
         "default_permission": "deny",
-        "rules": [{
-            "id": "allow_all",
-            "messages": ACL_MESSAGES,
-            "flows": ["ingress", "egress"],
-            "permission": "allow",
-            "key_exprs": ["**"],
-        }],
+        "rules": rules,
         "subjects": subjects,
-        "policies": [{ "rules": ["allow_all"], "subjects": ids }],
+        "policies": policies,
     })
 }
 
@@ -186,8 +248,9 @@ mod tests {
                 ..Default::default()
             }),
             access: Some(ZenohAccessConfig {
-                allow_common_names: vec!["topside".into()],
+                commanders: vec!["topside".into()],
                 allow_local_tcp: false,
+                ..Default::default()
             }),
             ..Default::default()
         };
@@ -204,6 +267,104 @@ mod tests {
             serde_json::from_str(&get(&cfg, "access_control/subjects")).unwrap();
         assert_eq!(subjects[0]["cert_common_names"], json!(["topside"]));
         assert_eq!(subjects.as_array().map(Vec::len), Some(1));
+    }
+
+    fn fleet_access() -> ZenohAccessConfig {
+        ZenohAccessConfig {
+            vehicles: vec!["auv1".into(), "auv2".into()],
+            commanders: vec!["topside".into(), "ops".into()],
+            ..Default::default()
+        }
+    }
+
+    #[test]
+    fn a_vehicle_may_speak_only_under_its_own_platform_and_a_commander_everywhere() {
+        let acl = access_control(&fleet_access());
+        let rule = |id: &str| {
+            acl["rules"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .find(|r| r["id"] == id)
+                .unwrap_or_else(|| panic!("no rule {id}: {acl:#}"))
+                .clone()
+        };
+        let policy = |subject: &str| {
+            acl["policies"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .find(|p| {
+                    p["subjects"]
+                        .as_array()
+                        .unwrap()
+                        .iter()
+                        .any(|s| s == subject)
+                })
+                .unwrap_or_else(|| panic!("no policy for {subject}: {acl:#}"))
+                .clone()
+        };
+        let subject = |id: &str| {
+            acl["subjects"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .find(|s| s["id"] == id)
+                .unwrap_or_else(|| panic!("no subject {id}: {acl:#}"))
+                .clone()
+        };
+        assert_eq!(acl["default_permission"], "deny");
+        assert_eq!(subject("vehicle_1")["cert_common_names"], json!(["auv2"]));
+        assert_eq!(
+            policy("vehicle_1")["rules"],
+            json!(["fleet_read", "own_keys_1", "fleet_send"])
+        );
+        let own = rule("own_keys_1");
+        assert_eq!(own["key_exprs"], json!(["auv2/**"]));
+        assert_eq!(own["flows"], json!(["ingress"]));
+        assert!(own["messages"].as_array().unwrap().contains(&json!("put")));
+        let read = rule("fleet_read");
+        assert!(
+            !read["messages"].as_array().unwrap().contains(&json!("put")),
+            "reading is not putting"
+        );
+        assert_eq!(read["flows"], json!(["ingress"]));
+        assert_eq!(
+            subject("commanders")["cert_common_names"],
+            json!(["topside", "ops"])
+        );
+        assert_eq!(subject("local_tcp")["link_protocols"], json!(["tcp"]));
+        assert_eq!(policy("commanders")["rules"], json!(["everything"]));
+        assert_eq!(policy("local_tcp")["rules"], json!(["everything"]));
+        assert_eq!(rule("everything")["key_exprs"], json!(["**"]));
+    }
+
+    #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+    async fn zenoh_accepts_the_generated_access_control() {
+        for access in [
+            fleet_access(),
+            ZenohAccessConfig {
+                vehicles: vec!["auv1".into()],
+                allow_local_tcp: false,
+                ..Default::default()
+            },
+            ZenohAccessConfig {
+                commanders: vec!["topside".into()],
+                allow_local_tcp: false,
+                ..Default::default()
+            },
+        ] {
+            let ip = InterprocessConfig {
+                listen: Vec::new(),
+                access: Some(access.clone()),
+                ..Default::default()
+            };
+            // Zenoh checks the rules, subjects and policies only when the session opens.
+            let s = zenoh::open(zenoh_config(&ip, 1000).unwrap())
+                .await
+                .unwrap_or_else(|e| panic!("{access:?}: {e}"));
+            s.close().await.unwrap();
+        }
     }
 
     #[test]

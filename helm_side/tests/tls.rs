@@ -225,8 +225,9 @@ async fn a_common_name_not_on_the_list_can_neither_publish_nor_hear() {
     let tls_ep = format!("tls/127.0.0.1:{tls_port}");
     let tcp_ep = format!("tcp/127.0.0.1:{tcp_port}");
     let access = ZenohAccessConfig {
-        allow_common_names: vec!["topside".into()],
+        commanders: vec!["topside".into()],
         allow_local_tcp: true,
+        ..Default::default()
     };
     let vehicle = session(
         vec![tls_ep.clone(), tcp_ep.clone()],
@@ -304,8 +305,7 @@ fn tls_section_checks() {
         )
     };
     let on = "[interprocess]\nenabled = true\nlisten = [\"tls/127.0.0.1:7447\"]\n";
-    let cases: Vec<(String, Vec<&str>)> =
-        vec![
+    let cases: Vec<(String, Vec<&str>)> = vec![
         (format!("{on}{}", tls(&ca_f, &cert_f, &key_f)), vec![]),
         (on.to_string(), vec!["interprocess.listen[0]"]),
         (
@@ -319,11 +319,17 @@ fn tls_section_checks() {
         // A key where a certificate belongs, and the other way round.
         (
             format!("{on}{}", tls(&ca_f, &key_f, &cert_f)),
-            vec!["interprocess.tls.certificate", "interprocess.tls.private_key"],
+            vec![
+                "interprocess.tls.certificate",
+                "interprocess.tls.private_key",
+            ],
         ),
         (
             format!("{on}[interprocess.tls]\nroot_ca_certificate = {ca_f:?}\n"),
-            vec!["interprocess.tls.certificate", "interprocess.tls.private_key"],
+            vec![
+                "interprocess.tls.certificate",
+                "interprocess.tls.private_key",
+            ],
         ),
         // Connecting only, without mutual TLS, needs no certificate of our own.
         (
@@ -343,28 +349,35 @@ fn tls_section_checks() {
         ),
         (
             format!(
-                "{on}{}[interprocess.access]\nallow_common_names = [\"topside\"]\n",
+                "{on}{}[interprocess.access]\ncommanders = [\"topside\"]\nvehicles = [\"auv2\"]\n",
                 tls(&ca_f, &cert_f, &key_f)
             ),
             vec![],
         ),
+        // The old all-or-nothing list is refused, naming the fields that replace it.
         (
             format!(
-                "{on}{}mutual = false\n[interprocess.access]\nallow_common_names = [\"topside\"]\n",
+                "{on}{}[interprocess.access]\nallow_common_names = [\"topside\"]\n",
+                tls(&ca_f, &cert_f, &key_f)
+            ),
+            vec!["interprocess.access.allow_common_names"],
+        ),
+        (
+            format!(
+                "{on}{}mutual = false\n[interprocess.access]\ncommanders = [\"topside\"]\n",
                 tls(&ca_f, &cert_f, &key_f)
             ),
             vec!["interprocess.tls.mutual"],
         ),
         (
             format!(
-                "{on}{}[interprocess.access]\nallow_common_names = []\n",
+                "{on}{}[interprocess.access]\nvehicles = []\n",
                 tls(&ca_f, &cert_f, &key_f)
             ),
-            vec!["interprocess.access.allow_common_names"],
+            vec!["interprocess.access"],
         ),
         (
-            "[interprocess]\nenabled = true\n[interprocess.access]\nallow_common_names = [\"a\"]\n"
-                .into(),
+            "[interprocess]\nenabled = true\n[interprocess.access]\ncommanders = [\"a\"]\n".into(),
             vec!["interprocess.access"],
         ),
     ];
@@ -427,5 +440,124 @@ fn tls_warnings() {
         std::fs::set_permissions(&key, std::fs::Permissions::from_mode(0o644)).unwrap();
         let w = warnings(ip("tls/0.0.0.0:7447", Some(tls.clone())));
         assert!(w.len() == 1 && w[0].contains("644"), "{w:?}");
+    }
+}
+
+/// What reaches a vehicle from each peer, by key: `(key, sender, delete?)`.
+async fn everything_on(
+    s: &zenoh::Session,
+) -> (
+    zenoh::pubsub::Subscriber<()>,
+    UnboundedReceiver<(String, String, bool)>,
+) {
+    let (tx, rx) = unbounded_channel();
+    let sub = s
+        .declare_subscriber("**")
+        .callback(move |sample| {
+            let from = String::from_utf8_lossy(&sample.payload().to_bytes()).into_owned();
+            let delete = sample.kind() == zenoh::sample::SampleKind::Delete;
+            let _ = tx.send((sample.key_expr().to_string(), from, delete));
+        })
+        .await
+        .unwrap();
+    (sub, rx)
+}
+
+/// Per-key authority, with Zenoh's own access control as `zenoh_config` generates it: a vehicle's
+/// certificate publishes under its own platform only (not a helm state or course to another
+/// vehicle, not another vehicle's status, not a platform whose name merely starts with its own),
+/// while it still hears the other vehicle's node_status; a commander's certificate steers.
+#[tokio::test(flavor = "multi_thread")]
+async fn a_vehicle_certificate_speaks_only_for_its_own_platform_and_a_commander_steers() {
+    let dir = TempDir::new("authority");
+    let ca = Ca::new(&dir.0, "fleet-ca");
+    let tls_ep = format!("tls/127.0.0.1:{}", free_port());
+    let access = ZenohAccessConfig {
+        vehicles: vec!["auv1".into(), "auv2".into()],
+        commanders: vec!["topside".into()],
+        allow_local_tcp: false,
+        ..Default::default()
+    };
+    let auv1 = session(
+        vec![tls_ep.clone()],
+        vec![],
+        Some(ca.tls_for("auv1")),
+        Some(access),
+    )
+    .await;
+    let auv2 = session(vec![], vec![tls_ep.clone()], Some(ca.tls_for("auv2")), None).await;
+    let topside = session(vec![], vec![tls_ep], Some(ca.tls_for("topside")), None).await;
+    let (_sub, mut at_auv1) = everything_on(&auv1).await;
+
+    let helm_state = key_for("auv1", groups::GOBY_MIDDLEWARE_FRONTSEAT_HELM_STATE.name());
+    let course = key_for(
+        "auv1",
+        groups::GOBY_MIDDLEWARE_FRONTSEAT_DESIRED_COURSE.name(),
+    );
+    let own = ns_key("auv2");
+    let forbidden = [
+        helm_state.clone(),
+        course.clone(),
+        ns_key("auv3"),
+        ns_key("auv22"),
+        ns_key("topside"),
+    ];
+    let attack = || {
+        auv2.put(&own, "auv2").wait_now();
+        for k in &forbidden {
+            auv2.put(k, "auv2").wait_now();
+        }
+        auv2.delete(&course).wait_now();
+    };
+    let first = until_received(attack, &mut at_auv1, "auv2's own node_status").await;
+    let mut heard = vec![first];
+    heard.extend(heard_while_sending(attack, &mut at_auv1).await);
+    assert!(
+        heard.iter().any(|(k, f, _)| *k == own && f == "auv2"),
+        "auv2's own key was not heard: {heard:?}"
+    );
+    let leaked: Vec<_> = heard.iter().filter(|(k, _, _)| *k != own).collect();
+    assert!(
+        leaked.is_empty(),
+        "auv2's certificate published outside auv2/**: {leaked:?}"
+    );
+
+    // The trail: auv2 still hears auv1's node_status.
+    let (_t, mut trail) = names_on(&auv2, &ns_key("auv1")).await;
+    let type_name = groups::GOBY_MIDDLEWARE_FRONTSEAT_NODE_STATUS.type_name();
+    let (k, name) = until_received(
+        || put_message(&auv1, &ns_key("auv1"), type_name, &ns("auv1", 1.0), None).unwrap(),
+        &mut trail,
+        "auv1's node_status at auv2",
+    )
+    .await;
+    assert_eq!(
+        (k.as_str(), name.as_str()),
+        (ns_key("auv1").as_str(), "auv1")
+    );
+
+    // The commander steers: its helm_state and course on auv1's keys arrive.
+    let steer = || {
+        topside.put(&helm_state, "topside").wait_now();
+        topside.put(&course, "topside").wait_now();
+    };
+    let mut got = vec![until_received(steer, &mut at_auv1, "the topside's command").await];
+    got.extend(heard_while_sending(steer, &mut at_auv1).await);
+    for k in [&helm_state, &course] {
+        assert!(
+            got.iter().any(|(key, f, _)| key == k && f == "topside"),
+            "the commander's {k} was not heard: {got:?}"
+        );
+    }
+}
+
+/// A put or delete, waited for; the test only looks at what arrives.
+trait WaitNow {
+    fn wait_now(self);
+}
+
+impl<T: zenoh::Wait<To = zenoh::Result<()>>> WaitNow for T {
+    fn wait_now(self) {
+        self.wait().unwrap();
     }
 }

@@ -101,8 +101,9 @@ async fn the_topside_sees_a_listed_vehicle_over_mutual_tls_and_not_an_unlisted_o
     let auv1 = vehicle(ports.0, ca.tls_for("auv1")).await;
     let rogue = vehicle(ports.1, ca.tls_for("rogue")).await;
     let access = ZenohAccessConfig {
-        allow_common_names: vec!["auv1".into()],
+        vehicles: vec!["auv1".into()],
         allow_local_tcp: false,
+        ..Default::default()
     };
     assert!(
         !rogue_heard(&ca, ports, (&auv1, &rogue), Some(access)).await,

@@ -74,8 +74,15 @@ impl Ca {
     /// A certificate with common name `cn` for 127.0.0.1 and localhost, for both ends of a
     /// link; returns (certificate, key) files.
     pub fn issue(&self, cn: &str) -> (PathBuf, PathBuf) {
+        self.issue_for(cn, &["127.0.0.1", "localhost"])
+    }
+
+    /// A certificate with common name `cn` naming `hosts` (addresses or DNS names) as subject
+    /// alternative names, for both ends of a link; returns (certificate, key) files.
+    pub fn issue_for(&self, cn: &str, hosts: &[&str]) -> (PathBuf, PathBuf) {
         let mut params =
-            CertificateParams::new(vec!["127.0.0.1".to_string(), "localhost".to_string()]).unwrap();
+            CertificateParams::new(hosts.iter().map(|h| h.to_string()).collect::<Vec<_>>())
+                .unwrap();
         params.distinguished_name.push(DnType::CommonName, cn);
         params.use_authority_key_identifier_extension = true;
         params.key_usages = vec![KeyUsagePurpose::DigitalSignature];
@@ -100,7 +107,12 @@ impl Ca {
 
     /// `[…tls]` trusting this CA and presenting `cn`'s certificate, mutual TLS on.
     pub fn tls_for(&self, cn: &str) -> ZenohTlsConfig {
-        let (cert, key) = self.issue(cn);
+        self.tls_for_hosts(cn, &["127.0.0.1", "localhost"])
+    }
+
+    /// Like [`Ca::tls_for`], the certificate naming `hosts`.
+    pub fn tls_for_hosts(&self, cn: &str, hosts: &[&str]) -> ZenohTlsConfig {
+        let (cert, key) = self.issue_for(cn, hosts);
         ZenohTlsConfig {
             root_ca_certificate: Some(self.cert.display().to_string()),
             certificate: Some(cert.display().to_string()),

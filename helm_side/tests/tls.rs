@@ -514,9 +514,14 @@ async fn a_vehicle_certificate_speaks_only_for_its_own_platform_and_a_commander_
     heard.extend(heard_while_sending(attack, &mut at_auv1).await);
     assert!(
         heard.iter().any(|(k, f, _)| *k == own && f == "auv2"),
-        "auv2's own key was not heard: {heard:?}"
+        "auv2's own key was not heard: {:?}",
+        heard.iter().take(20).collect::<Vec<_>>()
     );
-    let leaked: Vec<_> = heard.iter().filter(|(k, _, _)| *k != own).collect();
+    let leaked: std::collections::BTreeSet<_> = heard
+        .iter()
+        .filter(|(k, _, _)| *k != own)
+        .map(|(k, _, delete)| (k.as_str(), if *delete { "delete" } else { "put" }))
+        .collect();
     assert!(
         leaked.is_empty(),
         "auv2's certificate published outside auv2/**: {leaked:?}"
@@ -546,7 +551,8 @@ async fn a_vehicle_certificate_speaks_only_for_its_own_platform_and_a_commander_
     for k in [&helm_state, &course] {
         assert!(
             got.iter().any(|(key, f, _)| key == k && f == "topside"),
-            "the commander's {k} was not heard: {got:?}"
+            "the commander's {k} was not heard: {:?}",
+            got.iter().take(20).collect::<Vec<_>>()
         );
     }
 }

@@ -146,8 +146,9 @@ pub struct InterprocessConfig {
     /// `mutual`, authenticated. Absent = no `tls/` endpoint may be used.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub tls: Option<ZenohTlsConfig>,
-    /// Only the listed certificate common names may publish or subscribe. Absent = every peer
-    /// that joins the session may.
+    /// Who may do what, by certificate common name: a vehicle publishes only under its own
+    /// platform, only commanders steer this vehicle, everyone else is denied. Absent = every
+    /// peer that joins the session may do everything.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub access: Option<ZenohAccessConfig>,
 }

@@ -81,8 +81,8 @@ pub struct ZenohAccessConfig {
     /// e.g. ["topside"]. Anyone holding such a certificate can steer the vehicle: keep the list
     /// short.
     pub commanders: Vec<String>,
-    /// Also allow plain `tcp/` links over the loopback interface everything: the vehicle's own
-    /// helm and tools on this host, which present no certificate.
+    /// Also allow everything to plain `tcp/` links over the loopback interface: the vehicle's
+    /// own helm and tools on this host, which present no certificate.
     pub allow_local_tcp: bool,
     /// Replaced by `vehicles` and `commanders` (a name listed here could steer the vehicle):
     /// refused with a message that says which list each name belongs in.

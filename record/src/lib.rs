@@ -17,6 +17,7 @@ pub mod foxglove;
 pub mod goby_log;
 pub mod import;
 pub mod info;
+pub mod output;
 pub mod plot;
 pub mod reader;
 pub mod recorder;

@@ -12,6 +12,8 @@
 //! - [`replay`]: a recording published onto a bus with its timing, marked as replayed.
 #![forbid(unsafe_code)]
 
+#[doc(hidden)]
+pub mod crafted;
 pub mod export;
 pub mod foxglove;
 pub mod goby_log;

@@ -289,7 +289,10 @@ fn crafted_files_keep_the_binary_small() {
     let dir = scratch("crafted");
     let files = [
         // ~57 KB: 30 chunks × 3 schemas and channels with 6 MiB names (1.6 GiB declared).
-        ("huge_definitions.mcap", crafted::huge_definitions(30, 3, 6 << 20, 6 << 20)),
+        (
+            "huge_definitions.mcap",
+            crafted::huge_definitions(30, 3, 6 << 20, 6 << 20),
+        ),
         // 381 bytes: a type with 8 fields of its own type (8^8 columns flattened to depth 8).
         ("self_referencing.mcap", crafted::self_referencing_type(8)),
         // ~11 KB: one 48 MiB topic, 300 messages on it.
@@ -329,26 +332,50 @@ fn crafted_files_keep_the_binary_small() {
         check_one(vec!["log", "info", path], &[0]);
         check_one(
             vec![
-                "log", "export", path, "--group", "t", "-o", csv.to_str().unwrap(), "--force",
+                "log",
+                "export",
+                path,
+                "--group",
+                "t",
+                "-o",
+                csv.to_str().unwrap(),
+                "--force",
             ],
             &[0, 1],
         );
         check_one(
-            vec!["log", "plot", path, "--out", plot.to_str().unwrap(), "--force"],
+            vec![
+                "log",
+                "plot",
+                path,
+                "--out",
+                plot.to_str().unwrap(),
+                "--force",
+            ],
             &[0],
         );
-        check_one(vec!["replay", path, "--onto", "bus", "--speed", "max"], &[0]);
+        check_one(
+            vec!["replay", path, "--onto", "bus", "--speed", "max"],
+            &[0],
+        );
     }
     // The self-referencing type exports: a bounded header.
     let header = std::fs::read_to_string(dir.join("self_referencing.mcap.csv")).unwrap();
-    assert_eq!(header.lines().next(), Some("log_time,f0,f1,f2,f3,f4,f5,f6,f7"));
+    assert_eq!(
+        header.lines().next(),
+        Some("log_time,f0,f1,f2,f3,f4,f5,f6,f7")
+    );
     // ~8 MB: a goby_logger file whose one group name is 8 MiB, 2000 entries of it.
     let goby = dir.join("long_group.goby");
     std::fs::write(&goby, crafted::goby_long_group(8 << 20, 2000)).unwrap();
     let out = dir.join("long_group.mcap");
     check_one(
         vec![
-            "log", "import", goby.to_str().unwrap(), "-o", out.to_str().unwrap(),
+            "log",
+            "import",
+            goby.to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
         ],
         &[0],
     );

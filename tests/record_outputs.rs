@@ -74,7 +74,9 @@ fn setup(name: &str) -> (Scratch, String) {
 fn export_refuses_an_existing_output_without_force_and_replaces_it_with() {
     let (d, group) = setup("exists");
     let args = |extra: &[&'static str]| {
-        let mut a = vec!["log", "export", "in.mcap", "--group", &group, "-o", "out.csv"];
+        let mut a = vec![
+            "log", "export", "in.mcap", "--group", &group, "-o", "out.csv",
+        ];
         a.extend_from_slice(extra);
         a.into_iter().map(String::from).collect::<Vec<_>>()
     };
@@ -88,7 +90,11 @@ fn export_refuses_an_existing_output_without_force_and_replaces_it_with() {
     std::fs::write(d.path().join("out.csv"), b"mine").unwrap();
     let o = run(args(&[]));
     assert_eq!(code(&o), Some(2), "{}", stderr(&o));
-    assert!(stderr(&o).contains("exists (--force to replace it)"), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("exists (--force to replace it)"),
+        "{}",
+        stderr(&o)
+    );
     assert_eq!(std::fs::read(d.path().join("out.csv")).unwrap(), b"mine");
     assert_eq!(code(&run(args(&["--force"]))), Some(0));
     assert_eq!(std::fs::read(d.path().join("out.csv")).unwrap(), written);
@@ -110,16 +116,29 @@ fn an_output_that_is_the_input_is_refused_even_with_force() {
     for out in ["in.mcap", "./in.mcap", "link.mcap", "sym.mcap"] {
         let o = frontseat(
             d.path(),
-            &["log", "export", "in.mcap", "--group", &group, "-o", out, "--force"],
+            &[
+                "log", "export", "in.mcap", "--group", &group, "-o", out, "--force",
+            ],
         );
         assert_eq!(code(&o), Some(2), "{out}: {}", stderr(&o));
-        assert!(stderr(&o).contains("this is the input file"), "{}", stderr(&o));
-        assert_eq!(std::fs::read(d.path().join("in.mcap")).unwrap(), input, "{out}");
+        assert!(
+            stderr(&o).contains("this is the input file"),
+            "{}",
+            stderr(&o)
+        );
+        assert_eq!(
+            std::fs::read(d.path().join("in.mcap")).unwrap(),
+            input,
+            "{out}"
+        );
     }
     // The same for plot (into the input's own directory and name) and import.
     std::fs::create_dir(d.path().join("p")).unwrap();
     std::fs::hard_link(d.path().join("in.mcap"), d.path().join("p/track.svg")).unwrap();
-    let o = frontseat(d.path(), &["log", "plot", "in.mcap", "--out", "p", "--force"]);
+    let o = frontseat(
+        d.path(),
+        &["log", "plot", "in.mcap", "--out", "p", "--force"],
+    );
     assert_eq!(code(&o), Some(2), "{}", stderr(&o));
     assert_eq!(std::fs::read(d.path().join("in.mcap")).unwrap(), input);
     std::fs::copy(
@@ -127,7 +146,10 @@ fn an_output_that_is_the_input_is_refused_even_with_force() {
         d.path().join("in.goby"),
     )
     .unwrap();
-    let o = frontseat(d.path(), &["log", "import", "in.goby", "-o", "./in.goby", "--force"]);
+    let o = frontseat(
+        d.path(),
+        &["log", "import", "in.goby", "-o", "./in.goby", "--force"],
+    );
     assert_eq!(code(&o), Some(2), "{}", stderr(&o));
     assert!(std::fs::metadata(d.path().join("in.goby")).unwrap().len() > 0);
 }
@@ -139,18 +161,30 @@ fn symlinks_at_the_output_or_its_part_name_are_never_written_through() {
     std::fs::write(&victim, b"precious").unwrap();
     // A symlink as the output: exists → refused; with --force the link itself is replaced.
     std::os::unix::fs::symlink(&victim, d.path().join("a.csv")).unwrap();
-    let o = frontseat(d.path(), &["log", "export", "in.mcap", "--group", &group, "-o", "a.csv"]);
+    let o = frontseat(
+        d.path(),
+        &["log", "export", "in.mcap", "--group", &group, "-o", "a.csv"],
+    );
     assert_eq!(code(&o), Some(2), "{}", stderr(&o));
     let o = frontseat(
         d.path(),
-        &["log", "export", "in.mcap", "--group", &group, "-o", "a.csv", "--force"],
+        &[
+            "log", "export", "in.mcap", "--group", &group, "-o", "a.csv", "--force",
+        ],
     );
     assert_eq!(code(&o), Some(0), "{}", stderr(&o));
-    assert!(std::fs::symlink_metadata(d.path().join("a.csv")).unwrap().is_file());
+    assert!(
+        std::fs::symlink_metadata(d.path().join("a.csv"))
+            .unwrap()
+            .is_file()
+    );
     assert_eq!(std::fs::read(&victim).unwrap(), b"precious");
     // A `.part` symlink planted beside the output of each command.
     std::os::unix::fs::symlink(&victim, d.path().join("b.csv.part")).unwrap();
-    let o = frontseat(d.path(), &["log", "export", "in.mcap", "--group", &group, "-o", "b.csv"]);
+    let o = frontseat(
+        d.path(),
+        &["log", "export", "in.mcap", "--group", &group, "-o", "b.csv"],
+    );
     assert_eq!(code(&o), Some(0), "{}", stderr(&o));
     std::fs::create_dir(d.path().join("plot")).unwrap();
     std::os::unix::fs::symlink(&victim, d.path().join("plot/track.svg.part")).unwrap();
@@ -167,7 +201,9 @@ fn symlinks_at_the_output_or_its_part_name_are_never_written_through() {
     assert_eq!(std::fs::read(&victim).unwrap(), b"precious");
     for written in ["b.csv", "plot/track.svg", "plot/time.svg", "out.mcap"] {
         assert!(
-            std::fs::symlink_metadata(d.path().join(written)).unwrap().is_file(),
+            std::fs::symlink_metadata(d.path().join(written))
+                .unwrap()
+                .is_file(),
             "{written}"
         );
     }
@@ -187,8 +223,15 @@ fn demo_record_refuses_an_existing_file_without_force() {
         &["demo", "--lines", "--record", "run.mcap", "--out", "out"],
     );
     assert_eq!(code(&o), Some(2), "{}", stderr(&o));
-    assert!(stderr(&o).contains("exists (--force to replace it)"), "{}", stderr(&o));
-    assert_eq!(std::fs::read(d.path().join("run.mcap")).unwrap(), b"yesterday");
+    assert!(
+        stderr(&o).contains("exists (--force to replace it)"),
+        "{}",
+        stderr(&o)
+    );
+    assert_eq!(
+        std::fs::read(d.path().join("run.mcap")).unwrap(),
+        b"yesterday"
+    );
 }
 
 #[test]

@@ -619,7 +619,13 @@ mod tests {
     #[test]
     fn a_vehicle_or_process_whose_name_is_a_path_is_a_config_error() {
         // As TOML writes them.
-        for bad in [r#""..""#, r#"".""#, r#""a/b""#, r#"'x\y'"#, r#""auv\u0007""#] {
+        for bad in [
+            r#""..""#,
+            r#"".""#,
+            r#""a/b""#,
+            r#"'x\y'"#,
+            r#""auv\u0007""#,
+        ] {
             let text = format!(
                 "[record]\nenabled = true\n[[vehicle]]\nname = {bad}\n[[process]]\nname = {bad}\ncommand = [\"true\"]\n"
             );

@@ -149,7 +149,12 @@ pub fn huge_definitions(chunks: usize, per_chunk: usize, name: usize, data: usiz
             b.extend((data as u32).to_le_bytes());
             segs.extend(record_segs(
                 0x03,
-                vec![Seg::Raw(a), Seg::Run(b'S', name), Seg::Raw(b), Seg::Run(0, data)],
+                vec![
+                    Seg::Raw(a),
+                    Seg::Run(b'S', name),
+                    Seg::Raw(b),
+                    Seg::Run(0, data),
+                ],
             ));
             // Channel: id, schema id, topic (run of 'T'), encoding, empty metadata.
             let mut a = id.to_le_bytes().to_vec();
@@ -261,29 +266,15 @@ pub fn goby_long_group(name_len: usize, entries: u32) -> Vec<u8> {
     t.extend(b"goby.middleware.frontseat.protobuf.NodeStatus");
     f.extend(goby_entry(0xFFFE, 0, 1, 0, &t));
     for i in 0..entries {
-        f.extend(goby_entry(1, 1, 1, 1_700_000_000_000_000 + u64::from(i), b""));
+        f.extend(goby_entry(
+            1,
+            1,
+            1,
+            1_700_000_000_000_000 + u64::from(i),
+            b"",
+        ));
     }
     f
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// The hand-made zstd frames decode, with zstd's own decoder, to what they describe.
-    #[test]
-    fn hand_made_zstd_frames_decode() {
-        let segs = [
-            Seg::Raw(b"head".to_vec()),
-            Seg::Run(b'A', 300_000),
-            Seg::Raw(vec![7; 200_000]),
-        ];
-        let out = zstd::bulk::decompress(&zstd_frame(&segs), 600_000).unwrap();
-        assert_eq!(out.len(), 500_004);
-        assert_eq!(&out[..4], b"head");
-        assert!(out[4..300_004].iter().all(|b| *b == b'A'));
-        assert!(out[300_004..].iter().all(|b| *b == 7));
-    }
 }
 
 /// The fuzz seeds: (corpus directory, file name, bytes), each under 70 000 bytes.
@@ -310,4 +301,24 @@ pub fn seeds() -> Vec<(&'static str, &'static str, Vec<u8>)> {
             goby_long_group(60_000, 300),
         ),
     ]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The hand-made zstd frames decode, with zstd's own decoder, to what they describe.
+    #[test]
+    fn hand_made_zstd_frames_decode() {
+        let segs = [
+            Seg::Raw(b"head".to_vec()),
+            Seg::Run(b'A', 300_000),
+            Seg::Raw(vec![7; 200_000]),
+        ];
+        let out = zstd::bulk::decompress(&zstd_frame(&segs), 600_000).unwrap();
+        assert_eq!(out.len(), 500_004);
+        assert_eq!(&out[..4], b"head");
+        assert!(out[4..300_004].iter().all(|b| *b == b'A'));
+        assert!(out[300_004..].iter().all(|b| *b == 7));
+    }
 }

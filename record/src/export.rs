@@ -187,7 +187,14 @@ fn csv_columns(desc: &MessageDescriptor) -> Result<(Vec<Vec<String>>, usize), Ex
         let mut cells = 0;
         let mut path = Vec::new();
         let mut on_path = vec![desc.full_name().to_string()];
-        if field_columns(desc, &mut path, &mut on_path, max_depth, &mut out, &mut cells) {
+        if field_columns(
+            desc,
+            &mut path,
+            &mut on_path,
+            max_depth,
+            &mut out,
+            &mut cells,
+        ) {
             return Ok((out, cells));
         }
     }

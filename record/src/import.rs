@@ -255,7 +255,9 @@ pub fn import<R: Read, W: Write + std::io::Seek>(
                         .get_message_by_name(&e.type_name)
                         .map(|d| (d, true))
                         .or_else(|| {
-                            compiled.and_then(|c| c.get_message_by_name(&e.type_name).map(|d| (d, false)))
+                            compiled.and_then(|c| {
+                                c.get_message_by_name(&e.type_name).map(|d| (d, false))
+                            })
                         });
                     found.map(|(d, own)| {
                         descs.insert(ty.clone(), (d.clone(), own));

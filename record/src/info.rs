@@ -3,9 +3,9 @@
 //! closed or cut short.
 
 use std::collections::{BTreeMap, HashMap};
-use std::sync::Arc;
 use std::fmt::Write as _;
 use std::io::Read;
+use std::sync::Arc;
 
 use crate::reader::{ReadError, Recording};
 use crate::time::{iso_utc, secs};
@@ -79,9 +79,9 @@ pub fn info<R: Read>(mut rec: Recording<R>) -> Result<Info, ReadError> {
         let (channel_id, log_time, len) = (m.channel_id, m.log_time, m.data.len() as u64);
         // The cache holds the Arc, so an equal address is the same definition.
         let topic = m.channel.map(|c| Arc::as_ptr(&c.topic));
-        let cached = by_channel.get(&channel_id).filter(|(t, _, _)| {
-            t.as_ref().map(Arc::as_ptr) == topic
-        });
+        let cached = by_channel
+            .get(&channel_id)
+            .filter(|(t, _, _)| t.as_ref().map(Arc::as_ptr) == topic);
         let (ix, local) = match cached {
             Some((_, ix, local)) => (*ix, *local),
             None => {
@@ -95,7 +95,11 @@ pub fn info<R: Read>(mut rec: Recording<R>) -> Result<Info, ReadError> {
                             .get(crate::CHANNEL_ORIGIN)
                             .is_none_or(|o| o == "local"),
                     ),
-                    None => (format!("<unknown channel {channel_id}>"), String::new(), true),
+                    None => (
+                        format!("<unknown channel {channel_id}>"),
+                        String::new(),
+                        true,
+                    ),
                 };
                 let ix = *by_topic.entry(name.clone()).or_insert_with(|| {
                     accs.push(Acc {

@@ -5,8 +5,8 @@
 
 use std::collections::HashMap;
 use std::fmt::Write as _;
-use std::io::Write as _;
 use std::io::Read;
+use std::io::Write as _;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
@@ -101,10 +101,13 @@ fn get(msg: &DynamicMessage, path: &[&str]) -> Option<f64> {
     .filter(|v| v.is_finite())
 }
 
+/// Which series (0 actual, 1 commanded) and which vehicle a channel's messages go to.
+type Route = (usize, u16);
+
 /// Reads node_status and desired_course samples (decimated past [`MAX_SAMPLES`]).
 pub fn series<R: Read>(mut rec: Recording<R>) -> Result<Series, ReadError> {
     let mut descs: HashMap<u16, Option<MessageDescriptor>> = HashMap::new();
-    let mut routes: HashMap<u16, (Arc<str>, Option<(usize, u16)>)> = HashMap::new();
+    let mut routes: HashMap<u16, (Arc<str>, Option<Route>)> = HashMap::new();
     let mut out = Series::default();
     let mut start = None;
     let mut seen = [0usize; 2];

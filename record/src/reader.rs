@@ -393,7 +393,10 @@ impl<R: Read> Recording<R> {
                 }
                 let cost = c.topic.len()
                     + c.message_encoding.len()
-                    + c.metadata.iter().map(|(k, v)| k.len() + v.len()).sum::<usize>();
+                    + c.metadata
+                        .iter()
+                        .map(|(k, v)| k.len() + v.len())
+                        .sum::<usize>();
                 keep(self, (op::CHANNEL, c.id), cost);
                 self.channels.insert(
                     c.id,
@@ -407,7 +410,10 @@ impl<R: Read> Recording<R> {
             }
             Record::Metadata(m) => {
                 let cost = m.name.len()
-                    + m.metadata.iter().map(|(k, v)| k.len() + v.len()).sum::<usize>();
+                    + m.metadata
+                        .iter()
+                        .map(|(k, v)| k.len() + v.len())
+                        .sum::<usize>();
                 if self.retained + cost > MAX_RETAINED {
                     self.skipped_definitions += 1;
                     return;

@@ -1052,9 +1052,7 @@ pub fn is_ours(name: &str, prefix: &str) -> bool {
         return false;
     };
     digits(date, 8)
-        && time
-            .strip_suffix('Z')
-            .is_some_and(|t| digits(t, 6))
+        && time.strip_suffix('Z').is_some_and(|t| digits(t, 6))
         && seq.len() >= 4
         && seq.len() <= 20
         && seq.bytes().all(|b| b.is_ascii_digit())

@@ -59,7 +59,11 @@ fn crafted_seeds_are_checked_in() {
                 p.display()
             )
         });
-        assert!(on_disk == bytes, "{} differs from its generator", p.display());
+        assert!(
+            on_disk == bytes,
+            "{} differs from its generator",
+            p.display()
+        );
         assert!(bytes.len() < 70_000, "{name}: over the fuzzer's -max_len");
     }
 }

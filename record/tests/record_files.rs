@@ -72,7 +72,11 @@ fn a_fixed_path_that_exists_is_kept_and_the_run_records_to_a_new_name() {
     assert_eq!(second, d.path().join("run.1.mcap"));
     let third = record(opts(&path), 7);
     assert_eq!(third, d.path().join("run.2.mcap"));
-    assert_eq!(std::fs::read(&path).unwrap(), before, "the first file is untouched");
+    assert_eq!(
+        std::fs::read(&path).unwrap(),
+        before,
+        "the first file is untouched"
+    );
     assert_eq!(
         (messages(&path), messages(&second), messages(&third)),
         (3, 5, 7)
@@ -184,7 +188,10 @@ fn replace_renames_onto_the_file_at_the_end_and_never_follows_a_planted_part() {
     let temp = record(o, 4);
     // Recorded under a temporary name beside it, stepping over the planted `.part`.
     let t = temp.file_name().unwrap().to_str().unwrap();
-    assert!(t.starts_with("demo.mcap.") && t.ends_with(".part") && t != "demo.mcap.part", "{t}");
+    assert!(
+        t.starts_with("demo.mcap.") && t.ends_with(".part") && t != "demo.mcap.part",
+        "{t}"
+    );
     assert_eq!(messages(&path), 4);
     assert_eq!(std::fs::read(&victim).unwrap(), b"keep me");
     // Only the planted link is left beside it: the temporary file was renamed.

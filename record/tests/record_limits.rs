@@ -22,12 +22,19 @@ fn definitions_with_huge_names_across_chunks_are_kept_within_the_limit() {
     }
     assert_eq!(n, 90, "every message is still read");
     assert!(peak <= MAX_RETAINED, "{peak}");
-    assert_eq!(r.skipped_definitions(), 180, "every huge name skipped and counted");
+    assert_eq!(
+        r.skipped_definitions(),
+        180,
+        "every huge name skipped and counted"
+    );
     let i = info::info(Recording::new(f.as_slice())).unwrap();
     assert_eq!(i.messages, 90);
     assert_eq!(i.skipped_definitions, 180);
     let note = i.render();
-    assert!(note.contains("180 schema/channel/metadata records skipped"), "{note}");
+    assert!(
+        note.contains("180 schema/channel/metadata records skipped"),
+        "{note}"
+    );
 }
 
 #[test]
@@ -41,7 +48,10 @@ fn many_small_definitions_stop_at_the_retained_limit() {
         peak = peak.max(r.retained_bytes());
     }
     assert!(peak <= MAX_RETAINED, "{peak}");
-    assert!(peak > MAX_RETAINED / 2, "definitions under the limit are kept: {peak}");
+    assert!(
+        peak > MAX_RETAINED / 2,
+        "definitions under the limit are kept: {peak}"
+    );
     assert!(r.skipped_definitions() > 0);
 }
 
@@ -61,7 +71,10 @@ fn a_type_containing_itself_exports_a_bounded_header() {
     // Each self-typed field is one JSON cell: 8 columns, not 8^8.
     assert_eq!((done.columns, done.json_cells), (8, 8));
     let text = String::from_utf8(out).unwrap();
-    assert_eq!(text.lines().next().unwrap(), "log_time,f0,f1,f2,f3,f4,f5,f6,f7");
+    assert_eq!(
+        text.lines().next().unwrap(),
+        "log_time,f0,f1,f2,f3,f4,f5,f6,f7"
+    );
 }
 
 #[test]

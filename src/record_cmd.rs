@@ -134,15 +134,27 @@ pub fn log(args: LogArgs) -> ExitCode {
             match result {
                 Ok(done) => {
                     eprintln!(
-                        "{} rows{}{}",
+                        "{} rows{}{}{}{}",
                         done.rows,
                         if done.undecodable > 0 {
                             format!(", {} undecodable messages skipped", done.undecodable)
                         } else {
                             String::new()
                         },
+                        if done.json_cells > 0 {
+                            format!(
+                                "; {} sub-message columns kept as JSON (a type containing itself, or over {} columns)",
+                                done.json_cells,
+                                export::MAX_COLUMNS
+                            )
+                        } else {
+                            String::new()
+                        },
                         done.truncated
                             .map(|t| format!("; the file was cut short: {t}"))
+                            .unwrap_or_default(),
+                        done.limits_note
+                            .map(|n| format!("; not read: {n}"))
                             .unwrap_or_default()
                     );
                     ExitCode::SUCCESS

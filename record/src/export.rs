@@ -52,6 +52,8 @@ pub struct Exported {
     /// Sub-messages written as one JSON cell rather than flattened: a type that contains
     /// itself, or flattening past [`MAX_COLUMNS`].
     pub json_cells: usize,
+    /// What the reader skipped for its limits ([`Recording::limits_note`]).
+    pub limits_note: Option<String>,
 }
 
 /// Deepest message nesting flattened into columns; deeper goes into a JSON cell.
@@ -171,6 +173,7 @@ pub fn export<R: Read, W: Write>(
         done.rows += 1;
     }
     done.truncated = rec.truncated().map(str::to_string);
+    done.limits_note = rec.limits_note();
     if done.rows == 0 && done.undecodable == 0 {
         return Err(ExportError::NoSuchGroup(group.to_string()));
     }

@@ -45,8 +45,12 @@ pub struct DemoArgs {
     #[arg(long, value_name = "ADDR", default_value = "127.0.0.1:50001")]
     pub web_listen: String,
     /// Record every group of the run to this MCAP file (`frontseat log info FILE` reads it).
+    /// An existing FILE is kept unless --force.
     #[arg(long, value_name = "FILE")]
     pub record: Option<PathBuf>,
+    /// With --record: replace FILE if it exists (the new recording is renamed onto it at the end).
+    #[arg(long, requires = "record")]
+    pub force: bool,
     /// Fly a fleet of N vehicles (2 to 12; 3 when no number is given): one simulator, one
     /// `frontseat interface` process per vehicle (each its own Zenoh platform), a leader on the
     /// homework path and N-1 followers trailing it in a V from the leader's node_status received
@@ -103,11 +107,15 @@ pub async fn run(args: DemoArgs) -> ExitCode {
         eprintln!("the bus is already claimed by {held:?}");
         return ExitCode::from(2);
     }
-    let recorder = match crate::record_cmd::start_recorder(&bus, &cfg, "demo") {
+    let recorder = match &args.record {
+        Some(path) => crate::record_cmd::start_demo_recorder(&bus, &cfg, path, args.force),
+        None => crate::record_cmd::start_recorder(&bus, &cfg, "demo").map_err(|e| (1, e)),
+    };
+    let recorder = match recorder {
         Ok(r) => r,
-        Err(e) => {
+        Err((code, e)) => {
             eprintln!("cannot record: {e}");
-            return ExitCode::from(1);
+            return ExitCode::from(code);
         }
     };
     if let Some(p) = &args.record {

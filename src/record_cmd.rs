@@ -39,9 +39,13 @@ pub enum LogCommand {
         group: String,
         #[arg(long, value_enum, default_value_t = ExportFormat::Csv)]
         format: ExportFormat,
-        /// Write here instead of standard output.
+        /// Write here instead of standard output (through a temporary file beside it, renamed
+        /// at the end; never the input file).
         #[arg(long, short = 'o', value_name = "FILE")]
         output: Option<PathBuf>,
+        /// Replace the output file if it exists.
+        #[arg(long)]
+        force: bool,
     },
     /// Converts a goby_logger `.goby` file to MCAP, using the protobuf descriptors the file
     /// carries (types this binary does not know are kept). PROTOBUF entries are converted; DCCL,
@@ -62,6 +66,9 @@ pub enum LogCommand {
         file: PathBuf,
         #[arg(long, value_name = "DIR", default_value = "plot-out")]
         out: PathBuf,
+        /// Replace track.svg and time.svg if they exist.
+        #[arg(long)]
+        force: bool,
     },
 }
 
@@ -78,12 +85,12 @@ pub fn log(args: LogArgs) -> ExitCode {
             output,
             force,
         } => import(&file, output, force),
-        LogCommand::Plot { file, out } => {
+        LogCommand::Plot { file, out, force } => {
             let s = match Recording::open(&file).and_then(frontseat_record::plot::series) {
                 Ok(s) => s,
                 Err(e) => return fail(&e),
             };
-            match frontseat_record::plot::write_dir(&s, &out) {
+            match frontseat_record::plot::write_dir(&s, &out, force, &file) {
                 Ok([track, time]) => {
                     eprintln!(
                         "{} node_status and {} desired_course samples; wrote {} and {}",
@@ -94,7 +101,10 @@ pub fn log(args: LogArgs) -> ExitCode {
                     );
                     ExitCode::SUCCESS
                 }
-                Err(e) => fail(&e),
+                Err(e) => {
+                    eprintln!("{e}");
+                    ExitCode::from(if e.is_usage() { 2 } else { 1 })
+                }
             }
         }
         LogCommand::Info { file, json } => {
@@ -110,6 +120,7 @@ pub fn log(args: LogArgs) -> ExitCode {
             group,
             format,
             output,
+            force,
         } => {
             let format = match format {
                 ExportFormat::Csv => export::Format::Csv,
@@ -117,24 +128,41 @@ pub fn log(args: LogArgs) -> ExitCode {
             };
             let result = Recording::open(&file)
                 .map_err(export::ExportError::Read)
-                .and_then(|rec| export::export_to(rec, &group, format, output.as_deref()));
+                .and_then(|rec| {
+                    export::export_to(rec, &group, format, output.as_deref(), force, &file)
+                });
             match result {
                 Ok(done) => {
                     eprintln!(
-                        "{} rows{}{}",
+                        "{} rows{}{}{}{}",
                         done.rows,
                         if done.undecodable > 0 {
                             format!(", {} undecodable messages skipped", done.undecodable)
                         } else {
                             String::new()
                         },
+                        if done.json_cells > 0 {
+                            format!(
+                                "; {} sub-message columns kept as JSON (a type containing itself, or over {} columns)",
+                                done.json_cells,
+                                export::MAX_COLUMNS
+                            )
+                        } else {
+                            String::new()
+                        },
                         done.truncated
                             .map(|t| format!("; the file was cut short: {t}"))
+                            .unwrap_or_default(),
+                        done.limits_note
+                            .map(|n| format!("; not read: {n}"))
                             .unwrap_or_default()
                     );
                     ExitCode::SUCCESS
                 }
-                Err(e) => fail(&e),
+                Err(e) => {
+                    eprintln!("{e}");
+                    ExitCode::from(if e.is_usage() { 2 } else { 1 })
+                }
             }
         }
     }
@@ -381,6 +409,30 @@ pub fn start_recorder(
     application: &str,
 ) -> Result<Option<RecordService>, String> {
     start_with(bus, &cfg.record, &cfg.name, run_meta(cfg, application))
+}
+
+/// `demo --record FILE [--force]`: refused (exit 2 from the caller) when FILE exists without
+/// `force`, or is not a plain file name in a directory; with `force` the run records beside FILE
+/// and renames onto it when it ends.
+pub fn start_demo_recorder(
+    bus: &Bus,
+    cfg: &InterfaceConfig,
+    path: &Path,
+    force: bool,
+) -> Result<Option<RecordService>, (u8, String)> {
+    if path.file_name().is_none() {
+        return Err((2, format!("--record {}: not a file name", path.display())));
+    }
+    if !force && std::fs::symlink_metadata(path).is_ok() {
+        return Err((
+            2,
+            format!("--record {} exists (--force to replace it)", path.display()),
+        ));
+    }
+    RecordService::spawn_adjusted(bus, &cfg.record, &cfg.name, run_meta(cfg, "demo"), |o| {
+        o.replace = force;
+    })
+    .map_err(|e| (1, e.to_string()))
 }
 
 /// The MOOS gateway's recorder (the helm's side of the link) when `[record] enabled`.

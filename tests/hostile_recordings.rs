@@ -102,6 +102,16 @@ struct Outcome {
     code: Option<i32>,
     stderr: String,
     took: Duration,
+    /// The child's VmHWM (peak resident memory), sampled while it ran. Unit: KiB.
+    peak_kib: u64,
+}
+
+/// `VmHWM` of a running process (prlimit execs the binary: the same pid). Unit: KiB.
+fn vm_hwm(pid: u32) -> Option<u64> {
+    let s = std::fs::read_to_string(format!("/proc/{pid}/status")).ok()?;
+    s.lines()
+        .find_map(|l| l.strip_prefix("VmHWM:"))
+        .and_then(|v| v.trim().trim_end_matches("kB").trim().parse().ok())
 }
 
 /// Runs `frontseat ARGS` under the data cap; kills it past the time limit.
@@ -118,7 +128,10 @@ fn run(args: &[&str]) -> Outcome {
         .spawn()
         .expect("prlimit (util-linux) runs the binary");
     let start = Instant::now();
+    let mut peak_kib = 0;
     loop {
+        // Before try_wait: once reaped, the pid's numbers are gone.
+        peak_kib = peak_kib.max(vm_hwm(child.id()).unwrap_or(0));
         if let Some(_status) = child.try_wait().unwrap() {
             break;
         }
@@ -126,7 +139,7 @@ fn run(args: &[&str]) -> Outcome {
             let _ = child.kill();
             break;
         }
-        std::thread::sleep(Duration::from_millis(10));
+        std::thread::sleep(Duration::from_millis(2));
     }
     let took = start.elapsed();
     let out = child.wait_with_output().unwrap();
@@ -134,6 +147,7 @@ fn run(args: &[&str]) -> Outcome {
         code: out.status.code(),
         stderr: String::from_utf8_lossy(&out.stderr).into_owned(),
         took,
+        peak_kib,
     }
 }
 
@@ -258,4 +272,113 @@ fn intact_recordings_read_and_replay_under_the_same_cap() {
             assert_eq!(o.code, Some(0), "{}: {}", args.join(" "), o.stderr);
         }
     }
+}
+
+/// Peak resident memory allowed to a command on the crafted files below: what the binary needs
+/// for an intact recording plus one chunk (up to the 64 MiB record limit) and the reader's
+/// bounded definitions. Before issue 37 the first file took the reader past 1.5 GiB.
+const CRAFTED_PEAK_KIB: u64 = 200 * 1024;
+
+/// The crafted shapes of issue 37's review (`frontseat_record::crafted`), at full size, through
+/// the real binary: every command ends cleanly, within the data cap and the time limit, and its
+/// sampled peak memory (VmHWM) stays under [`CRAFTED_PEAK_KIB`]. The peaks are printed
+/// (`--nocapture`) for the record.
+#[test]
+fn crafted_files_keep_the_binary_small() {
+    use frontseat_record::crafted;
+    let dir = scratch("crafted");
+    let files = [
+        // ~57 KB: 30 chunks × 3 schemas and channels with 6 MiB names (1.6 GiB declared).
+        (
+            "huge_definitions.mcap",
+            crafted::huge_definitions(30, 3, 6 << 20, 6 << 20),
+        ),
+        // 381 bytes: a type with 8 fields of its own type (8^8 columns flattened to depth 8).
+        ("self_referencing.mcap", crafted::self_referencing_type(8)),
+        // ~11 KB: one 48 MiB topic, 300 messages on it.
+        ("huge_topic.mcap", crafted::huge_topic(48 << 20, 300)),
+    ];
+    let mut failures = Vec::new();
+    let mut check_one = |args: Vec<&str>, want: &[i32]| {
+        let o = run(&args);
+        eprintln!(
+            "{}: exit {:?}, {:?}, peak {} KiB",
+            args.join(" "),
+            o.code,
+            o.took,
+            o.peak_kib
+        );
+        if !o.code.is_some_and(|c| want.contains(&c))
+            || o.took >= TIME_LIMIT
+            || o.peak_kib > CRAFTED_PEAK_KIB
+            || o.peak_kib == 0
+        {
+            failures.push(format!(
+                "{}: exit {:?} after {:?}, peak {} KiB: {}",
+                args.join(" "),
+                o.code,
+                o.took,
+                o.peak_kib,
+                o.stderr.lines().take(3).collect::<Vec<_>>().join(" / ")
+            ));
+        }
+    };
+    for (name, bytes) in &files {
+        let p = dir.join(name);
+        std::fs::write(&p, bytes).unwrap();
+        let path = p.to_str().unwrap();
+        let csv = dir.join(format!("{name}.csv"));
+        let plot = dir.join(format!("{name}-plot"));
+        check_one(vec!["log", "info", path], &[0]);
+        check_one(
+            vec![
+                "log",
+                "export",
+                path,
+                "--group",
+                "t",
+                "-o",
+                csv.to_str().unwrap(),
+                "--force",
+            ],
+            &[0, 1],
+        );
+        check_one(
+            vec![
+                "log",
+                "plot",
+                path,
+                "--out",
+                plot.to_str().unwrap(),
+                "--force",
+            ],
+            &[0],
+        );
+        check_one(
+            vec!["replay", path, "--onto", "bus", "--speed", "max"],
+            &[0],
+        );
+    }
+    // The self-referencing type exports: a bounded header.
+    let header = std::fs::read_to_string(dir.join("self_referencing.mcap.csv")).unwrap();
+    assert_eq!(
+        header.lines().next(),
+        Some("log_time,f0,f1,f2,f3,f4,f5,f6,f7")
+    );
+    // ~8 MB: a goby_logger file whose one group name is 8 MiB, 2000 entries of it.
+    let goby = dir.join("long_group.goby");
+    std::fs::write(&goby, crafted::goby_long_group(8 << 20, 2000)).unwrap();
+    let out = dir.join("long_group.mcap");
+    check_one(
+        vec![
+            "log",
+            "import",
+            goby.to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
+        ],
+        &[0],
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
 }

@@ -189,3 +189,41 @@ start = {{ lat = 42.36, lon = -71.08 }}
     }
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// Issue 37: a vehicle named `..` would record in the parent of the record directory. The real
+/// binary's `launch --check` refuses it as a config error naming the field, and nothing is
+/// written outside the launch file's directory.
+#[test]
+fn a_vehicle_named_dot_dot_is_a_config_error() {
+    let dir = scratch("launch", "dotdot");
+    let inner = dir.join("inner");
+    let _ = std::fs::remove_dir_all(&inner);
+    std::fs::create_dir_all(&inner).unwrap();
+    let file = inner.join("fleet.toml");
+    std::fs::write(
+        &file,
+        "run_dir = \"run\"\n[record]\nenabled = true\ndir = \"rec\"\n[[vehicle]]\nname = \"..\"\n",
+    )
+    .unwrap();
+    let out = Command::new(BIN)
+        .args(["launch", "--check", "-c"])
+        .arg(&file)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("vehicle[0].name") && err.contains("`.` and `..` are not names"),
+        "{err}"
+    );
+    let mut left: Vec<_> = std::fs::read_dir(&inner)
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .collect();
+    left.sort();
+    assert_eq!(
+        left,
+        ["fleet.toml"],
+        "nothing written beside the launch file"
+    );
+}

@@ -382,3 +382,95 @@ exclude = ["^frontseat::chaos"]
             .any(|g| g.group == NODE_STATUS && g.count >= 5)
     );
 }
+
+/// Issue 37: an interface recording to a fixed `[record] path` is killed (SIGKILL) mid-run and
+/// started again with the same config. The first file — the record of the crash — is kept byte
+/// for byte and still reads; the second run records to `run.1.mcap` and says so in its log.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn an_interface_killed_and_restarted_keeps_its_first_recording_intact() {
+    let dir = scratch("record", "restart");
+    let rec_dir = dir.join("rec");
+    let _ = std::fs::remove_dir_all(&rec_dir);
+    std::fs::create_dir_all(&rec_dir).unwrap();
+    let first = rec_dir.join("run.mcap");
+    let second = rec_dir.join("run.1.mcap");
+    let sim_port = free_port();
+    let _sim = Kill(
+        frontseat()
+            .args(["sim", "--port", &sim_port.to_string()])
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .spawn()
+            .unwrap(),
+    );
+    wait_for_tcp(sim_port).await;
+    let cfg = format!(
+        r#"name = "crash-auv"
+require_helm = false
+sim_warp_factor = 10.0
+[driver.basic_simulator]
+tcp_port = {sim_port}
+[record]
+enabled = true
+path = "{}"
+flush_s = 0.2
+# Not a test of the disk guard.
+min_free_mb = 0
+"#,
+        first.display()
+    );
+    let cfg_path = dir.join("interface.toml");
+    std::fs::write(&cfg_path, cfg).unwrap();
+    let start = |log: &str| {
+        Kill(
+            frontseat()
+                .arg("interface")
+                .arg("-c")
+                .arg(&cfg_path)
+                .env("RUST_LOG", "info")
+                .stdout(Stdio::null())
+                .stderr(std::fs::File::create(dir.join(log)).unwrap())
+                .spawn()
+                .unwrap(),
+        )
+    };
+    let wait_node_status = |file: &Path| {
+        let deadline = Instant::now() + Duration::from_secs(60);
+        loop {
+            if readable(file).1 >= 5 {
+                return;
+            }
+            assert!(
+                Instant::now() < deadline,
+                "no node_status in {} within 60 s",
+                file.display()
+            );
+            std::thread::sleep(Duration::from_millis(100));
+        }
+    };
+    let mut a = start("first.log");
+    wait_node_status(&first);
+    a.0.kill().unwrap();
+    a.0.wait().unwrap();
+    let kept = std::fs::read(&first).unwrap();
+    let before = info::info(Recording::open(&first).unwrap()).unwrap();
+    assert!(before.truncated.is_some(), "killed: no summary");
+
+    let mut b = start("second.log");
+    wait_node_status(&second);
+    b.0.kill().unwrap();
+    b.0.wait().unwrap();
+    assert_eq!(
+        std::fs::read(&first).unwrap(),
+        kept,
+        "the restart left the first recording byte for byte"
+    );
+    let again = info::info(Recording::open(&first).unwrap()).unwrap();
+    assert_eq!(again.messages, before.messages);
+    assert!(readable(&second).1 >= 5);
+    let log = std::fs::read_to_string(dir.join("second.log")).unwrap();
+    assert!(
+        log.contains("run.1.mcap") && log.contains("kept untouched"),
+        "the restart says where it records and that the old file is kept: {log}"
+    );
+}

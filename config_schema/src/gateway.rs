@@ -86,6 +86,7 @@ impl ServiceConfig for GatewayConfig {
 
     fn validate(&self) -> Vec<FieldError> {
         let mut c = Checker::default();
+        crate::names::check_optional("name", &self.name, &mut c);
         self.moos.check("moos", &mut c);
         if !self.interprocess.enabled && !self.goby3.enabled {
             c.push(FieldError::new(

@@ -201,6 +201,8 @@ impl ServiceConfig for InterfaceConfig {
 
     fn validate(&self) -> Vec<FieldError> {
         let mut c = Checker::default();
+        // The name names the record files and is the default Zenoh platform.
+        crate::names::check_optional("name", &self.name, &mut c);
         self.origin.check("origin", &mut c);
         c.non_negative("helm_running_timeout", self.helm_running_timeout);
         c.non_negative("helm_state_timeout", self.helm_state_timeout);

@@ -18,6 +18,7 @@ mod gateway;
 mod goby3;
 pub mod goby3_import;
 mod interface;
+pub mod names;
 mod record;
 mod sections;
 mod sim;

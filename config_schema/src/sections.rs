@@ -219,6 +219,8 @@ impl InterprocessConfig {
                 format!("{:?}", self.platform),
                 "must not contain '/', '*', '$', '?' or '#' (it becomes a key expression chunk)",
             ));
+        } else {
+            crate::names::check_optional(&at(prefix, "platform"), &self.platform, c);
         }
         c.errors.extend(self.security().check(prefix));
     }

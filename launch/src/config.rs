@@ -238,11 +238,11 @@ fn example_processes() -> Vec<ProcessEntry> {
     }]
 }
 
-/// A process name is a log prefix and a file name: short, plain characters only.
+/// A process name is a log prefix and a file name: the names rule every name follows
+/// (`frontseat_config::names`: no `.`/`..`, separators or control characters), then short and
+/// plain characters only.
 pub fn check_name(name: &str) -> Result<(), String> {
-    if name.is_empty() {
-        return Err("empty".into());
-    }
+    frontseat_config::names::check_name(name).map_err(|e| e.to_string())?;
     if name.chars().count() > MAX_NAME_CHARS {
         return Err(format!("longer than {MAX_NAME_CHARS} characters"));
     }

@@ -613,4 +613,27 @@ mod tests {
         assert!(e.contains("record.foxglove.enabled"), "{e}");
         assert!(e.contains("record.flush_s"), "{e}");
     }
+
+    /// A vehicle named `..` would record in the parent of the record directory (and write its
+    /// config beside the run directory): refused by the config check, with the field's path.
+    #[test]
+    fn a_vehicle_or_process_whose_name_is_a_path_is_a_config_error() {
+        // As TOML writes them.
+        for bad in [
+            r#""..""#,
+            r#"".""#,
+            r#""a/b""#,
+            r#"'x\y'"#,
+            r#""auv\u0007""#,
+        ] {
+            let text = format!(
+                "[record]\nenabled = true\n[[vehicle]]\nname = {bad}\n[[process]]\nname = {bad}\ncommand = [\"true\"]\n"
+            );
+            let e = frontseat_config::parse::<LaunchConfig>(&text, "t.toml")
+                .unwrap_err()
+                .to_string();
+            assert!(e.contains("vehicle[0].name"), "{bad:?}: {e}");
+            assert!(e.contains("process[0].name"), "{bad:?}: {e}");
+        }
+    }
 }

@@ -17,6 +17,7 @@
 
 use std::collections::HashMap;
 use std::io::Read;
+use std::sync::Arc;
 
 /// Largest entry accepted (size field): real entries are a message or a descriptor; anything
 /// larger is corruption and is resynchronised over rather than allocated.
@@ -27,6 +28,14 @@ const SCHEME_TYPE_INDEX: u16 = 0xFFFE;
 /// Versions this reader knows (log_entry.h `compiled_current_version` = 3).
 pub const CURRENT_VERSION: u32 = 3;
 const READ_STEP: usize = 64 * 1024;
+/// Longest group or type name kept from an index entry: Goby3's are tens of bytes. A longer one
+/// is skipped and counted (its entries read as `_unknownN_`).
+pub const MAX_NAME: usize = 1024;
+/// Most bytes of distinct names kept (each name once, however many index entries repeat it):
+/// past it, index entries with new names are skipped and counted.
+pub const MAX_NAMES_BYTES: usize = 4 << 20;
+/// Most index mappings kept (group and type indexes, per scheme).
+pub const MAX_MAPPINGS: usize = 65_536;
 
 #[derive(Debug, thiserror::Error)]
 pub enum GobyLogError {
@@ -41,8 +50,10 @@ pub enum GobyLogError {
 pub struct Entry {
     /// Goby3's MarshallingScheme (1 = PROTOBUF, 2 = DCCL, 0 = CSTR, ...).
     pub scheme: u16,
-    pub group: String,
-    pub type_name: String,
+    /// Interned: the same name is the same allocation for the whole file, so a caller can key
+    /// its per-group state by [`Arc::as_ptr`] and do no work per entry that grows with the name.
+    pub group: Arc<str>,
+    pub type_name: Arc<str>,
     /// Microseconds since the Unix epoch (files of version 3 and later).
     pub time_us: Option<u64>,
     pub data: Vec<u8>,
@@ -62,6 +73,9 @@ pub struct GobyReadStats {
     pub unresolved: u64,
     /// The file ends inside an entry (a logger killed mid-write, or a copy in progress).
     pub torn_tail: bool,
+    /// Index entries not kept: a name over [`MAX_NAME`], or past [`MAX_NAMES_BYTES`] /
+    /// [`MAX_MAPPINGS`].
+    pub names_skipped: u64,
 }
 
 /// A `.goby` file read from its start.
@@ -71,8 +85,13 @@ pub struct GobyReader<R: Read> {
     pos: usize,
     eof: bool,
     version: Option<u32>,
-    groups: HashMap<(u16, u16), String>,
-    types: HashMap<(u16, u16), String>,
+    groups: HashMap<(u16, u16), Arc<str>>,
+    types: HashMap<(u16, u16), Arc<str>>,
+    /// Every distinct name once.
+    names: std::collections::HashSet<Arc<str>>,
+    names_bytes: usize,
+    /// `_unknownN_` placeholders, made once per index number.
+    unknown: HashMap<u16, Arc<str>>,
     stats: GobyReadStats,
 }
 
@@ -86,6 +105,9 @@ impl<R: Read> GobyReader<R> {
             version: None,
             groups: HashMap::new(),
             types: HashMap::new(),
+            names: std::collections::HashSet::new(),
+            names_bytes: 0,
+            unknown: HashMap::new(),
             stats: GobyReadStats::default(),
         }
     }
@@ -242,12 +264,20 @@ impl<R: Read> GobyReader<R> {
                         // Version 1: one mapping for every scheme.
                         (u16::MAX, &data[..])
                     };
-                    let name = String::from_utf8_lossy(name).into_owned();
-                    if scheme == SCHEME_GROUP_INDEX {
-                        self.groups.insert((owner, group_ix), name);
+                    let Some(name) = self.intern(name) else {
+                        self.stats.names_skipped += 1;
+                        continue;
+                    };
+                    let (map, key) = if scheme == SCHEME_GROUP_INDEX {
+                        (&mut self.groups, (owner, group_ix))
                     } else {
-                        self.types.insert((owner, type_ix), name);
+                        (&mut self.types, (owner, type_ix))
+                    };
+                    if map.len() >= MAX_MAPPINGS && !map.contains_key(&key) {
+                        self.stats.names_skipped += 1;
+                        continue;
                     }
+                    map.insert(key, name);
                 }
                 _ => {
                     self.stats.entries += 1;
@@ -266,14 +296,40 @@ impl<R: Read> GobyReader<R> {
                     return Ok(Some(Entry {
                         scheme,
                         // Goby3's own placeholders for a missing index entry.
-                        group: group.unwrap_or_else(|| format!("_unknown{group_ix}_")),
-                        type_name: type_name.unwrap_or_else(|| format!("_unknown{type_ix}_")),
+                        group: group.unwrap_or_else(|| self.unknown(group_ix)),
+                        type_name: type_name.unwrap_or_else(|| self.unknown(type_ix)),
                         time_us,
                         data,
                     }));
                 }
             }
         }
+    }
+
+    /// The one allocation of `name` (lossy UTF-8); None when over [`MAX_NAME`] or when a new
+    /// name would pass [`MAX_NAMES_BYTES`].
+    fn intern(&mut self, name: &[u8]) -> Option<Arc<str>> {
+        if name.len() > MAX_NAME {
+            return None;
+        }
+        let name = String::from_utf8_lossy(name);
+        if let Some(n) = self.names.get(&*name) {
+            return Some(n.clone());
+        }
+        if self.names_bytes + name.len() > MAX_NAMES_BYTES {
+            return None;
+        }
+        let n: Arc<str> = Arc::from(&*name);
+        self.names_bytes += n.len();
+        self.names.insert(n.clone());
+        Some(n)
+    }
+
+    fn unknown(&mut self, ix: u16) -> Arc<str> {
+        self.unknown
+            .entry(ix)
+            .or_insert_with(|| Arc::from(format!("_unknown{ix}_")))
+            .clone()
     }
 
     /// Past this magic word, to look for the next one.
@@ -327,7 +383,7 @@ mod tests {
         let f = sample();
         let mut r = GobyReader::new(&f[..]);
         let e = r.next_entry().unwrap().unwrap();
-        assert_eq!((e.group.as_str(), e.type_name.as_str()), ("grp", "a.B"));
+        assert_eq!((&*e.group, &*e.type_name), ("grp", "a.B"));
         assert_eq!((e.time_us, e.data.as_slice()), (Some(7), &b"one"[..]));
         assert_eq!(r.next_entry().unwrap().unwrap().data, b"two");
         assert!(r.next_entry().unwrap().is_none());

@@ -12,10 +12,11 @@
 use std::collections::{BTreeMap, HashMap};
 use std::io::{Read, Write};
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 
 use prost::Message as _;
 use prost_reflect::prost_types::FileDescriptorProto;
-use prost_reflect::{DescriptorPool, DynamicMessage};
+use prost_reflect::{DescriptorPool, DynamicMessage, MessageDescriptor};
 
 use crate::goby_log::{GobyLogError, GobyReadStats, GobyReader};
 use crate::{CHANNEL_ORIGIN, META_IMPORT_SKIPPED, META_RECORDER, META_RUN, PROFILE};
@@ -43,13 +44,10 @@ pub enum ImportError {
 /// Why [`import_file`] did not write its output.
 #[derive(Debug, thiserror::Error)]
 pub enum ImportFileError {
-    #[error("{0}: the output would replace the input")]
-    SameFile(PathBuf),
-    #[error("{0} exists (--force to replace it)")]
-    Exists(PathBuf),
-    #[error("cannot {what} {path}: {source}")]
-    Io {
-        what: &'static str,
+    #[error(transparent)]
+    Output(#[from] crate::output::OutputError),
+    #[error("cannot open {path}: {source}")]
+    Open {
         path: PathBuf,
         source: std::io::Error,
     },
@@ -60,55 +58,38 @@ pub enum ImportFileError {
 impl ImportFileError {
     /// Whether the request itself was refused (exit 2) rather than failed.
     pub fn is_usage(&self) -> bool {
-        matches!(self, Self::SameFile(_) | Self::Exists(_))
+        matches!(self, Self::Output(o) if o.is_usage())
     }
 }
 
 /// [`import`] from the file `file` into `out` (default: `file` with the extension `.mcap`),
-/// refusing to replace an existing output unless `force`. The MCAP is written beside its target
-/// and renamed at the end: an interrupted import leaves no half-written file under the name a user
-/// would open. Returns the output path with the stats.
+/// refusing to replace an existing output unless `force`, and refusing an output that is the
+/// input (same inode). The MCAP is written under a temporary name beside its target
+/// ([`crate::output`]: never through a symlink) and renamed at the end: an interrupted import
+/// leaves no half-written file under the name a user would open. Returns the output path with
+/// the stats.
 pub fn import_file(
     file: &Path,
     out: Option<PathBuf>,
     force: bool,
 ) -> Result<(PathBuf, ImportStats), ImportFileError> {
     let out = out.unwrap_or_else(|| file.with_extension("mcap"));
-    if out == file {
-        return Err(ImportFileError::SameFile(out));
-    }
-    if out.exists() && !force {
-        return Err(ImportFileError::Exists(out));
-    }
-    let io = |what, path: &Path| {
-        let path = path.to_path_buf();
-        move |source| ImportFileError::Io { what, path, source }
-    };
-    let src = std::fs::File::open(file).map_err(io("open", file))?;
-    let mut tmp_name = out.as_os_str().to_owned();
-    tmp_name.push(".part");
-    let tmp = PathBuf::from(tmp_name);
-    let dst = std::fs::File::create(&tmp).map_err(io("create", &tmp))?;
+    let src = std::fs::File::open(file).map_err(|source| ImportFileError::Open {
+        path: file.to_path_buf(),
+        source,
+    })?;
+    let mut dst = crate::output::Output::create(&out, force, &[file])?;
     let name = file
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_default();
-    match import(
-        std::io::BufReader::new(src),
-        std::io::BufWriter::new(dst),
-        &name,
-    ) {
-        Ok(stats) => {
-            std::fs::rename(&tmp, &out).map_err(io("rename the import to", &out))?;
-            Ok((out, stats))
-        }
-        Err(source) => {
-            let _ = std::fs::remove_file(&tmp);
-            Err(ImportFileError::Import {
-                path: file.to_path_buf(),
-                source,
-            })
-        }
+    match import(std::io::BufReader::new(src), &mut dst, &name) {
+        Ok(stats) => Ok((dst.commit()?, stats)),
+        // Dropping `dst` removes the temporary file.
+        Err(source) => Err(ImportFileError::Import {
+            path: file.to_path_buf(),
+            source,
+        }),
     }
 }
 
@@ -237,52 +218,71 @@ pub fn import<R: Read, W: Write + std::io::Seek>(
         name: META_RUN.into(),
         metadata: run,
     })?;
-    let mut schemas: HashMap<String, u16> = HashMap::new();
-    let mut channels: HashMap<(String, String), u16> = HashMap::new();
+    // Keyed by the interned names' allocations (GobyReader gives one per distinct name): no
+    // work per entry grows with a group's or type's length.
+    let mut schemas: HashMap<Interned, u16> = HashMap::new();
+    let mut channels: HashMap<(Interned, Interned), u16> = HashMap::new();
+    let mut skipped: HashMap<(u16, Interned), u64> = HashMap::new();
+    let mut skipped_other: HashMap<u16, u64> = HashMap::new();
+    let mut descs: HashMap<Interned, (MessageDescriptor, bool)> = HashMap::new();
     let mut seq = 0u32;
     let mut n = 0u64;
     while let Some(e) = pending.take() {
         n += 1;
         if e.scheme == SCHEME_PROTOBUF
-            && e.group == FILE_DESC_GROUP
-            && e.type_name == FILE_DESC_TYPE
+            && *e.group == *FILE_DESC_GROUP
+            && *e.type_name == *FILE_DESC_TYPE
         {
-            add_descriptor(&mut pool, &e.data, &mut stats);
-        } else if e.scheme != SCHEME_PROTOBUF {
-            let scheme = scheme_name(e.scheme);
-            let mut key = (scheme.clone(), e.group.clone());
-            if stats.skipped_groups.len() >= MAX_CHANNELS
-                && !stats.skipped_groups.contains_key(&key)
-            {
-                key.1 = OTHER_GROUPS.to_string();
+            if add_descriptor(&mut pool, &e.data, &mut stats) {
+                // A type looked up in the compiled pool may now be in the file's own.
+                descs.clear();
             }
-            *stats.skipped_groups.entry(key).or_default() += 1;
-            *stats.skipped_schemes.entry(scheme).or_default() += 1;
+        } else if e.scheme != SCHEME_PROTOBUF {
+            let key = (e.scheme, Interned(e.group.clone()));
+            if let Some(c) = skipped.get_mut(&key) {
+                *c += 1;
+            } else if skipped.len() >= MAX_CHANNELS {
+                *skipped_other.entry(e.scheme).or_default() += 1;
+            } else {
+                skipped.insert(key, 1);
+            }
         } else {
-            let desc = pool
-                .get_message_by_name(&e.type_name)
-                .map(|d| (d, &pool))
-                .or_else(|| {
-                    compiled.and_then(|c| c.get_message_by_name(&e.type_name).map(|d| (d, c)))
-                });
+            let ty = Interned(e.type_name.clone());
+            let desc = match descs.get(&ty) {
+                Some((d, own)) => Some((d.clone(), if *own { &pool } else { compiled_or(&pool) })),
+                None => {
+                    let found = pool
+                        .get_message_by_name(&e.type_name)
+                        .map(|d| (d, true))
+                        .or_else(|| {
+                            compiled.and_then(|c| {
+                                c.get_message_by_name(&e.type_name).map(|d| (d, false))
+                            })
+                        });
+                    found.map(|(d, own)| {
+                        descs.insert(ty.clone(), (d.clone(), own));
+                        (d, if own { &pool } else { compiled_or(&pool) })
+                    })
+                }
+            };
             match desc {
                 None => stats.no_schema += 1,
                 Some((d, _)) if DynamicMessage::decode(d.clone(), e.data.as_slice()).is_err() => {
                     stats.undecodable += 1;
                 }
                 Some((_, p)) => {
-                    let key = (e.group.clone(), e.type_name.clone());
+                    let key = (Interned(e.group.clone()), ty);
                     let channel = match channels.get(&key) {
                         Some(c) => Some(*c),
                         None if channels.len() >= MAX_CHANNELS => None,
                         None => {
-                            let schema = match schemas.get(&e.type_name) {
+                            let schema = match schemas.get(&key.1) {
                                 Some(s) => *s,
                                 None => {
                                     let data = crate::schema::descriptor_set(p, &e.type_name)
                                         .unwrap_or_default();
                                     let s = writer.add_schema(&e.type_name, "protobuf", &data)?;
-                                    schemas.insert(e.type_name.clone(), s);
+                                    schemas.insert(key.1.clone(), s);
                                     s
                                 }
                             };
@@ -321,6 +321,22 @@ pub fn import<R: Read, W: Write + std::io::Seek>(
         pending = reader.next_entry()?;
     }
     stats.read = reader.stats().clone();
+    for ((scheme, group), count) in skipped {
+        let name = scheme_name(scheme);
+        *stats
+            .skipped_groups
+            .entry((name.clone(), group.0.to_string()))
+            .or_default() += count;
+        *stats.skipped_schemes.entry(name).or_default() += count;
+    }
+    for (scheme, count) in skipped_other {
+        let name = scheme_name(scheme);
+        *stats
+            .skipped_groups
+            .entry((name.clone(), OTHER_GROUPS.to_string()))
+            .or_default() += count;
+        *stats.skipped_schemes.entry(name).or_default() += count;
+    }
     let mut m = BTreeMap::new();
     m.insert("written".into(), stats.written.to_string());
     m.insert("skipped".into(), stats.skipped().to_string());
@@ -351,25 +367,51 @@ pub fn import<R: Read, W: Write + std::io::Seek>(
     Ok(stats)
 }
 
-fn add_descriptor(pool: &mut DescriptorPool, data: &[u8], stats: &mut ImportStats) {
+/// A name interned by [`GobyReader`]: equal names are one allocation, so the address is the key.
+#[derive(Clone)]
+struct Interned(Arc<str>);
+
+impl PartialEq for Interned {
+    fn eq(&self, other: &Self) -> bool {
+        Arc::ptr_eq(&self.0, &other.0)
+    }
+}
+impl Eq for Interned {}
+impl std::hash::Hash for Interned {
+    fn hash<H: std::hash::Hasher>(&self, h: &mut H) {
+        std::ptr::hash(Arc::as_ptr(&self.0).cast::<u8>(), h)
+    }
+}
+
+/// The compiled pool when there is one (it is, whenever a descriptor was found in it).
+fn compiled_or(own: &DescriptorPool) -> &DescriptorPool {
+    crate::schema::compiled_pool().unwrap_or(own)
+}
+
+/// Adds one FileDescriptorProto entry to the pool; whether it was added.
+fn add_descriptor(pool: &mut DescriptorPool, data: &[u8], stats: &mut ImportStats) -> bool {
     let Ok(fdp) = FileDescriptorProto::decode(data) else {
         stats.bad_descriptors += 1;
-        return;
+        return false;
     };
     // goby_logger writes a file once per log; a repeat (or a file of the same name) is skipped,
     // as Goby3's reader does (`read_file_desc_names_`).
     if pool.get_file_by_name(fdp.name()).is_some() {
-        return;
+        return false;
     }
     if pool.files().len() >= MAX_DESCRIPTOR_FILES {
         stats.bad_descriptors += 1;
-        return;
+        return false;
     }
     match pool.add_file_descriptor_proto(fdp) {
-        Ok(()) => stats.descriptor_files += 1,
+        Ok(()) => {
+            stats.descriptor_files += 1;
+            true
+        }
         Err(e) => {
             stats.bad_descriptors += 1;
             tracing::debug!(error = %e, "log import: a descriptor entry does not fit");
+            false
         }
     }
 }

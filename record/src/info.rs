@@ -2,9 +2,10 @@
 //! its count, rate and longest silence, the recorder's own drop counts and whether the file was
 //! closed or cut short.
 
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, HashMap};
 use std::fmt::Write as _;
 use std::io::Read;
+use std::sync::Arc;
 
 use crate::reader::{ReadError, Recording};
 use crate::time::{iso_utc, secs};
@@ -54,9 +55,13 @@ pub struct Info {
     /// Entries `log import` could not convert, by `<SCHEME> <group>` (DCCL, CSTR, ...).
     pub not_imported: BTreeMap<String, u64>,
     pub truncated: Option<String>,
+    /// Definitions the reader skipped for its limits, with the operator's line.
+    pub skipped_definitions: u64,
+    pub limits_note: Option<String>,
 }
 
-/// Reads the whole recording once.
+/// Reads the whole recording once. Work per message does not depend on the length of its
+/// topic: a channel's group is looked up once per channel definition.
 pub fn info<R: Read>(mut rec: Recording<R>) -> Result<Info, ReadError> {
     // Per channel: (times of the group in order, ...) kept as running values only: bounded
     // memory whatever the file's length.
@@ -65,59 +70,83 @@ pub fn info<R: Read>(mut rec: Recording<R>) -> Result<Info, ReadError> {
         prev: Option<u64>,
         intervals: Vec<u64>,
     }
-    let mut by_topic: BTreeMap<String, Acc> = BTreeMap::new();
+    let mut by_topic: BTreeMap<String, usize> = BTreeMap::new();
+    let mut accs: Vec<Acc> = Vec::new();
+    // Channel id → (its topic's allocation, index in `accs`, local?).
+    let mut by_channel: HashMap<u16, (Option<Arc<str>>, usize, bool)> = HashMap::new();
     let mut out = Info::default();
-    while let Some(m) = rec.next_message()? {
-        let (topic, type_name, local) = match rec.channel(m.channel_id) {
-            Some(c) => (
-                c.topic.to_string(),
-                rec.schema(c.schema_id)
-                    .map(|s| s.name.clone())
-                    .unwrap_or_default(),
-                c.metadata
-                    .get(crate::CHANNEL_ORIGIN)
-                    .is_none_or(|o| o == "local"),
-            ),
-            None => (
-                format!("<unknown channel {}>", m.channel_id),
-                String::new(),
-                true,
-            ),
+    while let Some(m) = rec.next_message_ref()? {
+        let (channel_id, log_time, len) = (m.channel_id, m.log_time, m.data.len() as u64);
+        // The cache holds the Arc, so an equal address is the same definition.
+        let topic = m.channel.map(|c| Arc::as_ptr(&c.topic));
+        let cached = by_channel
+            .get(&channel_id)
+            .filter(|(t, _, _)| t.as_ref().map(Arc::as_ptr) == topic);
+        let (ix, local) = match cached {
+            Some((_, ix, local)) => (*ix, *local),
+            None => {
+                let (name, type_name, local) = match rec.channel(channel_id) {
+                    Some(c) => (
+                        c.topic.to_string(),
+                        rec.schema(c.schema_id)
+                            .map(|s| s.name.clone())
+                            .unwrap_or_default(),
+                        c.metadata
+                            .get(crate::CHANNEL_ORIGIN)
+                            .is_none_or(|o| o == "local"),
+                    ),
+                    None => (
+                        format!("<unknown channel {channel_id}>"),
+                        String::new(),
+                        true,
+                    ),
+                };
+                let ix = *by_topic.entry(name.clone()).or_insert_with(|| {
+                    accs.push(Acc {
+                        info: GroupInfo {
+                            group: name,
+                            type_name,
+                            first: log_time,
+                            ..Default::default()
+                        },
+                        prev: None,
+                        intervals: Vec::new(),
+                    });
+                    accs.len() - 1
+                });
+                let topic = rec.channel(channel_id).map(|c| c.topic.clone());
+                by_channel.insert(channel_id, (topic, ix, local));
+                (ix, local)
+            }
         };
         out.messages += 1;
-        if out.messages == 1 || m.log_time < out.start {
-            out.start = m.log_time;
+        if out.messages == 1 || log_time < out.start {
+            out.start = log_time;
         }
-        out.end = out.end.max(m.log_time);
-        let a = by_topic.entry(topic.clone()).or_insert_with(|| Acc {
-            info: GroupInfo {
-                group: topic,
-                type_name,
-                first: m.log_time,
-                ..Default::default()
-            },
-            prev: None,
-            intervals: Vec::new(),
-        });
+        out.end = out.end.max(log_time);
+        let a = &mut accs[ix];
         a.info.count += 1;
-        a.info.bytes += m.data.len() as u64;
-        a.info.last = a.info.last.max(m.log_time);
+        a.info.bytes += len;
+        a.info.last = a.info.last.max(log_time);
         if !local {
             a.info.not_local += 1;
         }
         if let Some(p) = a.prev {
-            let d = m.log_time.saturating_sub(p);
+            let d = log_time.saturating_sub(p);
             a.info.max_interval = a.info.max_interval.max(d);
             // Only the intervals far above the running mean are kept to judge gaps at the end.
-            let mean = (m.log_time.saturating_sub(a.info.first)) / a.info.count.max(1);
+            let mean = (log_time.saturating_sub(a.info.first)) / a.info.count.max(1);
             if d >= MIN_GAP_NS && d > mean.saturating_mul(GAP_FACTOR) && a.intervals.len() < 100_000
             {
                 a.intervals.push(d);
             }
         }
-        a.prev = Some(m.log_time);
+        a.prev = Some(log_time);
     }
-    for a in by_topic.into_values() {
+    // In group order, as before.
+    let mut accs: Vec<Option<Acc>> = accs.into_iter().map(Some).collect();
+    for ix in by_topic.into_values() {
+        let Some(a) = accs[ix].take() else { continue };
         let mut g = a.info;
         let mean = if g.count > 1 {
             g.last.saturating_sub(g.first) / (g.count - 1)
@@ -145,6 +174,8 @@ pub fn info<R: Read>(mut rec: Recording<R>) -> Result<Info, ReadError> {
         }
     }
     out.truncated = rec.truncated().map(str::to_string);
+    out.skipped_definitions = rec.skipped_definitions();
+    out.limits_note = rec.limits_note();
     Ok(out)
 }
 
@@ -168,6 +199,7 @@ impl Info {
             "start_ns": self.start, "end_ns": self.end,
             "duration_s": self.end.saturating_sub(self.start) as f64 / 1e9,
             "run": self.run, "dropped": self.dropped, "truncated": self.truncated,
+            "skipped_definitions": self.skipped_definitions,
             "groups": groups,
         })
     }
@@ -210,6 +242,9 @@ impl Info {
         }
         for (k, n) in &self.not_imported {
             let _ = writeln!(s, "not imported (no codec or schema here): {k}: {n}");
+        }
+        if let Some(n) = &self.limits_note {
+            let _ = writeln!(s, "not read: {n}");
         }
         match &self.truncated {
             Some(t) => {

@@ -12,11 +12,14 @@
 //! - [`replay`]: a recording published onto a bus with its timing, marked as replayed.
 #![forbid(unsafe_code)]
 
+#[doc(hidden)]
+pub mod crafted;
 pub mod export;
 pub mod foxglove;
 pub mod goby_log;
 pub mod import;
 pub mod info;
+pub mod output;
 pub mod plot;
 pub mod reader;
 pub mod recorder;

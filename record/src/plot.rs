@@ -6,7 +6,9 @@
 use std::collections::HashMap;
 use std::fmt::Write as _;
 use std::io::Read;
+use std::io::Write as _;
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 
 use prost_reflect::{DescriptorPool, DynamicMessage, MessageDescriptor, ReflectMessage, Value};
 
@@ -99,9 +101,13 @@ fn get(msg: &DynamicMessage, path: &[&str]) -> Option<f64> {
     .filter(|v| v.is_finite())
 }
 
+/// Which series (0 actual, 1 commanded) and which vehicle a channel's messages go to.
+type Route = (usize, u16);
+
 /// Reads node_status and desired_course samples (decimated past [`MAX_SAMPLES`]).
 pub fn series<R: Read>(mut rec: Recording<R>) -> Result<Series, ReadError> {
     let mut descs: HashMap<u16, Option<MessageDescriptor>> = HashMap::new();
+    let mut routes: HashMap<u16, (Arc<str>, Option<Route>)> = HashMap::new();
     let mut out = Series::default();
     let mut start = None;
     let mut seen = [0usize; 2];
@@ -110,18 +116,29 @@ pub fn series<R: Read>(mut rec: Recording<R>) -> Result<Series, ReadError> {
         let Some(ch) = rec.channel(m.channel_id) else {
             continue;
         };
-        let Some((which, platform)) = classify(&ch.topic) else {
+        // Which series and vehicle a channel is, decided once per channel definition (keyed by
+        // its topic's allocation): the work per message does not grow with the topic's length.
+        let route = match routes.get(&m.channel_id) {
+            Some((t, r)) if Arc::ptr_eq(t, &ch.topic) => *r,
+            _ => {
+                let r = classify(&ch.topic).and_then(|(which, platform)| {
+                    let vehicle = match out.vehicles.iter().position(|v| v == platform) {
+                        Some(i) => i,
+                        None if out.vehicles.len() < MAX_VEHICLES => {
+                            out.vehicles.push(platform.to_string());
+                            out.vehicles.len() - 1
+                        }
+                        None => return None,
+                    };
+                    Some((which, u16::try_from(vehicle).unwrap_or(u16::MAX)))
+                });
+                routes.insert(m.channel_id, (ch.topic.clone(), r));
+                r
+            }
+        };
+        let Some((which, vehicle)) = route else {
             continue;
         };
-        let vehicle = match out.vehicles.iter().position(|v| v == platform) {
-            Some(i) => i,
-            None if out.vehicles.len() < MAX_VEHICLES => {
-                out.vehicles.push(platform.to_string());
-                out.vehicles.len() - 1
-            }
-            None => continue,
-        };
-        let vehicle = u16::try_from(vehicle).unwrap_or(u16::MAX);
         seen[which] += 1;
         // Decimate evenly once past the bound: keep every k-th, k growing with the count.
         let k = seen[which].div_ceil(MAX_SAMPLES).max(1);
@@ -181,25 +198,37 @@ pub fn series<R: Read>(mut rec: Recording<R>) -> Result<Series, ReadError> {
 type Field = fn(&Sample) -> Option<f64>;
 
 /// Speed, heading and depth against time, actual (blue) and commanded (orange), as one SVG.
-/// A plot file (or its directory) that could not be written.
-#[derive(Debug, thiserror::Error)]
-#[error("cannot write {path}: {source}")]
-pub struct WriteError {
-    pub path: PathBuf,
-    pub source: std::io::Error,
-}
-
-/// Writes `dir/track.svg` and `dir/time.svg` (creating `dir`); the two paths written.
-pub fn write_dir(s: &Series, dir: &Path) -> Result<[PathBuf; 2], WriteError> {
-    let at = |path: &Path| {
-        let path = path.to_path_buf();
-        move |source| WriteError { path, source }
-    };
-    std::fs::create_dir_all(dir).map_err(at(dir))?;
+/// Writes `dir/track.svg` and `dir/time.svg` (creating `dir`); the two paths written. Each file
+/// goes through [`crate::output::Output`]: an existing one is replaced only with `force`, never
+/// when it is `input`, never through a symlink.
+pub fn write_dir(
+    s: &Series,
+    dir: &Path,
+    force: bool,
+    input: &Path,
+) -> Result<[PathBuf; 2], crate::output::OutputError> {
+    std::fs::create_dir_all(dir).map_err(|source| crate::output::OutputError::Io {
+        what: "create the directory",
+        path: dir.to_path_buf(),
+        source,
+    })?;
     let track = dir.join("track.svg");
-    std::fs::write(&track, track_svg(s)).map_err(at(&track))?;
     let time = dir.join("time.svg");
-    std::fs::write(&time, time_svg(s)).map_err(at(&time))?;
+    // Both refused before either is written.
+    let mut outs = Vec::new();
+    for p in [&track, &time] {
+        outs.push(crate::output::Output::create(p, force, &[input])?);
+    }
+    for (mut o, text) in outs.into_iter().zip([track_svg(s), time_svg(s)]) {
+        let at = o.temp_path().to_path_buf();
+        o.write_all(text.as_bytes())
+            .map_err(|source| crate::output::OutputError::Io {
+                what: "write",
+                path: at,
+                source,
+            })?;
+        o.commit()?;
+    }
     Ok([track, time])
 }
 

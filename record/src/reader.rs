@@ -23,6 +23,15 @@ use mcap::sans_io::linear_reader::{LinearReadEvent, LinearReader, LinearReaderOp
 pub const MAX_RECORD: usize = 64 << 20;
 /// Most bytes asked of the source per read.
 const READ_STEP: usize = 1 << 20;
+/// Largest Schema, Channel or Metadata record kept (a FileDescriptorSet of a large tree of
+/// .proto files is a few hundred KiB); larger ones are skipped and counted, never parsed.
+pub const MAX_DEFINITION: usize = 4 << 20;
+/// Longest topic, schema name or encoding kept: Goby3 groups are tens of bytes.
+pub const MAX_NAME: usize = 1024;
+/// Most bytes of Schema, Channel and Metadata records kept at once, however many the file
+/// declares (a redefinition of an id replaces its bytes): past it, new definitions are skipped
+/// and counted. What a reader keeps besides the chunk being read is bounded by this.
+pub const MAX_RETAINED: usize = 16 << 20;
 
 #[derive(Debug, thiserror::Error)]
 pub enum ReadError {
@@ -131,6 +140,10 @@ pub struct Recording<R: Read = std::fs::File> {
     chunk: Option<(Vec<u8>, usize)>,
     /// The bytes of the last message found outside a chunk (reused: no allocation per message).
     loose: Vec<u8>,
+    /// Bytes of the kept schema, channel and metadata records, by kind and id.
+    kept: HashMap<(u8, u16), usize>,
+    retained: usize,
+    skipped_definitions: u64,
 }
 
 impl Recording<std::fs::File> {
@@ -163,6 +176,9 @@ impl<R: Read> Recording<R> {
             done: false,
             chunk: None,
             loose: Vec::new(),
+            kept: HashMap::new(),
+            retained: 0,
+            skipped_definitions: 0,
         }
     }
 
@@ -228,7 +244,12 @@ impl<R: Read> Recording<R> {
                             }
                             continue;
                         }
-                        let parsed = parse_checked(opcode, body);
+                        let parsed = if admit(&self.kept, self.retained, opcode, body) {
+                            parse_checked(opcode, body)
+                        } else {
+                            self.skipped_definitions += 1;
+                            Ok(None)
+                        };
                         self.chunk = Some((data, next));
                         match parsed {
                             Ok(None) => {}
@@ -299,7 +320,13 @@ impl<R: Read> Recording<R> {
                             end: self.loose.len(),
                         }));
                     }
-                    match parse_checked(opcode, data) {
+                    let parsed = if admit(&self.kept, self.retained, opcode, data) {
+                        parse_checked(opcode, data)
+                    } else {
+                        self.skipped_definitions += 1;
+                        Ok(None)
+                    };
+                    match parsed {
                         Ok(Some(r)) => self.take_record(r),
                         Ok(None) => {}
                         Err(e) => self.end_early(format!("a damaged record: {e}"))?,
@@ -321,10 +348,27 @@ impl<R: Read> Recording<R> {
     }
 
     /// Keeps what a record tells (schemas, channels, metadata, the footer); messages are found
-    /// by [`Recording::advance`] before they get here.
+    /// by [`Recording::advance`] before they get here. Names over [`MAX_NAME`] are skipped and
+    /// counted; a definition identical to the one kept for its id is not copied again.
     fn take_record(&mut self, rec: Record<'static>) {
+        use mcap::records::op;
+        let keep = |this: &mut Self, key: (u8, u16), cost: usize| {
+            let old = this.kept.insert(key, cost).unwrap_or(0);
+            this.retained = this.retained - old + cost;
+        };
         match rec {
             Record::Schema { header, data } => {
+                if header.name.len() > MAX_NAME || header.encoding.len() > MAX_NAME {
+                    self.skipped_definitions += 1;
+                    return;
+                }
+                if self.schemas.get(&header.id).is_some_and(|s| {
+                    s.name == header.name && s.encoding == header.encoding && *s.data == *data
+                }) {
+                    return;
+                }
+                let cost = header.name.len() + header.encoding.len() + data.len();
+                keep(self, (op::SCHEMA, header.id), cost);
                 self.schemas.insert(
                     header.id,
                     Schema {
@@ -335,6 +379,25 @@ impl<R: Read> Recording<R> {
                 );
             }
             Record::Channel(c) => {
+                if c.topic.len() > MAX_NAME || c.message_encoding.len() > MAX_NAME {
+                    self.skipped_definitions += 1;
+                    return;
+                }
+                if self.channels.get(&c.id).is_some_and(|k| {
+                    *k.topic == *c.topic
+                        && k.schema_id == c.schema_id
+                        && k.message_encoding == c.message_encoding
+                        && k.metadata == c.metadata
+                }) {
+                    return;
+                }
+                let cost = c.topic.len()
+                    + c.message_encoding.len()
+                    + c.metadata
+                        .iter()
+                        .map(|(k, v)| k.len() + v.len())
+                        .sum::<usize>();
+                keep(self, (op::CHANNEL, c.id), cost);
                 self.channels.insert(
                     c.id,
                     Channel {
@@ -345,10 +408,46 @@ impl<R: Read> Recording<R> {
                     },
                 );
             }
-            Record::Metadata(m) => self.metadata.push((m.name, m.metadata)),
+            Record::Metadata(m) => {
+                let cost = m.name.len()
+                    + m.metadata
+                        .iter()
+                        .map(|(k, v)| k.len() + v.len())
+                        .sum::<usize>();
+                if self.retained + cost > MAX_RETAINED {
+                    self.skipped_definitions += 1;
+                    return;
+                }
+                self.retained += cost;
+                self.metadata.push((m.name, m.metadata));
+            }
             Record::Footer(_) => self.saw_footer = true,
             _ => {}
         }
+    }
+
+    /// Schema, Channel and Metadata records skipped for being over the reader's limits
+    /// ([`MAX_NAME`], [`MAX_DEFINITION`], [`MAX_RETAINED`]); their channels' messages read as
+    /// of an unknown channel.
+    pub fn skipped_definitions(&self) -> u64 {
+        self.skipped_definitions
+    }
+
+    /// Bytes of schemas, channels and metadata kept now (at most [`MAX_RETAINED`]).
+    pub fn retained_bytes(&self) -> usize {
+        self.retained
+    }
+
+    /// The operator's line about [`Recording::skipped_definitions`], if any were skipped.
+    pub fn limits_note(&self) -> Option<String> {
+        (self.skipped_definitions > 0).then(|| {
+            format!(
+                "{} schema/channel/metadata records skipped: over the reader's limits (a name over {MAX_NAME} bytes, a record over {} MiB, or {} MiB of definitions kept in all); their messages count as of an unknown channel",
+                self.skipped_definitions,
+                MAX_DEFINITION >> 20,
+                MAX_RETAINED >> 20
+            )
+        })
     }
 
     fn end_early(&mut self, why: String) -> Result<(), ReadError> {
@@ -377,6 +476,29 @@ impl<R: Read> Recording<R> {
     pub fn metadata(&self) -> &[(String, BTreeMap<String, String>)] {
         &self.metadata
     }
+}
+
+/// Whether a Schema, Channel or Metadata record of `body.len()` bytes may be kept under
+/// [`MAX_DEFINITION`] and [`MAX_RETAINED`] (other records: always); a refused one is
+/// counted by the caller and never parsed.
+fn admit(kept: &HashMap<(u8, u16), usize>, retained: usize, opcode: u8, body: &[u8]) -> bool {
+    use mcap::records::op;
+    let key = match opcode {
+        op::SCHEMA => le::<2>(body, 0).map(|b| (opcode, u16::from_le_bytes(b))),
+        op::CHANNEL => le::<2>(body, 0).map(|b| (opcode, u16::from_le_bytes(b))),
+        // Metadata records are kept in a list: each its own entry.
+        op::METADATA => Some((opcode, u16::MAX)),
+        _ => return true,
+    };
+    // A record too short for its id is parse_checked's to report as damage.
+    let Some(key) = key else { return true };
+    let old = if opcode == op::METADATA {
+        0
+    } else {
+        kept.get(&key).copied().unwrap_or(0)
+    };
+    let new = body.len();
+    new <= MAX_DEFINITION && retained - old + new <= MAX_RETAINED
 }
 
 /// The records this reader uses, parsed once every length prefix inside them is known to fit in

@@ -39,6 +39,8 @@ const CHUNK_BYTES: u64 = 512 * 1024;
 const BUS_IN_FLIGHT: usize = 1024;
 /// How often the directory is checked against the budget and the disk for free space.
 const DISK_CHECK: Duration = Duration::from_secs(5);
+/// Other names tried when a file's name is taken (`run.1.mcap` ... for a fixed `path`).
+const MAX_ALTERNATIVES: u32 = 999;
 /// After a file could not be opened or written, wait this long before trying a new one.
 const RETRY_AFTER: Duration = Duration::from_secs(5);
 
@@ -59,10 +61,13 @@ pub enum RecorderError {
     Thread(std::io::Error),
 }
 
-/// Where files go.
+/// Where files go. Every file is created new (`O_EXCL`, never through a symlink): the recorder
+/// never truncates nor replaces a file, its own included.
 #[derive(Clone, Debug)]
 pub enum Target {
-    /// Exactly this file: never rotated nor removed.
+    /// This file: never rotated nor removed. If the name is taken (the recording of a run that
+    /// crashed, restarted with the same config), that file is kept and this run records to
+    /// `<stem>.1.<ext>` (then `.2`, ...), logging both names.
     File(PathBuf),
     /// `<dir>/<prefix>_<UTC>_<seq>.mcap`, rotated, trimmed to the budget.
     Dir { dir: PathBuf, prefix: String },
@@ -83,6 +88,9 @@ pub struct RecorderOptions {
     pub flush: Duration,
     pub compression: RecordCompression,
     pub queue: usize,
+    /// [`Target::File`] only (`demo --record FILE --force`): record under a temporary name
+    /// beside the file and rename it onto the file when closed, replacing what was there.
+    pub replace: bool,
 }
 
 impl RecorderOptions {
@@ -100,6 +108,7 @@ impl RecorderOptions {
             flush: Duration::from_secs_f64(d.flush_s),
             compression: d.compression,
             queue: d.queue,
+            replace: false,
         }
     }
 
@@ -153,6 +162,7 @@ impl RecorderOptions {
             flush: Duration::from_secs_f64(cfg.flush_s),
             compression: cfg.compression,
             queue: cfg.queue.clamp(16, 1 << 20),
+            replace: false,
         })
     }
 
@@ -587,6 +597,8 @@ impl Seek for SyncFile {
 struct OpenFile {
     writer: mcap::Writer<SyncFile>,
     path: PathBuf,
+    /// Where the file is renamed when closed (`replace`): it is written under a temporary name.
+    commit_to: Option<PathBuf>,
     opened: Instant,
     schemas: HashMap<&'static str, u16>,
     /// origin -> topic -> channel id (looked up without allocating).
@@ -713,41 +725,83 @@ impl Sink {
         }
     }
 
-    fn next_path(&mut self) -> PathBuf {
-        match &self.opts.target {
-            Target::File(p) => p.clone(),
+    fn next_dir_path(&mut self, dir: &Path, prefix: &str) -> PathBuf {
+        self.seq += 1;
+        dir.join(format!(
+            "{prefix}_{}_{:04}.mcap",
+            compact_utc(unix_ns(SystemTime::now())),
+            self.seq
+        ))
+    }
+
+    /// Creates the next file (never an existing name); its path, the file, and the name to
+    /// rename it to when closed (`replace`).
+    fn create_next(&mut self) -> Result<(PathBuf, File, Option<PathBuf>), RecorderError> {
+        let create_err = |path: &Path| {
+            let path = path.display().to_string();
+            move |source| RecorderError::Create { path, source }
+        };
+        match self.opts.target.clone() {
+            Target::File(p) if self.opts.replace => {
+                let (temp, f) =
+                    crate::output::create_temp_beside(&p).map_err(|e| RecorderError::Mcap {
+                        path: p.display().to_string(),
+                        reason: e.to_string(),
+                    })?;
+                Ok((temp, f, Some(p)))
+            }
+            Target::File(p) => {
+                let mut last = None;
+                for n in 0..=MAX_ALTERNATIVES {
+                    let path = if n == 0 { p.clone() } else { numbered(&p, n) };
+                    match crate::output::create_new(&path) {
+                        Ok(f) => {
+                            if n > 0 {
+                                tracing::warn!(
+                                    kept = %p.display(),
+                                    recording_to = %path.display(),
+                                    "recorder: record.path exists (a previous run's recording?): kept untouched; this run records to a new name"
+                                );
+                            }
+                            return Ok((path, f, None));
+                        }
+                        Err(e) if crate::output::taken(&e) => last = Some(e),
+                        Err(e) => return Err(create_err(&path)(e)),
+                    }
+                }
+                Err(create_err(&p)(last.unwrap_or_else(|| {
+                    std::io::Error::other("every alternative name is taken")
+                })))
+            }
             Target::Dir { dir, prefix } => {
-                self.seq += 1;
-                dir.join(format!(
-                    "{prefix}_{}_{:04}.mcap",
-                    compact_utc(unix_ns(SystemTime::now())),
-                    self.seq
-                ))
+                std::fs::create_dir_all(&dir).map_err(create_err(&dir))?;
+                let mut last = None;
+                for _ in 0..=MAX_ALTERNATIVES {
+                    let path = self.next_dir_path(&dir, &prefix);
+                    match crate::output::create_new(&path) {
+                        Ok(f) => return Ok((path, f, None)),
+                        Err(e) if crate::output::taken(&e) => last = Some(e),
+                        Err(e) => return Err(create_err(&path)(e)),
+                    }
+                }
+                Err(create_err(&dir)(last.unwrap_or_else(|| {
+                    std::io::Error::other("every file name is taken")
+                })))
             }
         }
     }
 
     fn open_next(&mut self) -> Result<(), RecorderError> {
-        if let Target::Dir { dir, .. } = &self.opts.target {
-            std::fs::create_dir_all(dir).map_err(|source| RecorderError::Create {
-                path: dir.display().to_string(),
-                source,
-            })?;
-        }
-        if matches!(self.opts.target, Target::File(_))
+        if let Target::File(p) = &self.opts.target
             && self.counters.files_opened.load(Ordering::Relaxed) > 0
         {
-            // One named file: reopening would truncate what was recorded.
+            // One named file: after a failure, no second file for it.
             return Err(RecorderError::Mcap {
-                path: self.next_path().display().to_string(),
-                reason: "the single record file failed; not overwriting it".into(),
+                path: p.display().to_string(),
+                reason: "the single record file failed; not starting another".into(),
             });
         }
-        let path = self.next_path();
-        let file = File::create(&path).map_err(|source| RecorderError::Create {
-            path: path.display().to_string(),
-            source,
-        })?;
+        let (path, file, commit_to) = self.create_next()?;
         let compression = match self.opts.compression {
             RecordCompression::Zstd => Some(mcap::Compression::Zstd),
             RecordCompression::Lz4 => Some(mcap::Compression::Lz4),
@@ -791,6 +845,7 @@ impl Sink {
         self.file = Some(OpenFile {
             writer,
             path,
+            commit_to,
             opened: Instant::now(),
             schemas: HashMap::new(),
             channels: HashMap::new(),
@@ -831,6 +886,15 @@ impl Sink {
         if let Err(e) = r {
             let why = format!("closing {}: {e}", f.path.display());
             self.fail(&why);
+        }
+        if let Some(to) = f.commit_to.take() {
+            drop(f.writer);
+            if let Err(e) = std::fs::rename(&f.path, &to) {
+                let why = format!("renaming {} to {}: {e}", f.path.display(), to.display());
+                self.fail(&why);
+            } else if let Ok(mut c) = self.current.lock() {
+                *c = Some(to);
+            }
         }
     }
 
@@ -954,19 +1018,54 @@ fn write_item(
     )
 }
 
-/// `(path, size)` of the files this recorder names in `dir`.
+/// `(path, size)` of the files this recorder named in `dir`: exactly
+/// `<prefix>_<YYYYMMDD>T<HHMMSS>Z_<seq>.mcap` (seq: 4 digits or more), regular files only (a
+/// symlink, a directory, `auv1_survey_final.mcap` are not ours and are never removed).
 fn our_files(dir: &Path, prefix: &str) -> Vec<(PathBuf, u64)> {
     let Ok(rd) = std::fs::read_dir(dir) else {
         return Vec::new();
     };
     rd.filter_map(Result::ok)
-        .filter(|e| {
-            let n = e.file_name();
-            let n = n.to_string_lossy();
-            n.starts_with(&format!("{prefix}_")) && n.ends_with(".mcap")
+        .filter(|e| e.file_name().to_str().is_some_and(|n| is_ours(n, prefix)))
+        // DirEntry::metadata does not follow symlinks.
+        .filter_map(|e| {
+            let m = e.metadata().ok()?;
+            m.file_type().is_file().then(|| (e.path(), m.len()))
         })
-        .filter_map(|e| Some((e.path(), e.metadata().ok()?.len())))
         .collect()
+}
+
+/// Whether `name` is one the recorder generates for `prefix` (see [`our_files`]).
+pub fn is_ours(name: &str, prefix: &str) -> bool {
+    let digits = |s: &str, n: usize| s.len() == n && s.bytes().all(|b| b.is_ascii_digit());
+    let Some(rest) = name
+        .strip_prefix(prefix)
+        .and_then(|r| r.strip_prefix('_'))
+        .and_then(|r| r.strip_suffix(".mcap"))
+    else {
+        return false;
+    };
+    let Some((stamp, seq)) = rest.split_once('_') else {
+        return false;
+    };
+    let Some((date, time)) = stamp.split_once('T') else {
+        return false;
+    };
+    digits(date, 8)
+        && time.strip_suffix('Z').is_some_and(|t| digits(t, 6))
+        && seq.len() >= 4
+        && seq.len() <= 20
+        && seq.bytes().all(|b| b.is_ascii_digit())
+}
+
+/// `run.mcap` → `run.<n>.mcap` (`run` → `run.<n>`).
+fn numbered(p: &Path, n: u32) -> PathBuf {
+    let stem = p.file_stem().unwrap_or_default().to_string_lossy();
+    let name = match p.extension() {
+        Some(ext) => format!("{stem}.{n}.{}", ext.to_string_lossy()),
+        None => format!("{stem}.{n}"),
+    };
+    p.with_file_name(name)
 }
 
 fn free_bytes(dir: &Path) -> Option<u64> {

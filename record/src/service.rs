@@ -54,10 +54,23 @@ impl RecordService {
         name: &str,
         meta: RecordMeta,
     ) -> Result<Option<Self>, ServiceError> {
+        Self::spawn_adjusted(bus, cfg, name, meta, |_| {})
+    }
+
+    /// [`RecordService::spawn`] with the recorder's options changed by `adjust` first (the
+    /// demo's `--force`: [`RecorderOptions::replace`]).
+    pub fn spawn_adjusted(
+        bus: &Bus,
+        cfg: &RecordConfig,
+        name: &str,
+        meta: RecordMeta,
+        adjust: impl FnOnce(&mut RecorderOptions),
+    ) -> Result<Option<Self>, ServiceError> {
         if !cfg.enabled && !cfg.foxglove.enabled {
             return Ok(None);
         }
-        let opts = RecorderOptions::from_config(cfg, name)?;
+        let mut opts = RecorderOptions::from_config(cfg, name)?;
+        adjust(&mut opts);
         let foxglove = if cfg.foxglove.enabled {
             let fo = FoxgloveOptions::from_config(&cfg.foxglove);
             let shown = if name.is_empty() { "frontseat" } else { name };

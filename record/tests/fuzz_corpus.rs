@@ -45,3 +45,25 @@ fn goby_import_corpus() {
     }
     assert!(n >= 2, "only {n} seeds");
 }
+
+/// The crafted seeds (`frontseat_record::crafted`: the shapes of issue 37's review) are checked
+/// in as the generator writes them, so a fuzz run starts from them.
+#[test]
+fn crafted_seeds_are_checked_in() {
+    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../fuzz/corpus");
+    for (dir, name, bytes) in frontseat_record::crafted::seeds() {
+        let p = root.join(dir).join(name);
+        let on_disk = std::fs::read(&p).unwrap_or_else(|e| {
+            panic!(
+                "{}: {e} (cargo run -p frontseat-record --example crafted_seeds)",
+                p.display()
+            )
+        });
+        assert!(
+            on_disk == bytes,
+            "{} differs from its generator",
+            p.display()
+        );
+        assert!(bytes.len() < 70_000, "{name}: over the fuzzer's -max_len");
+    }
+}

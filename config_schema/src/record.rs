@@ -99,7 +99,6 @@ pub struct FoxgloveConfig {
     /// is, on loopback, one whose `Host` is not a loopback name (DNS rebinding). Clients that
     /// send no `Origin` (scripts, native programs) are not affected; a desktop app whose page
     /// sends `file://` or `null` needs that value listed. At most 32.
-    #[serde(skip_serializing_if = "Vec::is_empty")]
     pub allowed_origins: Vec<String>,
 }
 

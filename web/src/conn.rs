@@ -5,7 +5,8 @@
 //!
 //! A connection is *unfinished* while no request of it is being answered and it was not
 //! upgraded: a socket that sent nothing, a head still arriving (one byte, or a byte a second),
-//! a body still arriving, or a keep-alive connection between requests. When every slot is held
+//! a body still arriving (until its handler answers), or a keep-alive connection between
+//! requests. A request without a body is being answered from its complete head on. When every slot is held
 //! and a new connection comes, the oldest unfinished one is closed (counted, logged
 //! rate-limited) and the new one takes its slot, as the simulator does with connections that
 //! sent no START (`sim/src/server.rs`). A connection being answered (an event stream, a page
@@ -26,6 +27,7 @@ use std::time::Duration;
 
 use axum::Router;
 use axum::http::{Request, Response, StatusCode};
+use http_body::Body as _;
 use hyper::body::Incoming;
 use hyper_util::rt::{TokioIo, TokioTimer};
 use hyper_util::service::TowerToHyperService;
@@ -285,25 +287,39 @@ impl hyper::service::Service<Request<Incoming>> for Tracked {
     type Future = Pin<Box<dyn Future<Output = Result<Self::Response, Infallible>> + Send>>;
 
     fn call(&self, req: Request<Incoming>) -> Self::Future {
+        // A request without a body is finished with its head (a page, an event stream, an
+        // upgrade): from here on it is being answered, however long its handler takes. One with
+        // a body is finished when its handler answers, after reading the body: a trickled body
+        // leaves the connection unfinished, hence evictable.
+        let early = req
+            .body()
+            .is_end_stream()
+            .then(|| Answering::new(self.conn.clone()));
         let fut = hyper::service::Service::call(&self.inner, req);
         let conn = self.conn.clone();
         Box::pin(async move {
-            // The request counts as finished once its handler answers (after any body it
-            // reads): a trickled body leaves the connection unfinished, hence evictable.
             let resp = fut.await?;
             if resp.status() == StatusCode::SWITCHING_PROTOCOLS {
                 conn.upgraded.store(true, Ordering::Release);
             }
-            conn.answering.fetch_add(1, Ordering::AcqRel);
+            let answering = early.unwrap_or_else(|| Answering::new(conn));
             Ok(resp.map(|body| TrackedBody {
                 inner: body,
-                _answering: Answering(conn),
+                _answering: answering,
             }))
         })
     }
 }
 
+/// Marks its connection as being answered while it lives.
 struct Answering(Arc<Conn>);
+
+impl Answering {
+    fn new(conn: Arc<Conn>) -> Self {
+        conn.answering.fetch_add(1, Ordering::AcqRel);
+        Self(conn)
+    }
+}
 
 impl Drop for Answering {
     fn drop(&mut self) {

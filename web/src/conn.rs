@@ -71,10 +71,13 @@ impl Conn {
     }
 }
 
-/// The connections holding a slot, oldest first.
+/// The connections holding a slot, oldest first. `connections_open` is kept equal to their
+/// number (an evicted connection's socket may outlive its slot by the moment its task takes
+/// to see the eviction).
 struct Slots {
     max: usize,
     held: Mutex<VecDeque<Arc<Conn>>>,
+    counters: Arc<ServerCounters>,
 }
 
 enum Admission {
@@ -88,6 +91,9 @@ impl Slots {
         let mut held = self.held.lock().unwrap_or_else(|p| p.into_inner());
         if held.len() < self.max {
             held.push_back(conn.clone());
+            self.counters
+                .connections_open
+                .store(held.len() as u64, Ordering::Relaxed);
             return Admission::Free;
         }
         let Some(i) = held.iter().position(|c| c.unfinished()) else {
@@ -105,6 +111,9 @@ impl Slots {
         let mut held = self.held.lock().unwrap_or_else(|p| p.into_inner());
         if let Some(i) = held.iter().position(|c| Arc::ptr_eq(c, conn)) {
             held.remove(i);
+            self.counters
+                .connections_open
+                .store(held.len() as u64, Ordering::Relaxed);
         }
     }
 }
@@ -114,15 +123,11 @@ impl Slots {
 struct SlotGuard {
     slots: Arc<Slots>,
     conn: Arc<Conn>,
-    counters: Arc<ServerCounters>,
 }
 
 impl Drop for SlotGuard {
     fn drop(&mut self) {
         self.slots.release(&self.conn);
-        self.counters
-            .connections_open
-            .fetch_sub(1, Ordering::Relaxed);
     }
 }
 
@@ -172,6 +177,7 @@ impl BoundedListener {
         let slots = Arc::new(Slots {
             max: limits.max_connections.max(1),
             held: Mutex::new(VecDeque::new()),
+            counters: counters.clone(),
         });
         let idle = limits.idle.max(Duration::from_millis(10));
         let header_timeout = limits.header_timeout.max(Duration::from_millis(10));
@@ -229,14 +235,12 @@ impl BoundedListener {
                 }
             }
             let _ = stream.set_nodelay(true);
-            counters.connections_open.fetch_add(1, Ordering::Relaxed);
             let now = tokio::time::Instant::now();
             let io = BoundedStream {
                 stream,
                 _slot: SlotGuard {
                     slots: slots.clone(),
                     conn: conn.clone(),
-                    counters: counters.clone(),
                 },
                 counters: counters.clone(),
                 idle,
@@ -467,9 +471,11 @@ mod tests {
 
     #[test]
     fn the_oldest_unfinished_gives_way_and_answered_or_upgraded_ones_never_do() {
+        let counters = Arc::new(ServerCounters::default());
         let slots = Slots {
             max: 3,
             held: Mutex::new(VecDeque::new()),
+            counters: counters.clone(),
         };
         let (a, b, c) = (conn(1), conn(2), conn(3));
         for x in [&a, &b, &c] {
@@ -483,10 +489,12 @@ mod tests {
         assert!(matches!(slots.admit(&e), Admission::Evicted(o) if o.id == 4));
         e.answering.store(1, Ordering::Relaxed);
         assert!(matches!(slots.admit(&conn(6)), Admission::Full));
+        assert_eq!(counters.connections_open.load(Ordering::Relaxed), 3);
         // A released slot is free again; releasing an evicted one changes nothing.
         slots.release(&b);
         assert!(matches!(slots.admit(&conn(7)), Admission::Full));
         slots.release(&a);
+        assert_eq!(counters.connections_open.load(Ordering::Relaxed), 2);
         assert!(matches!(slots.admit(&conn(8)), Admission::Free));
     }
 }

@@ -137,7 +137,8 @@ pub struct FoxgloveStats {
     pub header_timeouts: u64,
     /// Connections with no upgrade yet closed because a new connection needed their slot.
     pub evicted: u64,
-    /// Connections closed at accept: every slot was held by an upgraded client.
+    /// Connections closed at accept: every slot was held by an upgraded client or one being
+    /// answered.
     pub connections_refused: u64,
     /// Upgrades refused for their Origin or Host (another site's page).
     pub foreign_site: u64,

@@ -1,8 +1,9 @@
 //! The Foxglove live server with a real WebSocket client over loopback, speaking
 //! `foxglove.websocket.v1` as Foxglove does: serverInfo and advertise arrive, a subscription to
 //! node_status yields message-data frames that decode with the advertised schema alone; the
-//! server is read-only, refuses clients without the subprotocol or the token, and binds loopback
-//! only unless a token is set.
+//! server is read-only, refuses clients without the subprotocol or the token, refuses another
+//! site's page (foreign Origin or Host) unless its origin is allowed, binds loopback only unless a
+//! token is set, and serves a new client through hundreds of idle and trickling sockets.
 
 use frontseat_actors::bus::test_util::UntypedBus as _;
 use std::time::Duration;

@@ -125,6 +125,7 @@ impl Default for FoxgloveOptions {
 pub struct FoxgloveStats {
     pub clients: u64,
     pub refused: u64,
+    /// Message-data frames handed to a client's socket.
     pub sent: u64,
     /// Messages a client's queue had no room for.
     pub lagged: u64,
@@ -607,10 +608,12 @@ async fn client(mut socket: WebSocket, s: &Shared) {
                 b.extend(sub.to_le_bytes());
                 b.extend(f.time_ns.to_le_bytes());
                 b.extend(&f.bytes);
+                // Counted as handed to the socket: counted after the send, a frame could reach
+                // the client before the count did (a stats read in between missed it).
+                s.counters.sent.fetch_add(1, Ordering::Relaxed);
                 if !send(&mut socket, Message::Binary(b.into()), s).await {
                     return;
                 }
-                s.counters.sent.fetch_add(1, Ordering::Relaxed);
             }
         }
     }

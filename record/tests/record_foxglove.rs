@@ -513,3 +513,47 @@ async fn an_allowed_origin_streams_and_others_stay_refused() {
         "{e:?}"
     );
 }
+
+/// An upgrade request trickled a byte a second is closed at `header_timeout` (here 2 s, with a
+/// minute of idle allowance), counted; in paused time.
+#[tokio::test(start_paused = true)]
+async fn an_upgrade_head_trickled_a_byte_a_second_is_closed_at_the_header_timeout() {
+    use frontseat_record::foxglove::{FoxgloveOptions, FoxgloveServer};
+    use tokio::io::{AsyncReadExt, AsyncWriteExt};
+    let bus = Bus::new();
+    let opts = FoxgloveOptions {
+        bind: "127.0.0.1:0".into(),
+        request_timeout: Duration::from_secs(60),
+        header_timeout: Duration::from_secs(2),
+        ..Default::default()
+    };
+    let server =
+        FoxgloveServer::start(&bus, frontseat_actors::groups::ALL, |_| true, &opts, "auv1")
+            .unwrap();
+    let mut s = tokio::net::TcpStream::connect(server.local_addr())
+        .await
+        .unwrap();
+    let t0 = tokio::time::Instant::now();
+    let mut bytes = b"GET / HTTP/1.1\r\nUpgrade: websocket\r\n".iter().copied();
+    let mut buf = [0u8; 64];
+    let held = tokio::time::timeout(Duration::from_secs(120), async {
+        loop {
+            tokio::select! {
+                r = s.read(&mut buf) => match r {
+                    Ok(0) | Err(_) => return t0.elapsed(),
+                    Ok(_) => panic!("an answer to an incomplete request"),
+                },
+                () = tokio::time::sleep(Duration::from_secs(1)) => {
+                    if s.write_all(&[bytes.next().unwrap_or(b'a')]).await.is_err() {
+                        return t0.elapsed();
+                    }
+                }
+            }
+        }
+    })
+    .await
+    .expect("closed at all");
+    assert!(held <= Duration::from_secs(3), "held {held:?}");
+    assert_eq!(server.stats().header_timeouts, 1, "{:?}", server.stats());
+    server.stop();
+}

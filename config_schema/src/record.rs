@@ -87,6 +87,19 @@ pub struct FoxgloveConfig {
     /// publisher. Unit: messages, 16 to 65536.
     #[schemars(range(min = 16, max = 65536))]
     pub client_queue: usize,
+    /// Longest a connection may take to send a complete upgrade request head; then it is
+    /// closed. Besides, when every connection slot (`max_clients` + 8) is held, a new
+    /// connection closes the oldest one not yet upgraded; connected clients are never closed
+    /// for it. Unit: s, 1 to 300.
+    #[schemars(range(min = 1, max = 300))]
+    pub header_timeout_s: u64,
+    /// Web pages (origins as the browser sends them, `scheme://host[:port]`) besides the
+    /// server's own that may connect, e.g. `["https://app.foxglove.dev"]` for Foxglove in a
+    /// browser. An upgrade with any other `Origin` is refused (403, logged with the origin), as
+    /// is, on loopback, one whose `Host` is not a loopback name (DNS rebinding). Clients that
+    /// send no `Origin` (scripts, native programs) are not affected; a desktop app whose page
+    /// sends `file://` or `null` needs that value listed. At most 32.
+    pub allowed_origins: Vec<String>,
 }
 
 impl Default for FoxgloveConfig {
@@ -97,6 +110,8 @@ impl Default for FoxgloveConfig {
             token: None,
             max_clients: 8,
             client_queue: 1024,
+            header_timeout_s: 5,
+            allowed_origins: Vec::new(),
         }
     }
 }
@@ -149,6 +164,29 @@ impl FoxgloveConfig {
             16,
             65536,
         );
+        c.count(
+            &at(prefix, "header_timeout_s"),
+            self.header_timeout_s,
+            1,
+            300,
+        );
+        c.count(
+            &at(prefix, "allowed_origins"),
+            self.allowed_origins.len() as u64,
+            0,
+            32,
+        );
+        for (i, o) in self.allowed_origins.iter().enumerate() {
+            // An origin as a browser sends it: `https://app.foxglove.dev`, or what a desktop
+            // app's page sends (`file://`, `null`); one token of visible ASCII.
+            if o.is_empty() || o.len() > 256 || !o.chars().all(|c| c.is_ascii_graphic()) {
+                c.push(FieldError::new(
+                    format!("{}[{i}]", at(prefix, "allowed_origins")),
+                    format!("{:?}", o.chars().take(64).collect::<String>()),
+                    "not an origin like \"https://app.foxglove.dev\" (1 to 256 visible ASCII characters)",
+                ));
+            }
+        }
     }
 }
 

@@ -52,6 +52,13 @@ pub struct WebConfig {
     /// 1 to 3600.
     #[schemars(range(min = 1, max = 3600))]
     pub idle_timeout_s: u64,
+    /// Longest a connection may take to send a complete request head, from its start (or the
+    /// end of its previous answer); then it is closed. Besides, when every one of
+    /// `max_connections` is held, a new connection closes the oldest one that is not being
+    /// answered (a socket that sent nothing or a partial request, or a keep-alive between
+    /// requests); open event streams are never closed for it. Unit: s, 1 to 300.
+    #[schemars(range(min = 1, max = 300))]
+    pub header_timeout_s: u64,
 }
 
 impl Default for WebConfig {
@@ -66,6 +73,7 @@ impl Default for WebConfig {
             history: 200,
             max_body_bytes: 16 * 1024,
             idle_timeout_s: 30,
+            header_timeout_s: 5,
         }
     }
 }
@@ -114,6 +122,12 @@ impl WebConfig {
             1 << 20,
         );
         c.count(&at(prefix, "idle_timeout_s"), self.idle_timeout_s, 1, 3600);
+        c.count(
+            &at(prefix, "header_timeout_s"),
+            self.header_timeout_s,
+            1,
+            300,
+        );
     }
 
     /// Advice that does not make the config invalid (printed by `--check`).

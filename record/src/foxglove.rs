@@ -10,12 +10,18 @@
 //!
 //! Bounds: clients at once, subscriptions per client, inbound frame size; each client has its own
 //! bounded queue and a slow one misses messages (counted), never slowing a publisher. Before the
-//! upgrade, connections go through the web crate's bounded listener (`frontseat_web::server`,
-//! shared with the web scope and the topside): a limited number at once, and a request not
-//! complete within `request_timeout` of its first byte (slowloris) or a silent socket is closed
-//! (counted). After it, the server pings every third of that time, which keeps a quiet but live
-//! client open, and a send that cannot complete within it (a client that stopped reading) ends
-//! the client.
+//! upgrade, connections go through the web crate's connection bounds (`frontseat_web::conn`,
+//! shared with the web scope and the topside's page): a limited number at once, the oldest
+//! unfinished one (no upgrade yet) closed when a new one needs its slot, an upgrade request not
+//! complete within `header_timeout` closed, a silent socket closed after `request_timeout` (all
+//! counted). After it, the server pings every third of `request_timeout`, which keeps a quiet
+//! but live client open, and a send that cannot complete within it (a client that stopped
+//! reading) ends the client; an upgraded client is never closed to make room.
+//!
+//! Access: the upgrade passes the web pages' own check (`frontseat_web::auth::Access::
+//! check_upgrade`): on loopback a foreign `Host` (DNS rebinding) is refused, a foreign `Origin`
+//! (another site's page in the operator's browser) is refused unless listed in
+//! `allowed_origins`, both with 403; the token as before (`?token=` or a Bearer header).
 
 use std::collections::HashMap;
 use std::net::SocketAddr;
@@ -71,9 +77,14 @@ pub struct FoxgloveOptions {
     pub max_clients: usize,
     /// Messages queued per client. Unit: messages.
     pub client_queue: usize,
-    /// Longest a connection may take to send its whole upgrade request (from its first byte),
-    /// or stay silent; also the ping period × 3 and the longest a send may block after it.
+    /// Longest a connection may stay silent, or take from its request's first byte to an
+    /// answer; also the ping period × 3 and the longest a send may block after the upgrade.
     pub request_timeout: Duration,
+    /// Longest from a connection's start to a complete upgrade request head.
+    pub header_timeout: Duration,
+    /// Origins besides the server's own whose pages may connect (e.g.
+    /// `https://app.foxglove.dev`).
+    pub allowed_origins: Vec<String>,
 }
 
 impl FoxgloveOptions {
@@ -85,6 +96,8 @@ impl FoxgloveOptions {
             token: c.effective_token(),
             max_clients: c.max_clients,
             client_queue: c.client_queue,
+            header_timeout: Duration::from_secs(c.header_timeout_s.max(1)),
+            allowed_origins: c.allowed_origins.clone(),
             ..Default::default()
         }
     }
@@ -101,6 +114,8 @@ impl Default for FoxgloveOptions {
             max_clients: 8,
             client_queue: 1024,
             request_timeout: REQUEST_TIMEOUT,
+            header_timeout: frontseat_web::conn::HEADER_TIMEOUT,
+            allowed_origins: Vec::new(),
         }
     }
 }
@@ -110,15 +125,24 @@ impl Default for FoxgloveOptions {
 pub struct FoxgloveStats {
     pub clients: u64,
     pub refused: u64,
+    /// Message-data frames handed to a client's socket.
     pub sent: u64,
     /// Messages a client's queue had no room for.
     pub lagged: u64,
     /// Client frames that were not a subscribe/unsubscribe the server understood.
     pub bad_requests: u64,
-    /// Connections closed before their upgrade request was complete in time (slowloris).
+    /// Connections closed before their upgrade request was answered in time (slowloris).
     pub slow_requests: u64,
-    /// Connections closed at accept: every slot was held.
+    /// Connections closed because their request head was not complete within the header
+    /// timeout.
+    pub header_timeouts: u64,
+    /// Connections with no upgrade yet closed because a new connection needed their slot.
+    pub evicted: u64,
+    /// Connections closed at accept: every slot was held by an upgraded client or one being
+    /// answered.
     pub connections_refused: u64,
+    /// Upgrades refused for their Origin or Host (another site's page).
+    pub foreign_site: u64,
 }
 
 #[derive(Default)]
@@ -128,6 +152,7 @@ struct Counters {
     sent: AtomicU64,
     lagged: AtomicU64,
     bad_requests: AtomicU64,
+    foreign_site: AtomicU64,
 }
 
 struct Frame {
@@ -152,7 +177,7 @@ struct Registry {
 struct Shared {
     server_info: String,
     registry: std::sync::Mutex<Registry>,
-    token: Option<String>,
+    access: frontseat_web::auth::Access,
     tx: broadcast::Sender<Arc<Event>>,
     slots: Arc<Semaphore>,
     counters: Arc<Counters>,
@@ -253,7 +278,8 @@ impl FoxgloveServer {
             })
             .to_string(),
             registry: std::sync::Mutex::new(Registry::default()),
-            token,
+            access: frontseat_web::auth::Access::new(local, token)
+                .with_allowed_origins(&opts.allowed_origins),
             tx,
             slots: Arc::new(Semaphore::new(opts.max_clients.max(1))),
             counters: counters.clone(),
@@ -266,19 +292,17 @@ impl FoxgloveServer {
             .route("/", axum::routing::get(upgrade))
             .with_state(shared);
         let conns = Arc::new(frontseat_web::ServerCounters::default());
-        let bounded = frontseat_web::server::BoundedListener {
-            inner: listener,
-            permits: Arc::new(Semaphore::new(
-                opts.max_clients.max(1).saturating_add(HANDSHAKE_HEADROOM),
-            )),
-            counters: conns.clone(),
-            idle: opts.request_timeout.max(Duration::from_millis(10)),
-        };
-        let task = tokio::spawn(async move {
-            if let Err(e) = axum::serve(bounded, app).await {
-                tracing::error!(error = %e, "foxglove live server stopped");
-            }
-        });
+        let bounded = frontseat_web::conn::BoundedListener::new(
+            listener,
+            frontseat_web::conn::ConnLimits {
+                max_connections: opts.max_clients.max(1).saturating_add(HANDSHAKE_HEADROOM),
+                idle: opts.request_timeout.max(Duration::from_millis(10)),
+                header_timeout: opts.header_timeout.max(Duration::from_millis(10)),
+            },
+            conns.clone(),
+            "foxglove",
+        );
+        let task = tokio::spawn(bounded.serve(app));
         Ok((
             Self {
                 addr: local,
@@ -306,7 +330,10 @@ impl FoxgloveServer {
             lagged: g(&c.lagged),
             bad_requests: g(&c.bad_requests),
             slow_requests: g(&self.conns.slow_requests),
+            header_timeouts: g(&self.conns.header_timeouts),
+            evicted: g(&self.conns.evicted),
             connections_refused: g(&self.conns.connections_refused),
+            foreign_site: g(&c.foreign_site),
         }
     }
 
@@ -406,28 +433,33 @@ struct TokenQuery {
     token: Option<String>,
 }
 
-fn token_ok(expected: &Option<String>, q: &TokenQuery, headers: &HeaderMap) -> bool {
-    use subtle::ConstantTimeEq as _;
-    let Some(want) = expected else {
-        return true;
-    };
-    let bearer = headers
-        .get(header::AUTHORIZATION)
-        .and_then(|v| v.to_str().ok())
-        .and_then(|v| v.strip_prefix("Bearer "));
-    let given = q.token.as_deref().or(bearer).unwrap_or("");
-    given.len() == want.len() && bool::from(given.as_bytes().ct_eq(want.as_bytes()))
-}
-
 async fn upgrade(
     State(s): State<Arc<Shared>>,
     Query(q): Query<TokenQuery>,
     headers: HeaderMap,
     ws: WebSocketUpgrade,
 ) -> Response {
-    if !token_ok(&s.token, &q, &headers) {
-        s.counters.refused.fetch_add(1, Ordering::Relaxed);
-        return (StatusCode::UNAUTHORIZED, "a token is required (?token=)").into_response();
+    use frontseat_web::auth::Refusal;
+    match s.access.check_upgrade(&headers, q.token.as_deref()) {
+        Ok(()) => {}
+        Err(Refusal::ForeignSite) => {
+            s.counters.refused.fetch_add(1, Ordering::Relaxed);
+            let n = s.counters.foreign_site.fetch_add(1, Ordering::Relaxed) + 1;
+            // Rate-limited: the 1st, 2nd, 4th … refusal is logged.
+            if n.is_power_of_two() {
+                let origin = headers.get(header::ORIGIN).and_then(|v| v.to_str().ok());
+                tracing::warn!(
+                    ?origin,
+                    refused = n,
+                    "foxglove: upgrade from another site refused (Origin or Host; see allowed_origins)"
+                );
+            }
+            return (StatusCode::FORBIDDEN, Refusal::ForeignSite.text()).into_response();
+        }
+        Err(_) => {
+            s.counters.refused.fetch_add(1, Ordering::Relaxed);
+            return (StatusCode::UNAUTHORIZED, "a token is required (?token=)").into_response();
+        }
     }
     let offered = headers
         .get_all(header::SEC_WEBSOCKET_PROTOCOL)
@@ -576,10 +608,12 @@ async fn client(mut socket: WebSocket, s: &Shared) {
                 b.extend(sub.to_le_bytes());
                 b.extend(f.time_ns.to_le_bytes());
                 b.extend(&f.bytes);
+                // Counted as handed to the socket: counted after the send, a frame could reach
+                // the client before the count did (a stats read in between missed it).
+                s.counters.sent.fetch_add(1, Ordering::Relaxed);
                 if !send(&mut socket, Message::Binary(b.into()), s).await {
                     return;
                 }
-                s.counters.sent.fetch_add(1, Ordering::Relaxed);
             }
         }
     }

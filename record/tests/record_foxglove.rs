@@ -1,8 +1,9 @@
 //! The Foxglove live server with a real WebSocket client over loopback, speaking
 //! `foxglove.websocket.v1` as Foxglove does: serverInfo and advertise arrive, a subscription to
 //! node_status yields message-data frames that decode with the advertised schema alone; the
-//! server is read-only, refuses clients without the subprotocol or the token, and binds loopback
-//! only unless a token is set.
+//! server is read-only, refuses clients without the subprotocol or the token, refuses another
+//! site's page (foreign Origin or Host) unless its origin is allowed, binds loopback only unless a
+//! token is set, and serves a new client through hundreds of idle and trickling sockets.
 
 use frontseat_actors::bus::test_util::UntypedBus as _;
 use std::time::Duration;
@@ -281,20 +282,22 @@ async fn trickling_clients_are_closed_within_the_bound_and_a_real_client_still_c
         FoxgloveServer::start(&bus, frontseat_actors::groups::ALL, |_| true, &opts, "auv1")
             .unwrap();
     let addr = server.local_addr();
-    // More tricklers than the server has connection slots (max_clients + 8): before the bound
-    // they held every one, so nobody else could connect.
+    // More tricklers than the server has connection slots (max_clients + 8): each one past
+    // them closes the oldest unfinished connection; the others are cut at the bound.
     let tricklers: Vec<_> = (0..12).map(|_| tokio::spawn(trickle(addr))).collect();
     for t in tricklers {
         let held = tokio::time::timeout(WAIT, t).await.unwrap().unwrap();
-        // Those past the slots are closed at accept at once; the others at the bound.
+        // Those evicted are closed at once; the others at the bound.
         assert!(
             held < bound + Duration::from_secs(2),
             "a trickling client held its connection {held:?}"
         );
     }
     let st = server.stats();
+    // Past the slots, each new one closed the oldest unfinished; the rest were cut at the bound.
     assert!(
-        st.slow_requests >= 1 && st.slow_requests + st.connections_refused >= 12,
+        st.slow_requests >= 1
+            && st.slow_requests + st.evicted + st.header_timeouts + st.connections_refused >= 12,
         "{st:?}"
     );
 
@@ -317,5 +320,240 @@ async fn trickling_clients_are_closed_within_the_bound_and_a_real_client_still_c
     }
     assert!(pings >= 3, "{pings} pings in {:?}", t0.elapsed());
     ws.close(None).await.unwrap();
+    server.stop();
+}
+
+/// Opens `n` sockets that hold a connection without finishing an upgrade: every other one
+/// silent, the rest trickling the upgrade request a byte a second while open. Dropping the set
+/// closes them.
+async fn flood(addr: std::net::SocketAddr, n: usize) -> tokio::task::JoinSet<()> {
+    use tokio::io::{AsyncReadExt, AsyncWriteExt};
+    let mut set = tokio::task::JoinSet::new();
+    for i in 0..n {
+        let mut s = tokio::time::timeout(WAIT, tokio::net::TcpStream::connect(addr))
+            .await
+            .expect("connect in time")
+            .expect("connect");
+        set.spawn(async move {
+            let req = format!(
+                "GET / HTTP/1.1\r\nHost: {addr}\r\nUpgrade: websocket\r\nConnection: Upgrade\r\n"
+            );
+            let mut bytes = req.into_bytes().into_iter();
+            let mut buf = [0u8; 256];
+            loop {
+                tokio::select! {
+                    r = s.read(&mut buf) => match r {
+                        Ok(0) | Err(_) => return,
+                        // Whatever the server says (nothing, or an error status), the flood goes on.
+                        Ok(_) => {}
+                    },
+                    () = tokio::time::sleep(Duration::from_secs(1)), if i % 2 == 1 => {
+                        if s.write_all(&[bytes.next().unwrap_or(b'a')]).await.is_err() {
+                            return;
+                        }
+                    }
+                }
+            }
+        });
+    }
+    set
+}
+
+/// 300 idle and trickling sockets against the default 8 clients (16 connections): a Foxglove
+/// client still connects within a bounded wait, and a second flood does not take it.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn hundreds_of_idle_and_trickling_sockets_do_not_lock_out_a_foxglove_client() {
+    let bus = Bus::new();
+    let svc = RecordService::spawn(&bus, &live_only(None), "auv1", RecordMeta::default())
+        .unwrap()
+        .unwrap();
+    let addr = svc.foxglove_addr().unwrap();
+    let bound = Duration::from_secs(10);
+    let _first = flood(addr, 300).await;
+    let mut ws = tokio::time::timeout(bound, connect(&format!("ws://{addr}/"), true))
+        .await
+        .expect("a client connects within the bound")
+        .expect("upgraded");
+    assert_eq!(next_text(&mut ws).await["op"], "serverInfo");
+    let adv = next_text(&mut ws).await;
+    let ch = adv["channels"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|c| c["topic"] == NODE_STATUS.name())
+        .expect("node_status advertised")["id"]
+        .clone();
+    ws.send(Message::Text(
+        serde_json::json!({"op": "subscribe", "subscriptions": [{"id": 1, "channelId": ch}]})
+            .to_string()
+            .into(),
+    ))
+    .await
+    .unwrap();
+    // The connected client, upgraded, is not what gives way to the next flood.
+    let _second = flood(addr, 300).await;
+    let publisher = {
+        let bus = bus.clone();
+        tokio::spawn(async move {
+            let mut iv = tokio::time::interval(Duration::from_millis(50));
+            loop {
+                iv.tick().await;
+                bus.publish(&NODE_STATUS, NodeStatus::default());
+            }
+        })
+    };
+    let got = tokio::time::timeout(bound, async {
+        loop {
+            match ws.next().await {
+                Some(Ok(Message::Binary(b))) => return b.first().copied(),
+                Some(Ok(_)) => continue,
+                other => panic!("the client was closed: {other:?}"),
+            }
+        }
+    })
+    .await
+    .expect("the open client still streams");
+    assert_eq!(got, Some(0x01), "a message-data frame");
+    publisher.abort();
+    // And a new one still connects.
+    let mut again = tokio::time::timeout(bound, connect(&format!("ws://{addr}/"), true))
+        .await
+        .expect("a second client connects within the bound")
+        .expect("upgraded");
+    assert_eq!(next_text(&mut again).await["op"], "serverInfo");
+    svc.stop().await;
+}
+
+async fn connect_with(
+    url: &str,
+    headers: &[(&'static str, &str)],
+) -> Result<Ws, tokio_tungstenite::tungstenite::Error> {
+    let mut req = url.into_client_request().unwrap();
+    req.headers_mut().insert(
+        "Sec-WebSocket-Protocol",
+        "foxglove.websocket.v1".parse().unwrap(),
+    );
+    for (k, v) in headers {
+        req.headers_mut().insert(*k, v.parse().unwrap());
+    }
+    Ok(tokio_tungstenite::connect_async(req).await?.0)
+}
+
+/// Another site's page in the operator's browser opens a WebSocket to the loopback server
+/// (its Origin is its own), or rebinds its name to 127.0.0.1 (its Host is its own): refused with
+/// 403 before any data, as the web pages refuse them; the server's own origin streams.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_foreign_origin_or_host_is_refused_and_the_own_origin_streams() {
+    let bus = Bus::new();
+    let svc = RecordService::spawn(&bus, &live_only(None), "auv1", RecordMeta::default())
+        .unwrap()
+        .unwrap();
+    let addr = svc.foxglove_addr().unwrap();
+    let url = format!("ws://{addr}/");
+    let rebound = format!("evil.example:{}", addr.port());
+    for headers in [
+        vec![("Origin", "http://evil.example")],
+        vec![("Origin", "null")],
+        vec![("Host", rebound.as_str())],
+        vec![
+            ("Host", rebound.as_str()),
+            ("Origin", "http://evil.example"),
+        ],
+    ] {
+        let e = connect_with(&url, &headers).await.err();
+        let status = e.map(http_status);
+        assert_eq!(status, Some(403), "{headers:?}");
+    }
+    let own = format!("http://{addr}");
+    let mut ws = connect_with(&url, &[("Origin", own.as_str())])
+        .await
+        .expect("the server's own origin");
+    assert_eq!(next_text(&mut ws).await["op"], "serverInfo");
+    svc.stop().await;
+}
+
+/// `allowed_origins` admits a web Foxglove's page and nothing else; the Host check still holds
+/// for it; an entry that is not an origin is refused by the config check.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn an_allowed_origin_streams_and_others_stay_refused() {
+    let bus = Bus::new();
+    let mut cfg = live_only(None);
+    cfg.foxglove.allowed_origins = vec!["https://app.foxglove.dev".into()];
+    assert!(cfg.errors_at("record").is_empty());
+    let svc = RecordService::spawn(&bus, &cfg, "auv1", RecordMeta::default())
+        .unwrap()
+        .unwrap();
+    let addr = svc.foxglove_addr().unwrap();
+    let url = format!("ws://{addr}/");
+    let mut ws = connect_with(&url, &[("Origin", "https://app.foxglove.dev")])
+        .await
+        .expect("an allowed origin");
+    assert_eq!(next_text(&mut ws).await["op"], "serverInfo");
+    let rebound = format!("evil.example:{}", addr.port());
+    for headers in [
+        vec![("Origin", "https://evil.example")],
+        vec![
+            ("Origin", "https://app.foxglove.dev"),
+            ("Host", rebound.as_str()),
+        ],
+    ] {
+        let status = connect_with(&url, &headers).await.err().map(http_status);
+        assert_eq!(status, Some(403), "{headers:?}");
+    }
+    svc.stop().await;
+
+    cfg.foxglove.allowed_origins = vec!["https://ok.example".into(), "bad origin".into()];
+    let e: Vec<String> = cfg
+        .errors_at("record")
+        .iter()
+        .map(|e| e.to_string())
+        .collect();
+    assert!(
+        e.len() == 1 && e[0].contains("record.foxglove.allowed_origins[1]"),
+        "{e:?}"
+    );
+}
+
+/// An upgrade request trickled a byte a second is closed at `header_timeout` (here 2 s, with a
+/// minute of idle allowance), counted; in paused time.
+#[tokio::test(start_paused = true)]
+async fn an_upgrade_head_trickled_a_byte_a_second_is_closed_at_the_header_timeout() {
+    use frontseat_record::foxglove::{FoxgloveOptions, FoxgloveServer};
+    use tokio::io::{AsyncReadExt, AsyncWriteExt};
+    let bus = Bus::new();
+    let opts = FoxgloveOptions {
+        bind: "127.0.0.1:0".into(),
+        request_timeout: Duration::from_secs(60),
+        header_timeout: Duration::from_secs(2),
+        ..Default::default()
+    };
+    let server =
+        FoxgloveServer::start(&bus, frontseat_actors::groups::ALL, |_| true, &opts, "auv1")
+            .unwrap();
+    let mut s = tokio::net::TcpStream::connect(server.local_addr())
+        .await
+        .unwrap();
+    let t0 = tokio::time::Instant::now();
+    let mut bytes = b"GET / HTTP/1.1\r\nUpgrade: websocket\r\n".iter().copied();
+    let mut buf = [0u8; 64];
+    let held = tokio::time::timeout(Duration::from_secs(120), async {
+        loop {
+            tokio::select! {
+                r = s.read(&mut buf) => match r {
+                    Ok(0) | Err(_) => return t0.elapsed(),
+                    Ok(_) => panic!("an answer to an incomplete request"),
+                },
+                () = tokio::time::sleep(Duration::from_secs(1)) => {
+                    if s.write_all(&[bytes.next().unwrap_or(b'a')]).await.is_err() {
+                        return t0.elapsed();
+                    }
+                }
+            }
+        }
+    })
+    .await
+    .expect("closed at all");
+    assert!(held <= Duration::from_secs(3), "held {held:?}");
+    assert_eq!(server.stats().header_timeouts, 1, "{:?}", server.stats());
     server.stop();
 }

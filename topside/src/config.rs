@@ -113,6 +113,12 @@ pub struct TopsideWebConfig {
     /// Most open HTTP connections.
     #[schemars(range(min = 1))]
     pub max_connections: usize,
+    /// Longest a connection may take to send a complete request head, from its start (or the
+    /// end of its previous answer); then it is closed. Besides, when every one of
+    /// `max_connections` is held, a new connection closes the oldest one that is not being
+    /// answered. Unit: s, 1 to 300.
+    #[schemars(range(min = 1, max = 300))]
+    pub header_timeout_s: u64,
 }
 
 impl Default for TopsideWebConfig {
@@ -121,6 +127,7 @@ impl Default for TopsideWebConfig {
             listen: "127.0.0.1:50080".into(),
             token: None,
             max_connections: 64,
+            header_timeout_s: 5,
         }
     }
 }
@@ -171,6 +178,13 @@ impl ServiceConfig for TopsideConfig {
         }
         if self.web.max_connections == 0 {
             e.push(FieldError::new("web.max_connections", 0, "at least 1"));
+        }
+        if !(1..=300).contains(&self.web.header_timeout_s) {
+            e.push(FieldError::new(
+                "web.header_timeout_s",
+                self.web.header_timeout_s,
+                "outside [1, 300]",
+            ));
         }
         if !(self.stale_after_s.is_finite()
             && self.stale_after_s > 0.0

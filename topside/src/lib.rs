@@ -415,17 +415,17 @@ impl Topside {
             ),
         };
         let app = router(state);
-        let bounded = frontseat_web::server::BoundedListener {
-            inner: listener,
-            permits: Arc::new(tokio::sync::Semaphore::new(cfg.web.max_connections.max(1))),
-            counters: Arc::new(frontseat_web::ServerCounters::default()),
-            idle: Duration::from_secs(30),
-        };
-        let server = tokio::spawn(async move {
-            if let Err(e) = axum::serve(bounded, app).await {
-                tracing::error!(error = %e, "topside web server stopped");
-            }
-        });
+        let bounded = frontseat_web::conn::BoundedListener::new(
+            listener,
+            frontseat_web::conn::ConnLimits {
+                max_connections: cfg.web.max_connections,
+                idle: Duration::from_secs(30),
+                header_timeout: Duration::from_secs(cfg.web.header_timeout_s.max(1)),
+            },
+            Arc::new(frontseat_web::ServerCounters::default()),
+            "topside",
+        );
+        let server = tokio::spawn(bounded.serve(app));
         tracing::info!(url = %format!("http://{addr}/"), connect = ?cfg.zenoh.connect, "topside serving");
         Ok(Self {
             addr,

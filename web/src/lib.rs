@@ -4,11 +4,13 @@
 //! bus like any other subscriber (bounded, drop-and-count). The commander publishes through the
 //! same groups a helm uses, so the interface's gates decide as for any helm.
 //!
-//! `hub` is the bus side (a ractor actor), `server` the HTTP side, `auth` the access rules,
+//! `hub` is the bus side (a ractor actor), `server` the HTTP side, `conn` its connections (shared
+//! with the topside's page and the Foxglove servers), `auth` the access rules,
 //! `reflect` the JSON view of any message from the compiled descriptors.
 #![forbid(unsafe_code)]
 
 pub mod auth;
+pub mod conn;
 pub mod hub;
 pub mod reflect;
 pub mod server;
@@ -24,7 +26,6 @@ use frontseat_actors::service_child::{BoxFuture, Service};
 use frontseat_actors::supervisor::{ChildFailure, SupervisorHandle};
 use frontseat_config::{InterfaceConfig, LimitsConfig, WEB_TOKEN_ENV, WebConfig};
 use ractor::ActorRef;
-use tokio::sync::Semaphore;
 
 pub use hub::HubCounters;
 pub use server::ServerCounters;
@@ -136,17 +137,17 @@ impl WebService {
             counters: server_counters.clone(),
         };
         let app = server::router(state, cfg.max_body_bytes);
-        let bounded = server::BoundedListener {
-            inner: listener,
-            permits: Arc::new(Semaphore::new(cfg.max_connections)),
-            counters: server_counters.clone(),
-            idle: Duration::from_secs(cfg.idle_timeout_s.max(1)),
-        };
-        let server = tokio::spawn(async move {
-            if let Err(e) = axum::serve(bounded, app).await {
-                tracing::error!(error = %e, "web server stopped");
-            }
-        });
+        let bounded = conn::BoundedListener::new(
+            listener,
+            conn::ConnLimits {
+                max_connections: cfg.max_connections,
+                idle: Duration::from_secs(cfg.idle_timeout_s.max(1)),
+                header_timeout: Duration::from_secs(cfg.header_timeout_s.max(1)),
+            },
+            server_counters.clone(),
+            "web",
+        );
+        let server = tokio::spawn(bounded.serve(app));
         tracing::info!(url = %format!("http://{addr}/"), "web scope and commander serving");
         Ok(Self {
             addr,

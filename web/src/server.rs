@@ -2,11 +2,8 @@
 //! the page never polls), history and schema look-ups, and the commander's send. Every request
 //! passes `auth`; connections, event streams and bodies are bounded.
 
-use std::future::Future as _;
-use std::pin::Pin;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicU64, Ordering};
-use std::task::{Context, Poll};
 use std::time::Duration;
 
 use axum::Json as JsonBody;
@@ -23,9 +20,6 @@ use frontseat_actors::ports::WebCommanderPorts;
 use futures_util::stream::Stream;
 use serde::Deserialize;
 use serde_json::{Value as Json, json};
-use tokio::io::{AsyncRead, AsyncWrite, ReadBuf};
-use tokio::net::{TcpListener, TcpStream};
-use tokio::sync::{OwnedSemaphorePermit, Semaphore};
 
 use crate::auth::{Access, Refusal};
 use crate::hub::{HubCounters, HubMsg, Joined};
@@ -46,13 +40,23 @@ const HUB_TIMEOUT: Duration = Duration::from_secs(2);
 pub struct ServerCounters {
     /// Connections holding a slot now (a gauge: up at accept, down when the connection ends).
     pub connections_open: AtomicU64,
+    /// Connections accepted, in all.
+    pub connections_accepted: AtomicU64,
+    /// Connections closed at accept: every slot was held by a connection being answered (an
+    /// event stream, a WebSocket), none unfinished to evict.
     pub connections_refused: AtomicU64,
     pub requests_refused: AtomicU64,
     pub sends: AtomicU64,
     pub sends_refused: AtomicU64,
-    /// Connections closed because a request was not complete within the idle timeout of its
-    /// first byte (slowloris).
+    /// Connections closed because a request was not answered within the idle timeout of its
+    /// first byte (a body trickled a byte at a time).
     pub slow_requests: AtomicU64,
+    /// Connections closed because their request head was not complete within the header
+    /// timeout (idle or trickling sockets; hyper's header-read timeout).
+    pub header_timeouts: AtomicU64,
+    /// Unfinished connections (no request being answered, not upgraded) closed because a new
+    /// connection needed their slot.
+    pub evicted: AtomicU64,
 }
 
 #[derive(Clone)]
@@ -404,168 +408,4 @@ pub fn limits_json(l: &frontseat_config::LimitsConfig) -> Json {
         groups::GOBY_MIDDLEWARE_FRONTSEAT_DESIRED_COURSE.name(): course(""),
         groups::GOBY_MIDDLEWARE_FRONTSEAT_COMMAND_REQUEST.name(): course("desired_course."),
     })
-}
-
-/// A TCP listener that serves at most `max` connections at once: one past it is accepted and
-/// closed at once (counted), so a flood of idle sockets cannot exhaust memory or descriptors.
-pub struct BoundedListener {
-    pub inner: TcpListener,
-    pub permits: Arc<Semaphore>,
-    pub counters: Arc<ServerCounters>,
-    pub idle: Duration,
-}
-
-/// One served connection: holds its slot, and ends itself after `idle` without a byte either
-/// way, so sockets that never send a request cannot hold every slot (hyper has no header
-/// timeout of its own here); and after `idle` from the first byte of a request with no byte of
-/// an answer, so a client trickling a request a byte at a time (slowloris), which resets the idle
-/// timer with every byte, still cannot hold its slot longer than that.
-pub struct BoundedStream {
-    stream: TcpStream,
-    _permit: OwnedSemaphorePermit,
-    counters: Arc<ServerCounters>,
-    idle: Duration,
-    last: tokio::time::Instant,
-    /// Since when the peer has sent bytes that no byte of ours answered yet.
-    unanswered_since: Option<tokio::time::Instant>,
-    timer: Pin<Box<tokio::time::Sleep>>,
-}
-
-impl Drop for BoundedStream {
-    fn drop(&mut self) {
-        self.counters
-            .connections_open
-            .fetch_sub(1, Ordering::Relaxed);
-    }
-}
-
-impl BoundedStream {
-    fn active(&mut self) {
-        self.last = tokio::time::Instant::now();
-    }
-}
-
-impl axum::serve::Listener for BoundedListener {
-    type Io = BoundedStream;
-    type Addr = std::net::SocketAddr;
-
-    async fn accept(&mut self) -> (Self::Io, Self::Addr) {
-        loop {
-            let (stream, addr) = match self.inner.accept().await {
-                Ok(s) => s,
-                Err(e) => {
-                    // Out of descriptors and the like: wait instead of spinning.
-                    tracing::warn!(error = %e, "web: accept failed");
-                    tokio::time::sleep(Duration::from_millis(100)).await;
-                    continue;
-                }
-            };
-            match self.permits.clone().try_acquire_owned() {
-                Ok(permit) => {
-                    let _ = stream.set_nodelay(true);
-                    let now = tokio::time::Instant::now();
-                    self.counters
-                        .connections_open
-                        .fetch_add(1, Ordering::Relaxed);
-                    return (
-                        BoundedStream {
-                            stream,
-                            _permit: permit,
-                            counters: self.counters.clone(),
-                            idle: self.idle,
-                            last: now,
-                            unanswered_since: None,
-                            timer: Box::pin(tokio::time::sleep_until(now + self.idle)),
-                        },
-                        addr,
-                    );
-                }
-                Err(_) => {
-                    let n = self
-                        .counters
-                        .connections_refused
-                        .fetch_add(1, Ordering::Relaxed);
-                    if n.is_power_of_two() {
-                        tracing::warn!(%addr, refused = n + 1, "web: too many connections; closing");
-                    }
-                    drop(stream);
-                }
-            }
-        }
-    }
-
-    fn local_addr(&self) -> std::io::Result<Self::Addr> {
-        self.inner.local_addr()
-    }
-}
-
-impl AsyncRead for BoundedStream {
-    fn poll_read(
-        mut self: Pin<&mut Self>,
-        cx: &mut Context<'_>,
-        buf: &mut ReadBuf<'_>,
-    ) -> Poll<std::io::Result<()>> {
-        let before = buf.filled().len();
-        match Pin::new(&mut self.stream).poll_read(cx, buf) {
-            Poll::Ready(r) => {
-                if buf.filled().len() > before {
-                    self.active();
-                    if self.unanswered_since.is_none() {
-                        self.unanswered_since = Some(self.last);
-                    }
-                }
-                Poll::Ready(r)
-            }
-            Poll::Pending => {
-                // Waiting for the peer: wake up at the idle deadline, or the request's, and close
-                // if it passed.
-                loop {
-                    let idle = self.last + self.idle;
-                    let deadline = self
-                        .unanswered_since
-                        .map_or(idle, |t| idle.min(t + self.idle));
-                    if self.timer.deadline() != deadline {
-                        self.timer.as_mut().reset(deadline);
-                    }
-                    match self.timer.as_mut().poll(cx) {
-                        Poll::Pending => return Poll::Pending,
-                        Poll::Ready(()) if deadline <= tokio::time::Instant::now() => {
-                            let why = if deadline < idle {
-                                self.counters.slow_requests.fetch_add(1, Ordering::Relaxed);
-                                "request not complete in time"
-                            } else {
-                                "idle connection"
-                            };
-                            return Poll::Ready(Err(std::io::Error::new(
-                                std::io::ErrorKind::TimedOut,
-                                why,
-                            )));
-                        }
-                        Poll::Ready(()) => continue,
-                    }
-                }
-            }
-        }
-    }
-}
-
-impl AsyncWrite for BoundedStream {
-    fn poll_write(
-        mut self: Pin<&mut Self>,
-        cx: &mut Context<'_>,
-        buf: &[u8],
-    ) -> Poll<std::io::Result<usize>> {
-        let r = Pin::new(&mut self.stream).poll_write(cx, buf);
-        if matches!(r, Poll::Ready(Ok(n)) if n > 0) {
-            self.active();
-            self.unanswered_since = None;
-        }
-        r
-    }
-    fn poll_flush(mut self: Pin<&mut Self>, cx: &mut Context<'_>) -> Poll<std::io::Result<()>> {
-        Pin::new(&mut self.stream).poll_flush(cx)
-    }
-    fn poll_shutdown(mut self: Pin<&mut Self>, cx: &mut Context<'_>) -> Poll<std::io::Result<()>> {
-        Pin::new(&mut self.stream).poll_shutdown(cx)
-    }
 }

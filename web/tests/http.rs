@@ -8,7 +8,7 @@ use std::sync::Arc;
 use std::sync::atomic::Ordering;
 use std::time::Duration;
 
-use common::{Sse, TIMEOUT, get, post_json, request};
+use common::{Sse, TIMEOUT, flood, get, post_json, request};
 use frontseat_actors::bus::Bus;
 use frontseat_actors::groups;
 use frontseat_actors::proto::goby::middleware::frontseat::protobuf::{
@@ -385,16 +385,39 @@ async fn bodies_connections_and_event_streams_are_bounded() {
         );
         tokio::time::sleep(Duration::from_millis(5)).await;
     }
-    // Connections: `first` holds one; two idle sockets fill the bound; the next is closed at
-    // once without an answer.
-    let _a = tokio::net::TcpStream::connect(addr).await.unwrap();
+    // Connections: `first` holds one (answered); two idle sockets fill the bound. The next
+    // connection closes the oldest idle one (never the open stream) and is served.
+    let mut a = tokio::net::TcpStream::connect(addr).await.unwrap();
     let _b = tokio::net::TcpStream::connect(addr).await.unwrap();
-    let refused_before = web
-        .server_counters
-        .connections_refused
-        .load(Ordering::Relaxed);
-    let mut c = tokio::net::TcpStream::connect(addr).await.unwrap();
+    let evicted_before = web.server_counters.evicted.load(Ordering::Relaxed);
+    assert_eq!(get(addr, "/api/info").await.status, 200);
     let mut buf = [0u8; 16];
+    let n = tokio::time::timeout(TIMEOUT, a.read(&mut buf))
+        .await
+        .expect("the oldest idle socket is closed in time")
+        .unwrap_or(0);
+    assert_eq!(n, 0, "closed without a reply");
+    assert!(web.server_counters.evicted.load(Ordering::Relaxed) > evicted_before);
+    first
+        .next()
+        .await
+        .expect("the open stream is not what gave way");
+    web.shutdown(Duration::from_secs(2)).await;
+
+    // When every slot is being answered (here the one open stream), a new connection is closed
+    // at once without an answer, and counted.
+    let (_bus, web) = start(
+        WebConfig {
+            max_connections: 1,
+            ..cfg()
+        },
+        None,
+    )
+    .await;
+    let addr = web.local_addr();
+    let mut only = Sse::open(addr, "/api/events").await;
+    assert_eq!(only.next().await.unwrap()["kind"], "snapshot");
+    let mut c = tokio::net::TcpStream::connect(addr).await.unwrap();
     let n = tokio::time::timeout(TIMEOUT, c.read(&mut buf))
         .await
         .expect("the extra connection is closed in time")
@@ -404,8 +427,9 @@ async fn bodies_connections_and_event_streams_are_bounded() {
         web.server_counters
             .connections_refused
             .load(Ordering::Relaxed)
-            > refused_before
+            >= 1
     );
+    only.next().await.expect("the open stream stays");
     web.shutdown(Duration::from_secs(2)).await;
 }
 
@@ -584,5 +608,95 @@ async fn a_request_trickled_a_byte_at_a_time_is_cut_at_the_idle_timeout() {
     );
     // Its slot is free again.
     assert_eq!(get(addr, "/api/info").await.status, 200);
+    web.shutdown(Duration::from_secs(2)).await;
+}
+
+/// Anyone on the host opens 300 sockets (silent, or trickling a request head a byte a second)
+/// against the default 64 connections: a new tab still gets the page, its event stream and the
+/// commander, within a bounded wait; and a second flood does not take the open event stream.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn hundreds_of_idle_and_trickling_sockets_do_not_lock_out_a_new_tab() {
+    let (bus, web) = start(cfg(), None).await;
+    let addr = web.local_addr();
+    let bound = Duration::from_secs(10);
+    let _first = flood(addr, 300).await;
+    let page = tokio::time::timeout(bound, get(addr, "/"))
+        .await
+        .expect("the page within the bound");
+    assert_eq!(page.status, 200, "{page:?}");
+    let mut tab = tokio::time::timeout(bound, Sse::open(addr, "/api/events"))
+        .await
+        .expect("the event stream within the bound");
+    assert_eq!(tab.status, 200);
+    assert_eq!(tab.next().await.unwrap()["kind"], "snapshot");
+    // The tab, open and answered, is not what gives way to the next flood.
+    let _second = flood(addr, 300).await;
+    bus.publish(&groups::GOBY_MIDDLEWARE_FRONTSEAT_NODE_STATUS, nav(3.0));
+    assert_eq!(
+        tokio::time::timeout(bound, tab.next_on(NODE_STATUS))
+            .await
+            .expect("the open tab still streams")["msg"]["local_fix"]["x"],
+        json!(3.0)
+    );
+    let (_s, mut rx) =
+        bus.subscribe_channel(&groups::GOBY_MIDDLEWARE_FRONTSEAT_DESIRED_COURSE, "t", 16);
+    let sent = tokio::time::timeout(
+        bound,
+        post_json(
+            addr,
+            "/api/send",
+            &[],
+            &json!({"group": DESIRED, "message": {"time": 1, "heading": 90}}),
+        ),
+    )
+    .await
+    .expect("a send within the bound");
+    assert_eq!(sent.status, 200, "{}", sent.body);
+    assert!(rx.try_recv().is_ok());
+    web.shutdown(Duration::from_secs(2)).await;
+}
+
+/// A socket that sends one byte a second and never ends its request head is closed at the
+/// header timeout (5 s by default), not kept while it trickles; one that sends nothing too.
+#[tokio::test(start_paused = true)]
+async fn a_request_head_trickled_a_byte_a_second_is_closed_at_the_header_timeout() {
+    let (_bus, web) = start(cfg(), None).await;
+    let addr = web.local_addr();
+    let mut silent = tokio::net::TcpStream::connect(addr).await.unwrap();
+    let mut slow = tokio::net::TcpStream::connect(addr).await.unwrap();
+    let t0 = tokio::time::Instant::now();
+    let mut buf = [0u8; 64];
+    let mut bytes = b"GET /api/info HTTP/1.1\r\nX-Slow: ".iter().copied();
+    let slow_held = tokio::time::timeout(Duration::from_secs(60), async {
+        loop {
+            tokio::select! {
+                r = slow.read(&mut buf) => match r {
+                    Ok(0) | Err(_) => return t0.elapsed(),
+                    Ok(_) => panic!("an answer to an incomplete request"),
+                },
+                () = tokio::time::sleep(Duration::from_secs(1)) => {
+                    if slow.write_all(&[bytes.next().unwrap_or(b'a')]).await.is_err() {
+                        return t0.elapsed();
+                    }
+                }
+            }
+        }
+    })
+    .await
+    .expect("closed at all");
+    assert!(
+        slow_held <= Duration::from_secs(6),
+        "a trickled head held its connection {slow_held:?}"
+    );
+    let n = tokio::time::timeout(Duration::from_secs(60), silent.read(&mut buf))
+        .await
+        .expect("the silent socket is closed")
+        .unwrap_or(0);
+    assert_eq!(n, 0);
+    assert!(
+        t0.elapsed() <= Duration::from_secs(6),
+        "a silent socket held its connection {:?}",
+        t0.elapsed()
+    );
     web.shutdown(Duration::from_secs(2)).await;
 }

@@ -197,3 +197,52 @@ impl Sse {
         }
     }
 }
+
+/// Sockets that each hold a connection without finishing a request, as anyone on the host can
+/// open: every other one connects and stays silent, the rest send one byte and then one more
+/// each second for as long as the socket stays open (a request head that never ends). Dropping
+/// it closes them all.
+pub struct Flood {
+    _idle: Vec<TcpStream>,
+    _trickling: tokio::task::JoinSet<()>,
+}
+
+pub async fn flood(addr: SocketAddr, n: usize) -> Flood {
+    let mut idle = Vec::new();
+    let mut trickling = tokio::task::JoinSet::new();
+    for i in 0..n {
+        let mut s = tokio::time::timeout(TIMEOUT, TcpStream::connect(addr))
+            .await
+            .expect("connect in time")
+            .expect("connect");
+        if i % 2 == 0 {
+            idle.push(s);
+            continue;
+        }
+        trickling.spawn(async move {
+            if s.write_all(b"G").await.is_err() {
+                return;
+            }
+            let mut rest = b"ET /api/info HTTP/1.1\r\nX-Slow: ".iter().copied();
+            let mut buf = [0u8; 256];
+            loop {
+                tokio::select! {
+                    r = s.read(&mut buf) => match r {
+                        Ok(0) | Err(_) => return,
+                        // Whatever the server says (nothing, or an error status), the flood goes on.
+                        Ok(_) => {}
+                    },
+                    () = tokio::time::sleep(Duration::from_secs(1)) => {
+                        if s.write_all(&[rest.next().unwrap_or(b'a')]).await.is_err() {
+                            return;
+                        }
+                    }
+                }
+            }
+        });
+    }
+    Flood {
+        _idle: idle,
+        _trickling: trickling,
+    }
+}

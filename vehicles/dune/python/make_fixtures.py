@@ -28,6 +28,11 @@ def rows():
                            services="dune://0.0.0.0/uid/1294925553839635/;imc+udp://127.0.0.1:6002/")
     yield "entity_state_normal", make(imcpy.EntityState, **dict(v, src_ent=12), state=1, flags=0,
                                       description="active")
+    yield "entity_info_navigation", make(imcpy.EntityInfo, **v, id=12, label="Navigation",
+                                         component="Navigation.AUV.Navigation", act_time=0, deact_time=0)
+    yield "entity_list", make(imcpy.EntityList, **v, op=1, list="Daemon=0;Navigation=12;GPS=13")
+    yield "entity_state_error", make(imcpy.EntityState, **dict(v, src_ent=12), state=3, flags=0,
+                                     description="no position fix")
     yield "estimated_state", make(imcpy.EstimatedState, **v, lat=LAT, lon=LON, height=0.0,
                                   x=100.0, y=-50.0, z=2.0, phi=0.01, theta=-0.02, psi=math.radians(90.0),
                                   u=1.5, v=0.0, w=0.0, vx=0.0, vy=1.5, vz=0.0, p=0.0, q=0.0, r=0.0,

@@ -309,6 +309,10 @@ macro_rules! imc_messages {
 imc_messages! {
     /// EntityState 1: the health of the entity in the header's `src_ent`.
     EntityState = 1 { state: u8, flags: u8, description: String }
+    /// EntityInfo 3: an entity's id and name.
+    EntityInfo = 3 { id: u8, label: String, component: String, act_time: u16, deact_time: u16 }
+    /// EntityList 5: `Name=id;Name=id`.
+    EntityList = 5 { op: u8, list: String }
     /// Heartbeat 150 (DUNE sends one a second).
     Heartbeat = 150 {}
     /// Announce 151: a system's name, type, position and services.

@@ -7,4 +7,23 @@
 
 #![forbid(unsafe_code)]
 
+pub mod driver;
+pub mod emulator;
 pub mod imc;
+pub mod infer;
+
+pub use driver::{DuneCounters, DuneDriver, Settings};
+
+/// The built-in `dune` driver, as the registry (`vehicles/registry`) lists it.
+pub const DRIVER: frontseat_actors::drivers::BuiltIn = frontseat_actors::drivers::BuiltIn {
+    name: frontseat_config::DUNE,
+    factory: |cfg| {
+        let settings = Settings::from_config(cfg);
+        std::sync::Arc::new(move || {
+            Box::new(DuneDriver::new(settings.clone())) as Box<dyn frontseat_actors::driver::Driver>
+        })
+    },
+    // A course is answered at once; the vehicle's verdict comes as its state.
+    ack_budget: frontseat_actors::drivers::no_ack_budget,
+    raw_framing: frontseat_actors::raw_gate::RawFraming::Frames,
+};

@@ -74,7 +74,7 @@ struct Maneuver {
     timeout: f64,
     started: f64,
     last_reference: Option<f64>,
-    /// North, east metres of the point to go to, its speed and depth.
+    /// The point to go to (lat, lon in rad).
     target: Option<(f64, f64)>,
     radius: f64,
     request_id: u16,
@@ -467,14 +467,14 @@ impl DuneSession {
         let mut sp = self.vehicle.setpoint();
         let mut target = m.target;
         if r.flags & consts::reference::LOCATION != 0 && r.lat.is_finite() && r.lon.is_finite() {
-            // Into the vehicle model's own grid, so the emulated heading and the point agree.
-            if let Some((e, n)) = self
-                .grid
-                .as_ref()
-                .and_then(|g| g.to_local(r.lat.to_degrees(), r.lon.to_degrees()).ok())
-                && n.hypot(e) < 1e6
-            {
-                target = Some((n, e));
+            let (n, e) = infer::offset(
+                self.opts.lat.to_radians(),
+                self.opts.lon.to_radians(),
+                r.lat,
+                r.lon,
+            );
+            if n.is_finite() && e.is_finite() && n.hypot(e) < 1e6 {
+                target = Some((r.lat, r.lon));
             }
         }
         if r.flags & consts::reference::SPEED != 0
@@ -532,12 +532,15 @@ impl DuneSession {
         let Some(m) = &self.maneuver else {
             return (consts::follow_ref_state::WAIT, 0);
         };
-        let Some((n, e)) = m.target else {
+        let Some((tlat, tlon)) = m.target else {
             return (consts::follow_ref_state::WAIT, 0);
         };
-        let (dn, de) = (n - self.vehicle.y, e - self.vehicle.x);
+        let radius = m.radius;
+        // The true bearing from where the vehicle says it is, as DUNE's path controller steers.
+        let (lat, lon) = self.vehicle.lat_lon();
+        let (dn, de) = infer::offset(lat.to_radians(), lon.to_radians(), tlat, tlon);
         let mut sp = self.vehicle.setpoint();
-        if dn.hypot(de) <= m.radius + self.opts.horizontal_tolerance {
+        if dn.hypot(de) <= radius + self.opts.horizontal_tolerance {
             // Loitering at the point: the emulator holds still.
             sp.speed = 0.0;
             self.vehicle.set_setpoint(sp);

@@ -241,7 +241,7 @@ mod tests {
         let p = position(&e).unwrap();
         assert!((p.lat - 41.194_004).abs() < 1e-4, "{}", p.lat);
         assert!((p.lon + 8.7062).abs() < 1e-9);
-        assert_eq!(p.heading, 270.0);
+        assert!((p.heading - 270.0).abs() < 1e-5, "{}", p.heading);
         assert_eq!(p.altitude, None);
         assert!((p.speed_over_ground - 2f64.sqrt()).abs() < 1e-9);
         for bad in [

@@ -7,7 +7,6 @@
 //! Abort (dst = its id exactly); our own requests come back as DUNE loops them back.
 
 use frontseat_sim::emulator::Session;
-use frontseat_sim::geodesy::LocalGrid;
 use frontseat_sim::vehicle::{Limits, Setpoint, Vehicle, wrap_heading};
 
 use crate::imc::{self, ByteOrder, Deframer, Header, Message, consts};
@@ -84,7 +83,6 @@ struct Maneuver {
 pub struct DuneSession {
     opts: DuneOptions,
     vehicle: Vehicle,
-    grid: Option<LocalGrid>,
     deframer: Deframer,
     t: f64,
     op_mode: u8,
@@ -94,7 +92,8 @@ pub struct DuneSession {
     plan_id: String,
     last_error: String,
     last_outcome: u8,
-    /// NED offset (north, east) of EstimatedState's reference point from the start.
+    /// EstimatedState's reference point (lat, lon in degrees); x/y are true north/east metres
+    /// from it, as DUNE's navigation gives them.
     reference: (f64, f64),
     next_es: f64,
     next_vs: f64,
@@ -115,7 +114,6 @@ impl DuneSession {
     pub fn new(opts: DuneOptions) -> Self {
         Self {
             vehicle: Vehicle::new(opts.lat, opts.lon, opts.limits, (0.0, 0.0)),
-            grid: LocalGrid::new(opts.lat, opts.lon).ok(),
             deframer: Deframer::new(),
             t: 0.0,
             op_mode: consts::op_mode::BOOT,
@@ -124,7 +122,7 @@ impl DuneSession {
             plan_id: String::new(),
             last_error: String::new(),
             last_outcome: 0,
-            reference: (0.0, 0.0),
+            reference: (opts.lat, opts.lon),
             next_es: 0.0,
             next_vs: 0.0,
             next_pcs: 0.0,
@@ -163,13 +161,6 @@ impl DuneSession {
         if let Ok(b) = imc::encode(&self.header(dst), &msg, ByteOrder::Little) {
             out.extend_from_slice(&b);
         }
-    }
-
-    fn lat_lon_of(&self, north: f64, east: f64) -> (f64, f64) {
-        self.grid
-            .as_ref()
-            .and_then(|g| g.to_global(east, north).ok())
-            .unwrap_or((self.opts.lat, self.opts.lon))
     }
 
     fn vehicle_state(&self, out: &mut Vec<u8>) {
@@ -230,9 +221,16 @@ impl DuneSession {
         );
     }
 
-    fn estimated_state(&self, out: &mut Vec<u8>) {
+    fn estimated_state(&mut self, out: &mut Vec<u8>) {
+        let (rlat, rlon) = self.reference;
+        let (lat, lon) = self.vehicle.lat_lon();
+        let (north, east) = infer::offset(
+            rlat.to_radians(),
+            rlon.to_radians(),
+            lat.to_radians(),
+            lon.to_radians(),
+        );
         let v = &self.vehicle;
-        let (rlat, rlon) = self.lat_lon_of(self.reference.0, self.reference.1);
         let h = v.heading.to_radians();
         let psi = if h > std::f64::consts::PI {
             h - 2.0 * std::f64::consts::PI
@@ -245,8 +243,8 @@ impl DuneSession {
                 lat: rlat.to_radians(),
                 lon: rlon.to_radians(),
                 height: 0.0,
-                x: (v.y - self.reference.0) as f32,
-                y: (v.x - self.reference.1) as f32,
+                x: north as f32,
+                y: east as f32,
                 z: v.depth as f32,
                 psi: psi as f32,
                 u: v.speed as f32,
@@ -613,9 +611,16 @@ impl Session for DuneSession {
             }
         }
         self.vehicle.step(dt);
-        let (n, e) = (self.vehicle.y, self.vehicle.x);
-        if (n - self.reference.0).hypot(e - self.reference.1) > RECENTRE_M {
-            self.reference = (n, e);
+        let (lat, lon) = self.vehicle.lat_lon();
+        let (rlat, rlon) = self.reference;
+        let (n, e) = infer::offset(
+            rlat.to_radians(),
+            rlon.to_radians(),
+            lat.to_radians(),
+            lon.to_radians(),
+        );
+        if n.hypot(e) > RECENTRE_M {
+            self.reference = (lat, lon);
         }
         while self.next_es <= self.t {
             self.next_es += ES_PERIOD;
@@ -635,7 +640,7 @@ impl Session for DuneSession {
         }
         if self.next_announce <= self.t {
             self.next_announce = self.t + 10.0;
-            let (lat, lon) = self.lat_lon_of(self.vehicle.y, self.vehicle.x);
+            let (lat, lon) = self.vehicle.lat_lon();
             self.emit(
                 imc::NULL_ADDRESS,
                 imc::Announce {

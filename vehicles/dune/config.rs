@@ -115,7 +115,11 @@ impl crate::drivers::DriverSection for DuneConfig {
                 c.push(FieldError::new(
                     at(prefix, name),
                     id.to_string(),
-                    "not one system's IMC id (0, 0xFFF0 and 0xFFFF are special)",
+                    if name == "own_imc_id" {
+                        "not one system's IMC id (0, 0xFFF0 and 0xFFFF are special)"
+                    } else {
+                        "not one system's IMC id (0xFFF0 and 0xFFFF are special; 0 = learn it)"
+                    },
                 ));
             }
         }

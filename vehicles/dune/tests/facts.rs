@@ -67,7 +67,7 @@ impl Rig {
         Duration::from_secs_f64(self.t)
     }
 
-    fn to_driver(&mut self, bytes: &[u8]) {
+    fn feed_driver(&mut self, bytes: &[u8]) {
         let mut frames = Vec::new();
         imc::Deframer::new().feed(bytes, &mut |r| frames.push(r));
         let now = self.now();
@@ -109,7 +109,7 @@ impl Rig {
         let mut out = Vec::new();
         self.emu.step(0.1, &mut out);
         self.t += 0.1;
-        self.to_driver(&out);
+        self.feed_driver(&out);
         if let Some((h, s, z)) = self.course {
             self.command(h, s, z);
         }
@@ -121,7 +121,7 @@ impl Rig {
             }
             let mut back = Vec::new();
             self.emu.on_bytes(&b, &mut back);
-            self.to_driver(&back);
+            self.feed_driver(&back);
         }
     }
 
@@ -178,7 +178,7 @@ fn backseat_server_streams_state_and_the_vehicle_id_is_learned() {
 #[test]
 fn estimated_state_is_the_reference_displaced_by_x_and_y() {
     let mut r = Rig::new(|c| c.driver.dune.vehicle_imc_id = VEHICLE);
-    r.to_driver(&fixture("estimated_state"));
+    r.feed_driver(&fixture("estimated_state"));
     let ns = r.sink.data.last().unwrap().node_status.clone().unwrap();
     // 100 m north, 50 m west of 41.185 N, 8.7062 W.
     assert!((ns.global_fix.lat - (41.185 + 100.0 / 111_052.0)).abs() < 2e-6);
@@ -227,7 +227,7 @@ fn vehicle_state_modes_map_to_frontseat_states_with_reasons() {
     ];
     for (name, want, why) in rows {
         let mut r = Rig::new(|c| c.driver.dune.vehicle_imc_id = VEHICLE);
-        r.to_driver(&fixture(name));
+        r.feed_driver(&fixture(name));
         assert_eq!(r.d.frontseat_state(), want, "{name}");
         assert!(
             r.d.state_reason().contains(why),
@@ -237,8 +237,8 @@ fn vehicle_state_modes_map_to_frontseat_states_with_reasons() {
     }
     // Our plan id in PlanControlState makes a FollowReference ours.
     let mut r = Rig::new(|c| c.driver.dune.vehicle_imc_id = VEHICLE);
-    r.to_driver(&fixture("pcs_executing"));
-    r.to_driver(&fixture("vs_maneuver_followref"));
+    r.feed_driver(&fixture("pcs_executing"));
+    r.feed_driver(&fixture("vs_maneuver_followref"));
     assert_eq!(
         r.d.frontseat_state(),
         FrontSeatState::FrontseatAcceptingCommands
@@ -451,14 +451,14 @@ fn a_plan_specification_with_follow_reference_starts_it() {
 #[test]
 fn bad_input_and_foreign_ids_are_counted_and_steer_nothing() {
     let mut r = Rig::new(|c| c.driver.dune.vehicle_imc_id = VEHICLE);
-    r.to_driver(&fixture("vs_service"));
+    r.feed_driver(&fixture("vs_service"));
     let before = r.sink.data.len();
     for name in [
         "estimated_state_nan",
         "estimated_state_absurd_depth",
         "estimated_state_foreign",
     ] {
-        r.to_driver(&fixture(name));
+        r.feed_driver(&fixture(name));
     }
     assert_eq!(r.sink.data.len(), before, "nothing published");
     assert_eq!(r.d.counters.foreign, 1);
@@ -466,7 +466,7 @@ fn bad_input_and_foreign_ids_are_counted_and_steer_nothing() {
     // A foreign VehicleState claiming ERROR changes nothing.
     let mut foreign = imc::decode(&fixture("vs_error")).unwrap();
     foreign.0.src = 0x0777;
-    r.to_driver(&imc::encode(&foreign.0, &foreign.1, ByteOrder::Little).unwrap());
+    r.feed_driver(&imc::encode(&foreign.0, &foreign.1, ByteOrder::Little).unwrap());
     assert_eq!(
         r.d.frontseat_state(),
         FrontSeatState::FrontseatAcceptingCommands
@@ -475,9 +475,9 @@ fn bad_input_and_foreign_ids_are_counted_and_steer_nothing() {
     let mut bad = fixture("estimated_state");
     let n = bad.len();
     bad[n - 1] ^= 0xFF;
-    r.to_driver(&bad);
-    r.to_driver(&fixture("estimated_state")[..50]);
-    r.to_driver(b"\x00\x01garbage\x54");
+    r.feed_driver(&bad);
+    r.feed_driver(&fixture("estimated_state")[..50]);
+    r.feed_driver(b"\x00\x01garbage\x54");
     let unknown = {
         let mut p = fixture("heartbeat");
         p[2] = 0x39; // message id 0x0039: not one we know
@@ -487,11 +487,11 @@ fn bad_input_and_foreign_ids_are_counted_and_steer_nothing() {
         p[l - 2..].copy_from_slice(&crc);
         p
     };
-    r.to_driver(&unknown);
+    r.feed_driver(&unknown);
     assert!(r.d.counters.bad_input >= 4, "{:?}", r.d.counters);
     assert_eq!(r.d.counters.unknown_messages, 1);
     let flood: Vec<u8> = (0..200_000u32).map(|i| (i * 7919 % 251) as u8).collect();
-    r.to_driver(&flood);
+    r.feed_driver(&flood);
     assert_eq!(r.sink.data.len(), before);
     assert!(r.rx.try_recv().is_err(), "nothing was sent to the vehicle");
 }
@@ -501,8 +501,8 @@ fn bad_input_and_foreign_ids_are_counted_and_steer_nothing() {
 fn a_big_endian_vehicle_is_read_the_same() {
     let mut r = Rig::new(|c| c.driver.dune.vehicle_imc_id = VEHICLE);
     let (h, m) = imc::decode(&fixture("estimated_state")).unwrap();
-    r.to_driver(&imc::encode(&h, &m, ByteOrder::Big).unwrap());
-    r.to_driver(&fixture("estimated_state"));
+    r.feed_driver(&imc::encode(&h, &m, ByteOrder::Big).unwrap());
+    r.feed_driver(&fixture("estimated_state"));
     let mut a = r.sink.data[0].node_status.clone().unwrap();
     let mut b = r.sink.data[1].node_status.clone().unwrap();
     // Stamped when published; everything read from the packet is the same.

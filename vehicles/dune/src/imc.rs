@@ -2,7 +2,7 @@
 //! header whose sync word tells the sender's byte order, the payload, CRC-16/ARC; u16-prefixed
 //! text and raw data, inline messages (u16 id, 65535 = absent) and message lists; the messages a
 //! frontseat needs, decoded into typed structs and encoded back byte for byte; and a streaming
-//! deframer with a fixed buffer that skips oversized frames and resynchronises after noise.
+//! deframer with a fixed buffer that passes over oversized frames and resynchronises after noise.
 //! Every problem is a typed [`ImcError`]. Layouts follow IMC.xml 5.4.31 (identical to imcpy's
 //! 5.4.30 for every message here); the fixtures in `../fixtures/` are imcpy's bytes.
 
@@ -13,7 +13,8 @@ pub const HEADER_LEN: usize = 20;
 /// Header + CRC.
 pub const OVERHEAD: usize = HEADER_LEN + 2;
 /// Largest frame we take in. IMC allows 65 535 payload bytes; what a frontseat reads is far below
-/// 1 KiB, so a larger frame (a PlanDB with a whole plan) is skipped without being buffered.
+/// 1 KiB, so a larger frame (a PlanDB with a whole plan) is reported and passed over, never
+/// buffered.
 pub const MAX_FRAME: usize = 4096;
 /// Longest message list accepted (a plan's maneuvers, its actions).
 pub const MAX_LIST: usize = 64;
@@ -576,13 +577,10 @@ pub fn decode(frame: &[u8]) -> Result<(Header, Message), ImcError> {
 
 /// Cuts a byte stream into whole, CRC-checked IMC packets with at most [`MAX_FRAME`] bytes
 /// buffered: noise before a sync word is dropped (reported once per run), a bad CRC drops the
-/// sync word only and searches again, an oversized packet is skipped by its declared size
-/// without being kept.
+/// sync word only and searches again, and so does an oversized packet (never kept).
 #[derive(Debug, Default)]
 pub struct Deframer {
     buf: Vec<u8>,
-    /// Bytes of an oversized packet still to drop.
-    skip: usize,
     noise: usize,
 }
 
@@ -598,12 +596,6 @@ impl Deframer {
 
     pub fn feed(&mut self, mut bytes: &[u8], out: &mut dyn FnMut(Result<Vec<u8>, ImcError>)) {
         while !bytes.is_empty() {
-            if self.skip > 0 {
-                let n = self.skip.min(bytes.len());
-                self.skip -= n;
-                bytes = &bytes[n..];
-                continue;
-            }
             let room = MAX_FRAME - self.buf.len();
             let n = room.min(bytes.len());
             self.buf.extend_from_slice(&bytes[..n]);
@@ -643,13 +635,12 @@ impl Deframer {
             let size = u16_in([self.buf[4], self.buf[5]], order) as usize;
             let total = OVERHEAD + size;
             if total > MAX_FRAME {
+                // Not kept, and not skipped by its declared size either: a false sync in noise
+                // declares any size up to 64 KiB, and skipping it would drop that much good
+                // data. Only the sync word goes; a real large packet is then scanned through as
+                // noise (a false packet inside it would also need a good CRC).
                 out(Err(ImcError::Oversized(total)));
-                let have = self.buf.len().min(total);
-                self.buf.drain(..have);
-                self.skip = total - have;
-                if self.skip > 0 {
-                    return;
-                }
+                self.buf.drain(..2);
                 continue;
             }
             if self.buf.len() < total {

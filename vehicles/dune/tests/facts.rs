@@ -568,3 +568,50 @@ fn the_reference_point_re_centres_and_the_track_stays_continuous() {
     // The model steps at 10 Hz: 3 m/s is 0.3 m per step; a re-centring error would be metres.
     assert!(worst < 0.35, "a jump of {worst} m between fixes");
 }
+
+/// A Reference's source is checked against the maneuver's control_src; speed 0 turns the loops
+/// off while the maneuver goes on.
+#[test]
+fn references_from_another_source_are_refused_and_speed_zero_stops_the_loops() {
+    let mut emu = DuneSession::new(DuneOptions::default());
+    let mut out = Vec::new();
+    emu.step(2.0, &mut out);
+    emu.on_bytes(&fixture("pc_start_followref"), &mut out);
+    assert!(emu.maneuver_running());
+    let (mut h, m) = imc::decode(&fixture("reference_full")).unwrap();
+    h.src = 0x0777;
+    emu.on_bytes(&imc::encode(&h, &m, ByteOrder::Little).unwrap(), &mut out);
+    assert_eq!(emu.stats.references_refused, 1);
+    assert_eq!(emu.stats.references, 0);
+    emu.on_bytes(&fixture("reference_full"), &mut out);
+    assert_eq!(emu.stats.references, 1);
+    let Message::Reference(mut r) = m else {
+        unreachable!()
+    };
+    r.speed = Some(Box::new(
+        imc::DesiredSpeed {
+            value: 0.0,
+            speed_units: consts::METERS_PS,
+        }
+        .into(),
+    ));
+    out.clear();
+    let h = Header::new(US, VEHICLE, 0.0);
+    emu.on_bytes(
+        &imc::encode(&h, &r.into(), ByteOrder::Little).unwrap(),
+        &mut out,
+    );
+    emu.step(0.5, &mut out);
+    let mut loops = Vec::new();
+    imc::Deframer::new().feed(&out, &mut |f| {
+        if let Ok((_, Message::VehicleState(v))) = imc::decode(&f.unwrap()) {
+            loops.push((v.op_mode, v.control_loops));
+        }
+    });
+    assert_eq!(
+        loops.last(),
+        Some(&(consts::op_mode::MANEUVER, 0)),
+        "{loops:?}"
+    );
+    assert!(emu.maneuver_running());
+}

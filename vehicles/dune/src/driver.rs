@@ -364,6 +364,21 @@ impl DuneDriver {
         self.last_vs = Some(now);
         let in_followref =
             vs.op_mode == consts::op_mode::MANEUVER && vs.maneuver_type == infer::FOLLOW_REFERENCE;
+        let pcs_ours = self
+            .pcs
+            .as_ref()
+            .is_some_and(|p| p.plan_id == self.settings.plan_id);
+        if self.plan.is_none() && in_followref && pcs_ours {
+            // Our plan from before a reconnection (or a restart) is still running: take it
+            // back, so it is steered, or ended, rather than left to its timeout.
+            tracing::info!("DUNE: our FollowReference plan is running; taking it back");
+            self.plan = Some(Plan {
+                started: now,
+                request_id: self.request_id,
+                confirmed: true,
+                last_reference: None,
+            });
+        }
         if let Some(p) = &mut self.plan {
             if in_followref {
                 p.confirmed = true;

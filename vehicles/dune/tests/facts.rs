@@ -615,3 +615,28 @@ fn references_from_another_source_are_refused_and_speed_zero_stops_the_loops() {
     );
     assert!(emu.maneuver_running());
 }
+
+/// After a reconnection our plan may still run (PlanControlState names it): the driver takes it
+/// back, and ends it (MANDONE, STOP) when the interface is not in COMMAND.
+#[test]
+fn a_plan_of_ours_still_running_after_a_reconnection_is_taken_back() {
+    let mut r = Rig::new(|c| c.driver.dune.vehicle_imc_id = VEHICLE);
+    r.feed_driver(&fixture("pcs_executing"));
+    r.feed_driver(&fixture("vs_maneuver_followref"));
+    assert!(r.d.plan_running());
+    assert_eq!(
+        r.d.frontseat_state(),
+        FrontSeatState::FrontseatAcceptingCommands
+    );
+    let now = r.now();
+    r.d.do_loop(now, &mut r.sink);
+    let mut sent = Vec::new();
+    while let Ok(b) = r.rx.try_recv() {
+        sent.push(imc::decode(&b).unwrap());
+    }
+    assert_eq!(sent.len(), 2, "{sent:?}");
+    assert!(matches!(&sent[0].1, Message::Reference(x) if x.flags == consts::reference::MANDONE));
+    assert!(matches!(&sent[1].1, Message::PlanControl(p) if p.op == consts::plan_control::STOP));
+    assert!(sent.iter().all(|(h, _)| h.dst == VEHICLE));
+    assert!(!r.d.plan_running());
+}

@@ -146,6 +146,7 @@ pub struct DuneDriver {
     course: Option<Course>,
     plan: Option<Plan>,
     last_start: Option<Duration>,
+    last_stop: Option<Duration>,
     request_id: u16,
     bad_log: RateLimitedLog,
     info_log: RateLimitedLog,
@@ -176,6 +177,7 @@ impl DuneDriver {
             course: None,
             plan: None,
             last_start: None,
+            last_stop: None,
             request_id: 0,
             bad_log: RateLimitedLog::for_bad_input(),
             info_log: RateLimitedLog::for_bad_input(),
@@ -368,7 +370,11 @@ impl DuneDriver {
             .pcs
             .as_ref()
             .is_some_and(|p| p.plan_id == self.settings.plan_id);
-        if self.plan.is_none() && in_followref && pcs_ours {
+        // State sent before our own STOP arrived is not a plan to take back.
+        let after_stop = self
+            .last_stop
+            .is_none_or(|t| now.saturating_sub(t) > START_GRACE);
+        if self.plan.is_none() && in_followref && pcs_ours && after_stop {
             // Our plan from before a reconnection (or a restart) is still running: take it
             // back, so it is steered, or ended, rather than left to its timeout.
             tracing::info!("DUNE: our FollowReference plan is running; taking it back");
@@ -538,10 +544,11 @@ impl DuneDriver {
         }
     }
 
-    fn stop_plan(&mut self, why: &str, sig: &mut dyn SignalSink) {
+    fn stop_plan(&mut self, why: &str, now: Duration, sig: &mut dyn SignalSink) {
         let Some(plan) = self.plan.take() else {
             return;
         };
+        self.last_stop = Some(now);
         tracing::info!(%why, "DUNE: ending our FollowReference plan (MANDONE, STOP)");
         let (lat, lon) = self
             .position
@@ -750,7 +757,7 @@ impl Driver for DuneDriver {
         let commanding = self.interface == InterfaceState::InterfaceCommand;
         if !commanding {
             self.command_entered = false;
-            self.stop_plan("the interface left COMMAND", sig);
+            self.stop_plan("the interface left COMMAND", now, sig);
             return;
         }
         let fresh_course = self
@@ -789,7 +796,7 @@ impl Driver for DuneDriver {
     fn stop(&mut self) {
         // An orderly stop ends our plan rather than leaving it to the maneuver's timeout.
         let mut sink = NullSink;
-        self.stop_plan("the interface is stopping", &mut sink);
+        self.stop_plan("the interface is stopping", Duration::ZERO, &mut sink);
         self.writer = None;
     }
 }

@@ -129,7 +129,8 @@ pub async fn run(args: DemoArgs) -> ExitCode {
         VehicleKind::Basic
         | VehicleKind::Iver3
         | VehicleKind::WavegliderSv2
-        | VehicleKind::Ardupilot => {
+        | VehicleKind::Ardupilot
+        | VehicleKind::Dune => {
             let sim = match SimServer::bind(loopback, SimOptions::default()).await {
                 Ok(s) => s,
                 Err(e) => {

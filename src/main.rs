@@ -99,7 +99,7 @@ enum Command {
         /// Address to bind (overrides the config; default 127.0.0.1, loopback only).
         #[arg(long, value_name = "ADDR")]
         bind: Option<String>,
-        /// A vehicle emulator instead of the basic simulator (`--vehicle bluefin|iver3|waveglider_sv2|ardupilot`).
+        /// A vehicle emulator instead of the basic simulator (`--vehicle bluefin|iver3|waveglider_sv2|ardupilot|dune`).
         #[command(flatten)]
         emulator: vehicle_sim::EmulatorArgs,
     },
@@ -401,7 +401,8 @@ fn main() -> ExitCode {
                 // The serial vehicles fly over a pseudo-terminal through their own drivers.
                 kind @ (vehicle_kind::VehicleKind::Iver3
                 | vehicle_kind::VehicleKind::WavegliderSv2
-                | vehicle_kind::VehicleKind::Ardupilot) => run_traced(
+                | vehicle_kind::VehicleKind::Ardupilot
+                | vehicle_kind::VehicleKind::Dune) => run_traced(
                     &Default::default(),
                     "demo",
                     "",

@@ -18,4 +18,6 @@ pub enum VehicleKind {
     Bluefin,
     /// ArduPilot Rover (motorboat) over MAVLink 2.
     Ardupilot,
+    /// An LSTS DUNE LAUV over IMC on its BackSeat TCP server (port 6006 unless `--tcp`).
+    Dune,
 }

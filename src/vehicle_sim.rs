@@ -14,6 +14,7 @@ use frontseat_actors::interface::InterfaceService;
 use frontseat_ardupilot::emulator::{RoverOptions, RoverSession};
 use frontseat_config::InterfaceConfig;
 use frontseat_demo_helm::{self as demo_helm, DemoParams};
+use frontseat_dune::emulator::{DuneOptions, DuneSession};
 use frontseat_iver3::{IverOptions, IverSession};
 use frontseat_sim::emulator::{Emulator, Endpoint};
 use frontseat_waveglider_sv2::{Sv2Options, Sv2Session};
@@ -22,6 +23,12 @@ use crate::demo::DemoArgs;
 use crate::service::{SHUTDOWN_BOUND, shutdown_signal};
 
 pub use crate::vehicle_kind::VehicleKind;
+
+/// The BackSeat TCP port of a DUNE LAUV (`etc/auv/transports.ini`).
+const DUNE_BACKSEAT_PORT: u16 = 6006;
+
+/// The DUNE demo flies its triangle at this depth (m), as an AUV would.
+const DUNE_DEMO_DEPTH: f64 = 2.0;
 
 /// Options of the vehicle emulators (ignored by the basic simulator).
 #[derive(clap::Args, Debug, Clone)]
@@ -48,6 +55,7 @@ enum Running {
     Iver(Emulator<IverSession>),
     Sv2(Emulator<Sv2Session>),
     Rover(Emulator<RoverSession>),
+    Dune(Emulator<DuneSession>),
 }
 
 impl Running {
@@ -56,6 +64,7 @@ impl Running {
             Running::Iver(e) => (e.pty_path().map(|p| p.display().to_string()), e.tcp_addr()),
             Running::Sv2(e) => (e.pty_path().map(|p| p.display().to_string()), e.tcp_addr()),
             Running::Rover(e) => (e.pty_path().map(|p| p.display().to_string()), e.tcp_addr()),
+            Running::Dune(e) => (e.pty_path().map(|p| p.display().to_string()), e.tcp_addr()),
         };
         p.or(a.map(|a| a.to_string())).unwrap_or_default()
     }
@@ -101,6 +110,18 @@ async fn start(
             )
             .await?,
         ),
+        VehicleKind::Dune => Running::Dune(
+            Emulator::start(
+                DuneSession::new(DuneOptions {
+                    lat: origin.0,
+                    lon: origin.1,
+                    ..Default::default()
+                }),
+                endpoint,
+                warp,
+            )
+            .await?,
+        ),
         VehicleKind::WavegliderSv2 => Running::Sv2(
             Emulator::start(
                 Sv2Session::new(Sv2Options {
@@ -127,6 +148,10 @@ pub async fn run_emulator(args: EmulatorArgs) -> ExitCode {
     }
     let endpoint = match args.tcp {
         Some(port) => Endpoint::Tcp(SocketAddr::from(([127, 0, 0, 1], port))),
+        // A DUNE vehicle's BackSeat server is TCP, on 6006 as on an LAUV.
+        None if args.vehicle == VehicleKind::Dune => {
+            Endpoint::Tcp(SocketAddr::from(([127, 0, 0, 1], DUNE_BACKSEAT_PORT)))
+        }
         None => Endpoint::Pty,
     };
     let origin = (
@@ -166,6 +191,11 @@ pub async fn run_demo(args: DemoArgs, kind: VehicleKind) -> ExitCode {
     let params = DemoParams {
         east_s: args.east,
         south_s: args.south,
+        depth: if kind == VehicleKind::Dune {
+            DUNE_DEMO_DEPTH
+        } else {
+            0.0
+        },
         ..Default::default()
     };
     let mut cfg = InterfaceConfig {
@@ -180,7 +210,7 @@ pub async fn run_demo(args: DemoArgs, kind: VehicleKind) -> ExitCode {
     };
     let origin = (cfg.origin.lat, cfg.origin.lon);
     // ArduPilot speaks MAVLink over TCP as SITL does; the serial vehicles use a pty.
-    let endpoint = if kind == VehicleKind::Ardupilot {
+    let endpoint = if matches!(kind, VehicleKind::Ardupilot | VehicleKind::Dune) {
         Endpoint::Tcp(SocketAddr::from(([127, 0, 0, 1], 0)))
     } else {
         Endpoint::Pty
@@ -210,6 +240,13 @@ pub async fn run_demo(args: DemoArgs, kind: VehicleKind) -> ExitCode {
             cfg.driver.ardupilot.address = format!("tcpout:{path}");
             // The demo plays the pilot too: it arms and selects GUIDED through the extension.
             cfg.driver.ardupilot.allow_mode_commands = true;
+        }
+        VehicleKind::Dune => {
+            cfg.driver.name = frontseat_config::DUNE.into();
+            let (host, port) = path.rsplit_once(':').unwrap_or((path.as_str(), "0"));
+            cfg.driver.dune.address = host.to_string();
+            cfg.driver.dune.port = port.parse().unwrap_or_default();
+            cfg.driver.dune.vehicle_imc_id = DuneOptions::default().imc_id;
         }
         // Never reached: `start` refuses Bluefin, and demo.rs flies it itself.
         VehicleKind::Bluefin => {}

@@ -91,6 +91,15 @@ fn zmtp_guard_corpus() {
 }
 
 #[test]
+fn imc_packet_corpus() {
+    replay_dir(
+        "vehicles/dune/fuzz/corpus",
+        "imc_packet",
+        targets::imc_packet,
+    );
+}
+
+#[test]
 fn mavlink_frame_corpus() {
     replay_dir(
         "vehicles/ardupilot/fuzz/corpus",

@@ -34,7 +34,7 @@ macro_rules! driver_sections {
         #[serde(deny_unknown_fields, default)]
         pub struct DriverConfig {
             /// Built-in driver to run when no library is given: "basic_simulator", "bluefin", "iver3",
-            /// "waveglider_sv2" or "ardupilot".
+            /// "waveglider_sv2", "ardupilot" or "dune".
             pub name: String,
             /// Path to a driver plugin (shared library) to load instead of a built-in driver;
             /// FRONTSEAT_DRIVER_LIBRARY in the environment does the same.

@@ -67,6 +67,8 @@ driver_sections! {
     bluefin: "../../vehicles/bluefin/config.rs" => BluefinConfig, BLUEFIN;
     /// Settings of the ArduPilot (MAVLink) driver, used when name = "ardupilot".
     ardupilot: "../../vehicles/ardupilot/config.rs" => ArdupilotConfig, ARDUPILOT;
+    /// Settings of the LSTS DUNE (IMC) driver, used when name = "dune".
+    dune: "../../vehicles/dune/config.rs" => DuneConfig, DUNE;
 }
 
 /// Largest accepted time warp (sim_warp_factor, moos.time_warp).

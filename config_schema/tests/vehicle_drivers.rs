@@ -113,6 +113,10 @@ fn vehicle_link_names_the_selected_drivers_link() {
         "mavlink udpin:127.0.0.1:14550"
     );
     assert_eq!(
+        link("[driver]\nname = \"dune\"\n[driver.dune]\naddress = \"10.0.10.40\"\nport = 6006\n"),
+        "imc tcp 10.0.10.40:6006"
+    );
+    assert_eq!(
         link("[driver]\nlibrary = \"/opt/libmine.so\"\n"),
         "plugin /opt/libmine.so"
     );

@@ -22,6 +22,8 @@ mod ardupilot;
 mod basic_simulator;
 #[path = "../../vehicles/bluefin/fuzz/target.rs"]
 mod bluefin;
+#[path = "../../vehicles/dune/fuzz/target.rs"]
+mod dune;
 #[path = "../../vehicles/iver3/fuzz/target.rs"]
 mod iver3;
 #[path = "../../vehicles/waveglider_sv2/fuzz/target.rs"]
@@ -30,6 +32,7 @@ mod waveglider_sv2;
 pub use ardupilot::mavlink_frame;
 pub use basic_simulator::driver_line;
 pub use bluefin::bluefin_codec;
+pub use dune::imc_packet;
 pub use iver3::iver_sentence;
 pub use waveglider_sv2::sv2_frame;
 

@@ -28,6 +28,8 @@ pub struct DemoParams {
     /// Seconds (sim time) of the south leg.
     pub south_s: f64,
     pub speed: f64,
+    /// Depth of the three legs (m; 0 = the surface). An AUV flies the triangle at depth.
+    pub depth: f64,
     /// Safety cap on the whole run (sim time).
     pub max_s: f64,
 }
@@ -38,6 +40,7 @@ impl Default for DemoParams {
             east_s: 60.0,
             south_s: 60.0,
             speed: 1.5,
+            depth: 0.0,
             max_s: 900.0,
         }
     }
@@ -175,7 +178,7 @@ pub async fn run(
                         time: SimClock::unix_now(),
                         heading: Some(leg.heading()),
                         speed: Some(params.speed),
-                        depth: Some(0.0),
+                        depth: Some(params.depth),
                         ..Default::default()
                     });
                 }

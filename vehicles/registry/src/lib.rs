@@ -17,6 +17,7 @@ pub const BUILT_IN: &[BuiltIn] = &[
     frontseat_waveglider_sv2::DRIVER,
     frontseat_bluefin::DRIVER,
     frontseat_ardupilot::DRIVER,
+    frontseat_dune::DRIVER,
 ];
 
 /// The factory for the driver the environment and the config select.
@@ -53,7 +54,7 @@ mod tests {
             e.as_deref(),
             Some(
                 "unknown driver `no_such_vehicle` (built-in drivers: basic_simulator, iver3, \
-                 waveglider_sv2, bluefin, ardupilot)"
+                 waveglider_sv2, bluefin, ardupilot, dune)"
             )
         );
     }

@@ -90,8 +90,8 @@ fn another_vehicles_command_is_refused_in_the_same_words_by_every_driver() {
             refusals += 1;
         }
     }
-    // 5 drivers × 3 vehicles, less the 3 that are their own.
-    assert_eq!(refusals, 12);
+    // 6 drivers × 3 vehicles, less the 3 that are their own.
+    assert_eq!(refusals, 15);
 }
 
 #[test]

@@ -121,7 +121,8 @@ pub async fn run(args: DemoArgs) -> ExitCode {
         VehicleKind::Basic
         | VehicleKind::Iver3
         | VehicleKind::WavegliderSv2
-        | VehicleKind::Ardupilot => {
+        | VehicleKind::Ardupilot
+        | VehicleKind::Ardusub => {
             let sim = match SimServer::bind(loopback, SimOptions::default()).await {
                 Ok(s) => s,
                 Err(e) => {
@@ -238,7 +239,7 @@ pub fn write_outputs(out: &std::path::Path, report: &demo_helm::DemoReport) -> E
     let csv = out.join("track.csv");
     let svg = out.join("track.svg");
     for (path, text) in [
-        (&csv, demo_helm::track_csv(&report.track)),
+        (&csv, demo_helm::track_csv_with_depth(&report.track)),
         (&svg, demo_helm::track_svg(&report.track)),
     ] {
         if let Err(e) = std::fs::write(path, text) {

@@ -401,7 +401,8 @@ fn main() -> ExitCode {
                 // The serial vehicles fly over a pseudo-terminal through their own drivers.
                 kind @ (vehicle_kind::VehicleKind::Iver3
                 | vehicle_kind::VehicleKind::WavegliderSv2
-                | vehicle_kind::VehicleKind::Ardupilot) => run_traced(
+                | vehicle_kind::VehicleKind::Ardupilot
+                | vehicle_kind::VehicleKind::Ardusub) => run_traced(
                     &Default::default(),
                     "demo",
                     "",

@@ -18,4 +18,6 @@ pub enum VehicleKind {
     Bluefin,
     /// ArduPilot Rover (motorboat) over MAVLink 2.
     Ardupilot,
+    /// ArduSub (BlueROV2) over MAVLink 2: dives to the depths the helm asks for.
+    Ardusub,
 }

@@ -874,10 +874,10 @@ impl ArdupilotDriver {
     /// After ALT_HOLD thrust, one neutral MANUAL_CONTROL at once: ArduSub keeps an RC override
     /// for 3 s, and the pilot's mode must not inherit our forward thrust.
     fn stop_thrust(&mut self, now: Duration, sig: &mut dyn SignalSink) {
+        self.depth_sent = None;
         if !std::mem::take(&mut self.thrusting) {
             return;
         }
-        self.depth_sent = None;
         if let Some((sys, _)) = self.vehicle {
             self.write(
                 &MavMessage::MANUAL_CONTROL(infer::manual_control(0, sys)),

@@ -138,8 +138,9 @@ pub fn position(p: &GLOBAL_POSITION_INT_DATA) -> Result<Position, String> {
     })
 }
 
-/// The GUIDED target for a heading (degrees) and speed (m/s), plus a depth for Sub (metres,
-/// down), addressed to (`system`, `component`).
+/// Rover's GUIDED target for a heading (degrees) and speed (m/s), addressed to (`system`,
+/// `component`). (With `Firmware::Sub` and a depth it also sets z, but ArduSub ignores a
+/// GLOBAL_INT target's yaw in GUIDED: the driver sends a Sub [`sub_guided_target`] instead.)
 pub fn course_target(
     firmware: Firmware,
     heading_deg: f64,

@@ -83,7 +83,7 @@ impl Default for SubOptions {
             speed_up: 2.5,
             accel_z: 2.0,
             depth_gain: 1.0,
-            wp_accel_z: 0.5,
+            wp_accel_z: 0.25,
             wp_speed: 1.0,
             thrust_full_mps: 1.04,
             hdg_rate: 45.0,

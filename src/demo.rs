@@ -34,8 +34,9 @@ pub struct DemoArgs {
     /// Print one status line per simulated second instead of a live line.
     #[arg(long)]
     pub lines: bool,
-    /// Fly a vehicle emulator through its real driver instead of the basic simulator: bluefin
-    /// (loopback TCP), iver3 or waveglider_sv2 (pseudo-terminal).
+    /// Fly a vehicle emulator through its real driver instead of the basic simulator: bluefin,
+    /// ardupilot or ardusub (loopback TCP; ardusub dives 5 m, 10 m, 5 m), iver3 or
+    /// waveglider_sv2 (pseudo-terminal).
     #[arg(long, value_enum, default_value_t = VehicleKind::Basic)]
     pub vehicle: VehicleKind,
     /// Also serve the web scope and commander (on 127.0.0.1:50001 unless --web-listen).

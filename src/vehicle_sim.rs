@@ -1,4 +1,4 @@
-//! `frontseat sim --vehicle iver3|waveglider_sv2|ardupilot` (a vehicle emulator on a
+//! `frontseat sim --vehicle iver3|waveglider_sv2|ardupilot|ardusub` (a vehicle emulator on a
 //! pseudo-terminal or a loopback TCP port) and `frontseat demo --vehicle …` (the homework path
 //! flown through the real driver over a real pty, or loopback TCP for ArduPilot). The emulators
 //! themselves live in `frontseat_sim` and `frontseat_ardupilot`.

@@ -247,7 +247,7 @@ impl DepthContinuity {
                 });
             }
         }
-        if self.last.is_none_or(|(t0, _)| t >= t0) {
+        if self.last.is_none_or(|(t0, _)| t > t0) {
             self.last = Some((t, d));
             self.refused_in_a_row = 0;
         }

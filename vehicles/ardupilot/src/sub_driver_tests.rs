@@ -184,7 +184,7 @@ fn guided_course_is_a_local_ned_position_velocity_yaw_target_at_5_hz() {
     let mut all = Vec::new();
     for i in 1..=20 {
         let now = Duration::from_millis(100 * i);
-        if i % 10 == 0 {
+        if i.is_multiple_of(10) {
             feed(&mut d, &mut sink, "sub_hb_guided_armed", now.as_secs_f64());
             let mut c = course(90.0, 0.5, Some(5.0), 0);
             c.response_requested = None;
@@ -272,7 +272,7 @@ fn alt_hold_course_is_depth_attitude_and_thrust_and_stops_when_the_pilot_takes_o
     let mut all = sent(&mut rx);
     for i in 1..=20 {
         let now = Duration::from_millis(100 * i);
-        if i % 10 == 0 {
+        if i.is_multiple_of(10) {
             feed(&mut d, &mut sink, "sub_hb_althold_armed", now.as_secs_f64());
             let mut c = course(90.0, 0.5, Some(5.0), 0);
             c.response_requested = None;
@@ -410,7 +410,7 @@ fn failsafe_feeding_only_while_alive_and_connected() {
     let mut v = Vec::new();
     for i in 1..=30 {
         let now = Duration::from_millis(100 * i);
-        if i % 10 == 0 {
+        if i.is_multiple_of(10) {
             feed(
                 &mut d,
                 &mut sink,

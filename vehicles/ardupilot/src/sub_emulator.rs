@@ -603,31 +603,25 @@ impl SubSession {
     fn handle(&mut self, sender: u8, msg: MavMessage, out: &mut Vec<u8>) {
         let gcs = sender == self.opts.gcs_sysid;
         match msg {
-            MavMessage::HEARTBEAT(_) => {
-                if gcs {
-                    self.stats.gcs_heartbeats += 1;
-                    self.gcs_alive(out);
+            MavMessage::HEARTBEAT(_) if gcs => {
+                self.stats.gcs_heartbeats += 1;
+                self.gcs_alive(out);
+            }
+            // Accepted only from MAV_GCS_SYSID with target = MAV_SYSID.
+            MavMessage::MANUAL_CONTROL(m) if gcs && m.target == self.opts.system_id => {
+                self.stats.manual_controls += 1;
+                self.gcs_alive(out);
+                self.pilot_input(m.x, m.z, out);
+                // Buttons fire BTNn_FUNCTION: BTN4 disarm, BTN6 arm (defaults).
+                if m.buttons & (1 << 4) != 0 {
+                    self.disarm("Disarming motors", out);
                 }
             }
-            MavMessage::MANUAL_CONTROL(m) => {
-                // Accepted only from MAV_GCS_SYSID with target = MAV_SYSID.
-                if gcs && m.target == self.opts.system_id {
-                    self.stats.manual_controls += 1;
-                    self.gcs_alive(out);
-                    self.pilot_input(m.x, m.z, out);
-                    // Buttons fire BTNn_FUNCTION: BTN4 disarm, BTN6 arm (defaults).
-                    if m.buttons & (1 << 4) != 0 {
-                        self.disarm("Disarming motors", out);
-                    }
-                }
-            }
-            MavMessage::RC_CHANNELS_OVERRIDE(r) => {
-                if gcs && self.for_me(r.target_system) {
-                    self.gcs_alive(out);
-                    let x = (i32::from(r.chan5_raw) - 1500).clamp(-500, 500) * 2;
-                    let z = (i32::from(r.chan3_raw) - 1000).clamp(0, 1000);
-                    self.pilot_input(x as i16, z as i16, out);
-                }
+            MavMessage::RC_CHANNELS_OVERRIDE(r) if gcs && self.for_me(r.target_system) => {
+                self.gcs_alive(out);
+                let x = (i32::from(r.chan5_raw) - 1500).clamp(-500, 500) * 2;
+                let z = (i32::from(r.chan3_raw) - 1000).clamp(0, 1000);
+                self.pilot_input(x as i16, z as i16, out);
             }
             MavMessage::COMMAND_LONG(c) => self.command(&c, out),
             MavMessage::SET_POSITION_TARGET_LOCAL_NED(p) => self.local_target(&p),

@@ -69,14 +69,14 @@ impl Gcs {
         let n = (seconds / 0.1).round() as usize;
         for _ in 0..n {
             self.ticks += 1;
-            if self.feed_heartbeat && self.ticks % 10 == 0 {
+            if self.feed_heartbeat && self.ticks.is_multiple_of(10) {
                 self.send(MavMessage::HEARTBEAT(HEARTBEAT_DATA {
                     mavtype: MavType::MAV_TYPE_ONBOARD_CONTROLLER,
                     autopilot: MavAutopilot::MAV_AUTOPILOT_INVALID,
                     ..Default::default()
                 }));
             }
-            if self.feed_manual && self.ticks % 5 == 0 {
+            if self.feed_manual && self.ticks.is_multiple_of(5) {
                 self.send(MavMessage::MANUAL_CONTROL(infer::manual_control(0, 1)));
             }
             each(self);
@@ -257,7 +257,7 @@ fn guided_local_ned_pos_vel_yaw_reaches_depth_heading_and_speed() {
     let (mut heading_at, mut depth_at) = (None, None);
     let t0 = g.sub.sim_time();
     g.run_with(30.0, |g| {
-        if g.ticks % 2 == 0 {
+        if g.ticks.is_multiple_of(2) {
             g.posvel(90.0, 0.5, 5.0);
         }
         let t = g.sub.sim_time() - t0;
@@ -291,7 +291,7 @@ fn acceleration_not_ignored_drops_the_whole_target_silently() {
     g.heard.clear();
     let dropped = g.sub.stats.targets_dropped;
     g.run_with(5.0, |g| {
-        if g.ticks % 2 == 0 {
+        if g.ticks.is_multiple_of(2) {
             g.local(0x0807, (0.0, 0.0, 0.0), (0.0, 1.0, 0.0), 90.0);
         }
     });
@@ -308,7 +308,7 @@ fn guided_global_int_follows_depth_but_ignores_yaw() {
     let mut g = Gcs::armed_in(sub::GUIDED);
     let (lat, lon) = (g.sub.vehicle().origin().0, g.sub.vehicle().origin().1);
     g.run_with(20.0, |g| {
-        if g.ticks % 2 == 0 {
+        if g.ticks.is_multiple_of(2) {
             g.send(MavMessage::SET_POSITION_TARGET_GLOBAL_INT(
                 SET_POSITION_TARGET_GLOBAL_INT_DATA {
                     lat_int: (lat * 1e7) as i32,
@@ -340,7 +340,7 @@ fn position_only_targets_restart_their_trajectory() {
         g.sub.set_depth(1.3);
         g.local(0x0DF8, (0.0, 0.0, 5.0), (0.0, 0.0, 0.0), 0.0);
         g.run_with(20.0, |g| {
-            if resend && g.ticks % 2 == 0 {
+            if resend && g.ticks.is_multiple_of(2) {
                 g.local(0x0DF8, (0.0, 0.0, 5.0), (0.0, 0.0, 0.0), 0.0);
             }
         });
@@ -361,7 +361,7 @@ fn position_only_targets_restart_their_trajectory() {
 fn three_seconds_after_the_last_target_velocity_is_zeroed_depth_and_heading_held() {
     let mut g = Gcs::armed_in(sub::GUIDED);
     g.run_with(15.0, |g| {
-        if g.ticks % 2 == 0 {
+        if g.ticks.is_multiple_of(2) {
             g.posvel(90.0, 0.5, 3.0);
         }
     });
@@ -409,12 +409,12 @@ fn alt_hold_depth_heading_and_pilot_thrust() {
     assert_eq!(g.arm(), MavResult::MAV_RESULT_ACCEPTED);
     g.feed_manual = false;
     g.run_with(20.0, |g| {
-        if g.ticks % 10 == 0 {
+        if g.ticks.is_multiple_of(10) {
             g.send(MavMessage::SET_POSITION_TARGET_GLOBAL_INT(
                 infer::sub_depth_target(5.0, 1, 1, 0),
             ));
         }
-        if g.ticks % 2 == 0 {
+        if g.ticks.is_multiple_of(2) {
             g.send(MavMessage::SET_ATTITUDE_TARGET(infer::sub_attitude_target(
                 90.0, 1, 1, 0,
             )));
@@ -465,7 +465,7 @@ fn gcs_failsafe_disarms_five_seconds_after_the_last_heartbeat() {
     let t0 = g.sub.sim_time();
     let mut disarmed_at = None;
     g.run_with(8.0, |g| {
-        if g.ticks % 2 == 0 {
+        if g.ticks.is_multiple_of(2) {
             g.posvel(90.0, 0.5, 2.0);
         }
         if disarmed_at.is_none() && !g.sub.armed() {
@@ -511,7 +511,7 @@ fn pilot_input_failsafe_disarms_three_seconds_after_the_last_manual_control() {
     let t0 = g.sub.sim_time();
     let mut disarmed_at = None;
     g.run_with(6.0, |g| {
-        if g.ticks % 2 == 0 {
+        if g.ticks.is_multiple_of(2) {
             g.posvel(90.0, 0.5, 2.0);
         }
         if disarmed_at.is_none() && !g.sub.armed() {
@@ -574,13 +574,13 @@ fn depth_sign_conventions() {
         g.stream(id, hz);
     }
     g.run_with(20.0, |g| {
-        if g.ticks % 2 == 0 {
+        if g.ticks.is_multiple_of(2) {
             g.posvel(0.0, 0.0, 5.0);
         }
     });
     g.heard.clear();
     g.run_with(1.0, |g| {
-        if g.ticks % 2 == 0 {
+        if g.ticks.is_multiple_of(2) {
             g.posvel(0.0, 0.0, 5.0);
         }
     });
@@ -610,7 +610,7 @@ fn depth_sign_conventions() {
 fn surface_bottom_and_floating_up_when_disarmed() {
     let mut g = Gcs::armed_in(sub::GUIDED);
     g.run_with(60.0, |g| {
-        if g.ticks % 2 == 0 {
+        if g.ticks.is_multiple_of(2) {
             g.posvel(0.0, 0.0, 80.0);
         }
     });

@@ -39,7 +39,7 @@ fn pymavlink_dives_and_steers_the_sub_emulator() {
         return;
     }
     let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
-    let warp = "10";
+    let warp = "5";
     let mut sim = Kill(
         Command::new(env!("CARGO_BIN_EXE_frontseat"))
             .args(["sim", "--vehicle", "ardusub", "--tcp", "0"])

@@ -676,3 +676,60 @@ fn grid_and_ticks(s: &mut String, f: &PlotFrame) -> f64 {
     );
     step
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn pt(t: f64, leg: Leg, heading: f64, depth: f64) -> TrackPoint {
+        TrackPoint {
+            t,
+            x: 0.0,
+            y: 0.0,
+            heading,
+            speed: 0.5,
+            leg,
+            depth,
+        }
+    }
+
+    /// Time to depth (within 0.3 m and staying), overshoot past the depth in the direction of
+    /// travel, time to heading (within 5°) and the heading error after it while still diving.
+    #[test]
+    fn depth_figures_of_a_known_track() {
+        let params = DemoParams {
+            depths: [5.0, 10.0, 5.0],
+            ..Default::default()
+        };
+        let track = vec![
+            pt(10.0, Leg::East, 0.0, 0.0),
+            pt(11.0, Leg::East, 60.0, 1.0),
+            pt(12.0, Leg::East, 88.0, 3.0),
+            pt(13.0, Leg::East, 93.0, 4.8),
+            pt(14.0, Leg::East, 90.0, 5.4),
+            pt(15.0, Leg::East, 90.0, 5.1),
+            pt(16.0, Leg::East, 90.0, 5.0),
+            // Climbing on the south leg: 10 m asked, never reached.
+            pt(20.0, Leg::South, 90.0, 5.0),
+            pt(21.0, Leg::South, 180.0, 6.0),
+        ];
+        let f = depth_figures(&track, &params);
+        assert_eq!(f.len(), 2);
+        let e = &f[0];
+        assert_eq!((e.leg, e.asked_m, e.start_m), (Leg::East, 5.0, 0.0));
+        assert_eq!(
+            e.time_to_depth_s,
+            Some(5.0),
+            "5.1 at t = 15 stays within 0.3"
+        );
+        assert!((e.overshoot_m - 0.4).abs() < 1e-9, "{}", e.overshoot_m);
+        assert_eq!(e.time_to_heading_s, Some(2.0));
+        assert_eq!(e.heading_error_diving_deg, 3.0);
+        let s = &f[1];
+        assert_eq!(s.time_to_depth_s, None);
+        assert_eq!(s.overshoot_m, 0.0);
+        let csv = track_csv_with_depth(&track);
+        assert!(csv.starts_with("t_s,x_m,y_m,heading_deg,speed_mps,leg,depth_m\n"));
+        assert!(csv.contains(",east,5.400\n"), "{csv}");
+    }
+}

@@ -34,8 +34,9 @@ pub struct DemoArgs {
     /// Print one status line per simulated second instead of a live line.
     #[arg(long)]
     pub lines: bool,
-    /// Fly a vehicle emulator through its real driver instead of the basic simulator: bluefin
-    /// (loopback TCP), iver3 or waveglider_sv2 (pseudo-terminal).
+    /// Fly a vehicle emulator through its real driver instead of the basic simulator: bluefin,
+    /// ardupilot or ardusub (loopback TCP; ardusub dives 5 m, 10 m, 5 m), iver3 or
+    /// waveglider_sv2 (pseudo-terminal).
     #[arg(long, value_enum, default_value_t = VehicleKind::Basic)]
     pub vehicle: VehicleKind,
     /// Also serve the web scope and commander (on 127.0.0.1:50001 unless --web-listen).
@@ -130,7 +131,8 @@ pub async fn run(args: DemoArgs) -> ExitCode {
         | VehicleKind::Iver3
         | VehicleKind::WavegliderSv2
         | VehicleKind::Ardupilot
-        | VehicleKind::Dune => {
+        | VehicleKind::Dune
+        | VehicleKind::Ardusub => {
             let sim = match SimServer::bind(loopback, SimOptions::default()).await {
                 Ok(s) => s,
                 Err(e) => {
@@ -247,7 +249,7 @@ pub fn write_outputs(out: &std::path::Path, report: &demo_helm::DemoReport) -> E
     let csv = out.join("track.csv");
     let svg = out.join("track.svg");
     for (path, text) in [
-        (&csv, demo_helm::track_csv(&report.track)),
+        (&csv, demo_helm::track_csv_with_depth(&report.track)),
         (&svg, demo_helm::track_svg(&report.track)),
     ] {
         if let Err(e) = std::fs::write(path, text) {

@@ -402,7 +402,8 @@ fn main() -> ExitCode {
                 kind @ (vehicle_kind::VehicleKind::Iver3
                 | vehicle_kind::VehicleKind::WavegliderSv2
                 | vehicle_kind::VehicleKind::Ardupilot
-                | vehicle_kind::VehicleKind::Dune) => run_traced(
+                | vehicle_kind::VehicleKind::Dune
+                | vehicle_kind::VehicleKind::Ardusub) => run_traced(
                     &Default::default(),
                     "demo",
                     "",

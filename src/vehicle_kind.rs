@@ -20,4 +20,6 @@ pub enum VehicleKind {
     Ardupilot,
     /// An LSTS DUNE LAUV over IMC on its BackSeat TCP server (port 6006 unless `--tcp`).
     Dune,
+    /// ArduSub (BlueROV2) over MAVLink 2: dives to the depths the helm asks for.
+    Ardusub,
 }

@@ -1,4 +1,4 @@
-//! `frontseat sim --vehicle iver3|waveglider_sv2|ardupilot` (a vehicle emulator on a
+//! `frontseat sim --vehicle iver3|waveglider_sv2|ardupilot|ardusub` (a vehicle emulator on a
 //! pseudo-terminal or a loopback TCP port) and `frontseat demo --vehicle …` (the homework path
 //! flown through the real driver over a real pty, or loopback TCP for ArduPilot). The emulators
 //! themselves live in `frontseat_sim` and `frontseat_ardupilot`.
@@ -12,6 +12,7 @@ use frontseat_actors::bus::Bus;
 use frontseat_actors::clock::SimClock;
 use frontseat_actors::interface::InterfaceService;
 use frontseat_ardupilot::emulator::{RoverOptions, RoverSession};
+use frontseat_ardupilot::sub_emulator::{SubOptions, SubSession};
 use frontseat_config::InterfaceConfig;
 use frontseat_demo_helm::{self as demo_helm, DemoParams};
 use frontseat_dune::emulator::{DuneOptions, DuneSession};
@@ -56,6 +57,7 @@ enum Running {
     Sv2(Emulator<Sv2Session>),
     Rover(Emulator<RoverSession>),
     Dune(Emulator<DuneSession>),
+    Sub(Emulator<SubSession>),
 }
 
 impl Running {
@@ -65,6 +67,7 @@ impl Running {
             Running::Sv2(e) => (e.pty_path().map(|p| p.display().to_string()), e.tcp_addr()),
             Running::Rover(e) => (e.pty_path().map(|p| p.display().to_string()), e.tcp_addr()),
             Running::Dune(e) => (e.pty_path().map(|p| p.display().to_string()), e.tcp_addr()),
+            Running::Sub(e) => (e.pty_path().map(|p| p.display().to_string()), e.tcp_addr()),
         };
         p.or(a.map(|a| a.to_string())).unwrap_or_default()
     }
@@ -113,6 +116,18 @@ async fn start(
         VehicleKind::Dune => Running::Dune(
             Emulator::start(
                 DuneSession::new(DuneOptions {
+                    lat: origin.0,
+                    lon: origin.1,
+                    ..Default::default()
+                }),
+                endpoint,
+                warp,
+            )
+            .await?,
+        ),
+        VehicleKind::Ardusub => Running::Sub(
+            Emulator::start(
+                SubSession::new(SubOptions {
                     lat: origin.0,
                     lon: origin.1,
                     ..Default::default()
@@ -188,13 +203,21 @@ pub async fn run_demo(args: DemoArgs, kind: VehicleKind) -> ExitCode {
         eprintln!("--warp must be in (0, 1000]");
         return ExitCode::from(2);
     }
+    let mavlink = matches!(kind, VehicleKind::Ardupilot | VehicleKind::Ardusub);
     let params = DemoParams {
         east_s: args.east,
         south_s: args.south,
-        depth: if kind == VehicleKind::Dune {
-            DUNE_DEMO_DEPTH
+        // The Sub dives: 5 m on the first leg, 10 m on the second, back to 5 m, at the 0.5 m/s
+        // ArduSub's SITL was measured at; the DUNE LAUV flies the triangle at one depth.
+        depths: match kind {
+            VehicleKind::Ardusub => [5.0, 10.0, 5.0],
+            VehicleKind::Dune => [DUNE_DEMO_DEPTH; 3],
+            _ => [0.0; 3],
+        },
+        speed: if kind == VehicleKind::Ardusub {
+            0.5
         } else {
-            0.0
+            DemoParams::default().speed
         },
         ..Default::default()
     };
@@ -210,7 +233,7 @@ pub async fn run_demo(args: DemoArgs, kind: VehicleKind) -> ExitCode {
     };
     let origin = (cfg.origin.lat, cfg.origin.lon);
     // ArduPilot speaks MAVLink over TCP as SITL does; the serial vehicles use a pty.
-    let endpoint = if matches!(kind, VehicleKind::Ardupilot | VehicleKind::Dune) {
+    let endpoint = if mavlink || kind == VehicleKind::Dune {
         Endpoint::Tcp(SocketAddr::from(([127, 0, 0, 1], 0)))
     } else {
         Endpoint::Pty
@@ -248,6 +271,16 @@ pub async fn run_demo(args: DemoArgs, kind: VehicleKind) -> ExitCode {
             cfg.driver.dune.port = port.parse().unwrap_or_default();
             cfg.driver.dune.vehicle_imc_id = DuneOptions::default().imc_id;
         }
+        VehicleKind::Ardusub => {
+            cfg.driver.name = frontseat_config::ARDUPILOT.into();
+            cfg.driver.ardupilot.vehicle = frontseat_config::ArdupilotVehicle::Sub;
+            cfg.driver.ardupilot.address = format!("tcpout:{path}");
+            cfg.driver.ardupilot.allow_mode_commands = true;
+            // The emulated BlueROV2 has no RC: its pilot-input failsafe disarms it 3 s after
+            // the last MANUAL_CONTROL unless we feed it (the documented choice for a Sub
+            // without a topside joystick).
+            cfg.driver.ardupilot.pilot_input_keepalive = true;
+        }
         // Never reached: `start` refuses Bluefin, and demo.rs flies it itself.
         VehicleKind::Bluefin => {}
     }
@@ -274,7 +307,7 @@ pub async fn run_demo(args: DemoArgs, kind: VehicleKind) -> ExitCode {
             return ExitCode::from(1);
         }
     };
-    let pilot = (kind == VehicleKind::Ardupilot).then(|| {
+    let pilot = mavlink.then(|| {
         let bus = bus.clone();
         tokio::spawn(async move { ardupilot_pilot(&bus).await })
     });
@@ -283,7 +316,7 @@ pub async fn run_demo(args: DemoArgs, kind: VehicleKind) -> ExitCode {
         kind, cfg.driver.name, args.warp, args.east, args.south
     );
     let live = std::io::stdout().is_terminal() && !args.lines;
-    let report = demo_helm::run(&bus, SimClock::new(args.warp), params, |s| {
+    let report = demo_helm::run(&bus, SimClock::new(args.warp), params.clone(), |s| {
         let mut out = std::io::stdout().lock();
         if live {
             let _ = write!(out, "\r{}", s.line());
@@ -303,6 +336,22 @@ pub async fn run_demo(args: DemoArgs, kind: VehicleKind) -> ExitCode {
     drop(running);
     crate::record_cmd::stop_recorder(recorder).await;
 
+    if matches!(kind, VehicleKind::Ardusub | VehicleKind::Dune) {
+        // The depth track's figures (the ArduSub and DUNE guide pages report them).
+        for f in demo_helm::depth_figures(&report.track, &params) {
+            let secs = |v: Option<f64>| v.map_or("never".to_string(), |s| format!("{s:.1} s"));
+            println!(
+                "depth {:<9} {:5.1} m → {:4.1} m: within 0.3 m after {}, overshoot {:.2} m; heading within 5° after {}, then at most {:.1}° off while diving",
+                f.leg.name(),
+                f.start_m,
+                f.asked_m,
+                secs(f.time_to_depth_s),
+                f.overshoot_m,
+                secs(f.time_to_heading_s),
+                f.heading_error_diving_deg
+            );
+        }
+    }
     crate::demo::write_outputs(&args.out, &report)
 }
 

@@ -25,7 +25,9 @@ use crate::command_gate::{GateContext, Limits, check_course};
 use crate::driver::DriverFactory;
 use crate::driver_actor::{DriverActor, DriverArgs};
 use crate::extensions::{Encoded, Kind as ExtensionKind, Spec as ExtensionSpec};
-use crate::nav_gate::{NavField, NavLimits, NavViolation, OnViolation, check_navigation};
+use crate::nav_gate::{
+    DepthContinuity, NavField, NavLimits, NavViolation, OnViolation, check_navigation,
+};
 use crate::ports::{FrontSeatInterfaceInbox, FrontSeatInterfacePorts};
 use crate::proto::frontseat::protobuf::{InterfaceDetail, NavFieldCount};
 use crate::proto::goby::middleware::frontseat::protobuf::{
@@ -283,6 +285,8 @@ pub struct FsiState {
     refused_log: RateLimitedLog,
     nav_log: RateLimitedLog,
     nav_drop_log: RateLimitedLog,
+    /// The last depth let through, to refuse a depth sensor that jumps.
+    depth_continuity: DepthContinuity,
     raw_log: RateLimitedLog,
     raw_refused_log: RateLimitedLog,
     /// The detail's counters for the OTel metrics (crate::metrics): written here, read by the
@@ -649,6 +653,14 @@ impl FsiState {
     /// navigation already counted (the Iver3 driver's extended $OSI).
     fn nav_fit_for_helm(&mut self, ns: &mut NodeStatus, count: bool) -> bool {
         let (refused, dropped) = match check_navigation(ns, &self.s.nav_limits) {
+            Ok(dropped) if count => match self.depth_continuity.check(
+                ns,
+                self.clock.now().as_secs_f64(),
+                &self.s.nav_limits,
+            ) {
+                Ok(()) => (None, dropped),
+                Err(r) => (Some(r), Vec::new()),
+            },
             Ok(dropped) => (None, dropped),
             Err(r) => (Some(r), Vec::new()),
         };
@@ -1131,6 +1143,7 @@ impl Actor for FrontSeatInterface {
             refused_log: RateLimitedLog::for_bad_input(),
             nav_log: RateLimitedLog::for_bad_input(),
             nav_drop_log: RateLimitedLog::for_bad_input(),
+            depth_continuity: DepthContinuity::default(),
             raw_log: RateLimitedLog::for_bad_input(),
             raw_refused_log: RateLimitedLog::for_bad_input(),
             metrics: frontseat_telemetry::metrics::register(&args.settings.name, state_name),

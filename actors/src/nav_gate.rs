@@ -11,6 +11,10 @@
 //! - **drop the field** — altitude, pitch, roll, the angular rates, course over ground, speed over
 //!   water: auxiliary; their absence is already a state every helm handles ("no bottom lock").
 //!
+//! Depth is also checked against the last accepted one ([`DepthContinuity`]): a pressure sensor
+//! that jumps faster than `max_abs_depth_rate` refuses the message, until the new level has held
+//! for a few messages (then it is believed: a sensor re-zeroed, not a spike).
+//!
 //! Heading and course over ground are compass angles: within ten turns either way they are wrapped
 //! into [0, 360) (some vehicles report −180..180 or slightly past 360); beyond that the number is
 //! not an angle (`1e308` rem 360 is an arbitrary 296) and is treated as out of bounds.
@@ -36,6 +40,7 @@ pub struct NavLimits {
     pub max_abs_pitch: f64,
     pub max_abs_roll: f64,
     pub max_abs_angular_rate: f64,
+    pub max_abs_depth_rate: f64,
 }
 
 impl From<&NavLimitsConfig> for NavLimits {
@@ -48,6 +53,7 @@ impl From<&NavLimitsConfig> for NavLimits {
             max_abs_pitch: c.max_abs_pitch,
             max_abs_roll: c.max_abs_roll,
             max_abs_angular_rate: c.max_abs_angular_rate,
+            max_abs_depth_rate: c.max_abs_depth_rate,
         }
     }
 }
@@ -198,6 +204,55 @@ fn angle(field: NavField, v: f64) -> Result<f64, NavViolation> {
         "degrees (not an angle to wrap)",
     )
     .map(wrap_heading)
+}
+
+/// A jump held this many messages in a row is a new level, not a spike.
+pub const DEPTH_JUMP_BELIEVED_AFTER: u32 = 5;
+
+/// The last depth the gate let through, to refuse one that jumps: stateful, so the interface
+/// keeps one per vehicle and calls [`DepthContinuity::check`] after [`check_navigation`].
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct DepthContinuity {
+    /// (time, depth) of the last depth accepted.
+    last: Option<(f64, f64)>,
+    /// Jumps refused in a row.
+    refused_in_a_row: u32,
+}
+
+impl DepthContinuity {
+    /// Refuses a depth that moved faster than `max_abs_depth_rate` from the last accepted one.
+    /// `t` is the interface's own (simulated) clock in seconds when the message arrived: a
+    /// driver's time stamp is wall time, and a warped simulation would look 10 times as fast.
+    /// Messages without a depth, or not later than the last, are not judged.
+    pub fn check(&mut self, ns: &NodeStatus, t: f64, l: &NavLimits) -> Result<(), NavViolation> {
+        let Some(d) = ns.global_fix.depth.filter(|d| d.is_finite()) else {
+            return Ok(());
+        };
+        if let Some((t0, d0)) = self.last
+            && t > t0
+        {
+            let rate = (d - d0).abs() / (t - t0);
+            if rate > l.max_abs_depth_rate && self.refused_in_a_row + 1 < DEPTH_JUMP_BELIEVED_AFTER
+            {
+                self.refused_in_a_row += 1;
+                return Err(NavViolation {
+                    field: NavField::Depth,
+                    value: d,
+                    rule: format!(
+                        "jumped {:.2} m from {d0} in {:.3} s (over {} m/s)",
+                        d - d0,
+                        t - t0,
+                        l.max_abs_depth_rate
+                    ),
+                });
+            }
+        }
+        if self.last.is_none_or(|(t0, _)| t > t0) {
+            self.last = Some((t, d));
+            self.refused_in_a_row = 0;
+        }
+        Ok(())
+    }
 }
 
 /// The navigation made fit for the helm: `ns` with headings wrapped and the out-of-bounds
@@ -482,6 +537,47 @@ mod tests {
             check_navigation(&mut ns, &l).unwrap_err().field,
             NavField::Depth
         );
+    }
+
+    /// A Sub's depth sensor: NaN, 1e9 m, 200 m above the surface are refused by bounds; a
+    /// pressure reading that jumps 40 m in 0.2 s is refused by continuity, until held.
+    #[test]
+    fn depth_bounds_and_jumps() {
+        let l = NavLimits::default();
+        for bad in [f64::NAN, 1e9, -200.0] {
+            let mut ns = full();
+            ns.global_fix.depth = Some(bad);
+            assert_eq!(
+                check_navigation(&mut ns, &l).unwrap_err().field,
+                NavField::Depth,
+                "{bad}"
+            );
+        }
+        let at = |d: f64| {
+            let mut ns = full();
+            ns.global_fix.depth = Some(d);
+            ns
+        };
+        let mut c = DepthContinuity::default();
+        assert!(c.check(&at(5.0), 0.0, &l).is_ok());
+        assert!(c.check(&at(5.1), 0.2, &l).is_ok());
+        let r = c.check(&at(45.0), 0.4, &l).unwrap_err();
+        assert_eq!(r.field, NavField::Depth);
+        assert!(r.rule.contains("jumped"), "{r}");
+        // The spike passes; the next good reading is judged against the last accepted one.
+        assert!(c.check(&at(5.2), 0.6, &l).is_ok());
+        // A new level held for a few messages is believed.
+        let mut refused = 0;
+        for i in 0..DEPTH_JUMP_BELIEVED_AFTER {
+            if c.check(&at(30.0), 0.8 + f64::from(i) * 0.2, &l).is_err() {
+                refused += 1;
+            }
+        }
+        assert_eq!(refused, DEPTH_JUMP_BELIEVED_AFTER - 1);
+        assert!(c.check(&at(30.1), 2.0, &l).is_ok());
+        // Same time stamp or older: not judged, not adopted.
+        assert!(c.check(&at(0.0), 2.0, &l).is_ok());
+        assert!(c.check(&at(30.2), 2.2, &l).is_ok());
     }
 
     #[test]

@@ -446,6 +446,11 @@ pub struct NavLimitsConfig {
     /// Largest roll, pitch or heading rate either way. Unit: degrees/s, greater than 0.
     #[schemars(extend("exclusiveMinimum" = 0.0))]
     pub max_abs_angular_rate: f64,
+    /// Fastest a depth may change between two navigation messages (a pressure sensor that
+    /// jumps is refused; a new level held for a few messages is believed). Unit: m/s, greater
+    /// than 0.
+    #[schemars(extend("exclusiveMinimum" = 0.0))]
+    pub max_abs_depth_rate: f64,
 }
 
 impl Default for NavLimitsConfig {
@@ -458,6 +463,7 @@ impl Default for NavLimitsConfig {
             max_abs_pitch: 90.0,
             max_abs_roll: 180.0,
             max_abs_angular_rate: 1000.0,
+            max_abs_depth_rate: 20.0,
         }
     }
 }
@@ -488,6 +494,7 @@ impl NavLimitsConfig {
             &at(prefix, "max_abs_angular_rate"),
             self.max_abs_angular_rate,
         );
+        c.positive(&at(prefix, "max_abs_depth_rate"), self.max_abs_depth_rate);
     }
 }
 

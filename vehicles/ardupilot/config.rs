@@ -88,7 +88,8 @@ pub enum ArdupilotVehicle {
     /// ArduPilot Rover (a boat frame: BlueBoat and most research boats).
     #[default]
     Rover,
-    /// ArduSub (BlueROV2): the target carries depth.
+    /// ArduSub (BlueROV2): GUIDED with LOCAL_NED position + velocity + yaw targets (depth is
+    /// their z), or ALT_HOLD with `alt_hold_accepts_commands`.
     Sub,
 }
 
@@ -119,6 +120,9 @@ pub struct ArdupilotStreamRates {
     pub gps_raw_int: f64,
     /// EKF_STATUS_REPORT (estimate readiness). Unit: Hz, 0 to 50.
     pub ekf_status_report: f64,
+    /// LOCAL_POSITION_NED (Sub only: depth is its z, and GUIDED targets carry its x, y).
+    /// Unit: Hz, 0 to 50.
+    pub local_position_ned: f64,
 }
 
 impl Default for ArdupilotStreamRates {
@@ -130,6 +134,7 @@ impl Default for ArdupilotStreamRates {
             sys_status: 1.0,
             gps_raw_int: 1.0,
             ekf_status_report: 1.0,
+            local_position_ned: 5.0,
         }
     }
 }
@@ -171,6 +176,23 @@ pub struct ArdupilotConfig {
     pub stream_rates: ArdupilotStreamRates,
     /// Overrides of the default mode table (for an armed vehicle; disarmed is always idle).
     pub modes: Vec<ArdupilotModeAssignment>,
+    /// Sub: send a neutral MANUAL_CONTROL (x, y, r 0, z 500, buttons 0) twice a second while
+    /// the link is up and the vehicle heard, to feed ArduSub's pilot-input failsafe
+    /// (FS_PILOT_INPUT, default: disarm 3 s after the last pilot input; a BlueROV2 has no RC).
+    /// Only from `own_system_id` = the vehicle's MAV_GCS_SYSID (255) does it count. Off by
+    /// default: a topside joystick (QGroundControl, BlueOS) on that sysid sends its own, and ours
+    /// would fight it. If frontseat stops, the vehicle's failsafe acts.
+    pub pilot_input_keepalive: bool,
+    /// Sub: an armed Sub in ALT_HOLD (no position estimate needed) accepts the helm's course:
+    /// depth by a z-only SET_POSITION_TARGET_GLOBAL_INT, heading by SET_ATTITUDE_TARGET,
+    /// forward thrust by MANUAL_CONTROL x. Off: ALT_HOLD is the pilot's depth hold (idle).
+    /// On, navigation needs no horizontal position: lat/lon are what the vehicle reports (its
+    /// EKF origin or last estimate).
+    pub alt_hold_accepts_commands: bool,
+    /// Sub in ALT_HOLD: MANUAL_CONTROL x per m/s of desired speed (open-loop thrust: ArduSub's
+    /// SITL made 0.49–0.53 m/s at x = 500 with JS_GAIN 0.5). Unit: 1/(m/s), 1 to 10000.
+    #[schemars(range(min = 1.0, max = 10000.0))]
+    pub alt_hold_thrust_per_mps: f64,
     /// Accept the ArduPilot CommandRequest extension (GUIDED, HOLD, arm, disarm) from the bus.
     /// Off: such requests are refused and the vehicle's mode and arming are left to its pilot.
     pub allow_mode_commands: bool,
@@ -201,6 +223,9 @@ impl Default for ArdupilotConfig {
             stream_rates: ArdupilotStreamRates::default(),
             modes: Vec::new(),
             allow_mode_commands: false,
+            pilot_input_keepalive: false,
+            alt_hold_accepts_commands: false,
+            alt_hold_thrust_per_mps: 1000.0,
             reconnect_initial_ms: 100,
             reconnect_max_ms: 5000,
             ack_timeout: 3.0,
@@ -223,6 +248,12 @@ impl crate::drivers::DriverSection for ArdupilotConfig {
             self.target_verdict_after,
         );
         c.positive(&at(prefix, "ack_timeout"), self.ack_timeout);
+        c.within(
+            &at(prefix, "alt_hold_thrust_per_mps"),
+            self.alt_hold_thrust_per_mps,
+            1.0,
+            10000.0,
+        );
         let r = &self.stream_rates;
         let sp = at(prefix, "stream_rates");
         for (name, v) in [
@@ -232,6 +263,7 @@ impl crate::drivers::DriverSection for ArdupilotConfig {
             ("sys_status", r.sys_status),
             ("gps_raw_int", r.gps_raw_int),
             ("ekf_status_report", r.ekf_status_report),
+            ("local_position_ned", r.local_position_ned),
         ] {
             c.within(&at(&sp, name), v, 0.0, 50.0);
         }

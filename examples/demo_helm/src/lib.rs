@@ -28,10 +28,10 @@ pub struct DemoParams {
     /// Seconds (sim time) of the south leg.
     pub south_s: f64,
     pub speed: f64,
-    /// Depth of the three legs (m; 0 = the surface). An AUV flies the triangle at depth.
-    pub depth: f64,
     /// Safety cap on the whole run (sim time).
     pub max_s: f64,
+    /// Depth asked for on the east, south and northwest legs (m, down; 0 at the surface).
+    pub depths: [f64; 3],
 }
 
 impl Default for DemoParams {
@@ -40,8 +40,8 @@ impl Default for DemoParams {
             east_s: 60.0,
             south_s: 60.0,
             speed: 1.5,
-            depth: 0.0,
             max_s: 900.0,
+            depths: [0.0; 3],
         }
     }
 }
@@ -58,6 +58,15 @@ pub enum Leg {
 }
 
 impl Leg {
+    /// The leg's depth among the east, south and northwest ones.
+    fn depth(self, depths: &[f64; 3]) -> f64 {
+        match self {
+            Leg::East => depths[0],
+            Leg::South => depths[1],
+            Leg::NorthWest => depths[2],
+            _ => 0.0,
+        }
+    }
     fn heading(self) -> f64 {
         match self {
             Leg::East => 90.0,
@@ -86,6 +95,8 @@ pub struct TrackPoint {
     pub heading: f64,
     pub speed: f64,
     pub leg: Leg,
+    /// Metres, positive down (0 when the vehicle reports none).
+    pub depth: f64,
 }
 
 /// What the live status line shows.
@@ -178,7 +189,7 @@ pub async fn run(
                         time: SimClock::unix_now(),
                         heading: Some(leg.heading()),
                         speed: Some(params.speed),
-                        depth: Some(params.depth),
+                        depth: Some(leg.depth(&params.depths)),
                         ..Default::default()
                     });
                 }
@@ -213,6 +224,7 @@ pub async fn run(
                         heading: live.heading,
                         speed: live.speed,
                         leg,
+                        depth: ns.global_fix.depth.unwrap_or(0.0),
                     });
                 }
                 DemoHelmInbox::Status(env) => {
@@ -256,6 +268,96 @@ pub fn track_csv(track: &[TrackPoint]) -> String {
         );
     }
     s
+}
+
+/// [`track_csv`] with a last column `depth_m` (m, positive down): the single-vehicle demo's
+/// track, where a diving vehicle (ArduSub) shows its depth.
+pub fn track_csv_with_depth(track: &[TrackPoint]) -> String {
+    let mut s = String::from("t_s,x_m,y_m,heading_deg,speed_mps,leg,depth_m\n");
+    for p in track {
+        let _ = writeln!(
+            s,
+            "{:.3},{:.3},{:.3},{:.2},{:.3},{},{:.3}",
+            p.t,
+            p.x,
+            p.y,
+            p.heading,
+            p.speed,
+            p.leg.name(),
+            p.depth
+        );
+    }
+    s
+}
+
+/// How the track followed the depths asked for, leg by leg: what `frontseat demo --vehicle
+/// ardusub` prints and its guide page reports.
+#[derive(Clone, Debug, PartialEq)]
+pub struct DepthLegFigures {
+    pub leg: Leg,
+    pub asked_m: f64,
+    pub start_m: f64,
+    /// Sim seconds from the leg's start until within 0.3 m of the depth asked for (and staying).
+    pub time_to_depth_s: Option<f64>,
+    /// Furthest past the depth asked for, in the direction of travel. Unit: m.
+    pub overshoot_m: f64,
+    /// Sim seconds from the leg's start until the heading is within 5° of the leg's.
+    pub time_to_heading_s: Option<f64>,
+    /// Largest heading error while the depth was still changing, once the heading had first
+    /// come within 5°. Unit: degrees.
+    pub heading_error_diving_deg: f64,
+}
+
+/// The depth figures of a track flown with `params`.
+pub fn depth_figures(track: &[TrackPoint], params: &DemoParams) -> Vec<DepthLegFigures> {
+    let mut out = Vec::new();
+    for leg in [Leg::East, Leg::South, Leg::NorthWest] {
+        let pts: Vec<&TrackPoint> = track.iter().filter(|p| p.leg == leg).collect();
+        let Some(first) = pts.first() else { continue };
+        let asked = leg.depth(&params.depths);
+        let t0 = first.t;
+        let start = first.depth;
+        let down = asked >= start;
+        let settled = pts
+            .iter()
+            .rposition(|p| (p.depth - asked).abs() > 0.3)
+            .map_or(Some(0), |i| (i + 1 < pts.len()).then_some(i + 1));
+        let time_to_depth_s = settled.map(|i| pts[i].t - t0);
+        let overshoot_m = pts
+            .iter()
+            .map(|p| {
+                if down {
+                    p.depth - asked
+                } else {
+                    asked - p.depth
+                }
+            })
+            .fold(0.0_f64, f64::max);
+        let err = |p: &TrackPoint| {
+            let d = (p.heading - leg.heading()).rem_euclid(360.0);
+            if d > 180.0 { 360.0 - d } else { d }
+        };
+        let on_heading = pts.iter().position(|p| err(p) <= 5.0);
+        let time_to_heading_s = on_heading.map(|i| pts[i].t - t0);
+        let diving_until = settled.unwrap_or(pts.len());
+        let heading_error_diving_deg = match on_heading {
+            Some(h) if h < diving_until => pts[h..diving_until]
+                .iter()
+                .map(|p| err(p))
+                .fold(0.0, f64::max),
+            _ => 0.0,
+        };
+        out.push(DepthLegFigures {
+            leg,
+            asked_m: asked,
+            start_m: start,
+            time_to_depth_s,
+            overshoot_m,
+            time_to_heading_s,
+            heading_error_diving_deg,
+        });
+    }
+    out
 }
 
 /// A grid spacing of 1, 2 or 5 × 10^k metres giving about `lines` lines across `span`.
@@ -573,4 +675,61 @@ fn grid_and_ticks(s: &mut String, f: &PlotFrame) -> f64 {
         r##"<rect x="{left}" y="{top}" width="{plot}" height="{plot}" fill="none" stroke="#888"/>"##
     );
     step
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn pt(t: f64, leg: Leg, heading: f64, depth: f64) -> TrackPoint {
+        TrackPoint {
+            t,
+            x: 0.0,
+            y: 0.0,
+            heading,
+            speed: 0.5,
+            leg,
+            depth,
+        }
+    }
+
+    /// Time to depth (within 0.3 m and staying), overshoot past the depth in the direction of
+    /// travel, time to heading (within 5°) and the heading error after it while still diving.
+    #[test]
+    fn depth_figures_of_a_known_track() {
+        let params = DemoParams {
+            depths: [5.0, 10.0, 5.0],
+            ..Default::default()
+        };
+        let track = vec![
+            pt(10.0, Leg::East, 0.0, 0.0),
+            pt(11.0, Leg::East, 60.0, 1.0),
+            pt(12.0, Leg::East, 88.0, 3.0),
+            pt(13.0, Leg::East, 93.0, 4.8),
+            pt(14.0, Leg::East, 90.0, 5.4),
+            pt(15.0, Leg::East, 90.0, 5.1),
+            pt(16.0, Leg::East, 90.0, 5.0),
+            // Climbing on the south leg: 10 m asked, never reached.
+            pt(20.0, Leg::South, 90.0, 5.0),
+            pt(21.0, Leg::South, 180.0, 6.0),
+        ];
+        let f = depth_figures(&track, &params);
+        assert_eq!(f.len(), 2);
+        let e = &f[0];
+        assert_eq!((e.leg, e.asked_m, e.start_m), (Leg::East, 5.0, 0.0));
+        assert_eq!(
+            e.time_to_depth_s,
+            Some(5.0),
+            "5.1 at t = 15 stays within 0.3"
+        );
+        assert!((e.overshoot_m - 0.4).abs() < 1e-9, "{}", e.overshoot_m);
+        assert_eq!(e.time_to_heading_s, Some(2.0));
+        assert_eq!(e.heading_error_diving_deg, 3.0);
+        let s = &f[1];
+        assert_eq!(s.time_to_depth_s, None);
+        assert_eq!(s.overshoot_m, 0.0);
+        let csv = track_csv_with_depth(&track);
+        assert!(csv.starts_with("t_s,x_m,y_m,heading_deg,speed_mps,leg,depth_m\n"));
+        assert!(csv.contains(",east,5.400\n"), "{csv}");
+    }
 }

@@ -168,6 +168,7 @@ pub async fn run(
                         heading,
                         speed: env.msg.speed.over_ground,
                         leg: if in_command { Leg::Trail } else { Leg::WaitingForCommand },
+                        depth: env.msg.global_fix.depth.unwrap_or(0.0),
                     });
                 }
                 DemoHelmInbox::Status(env) => {

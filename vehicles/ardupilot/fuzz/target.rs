@@ -36,11 +36,6 @@ pub fn mavlink_frame(data: &[u8]) {
         "frames depend on how reads are cut"
     );
 
-    let mut driver = ArdupilotDriver::new(ApSettings::from_config(&InterfaceConfig::default()));
-    let mut sink = Count::default();
-    let (w, _rx) = LineWriter::for_test();
-    driver.handle_io(DriverIoEvent::Connected(w), Duration::ZERO, &mut sink);
-    let mut now = Duration::ZERO;
     for f in &frames_whole {
         assert!(f.len() <= MAX_FRAME);
         if let Ok((h, msg)) = decode(f) {
@@ -49,11 +44,27 @@ pub fn mavlink_frame(data: &[u8]) {
             let twice = encode(h.system_id, h.component_id, h.sequence, &again);
             assert_eq!(once, twice, "message does not round-trip");
         }
-        now += Duration::from_millis(50);
-        driver.handle_io(DriverIoEvent::Frame(f.clone()), now, &mut sink);
-        driver.do_loop(now, &mut sink);
     }
-    driver.do_loop(now + Duration::from_secs(60), &mut sink);
-    assert_eq!(sink.raw_in, frames_whole.len());
-    assert_eq!(sink.responses, 0);
+    // The Rover driver, and the Sub driver with every Sub path on (ALT_HOLD commands, the
+    // pilot-input keepalive).
+    let rover = InterfaceConfig::default();
+    let mut sub = InterfaceConfig::default();
+    sub.driver.ardupilot.vehicle = frontseat_config::ArdupilotVehicle::Sub;
+    sub.driver.ardupilot.alt_hold_accepts_commands = true;
+    sub.driver.ardupilot.pilot_input_keepalive = true;
+    for cfg in [rover, sub] {
+        let mut driver = ArdupilotDriver::new(ApSettings::from_config(&cfg));
+        let mut sink = Count::default();
+        let (w, _rx) = LineWriter::for_test();
+        driver.handle_io(DriverIoEvent::Connected(w), Duration::ZERO, &mut sink);
+        let mut now = Duration::ZERO;
+        for f in &frames_whole {
+            now += Duration::from_millis(50);
+            driver.handle_io(DriverIoEvent::Frame(f.clone()), now, &mut sink);
+            driver.do_loop(now, &mut sink);
+        }
+        driver.do_loop(now + Duration::from_secs(60), &mut sink);
+        assert_eq!(sink.raw_in, frames_whole.len());
+        assert_eq!(sink.responses, 0);
+    }
 }

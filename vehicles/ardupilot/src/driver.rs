@@ -4,6 +4,13 @@
 //! the estimate is usable, and turns the helm's course into a GUIDED target it re-sends while the
 //! helm keeps commanding. It never arms or changes mode on its own: only the ArduPilot
 //! CommandRequest extension does, and only with `allow_mode_commands`.
+//!
+//! ArduSub (`vehicle = "sub"`, `shared/protocol/ardupilot/ardusub.md`): in GUIDED the course is a
+//! LOCAL_NED position + velocity + yaw target (depth its z, x/y the vehicle's latest
+//! LOCAL_POSITION_NED); in ALT_HOLD (with `alt_hold_accepts_commands`) depth is a z-only target,
+//! heading a SET_ATTITUDE_TARGET and speed MANUAL_CONTROL thrust. Depth in NodeStatus is
+//! LOCAL_POSITION_NED.z. The vehicle's failsafes stay its watchdog on us: our HEARTBEAT (and,
+//! with `pilot_input_keepalive`, a neutral MANUAL_CONTROL) go out only while we run and hear it.
 
 use std::collections::BTreeMap;
 use std::sync::Arc;
@@ -11,11 +18,12 @@ use std::time::Duration;
 
 use crate::codec::{self, FrameError, MavMessage, Sender};
 use crate::dialect::{
-    COMMAND_LONG_DATA, EkfStatusFlags, GpsFixType, HEARTBEAT_DATA, MavAutopilot, MavCmd,
-    MavModeFlag, MavResult, MavSeverity, MavState, MavSysStatusSensor, MavType,
+    COMMAND_LONG_DATA, EkfStatusFlags, GpsFixType, HEARTBEAT_DATA, LOCAL_POSITION_NED_DATA,
+    MavAutopilot, MavCmd, MavModeFlag, MavResult, MavSeverity, MavState, MavSysStatusSensor,
+    MavType,
 };
 use crate::infer::{self, Beat};
-use crate::modes::{Control, Firmware};
+use crate::modes::{Control, Firmware, sub};
 use frontseat_config::{ArdupilotVehicle, InterfaceConfig, MavlinkAddress};
 
 use frontseat_actors::clock::SimClock;
@@ -71,6 +79,14 @@ pub struct Settings {
     /// position before them may be the backup estimate.
     pub require_ekf: bool,
     pub require_gps: bool,
+    /// Sub: feed the pilot-input failsafe with a neutral MANUAL_CONTROL while alive.
+    pub pilot_input_keepalive: bool,
+    /// Sub: ALT_HOLD accepts the helm's course (depth, heading, open-loop thrust).
+    pub alt_hold_accepts_commands: bool,
+    /// Sub in ALT_HOLD: MANUAL_CONTROL x per m/s.
+    pub thrust_per_mps: f64,
+    /// Sub: depth comes from LOCAL_POSITION_NED (streamed).
+    pub depth_from_local: bool,
 }
 
 impl Settings {
@@ -87,6 +103,8 @@ impl Settings {
         };
         let r = &c.stream_rates;
         use mavlink_ids::*;
+        let is_sub = c.vehicle == ArdupilotVehicle::Sub;
+        let local_hz = if is_sub { r.local_position_ned } else { 0.0 };
         Self {
             link: transport.map(|transport| ByteLinkConfig {
                 transport,
@@ -117,6 +135,7 @@ impl Settings {
                 (SYS_STATUS, r.sys_status),
                 (GPS_RAW_INT, r.gps_raw_int),
                 (EKF_STATUS_REPORT, r.ekf_status_report),
+                (LOCAL_POSITION_NED, local_hz),
             ]
             .into_iter()
             .filter(|(_, hz)| hz.is_finite() && *hz > 0.0)
@@ -128,7 +147,13 @@ impl Settings {
                 .collect(),
             allow_mode_commands: c.allow_mode_commands,
             require_ekf: r.ekf_status_report > 0.0,
-            require_gps: r.gps_raw_int > 0.0,
+            // A Sub's position comes from a DVL, underwater GPS or visual odometry: the EKF's
+            // flags say whether it has one; GPS_RAW_INT says nothing under water.
+            require_gps: r.gps_raw_int > 0.0 && !is_sub,
+            pilot_input_keepalive: is_sub && c.pilot_input_keepalive,
+            alt_hold_accepts_commands: is_sub && c.alt_hold_accepts_commands,
+            thrust_per_mps: c.alt_hold_thrust_per_mps,
+            depth_from_local: is_sub && local_hz > 0.0,
         }
     }
 }
@@ -141,7 +166,15 @@ mod mavlink_ids {
     pub const SYS_STATUS: u32 = 1;
     pub const GPS_RAW_INT: u32 = 24;
     pub const EKF_STATUS_REPORT: u32 = 193;
+    pub const LOCAL_POSITION_NED: u32 = 32;
 }
+
+/// How often the Sub's neutral MANUAL_CONTROL goes out (ArduSub disarms 3 s after the last).
+const KEEPALIVE_PERIOD: Duration = Duration::from_millis(500);
+/// How often the Sub's ALT_HOLD depth target is repeated (one per second as measured on SITL).
+const DEPTH_TARGET_PERIOD: Duration = Duration::from_secs(1);
+/// A STATUSTEXT this recent explains a failsafe or a disarm.
+const REASON_TEXT_AGE: Duration = Duration::from_secs(10);
 
 fn secs(s: f64) -> Duration {
     if s.is_finite() && s > 0.0 {
@@ -168,6 +201,10 @@ pub struct ArdupilotCounters {
     pub ack_timeouts: u64,
     pub write_failures: u64,
     pub ignored: u64,
+    /// Sub: MANUAL_CONTROL frames sent (thrust and keepalive).
+    pub manual_controls_sent: u64,
+    /// Sub: courses not sent for want of a LOCAL_POSITION_NED to anchor the target.
+    pub targets_without_position: u64,
 }
 
 #[derive(Debug, Clone, Copy)]
@@ -178,6 +215,24 @@ struct Course {
     /// When the helm last gave it.
     renewed: Duration,
     sent: Option<Duration>,
+}
+
+/// LOCAL_POSITION_NED's position: north, east, down (m).
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Local {
+    x: f32,
+    y: f32,
+    z: f32,
+}
+
+impl From<&LOCAL_POSITION_NED_DATA> for Local {
+    fn from(l: &LOCAL_POSITION_NED_DATA) -> Self {
+        Self {
+            x: l.x,
+            y: l.y,
+            z: l.z,
+        }
+    }
 }
 
 /// What a request waits for: the COMMAND_ACK of its COMMAND_LONG, or None for a course (judged
@@ -208,6 +263,17 @@ pub struct ArdupilotDriver {
     course: Option<Course>,
     pending: AckQueue<Pending>,
     last_text: Option<(Duration, String)>,
+    /// The latest warning-or-worse STATUSTEXT ("Leak Detected", "… heartbeat lost").
+    serious_text: Option<(Duration, String)>,
+    /// Why the frontseat state is what it is, in words (mode, arming, failsafe and its text).
+    reason: String,
+    /// Sub: the latest LOCAL_POSITION_NED (north, east, down m; as sent, unchecked).
+    local: Option<Local>,
+    /// Sub: when the last MANUAL_CONTROL went out, and whether it carried thrust.
+    manual_at: Option<Duration>,
+    thrusting: bool,
+    /// Sub in ALT_HOLD: when the depth target last went out, and which.
+    depth_sent: Option<(Duration, f64)>,
     bad_log: RateLimitedLog,
     text_log: RateLimitedLog,
     pub counters: ArdupilotCounters,
@@ -245,6 +311,12 @@ impl ArdupilotDriver {
             course: None,
             pending: AckQueue::new(MAX_PENDING),
             last_text: None,
+            serious_text: None,
+            reason: "no HEARTBEAT yet".into(),
+            local: None,
+            manual_at: None,
+            thrusting: false,
+            depth_sent: None,
             bad_log: RateLimitedLog::for_bad_input(),
             text_log: RateLimitedLog::for_bad_input(),
             counters: ArdupilotCounters::default(),
@@ -254,6 +326,11 @@ impl ArdupilotDriver {
     /// The vehicle's mode number and armed flag, once heard.
     pub fn mode(&self) -> Option<(u32, bool)> {
         self.beat.map(|b| (b.mode, b.armed))
+    }
+
+    /// Why the frontseat state is what it is (mode, arming, failsafe, the vehicle's words).
+    pub fn state_reason(&self) -> &str {
+        &self.reason
     }
 
     /// Why navigation is not published, if it is not.
@@ -358,8 +435,26 @@ impl ArdupilotDriver {
             Some(FrontSeatState::FrontseatAcceptingCommands) => Control::AcceptingCommands,
             Some(FrontSeatState::FrontseatInControl) => Control::InControl,
             Some(_) => Control::Idle,
+            None if self.is_sub()
+                && mode == sub::ALT_HOLD
+                && self.settings.alt_hold_accepts_commands =>
+            {
+                Control::AcceptingCommands
+            }
             None => self.settings.firmware.default_control(mode),
         }
+    }
+
+    fn is_sub(&self) -> bool {
+        self.settings.firmware == Firmware::Sub
+    }
+
+    /// The vehicle's recent warning-or-worse words, to explain a failsafe or a disarm.
+    fn recent_serious_text(&self, now: Duration) -> Option<&str> {
+        self.serious_text
+            .as_ref()
+            .filter(|(t, _)| now.saturating_sub(*t) <= REASON_TEXT_AGE)
+            .map(|(_, s)| s.as_str())
     }
 
     fn on_heartbeat(&mut self, beat: Beat, now: Duration, sig: &mut dyn SignalSink) {
@@ -372,17 +467,35 @@ impl ArdupilotDriver {
             Control::AcceptingCommands => FrontSeatState::FrontseatAcceptingCommands,
         };
         let previous = self.beat.replace(beat);
-        if state != self.state
-            || previous.map(|p| (p.mode, p.armed)) != Some((beat.mode, beat.armed))
-        {
-            tracing::info!(vehicle = %self.mode_words(), state = ?state, why, "ArduPilot vehicle state");
+        let changed = state != self.state
+            || previous.map(|p| (p.mode, p.armed)) != Some((beat.mode, beat.armed));
+        if changed {
+            // A failsafe or a disarm says why in a STATUSTEXT just before ("Leak Detected",
+            // "MYGCS: 255, heartbeat lost", "Lost manual control"): keep its words.
+            let text = (control != Control::AcceptingCommands)
+                .then(|| self.recent_serious_text(now))
+                .flatten()
+                .map(|t| format!("; vehicle said \"{t}\""))
+                .unwrap_or_default();
+            self.reason = format!("{}: {why}{text}", self.mode_words());
+            if self.state == FrontSeatState::FrontseatAcceptingCommands
+                && state != FrontSeatState::FrontseatAcceptingCommands
+            {
+                tracing::warn!(reason = %self.reason, state = ?state, "ArduPilot vehicle no longer accepts commands");
+            } else {
+                tracing::info!(reason = %self.reason, state = ?state, "ArduPilot vehicle state");
+            }
         }
+        // Another commanded mode (GUIDED ↔ ALT_HOLD) takes other messages: start afresh.
+        let mode_changed = previous.is_some_and(|p| p.mode != beat.mode);
         self.state = state;
-        if control != Control::AcceptingCommands && self.course.take().is_some() {
-            // Targets are ignored outside GUIDED: stop sending them, and say so to whoever waits.
-            let words = self.mode_words();
-            tracing::warn!(vehicle = %words, "left GUIDED: no longer sending the helm's course");
-            self.fail_course_verdicts(&format!("vehicle left GUIDED: {words} ({why})"), sig);
+        if (control != Control::AcceptingCommands || mode_changed) && self.course.take().is_some() {
+            // Targets are ignored outside the commanded modes: stop sending them, and say so to
+            // whoever waits.
+            tracing::warn!(reason = %self.reason, "no longer sending the helm's course");
+            let why = format!("vehicle left its commanded mode: {}", self.reason);
+            self.fail_course_verdicts(&why, sig);
+            self.stop_thrust(now, sig);
         }
         if !self.streams_requested {
             self.request_streams(sig);
@@ -484,6 +597,14 @@ impl ArdupilotDriver {
                     && st.onboard_control_sensors_enabled.contains(gps)
                     && !st.onboard_control_sensors_health.contains(gps);
             }
+            MavMessage::LOCAL_POSITION_NED(l) => {
+                if ![l.x, l.y, l.z].iter().all(|v| v.is_finite()) {
+                    // Kept all the same: a NaN depth reaches the navigation gate, which refuses
+                    // and counts it; targets are anchored only on finite positions.
+                    self.bad("LOCAL_POSITION_NED with a non-finite position");
+                }
+                self.local = Some(Local::from(&l));
+            }
             MavMessage::VFR_HUD(_) => {}
             _ => self.counters.ignored += 1,
         }
@@ -500,7 +621,35 @@ impl ArdupilotDriver {
         if self.gps_unhealthy {
             return Err("SYS_STATUS: GPS present and enabled but unhealthy".into());
         }
+        if self.is_sub() {
+            return self.sub_nav_usable();
+        }
         infer::nav_usable(self.ekf, self.gps_fix)
+    }
+
+    /// A Sub's estimate: attitude and a horizontal position, absolute (UGPS, GPS) or relative
+    /// (DVL, visual odometry, from the EKF origin); in ALT_HOLD with
+    /// `alt_hold_accepts_commands`, attitude and depth suffice.
+    fn sub_nav_usable(&self) -> Result<(), String> {
+        let Some(f) = self.ekf else { return Ok(()) };
+        if !f.contains(EkfStatusFlags::EKF_ATTITUDE)
+            || f.contains(EkfStatusFlags::EKF_UNINITIALIZED)
+        {
+            return Err(format!("EKF has no attitude (flags {:#06x})", f.bits()));
+        }
+        let horizontal = f
+            .intersects(EkfStatusFlags::EKF_POS_HORIZ_ABS | EkfStatusFlags::EKF_POS_HORIZ_REL)
+            && !f.contains(EkfStatusFlags::EKF_CONST_POS_MODE);
+        let alt_hold = self.settings.alt_hold_accepts_commands
+            && self.beat.is_some_and(|b| b.mode == sub::ALT_HOLD);
+        if horizontal || alt_hold {
+            Ok(())
+        } else {
+            Err(format!(
+                "EKF has no horizontal position (flags {:#06x}): GUIDED needs a DVL, underwater GPS or visual odometry",
+                f.bits()
+            ))
+        }
     }
 
     fn on_position(&mut self, pos: infer::Position, now: Duration, sig: &mut dyn SignalSink) {
@@ -519,12 +668,28 @@ impl ArdupilotDriver {
             Some((r, p, y)) => (Some(r), Some(p), Some(y)),
             None => (None, None, None),
         };
+        // Sub: depth is LOCAL_POSITION_NED.z, unclamped (the navigation gate judges a reading
+        // above the surface or beyond its bounds); relative_alt's zero moves at each arming.
+        let depth = if self.settings.depth_from_local {
+            let Some(l) = self.local else {
+                let why = "no LOCAL_POSITION_NED (depth) heard yet".to_string();
+                if self.nav_problem.as_deref() != Some(why.as_str()) {
+                    tracing::warn!(%why, "ArduSub navigation not usable: not providing data");
+                }
+                self.nav_problem = Some(why);
+                self.nav.lost();
+                return;
+            };
+            f64::from(l.z)
+        } else {
+            (-pos.relative_alt).max(0.0)
+        };
         let ns = NodeStatus {
             time: SimClock::unix_now(),
             global_fix: LatLonPoint {
                 lat: pos.lat,
                 lon: pos.lon,
-                depth: Some((-pos.relative_alt).max(0.0)),
+                depth: Some(depth),
                 altitude: None,
             },
             pose: EulerAngles {
@@ -566,6 +731,9 @@ impl ArdupilotDriver {
         }
         // Rover refuses a target by its mask only in words: the course waiting for a verdict fails
         // with them.
+        if serious {
+            self.serious_text = Some((now, text.clone()));
+        }
         if text.starts_with("Ignoring") || text.contains("ACC_IGNORE") {
             self.fail_course_verdicts(&format!("vehicle refused the target: {text}"), sig);
         }
@@ -615,6 +783,9 @@ impl ArdupilotDriver {
         let (Some(c), Some((sys, comp))) = (self.course, self.vehicle) else {
             return;
         };
+        if self.is_sub() {
+            return self.send_sub_target(c, sys, comp, now, sig);
+        }
         let t = infer::course_target(
             self.settings.firmware,
             c.heading,
@@ -632,12 +803,122 @@ impl ArdupilotDriver {
         }
     }
 
+    /// The Sub's course, by the method its mode takes (ardusub.md): GUIDED → a LOCAL_NED
+    /// position + velocity + yaw target; ALT_HOLD → attitude (heading) and MANUAL_CONTROL
+    /// (thrust) each time, the z-only depth target once a second or when it changes.
+    fn send_sub_target(
+        &mut self,
+        c: Course,
+        sys: u8,
+        comp: u8,
+        now: Duration,
+        sig: &mut dyn SignalSink,
+    ) {
+        let boot_ms = now.as_millis().min(u128::from(u32::MAX)) as u32;
+        let mode = self.beat.map(|b| b.mode);
+        if mode == Some(sub::ALT_HOLD) {
+            let att = infer::sub_attitude_target(c.heading, sys, comp, boot_ms);
+            let x = infer::thrust_for_speed(c.speed, self.settings.thrust_per_mps);
+            let mc = infer::manual_control(x, sys);
+            let mut ok = self.write(&MavMessage::SET_ATTITUDE_TARGET(att), sig);
+            ok &= self.write(&MavMessage::MANUAL_CONTROL(mc), sig);
+            self.counters.manual_controls_sent += 1;
+            self.manual_at = Some(now);
+            self.thrusting = x != 0;
+            if let Some(d) = c.depth
+                && self.depth_sent.is_none_or(|(t, sent)| {
+                    sent != d || now.saturating_sub(t) + LOOP_SLACK >= DEPTH_TARGET_PERIOD
+                })
+            {
+                let t = infer::sub_depth_target(d, sys, comp, boot_ms);
+                ok &= self.write(&MavMessage::SET_POSITION_TARGET_GLOBAL_INT(t), sig);
+                self.depth_sent = Some((now, d));
+            }
+            if ok {
+                self.counters.targets_sent += 1;
+            }
+        } else {
+            let Some(l) = self.local.filter(|l| l.x.is_finite() && l.y.is_finite()) else {
+                self.counters.targets_without_position += 1;
+                if let Some(suppressed) = log_due(&mut self.bad_log) {
+                    tracing::warn!(
+                        suppressed,
+                        "no finite LOCAL_POSITION_NED to anchor the Sub's GUIDED target: not sent"
+                    );
+                }
+                return;
+            };
+            let depth = match c.depth.or(Some(f64::from(l.z)).filter(|z| z.is_finite())) {
+                Some(d) => d,
+                None => return,
+            };
+            let t = infer::sub_guided_target(
+                c.heading,
+                c.speed,
+                depth,
+                f64::from(l.x),
+                f64::from(l.y),
+                sys,
+                comp,
+                boot_ms,
+            );
+            if self.write(&MavMessage::SET_POSITION_TARGET_LOCAL_NED(t), sig) {
+                self.counters.targets_sent += 1;
+            }
+        }
+        if let Some(c) = &mut self.course {
+            c.sent = Some(now);
+        }
+    }
+
+    /// After ALT_HOLD thrust, one neutral MANUAL_CONTROL at once: ArduSub keeps an RC override
+    /// for 3 s, and the pilot's mode must not inherit our forward thrust.
+    fn stop_thrust(&mut self, now: Duration, sig: &mut dyn SignalSink) {
+        self.depth_sent = None;
+        if !std::mem::take(&mut self.thrusting) {
+            return;
+        }
+        if let Some((sys, _)) = self.vehicle {
+            self.write(
+                &MavMessage::MANUAL_CONTROL(infer::manual_control(0, sys)),
+                sig,
+            );
+            self.counters.manual_controls_sent += 1;
+            self.manual_at = Some(now);
+        }
+    }
+
+    /// The neutral MANUAL_CONTROL that feeds ArduSub's pilot-input failsafe, while the link is
+    /// up and the vehicle heard (so if we die or lose it, the vehicle's failsafe acts).
+    fn keepalive(&mut self, now: Duration, sig: &mut dyn SignalSink) {
+        if !self.settings.pilot_input_keepalive || self.writer.is_none() || self.beat.is_none() {
+            return;
+        }
+        let Some((sys, _)) = self.vehicle else { return };
+        if self
+            .manual_at
+            .is_some_and(|t| now.saturating_sub(t) + LOOP_SLACK < KEEPALIVE_PERIOD)
+        {
+            return;
+        }
+        self.write(
+            &MavMessage::MANUAL_CONTROL(infer::manual_control(0, sys)),
+            sig,
+        );
+        self.counters.manual_controls_sent += 1;
+        self.manual_at = Some(now);
+    }
+
     fn heartbeat_lost(&mut self, sig: &mut dyn SignalSink) {
         self.state = FrontSeatState::FrontseatNotConnected;
         self.nav.lost();
         self.beat = None;
         self.last_heartbeat = None;
         self.streams_requested = false;
+        self.local = None;
+        self.thrusting = false;
+        self.depth_sent = None;
+        self.reason = "vehicle link lost (no HEARTBEAT)".into();
         if self.course.take().is_some() {
             self.fail_course_verdicts("vehicle link lost", sig);
         }
@@ -795,7 +1076,36 @@ impl Driver for ArdupilotDriver {
             );
             return;
         }
-        let depth = c.depth.filter(|d| d.is_finite());
+        let mut depth = c.depth.filter(|d| d.is_finite());
+        if self.is_sub() {
+            if c.depth.is_some_and(|d| !(d.is_finite() && d >= 0.0)) {
+                refuse(
+                    req,
+                    "desired_course depth must be finite and ≥ 0 (m, down)",
+                    sig,
+                );
+                return;
+            }
+            let guided = self.beat.is_some_and(|b| b.mode != sub::ALT_HOLD);
+            let here = self
+                .local
+                .filter(|l| [l.x, l.y, l.z].iter().all(|v| v.is_finite()));
+            if guided && here.is_none() {
+                refuse(
+                    req,
+                    "no LOCAL_POSITION_NED from the Sub yet: its GUIDED target is anchored on it",
+                    sig,
+                );
+                return;
+            }
+            // No depth asked for: hold the depth the course finds (the target always carries z).
+            if depth.is_none() {
+                depth = self
+                    .course
+                    .and_then(|c| c.depth)
+                    .or(here.map(|l| f64::from(l.z)));
+            }
+        }
         let unchanged = self
             .course
             .is_some_and(|c| c.heading == heading && c.speed == speed && c.depth == depth);
@@ -873,6 +1183,7 @@ impl Driver for ArdupilotDriver {
                 // The helm stopped: stop re-sending, and the vehicle's own 3 s timeout stops it.
                 tracing::info!("helm course not renewed: no longer re-sending the GUIDED target");
                 self.course = None;
+                self.stop_thrust(now, sig);
             } else if c.sent.is_none_or(|s| {
                 // Half a loop tick of slack: waiting for a full period after a late tick would
                 // drop the rate below the one configured (the vehicle wants ≥ 5 Hz).
@@ -880,6 +1191,9 @@ impl Driver for ArdupilotDriver {
             }) {
                 self.send_target(now, sig);
             }
+        }
+        if self.is_sub() {
+            self.keepalive(now, sig);
         }
         while let Some(p) = self.pending.due(now) {
             match p.what {
@@ -1358,3 +1672,7 @@ mod tests {
         }
     }
 }
+
+#[cfg(test)]
+#[path = "sub_driver_tests.rs"]
+mod sub_tests;

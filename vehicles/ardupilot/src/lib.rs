@@ -3,7 +3,8 @@
 //! through the `mavlink` crate), [`modes`] (the autopilot's mode numbers), [`infer`] (what a
 //! backseat concludes from what the vehicle says, and what it sends for a course — pure
 //! functions), [`driver`] (the state, the I/O and the glue to the runtime's driver trait),
-//! [`emulator`] (what ArduPilot Rover answers, on the simulator's vehicle model). See README.md.
+//! [`emulator`] (what ArduPilot Rover answers, on the simulator's vehicle model), [`sub_emulator`]
+//! (what ArduSub answers, with depth dynamics). See README.md.
 
 #![forbid(unsafe_code)]
 
@@ -12,6 +13,7 @@ pub mod driver;
 pub mod emulator;
 pub mod infer;
 pub mod modes;
+pub mod sub_emulator;
 
 pub use mavlink::dialects::ardupilotmega as dialect;
 

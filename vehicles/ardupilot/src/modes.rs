@@ -157,11 +157,29 @@ mod tests {
         assert_eq!(Firmware::Rover.default_control(99), Control::InControl);
     }
 
+    /// ardusub.md's mode numbers (ArduSub/mode.h:42-53), one row each, with their reading.
     #[test]
-    fn sub_modes() {
+    fn sub_modes_and_their_reading() {
+        let rows = [
+            (0, "STABILIZE", Control::Idle),
+            (1, "ACRO", Control::Idle),
+            (2, "ALT_HOLD", Control::Idle),
+            (3, "AUTO", Control::InControl),
+            (4, "GUIDED", Control::AcceptingCommands),
+            (7, "CIRCLE", Control::InControl),
+            (9, "SURFACE", Control::InControl),
+            (16, "POSHOLD", Control::Idle),
+            (19, "MANUAL", Control::Idle),
+            (20, "MOTOR_DETECT", Control::Idle),
+            (21, "SURFTRAK", Control::Idle),
+        ];
+        for (n, name, c) in rows {
+            assert_eq!(Firmware::Sub.mode_name(n), Some(name));
+            assert_eq!(Firmware::Sub.default_control(n), c, "{name}");
+        }
+        for n in [5, 6, 15, 30] {
+            assert_eq!(Firmware::Sub.mode_name(n), None, "{n}");
+        }
         assert_eq!(Firmware::Sub.guided(), 4);
-        assert_eq!(Firmware::Sub.mode_name(2), Some("ALT_HOLD"));
-        assert_eq!(Firmware::Sub.default_control(19), Control::Idle);
-        assert_eq!(Firmware::Sub.default_control(4), Control::AcceptingCommands);
     }
 }

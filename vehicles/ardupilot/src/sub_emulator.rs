@@ -1,0 +1,991 @@
+//! ArduSub (BlueROV2, `vectored` frame) as a backseat sees it over MAVLink, on the simulator's
+//! vehicle model with depth dynamics (`frontseat sim --vehicle ardusub`), from
+//! `shared/protocol/ardupilot/ardusub.md`: HEARTBEAT type SUBMARINE booting in MANUAL 19, Sub's
+//! mode numbers (GUIDED and the other position modes refused "requires position" without an
+//! estimate), arming, the streams (depth = LOCAL_POSITION_NED.z, relative_alt re-zeroed at each
+//! arming, pressure), the targets GUIDED follows and the ones it drops or ignores (a non-ignored
+//! acceleration drops the message, GLOBAL_INT's yaw is ignored, position-only targets restart
+//! their trajectory), the 3 s velocity timeout, ALT_HOLD's depth / attitude / pilot-thrust path,
+//! and the GCS, pilot-input and leak failsafes.
+
+use std::collections::BTreeMap;
+
+use mavlink::MessageData;
+
+use frontseat_sim::emulator::Session;
+use frontseat_sim::vehicle::{Limits, Setpoint, Vehicle, short_turn, wrap_heading};
+
+use crate::codec::{Deframer, MavMessage, Sender, decode};
+use crate::dialect::*;
+use crate::infer::{
+    self, EKF_READY, SUB_ATTITUDE_TIMEOUT_S, SUB_TARGET_TIMEOUT_S, SubTarget, quaternion_heading,
+};
+use crate::modes::{Firmware, sub};
+
+/// How the emulated Sub starts, and its parameters.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SubOptions {
+    pub lat: f64,
+    pub lon: f64,
+    pub system_id: u8,
+    pub component_id: u8,
+    /// MAV_GCS_SYSID: the only sender whose HEARTBEAT / MANUAL_CONTROL count.
+    pub gcs_sysid: u8,
+    /// Sim seconds of boot (no arming, EKF uninitialised).
+    pub init_s: f64,
+    /// Sim seconds until the EKF has a horizontal position (GPS/DVL).
+    pub ekf_ready_s: f64,
+    /// A position estimate at all (false: a BlueROV2 with only its depth sensor).
+    pub position_estimate: bool,
+    /// Sea floor depth. Unit: m (SITL: 50).
+    pub bottom_m: f64,
+    /// WPNAV_SPEED_DN / WPNAV_SPEED_UP. Unit: m/s.
+    pub speed_dn: f64,
+    pub speed_up: f64,
+    /// Vertical acceleration limit (PILOT_ACCEL_Z 200 cm/s²). Unit: m/s².
+    pub accel_z: f64,
+    /// Depth controller gain: commanded vertical speed per metre of error. Unit: 1/s.
+    pub depth_gain: f64,
+    /// A position-only target's vertical acceleration from rest, restarted at each arrival. m/s².
+    pub wp_accel_z: f64,
+    /// WPNAV_SPEED. Unit: m/s.
+    pub wp_speed: f64,
+    /// Horizontal speed at MANUAL_CONTROL x = 1000. Unit: m/s (SITL, JS_GAIN 0.5: 1.04).
+    pub thrust_full_mps: f64,
+    /// Turn rate (AUTO_YAW_SLEW_RATE 60°/s caps it). Unit: deg/s.
+    pub hdg_rate: f64,
+    /// Horizontal acceleration. Unit: m/s².
+    pub accel: f64,
+    /// FS_GCS_ENABLE = 2 (disarm) after FS_GCS_TIMEOUT s.
+    pub gcs_failsafe_s: Option<f64>,
+    /// FS_PILOT_INPUT = 2 (disarm) after FS_PILOT_TIMEOUT s, when no RC feeds it (a BlueROV2;
+    /// SITL feeds neutral RC and never trips: None).
+    pub pilot_failsafe_s: Option<f64>,
+    /// FS_LEAK_ENABLE = 2: a leak switches an armed vehicle to SURFACE (1: warn only).
+    pub leak_surfaces: bool,
+    /// Rise rate of a disarmed vehicle. Unit: m/s (SITL: about 0.1).
+    pub float_up: f64,
+}
+
+impl Default for SubOptions {
+    fn default() -> Self {
+        Self {
+            lat: 42.358456,
+            lon: -71.087589,
+            system_id: 1,
+            component_id: 1,
+            gcs_sysid: 255,
+            init_s: 1.0,
+            ekf_ready_s: 5.0,
+            position_estimate: true,
+            bottom_m: 50.0,
+            speed_dn: 1.5,
+            speed_up: 2.5,
+            accel_z: 2.0,
+            depth_gain: 1.0,
+            wp_accel_z: 0.25,
+            wp_speed: 1.0,
+            thrust_full_mps: 1.04,
+            hdg_rate: 45.0,
+            accel: 0.5,
+            gcs_failsafe_s: Some(5.0),
+            pilot_failsafe_s: Some(3.0),
+            leak_surfaces: false,
+            float_up: 0.1,
+        }
+    }
+}
+
+/// What the emulated Sub saw and did.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct SubStats {
+    pub frames_in: u64,
+    pub bad_input: u64,
+    pub gcs_heartbeats: u64,
+    pub manual_controls: u64,
+    pub commands: u64,
+    pub targets_followed: u64,
+    /// Dropped without a word: outside GUIDED, another system, a non-ignored acceleration, an
+    /// unsupported frame.
+    pub targets_dropped: u64,
+    /// GLOBAL_INT targets whose yaw GUIDED ignored.
+    pub yaw_ignored: u64,
+    pub attitude_targets: u64,
+    pub target_timeouts: u64,
+    pub wp_restarts: u64,
+    pub gcs_failsafes: u64,
+    pub pilot_failsafes: u64,
+    pub statustexts: Vec<String>,
+    pub last_target: Option<SubTarget>,
+}
+
+/// Streamed messages the emulator can send, by id.
+const STREAMABLE: [u32; 11] = [
+    HEARTBEAT_DATA::ID,
+    GLOBAL_POSITION_INT_DATA::ID,
+    LOCAL_POSITION_NED_DATA::ID,
+    ATTITUDE_DATA::ID,
+    VFR_HUD_DATA::ID,
+    SYS_STATUS_DATA::ID,
+    GPS_RAW_INT_DATA::ID,
+    EKF_STATUS_REPORT_DATA::ID,
+    SCALED_PRESSURE_DATA::ID,
+    SCALED_PRESSURE2_DATA::ID,
+    STATUSTEXT_DATA::ID,
+];
+const MIN_INTERVAL_S: f64 = 0.01;
+const MAX_TEXTS: usize = 64;
+/// RC_OVERRIDE_TIME: a pilot input lasts this long.
+const RC_OVERRIDE_S: f64 = 3.0;
+/// Surface pressure and its rise per metre of water (ardusub.md: ≈ 99 hPa/m). Unit: hPa.
+const SURFACE_HPA: f64 = 1023.0;
+const HPA_PER_M: f64 = 99.1;
+/// A leak is repeated this often (FS_LEAK_ENABLE 1).
+const LEAK_REPEAT_S: f64 = 20.0;
+
+/// What GUIDED is following.
+#[derive(Debug, Clone, PartialEq)]
+enum Guided {
+    /// Velocity north/east (m/s), optional depth, optional yaw (deg), from when.
+    Velocity {
+        vel: (f64, f64),
+        depth: Option<f64>,
+        vz: f64,
+        yaw: Option<f64>,
+        at: f64,
+    },
+    /// Drive to a point; the vertical trajectory restarts at `at`.
+    Waypoint {
+        north: f64,
+        east: f64,
+        depth: f64,
+        yaw: Option<f64>,
+        at: f64,
+    },
+}
+
+pub struct SubSession {
+    opts: SubOptions,
+    vehicle: Vehicle,
+    tx: Sender,
+    deframer: Deframer,
+    t: f64,
+    mode: u32,
+    armed: bool,
+    intervals: BTreeMap<u32, (f64, f64)>,
+    /// Vertical speed, m/s down.
+    w: f64,
+    depth_target: f64,
+    heading_hold: f64,
+    guided: Option<Guided>,
+    /// ALT_HOLD: (heading, when) of the last attitude target.
+    attitude: Option<(f64, f64)>,
+    /// Pilot input: (x, z, when).
+    manual: Option<(i16, i16, f64)>,
+    gcs_seen: Option<f64>,
+    gcs_failsafe: bool,
+    pilot_seen: Option<f64>,
+    armed_at: f64,
+    pilot_failsafe: bool,
+    leak: Option<f64>,
+    /// relative_alt's zero (home), re-set at each arming.
+    home_depth: f64,
+    pub stats: SubStats,
+}
+
+impl SubSession {
+    pub fn new(opts: SubOptions) -> Self {
+        let mut intervals = BTreeMap::new();
+        intervals.insert(HEARTBEAT_DATA::ID, (1.0, f64::NEG_INFINITY));
+        let limits = Limits {
+            accel: opts.accel,
+            hdg_rate: opts.hdg_rate,
+            // Depth is ours (below): the model's own depth stays where we put it.
+            z_rate: 0.0,
+        };
+        Self {
+            vehicle: Vehicle::new(opts.lat, opts.lon, limits, (0.0, 0.0)),
+            tx: Sender::new(opts.system_id, opts.component_id),
+            deframer: Deframer::new(),
+            t: 0.0,
+            mode: sub::MANUAL,
+            armed: false,
+            intervals,
+            w: 0.0,
+            depth_target: 0.0,
+            heading_hold: 0.0,
+            guided: None,
+            attitude: None,
+            manual: None,
+            gcs_seen: None,
+            gcs_failsafe: false,
+            pilot_seen: None,
+            armed_at: 0.0,
+            pilot_failsafe: false,
+            leak: None,
+            home_depth: 0.0,
+            stats: SubStats::default(),
+            opts,
+        }
+    }
+
+    pub fn mode(&self) -> u32 {
+        self.mode
+    }
+    pub fn armed(&self) -> bool {
+        self.armed
+    }
+    pub fn vehicle(&self) -> &Vehicle {
+        &self.vehicle
+    }
+    pub fn depth(&self) -> f64 {
+        self.vehicle.depth
+    }
+    pub fn sim_time(&self) -> f64 {
+        self.t
+    }
+    /// Places the vehicle at a depth (tests start from one).
+    pub fn set_depth(&mut self, d: f64) {
+        self.vehicle.depth = d.clamp(0.0, self.opts.bottom_m);
+        self.depth_target = self.vehicle.depth;
+    }
+
+    fn initialising(&self) -> bool {
+        self.t < self.opts.init_s
+    }
+
+    /// The EKF has a horizontal position (GUIDED, AUTO, POSHOLD, CIRCLE may be entered).
+    pub fn position_ok(&self) -> bool {
+        self.opts.position_estimate && self.t >= self.opts.ekf_ready_s
+    }
+
+    fn failsafe(&self) -> bool {
+        self.gcs_failsafe || self.pilot_failsafe || self.leak.is_some()
+    }
+
+    fn send(&mut self, msg: MavMessage, out: &mut Vec<u8>) {
+        out.extend_from_slice(&self.tx.frame(&msg));
+    }
+
+    pub fn statustext(&mut self, severity: MavSeverity, text: &str, out: &mut Vec<u8>) {
+        let cut: String = text.chars().take(50).collect();
+        if self.stats.statustexts.len() < MAX_TEXTS {
+            self.stats.statustexts.push(cut.clone());
+        }
+        self.send(
+            MavMessage::STATUSTEXT(STATUSTEXT_DATA {
+                severity,
+                text: cut.as_str().into(),
+            }),
+            out,
+        );
+    }
+
+    fn needs_position(mode: u32) -> bool {
+        matches!(mode, sub::GUIDED | sub::AUTO | sub::POSHOLD | sub::CIRCLE)
+    }
+
+    fn set_mode(&mut self, mode: u32, out: &mut Vec<u8>) {
+        if mode != self.mode {
+            self.mode = mode;
+            self.guided = None;
+            self.attitude = None;
+            // Every mode starts by holding what it finds.
+            self.depth_target = self.vehicle.depth;
+            self.heading_hold = self.vehicle.heading;
+            self.heartbeat(out);
+        }
+    }
+
+    fn disarm(&mut self, why: &str, out: &mut Vec<u8>) {
+        if self.armed {
+            self.armed = false;
+            self.statustext(MavSeverity::MAV_SEVERITY_INFO, why, out);
+            self.heartbeat(out);
+        }
+    }
+
+    fn heartbeat(&mut self, out: &mut Vec<u8>) {
+        // ardusub.md: 0x51 disarmed, 0x80 added when armed.
+        let mut base = MavModeFlag::MAV_MODE_FLAG_CUSTOM_MODE_ENABLED
+            | MavModeFlag::MAV_MODE_FLAG_STABILIZE_ENABLED
+            | MavModeFlag::MAV_MODE_FLAG_MANUAL_INPUT_ENABLED;
+        if self.armed {
+            base |= MavModeFlag::MAV_MODE_FLAG_SAFETY_ARMED;
+        }
+        let system_status = if self.initialising() {
+            MavState::MAV_STATE_BOOT
+        } else if self.failsafe() {
+            MavState::MAV_STATE_CRITICAL
+        } else if self.armed {
+            MavState::MAV_STATE_ACTIVE
+        } else {
+            MavState::MAV_STATE_STANDBY
+        };
+        let msg = MavMessage::HEARTBEAT(HEARTBEAT_DATA {
+            custom_mode: self.mode,
+            mavtype: MavType::MAV_TYPE_SUBMARINE,
+            autopilot: MavAutopilot::MAV_AUTOPILOT_ARDUPILOTMEGA,
+            base_mode: base,
+            system_status,
+            mavlink_version: 3,
+        });
+        self.send(msg, out);
+    }
+
+    fn ack(&mut self, command: MavCmd, result: MavResult, out: &mut Vec<u8>) {
+        self.send(
+            MavMessage::COMMAND_ACK(COMMAND_ACK_DATA { command, result }),
+            out,
+        );
+    }
+
+    fn for_me(&self, system: u8) -> bool {
+        system == 0 || system == self.opts.system_id
+    }
+
+    fn command(&mut self, c: &COMMAND_LONG_DATA, out: &mut Vec<u8>) {
+        if !self.for_me(c.target_system) {
+            return;
+        }
+        self.stats.commands += 1;
+        let result = match c.command {
+            MavCmd::MAV_CMD_DO_SET_MODE => {
+                let m = c.param2;
+                let valid = (c.param1 as u32) & 1 == 1
+                    && m.is_finite()
+                    && m >= 0.0
+                    && m.fract() == 0.0
+                    && Firmware::Sub.mode_name(m as u32).is_some();
+                if !valid || self.initialising() {
+                    MavResult::MAV_RESULT_FAILED
+                } else if Self::needs_position(m as u32) && !self.position_ok() {
+                    let name = Firmware::Sub.mode_name(m as u32).unwrap_or("mode");
+                    self.statustext(
+                        MavSeverity::MAV_SEVERITY_WARNING,
+                        &format!("Mode change failed: {name} requires position"),
+                        out,
+                    );
+                    MavResult::MAV_RESULT_FAILED
+                } else {
+                    self.set_mode(m as u32, out);
+                    MavResult::MAV_RESULT_ACCEPTED
+                }
+            }
+            MavCmd::MAV_CMD_COMPONENT_ARM_DISARM => {
+                if c.param1 == 1.0 {
+                    if self.initialising() {
+                        self.statustext(
+                            MavSeverity::MAV_SEVERITY_CRITICAL,
+                            "PreArm: AHRS not healthy",
+                            out,
+                        );
+                        MavResult::MAV_RESULT_FAILED
+                    } else {
+                        if !self.armed {
+                            self.armed = true;
+                            self.armed_at = self.t;
+                            // Home moves to here at every arming: relative_alt's zero moves.
+                            self.home_depth = self.vehicle.depth;
+                            self.depth_target = self.vehicle.depth;
+                            self.heading_hold = self.vehicle.heading;
+                            self.statustext(MavSeverity::MAV_SEVERITY_INFO, "Arming motors", out);
+                        }
+                        MavResult::MAV_RESULT_ACCEPTED
+                    }
+                } else if c.param1 == 0.0 {
+                    self.disarm("Disarming motors", out);
+                    MavResult::MAV_RESULT_ACCEPTED
+                } else {
+                    MavResult::MAV_RESULT_DENIED
+                }
+            }
+            MavCmd::MAV_CMD_SET_MESSAGE_INTERVAL => {
+                let (id, us) = (c.param1, c.param2);
+                let known = id.is_finite()
+                    && id >= 0.0
+                    && STREAMABLE.contains(&(id as u32))
+                    && us.is_finite();
+                if !known {
+                    MavResult::MAV_RESULT_FAILED
+                } else {
+                    if us < 0.0 {
+                        self.intervals.remove(&(id as u32));
+                    } else {
+                        let s = if us == 0.0 { 1.0 } else { f64::from(us) * 1e-6 };
+                        self.intervals
+                            .insert(id as u32, (s.max(MIN_INTERVAL_S), f64::NEG_INFINITY));
+                    }
+                    MavResult::MAV_RESULT_ACCEPTED
+                }
+            }
+            // ardusub.md: param2 > 0 sets the WP speed only; 0 is DENIED.
+            MavCmd::MAV_CMD_DO_CHANGE_SPEED => {
+                if c.param2.is_finite() && c.param2 > 0.0 {
+                    self.opts.wp_speed = f64::from(c.param2).min(5.0);
+                    MavResult::MAV_RESULT_ACCEPTED
+                } else {
+                    MavResult::MAV_RESULT_DENIED
+                }
+            }
+            MavCmd::MAV_CMD_CONDITION_YAW if self.mode == sub::GUIDED => {
+                if c.param1.is_finite() {
+                    self.heading_hold = wrap_heading(f64::from(c.param1));
+                    if let Some(Guided::Velocity { yaw, .. } | Guided::Waypoint { yaw, .. }) =
+                        &mut self.guided
+                    {
+                        *yaw = Some(self.heading_hold);
+                    }
+                    MavResult::MAV_RESULT_ACCEPTED
+                } else {
+                    MavResult::MAV_RESULT_DENIED
+                }
+            }
+            _ => MavResult::MAV_RESULT_UNSUPPORTED,
+        };
+        self.ack(c.command, result, out);
+    }
+
+    /// A target GUIDED accepted.
+    fn follow(&mut self, t: SubTarget) {
+        let now = self.t;
+        let g = match &t {
+            SubTarget::PosVel { pos, vel, yaw } => Guided::Velocity {
+                vel: *vel,
+                depth: Some(pos.2),
+                vz: 0.0,
+                yaw: *yaw,
+                at: now,
+            },
+            SubTarget::Vel { vel, yaw } => Guided::Velocity {
+                vel: (vel.0, vel.1),
+                depth: None,
+                vz: vel.2,
+                yaw: *yaw,
+                at: now,
+            },
+            SubTarget::Wp { pos, yaw } => {
+                self.stats.wp_restarts += 1;
+                // The trajectory starts again from rest at each arrival.
+                self.w = 0.0;
+                Guided::Waypoint {
+                    north: pos.0,
+                    east: pos.1,
+                    depth: pos.2,
+                    yaw: *yaw,
+                    at: now,
+                }
+            }
+            SubTarget::Dropped(_) => {
+                self.stats.targets_dropped += 1;
+                return;
+            }
+        };
+        self.stats.targets_followed += 1;
+        self.stats.last_target = Some(t);
+        self.guided = Some(g);
+    }
+
+    fn north_east_down(&mut self) -> (f64, f64, f64) {
+        (self.vehicle.y, self.vehicle.x, self.vehicle.depth)
+    }
+
+    fn local_target(&mut self, p: &SET_POSITION_TARGET_LOCAL_NED_DATA) {
+        if !self.for_me(p.target_system) || self.mode != sub::GUIDED {
+            self.stats.targets_dropped += 1;
+            return;
+        }
+        let frame = p.coordinate_frame as u8;
+        let (pos, vel) = match frame {
+            1 | 7 => ((p.x, p.y, p.z), (p.vx, p.vy, p.vz)),
+            // Body frames: rotated by the yaw at reception.
+            8 | 9 | 12 => {
+                let h = self.vehicle.heading.to_radians() as f32;
+                let rot = |a: f32, b: f32| (a * h.cos() - b * h.sin(), a * h.sin() + b * h.cos());
+                let (px, py) = rot(p.x, p.y);
+                let (vx, vy) = rot(p.vx, p.vy);
+                ((px, py, p.z), (vx, vy, p.vz))
+            }
+            _ => {
+                self.stats.targets_dropped += 1;
+                return;
+            }
+        };
+        let here = self.north_east_down();
+        // Body frames other than BODY_NED add the current position too.
+        let f = if matches!(frame, 9 | 12) { 7 } else { frame };
+        let mut t = infer::interpret_sub_target(p.type_mask.bits(), f, here, pos, vel, p.yaw);
+        // Yaw is relative only in BODY_OFFSET_NED.
+        if frame == 9
+            && let SubTarget::PosVel { yaw: Some(y), .. }
+            | SubTarget::Vel { yaw: Some(y), .. }
+            | SubTarget::Wp { yaw: Some(y), .. } = &mut t
+        {
+            *y = wrap_heading(*y + self.vehicle.heading);
+        }
+        self.follow(t);
+    }
+
+    fn global_target(&mut self, p: &SET_POSITION_TARGET_GLOBAL_INT_DATA) {
+        if !self.for_me(p.target_system) {
+            self.stats.targets_dropped += 1;
+            return;
+        }
+        let mask = p.type_mask.bits();
+        match self.mode {
+            // ALT_HOLD: z alone sets the depth target (alt = −depth); frame and lat/lon ignored.
+            sub::ALT_HOLD if mask & 0b100 == 0 && p.alt.is_finite() => {
+                self.depth_target = (-f64::from(p.alt)).clamp(0.0, self.opts.bottom_m);
+                self.stats.targets_followed += 1;
+            }
+            sub::GUIDED => {
+                // GUIDED ignores the yaw and yaw-rate fields of a GLOBAL_INT target.
+                if mask & (1 << 10) == 0 {
+                    self.stats.yaw_ignored += 1;
+                }
+                let (lat0, lon0) = self.vehicle.origin();
+                let north = (f64::from(p.lat_int) * 1e-7 - lat0) * 111_320.0;
+                let east =
+                    (f64::from(p.lon_int) * 1e-7 - lon0) * 111_320.0 * lat0.to_radians().cos();
+                let t = infer::interpret_sub_target(
+                    mask | (1 << 10),
+                    1,
+                    (0.0, 0.0, 0.0),
+                    (north as f32, east as f32, -p.alt),
+                    (p.vx, p.vy, p.vz),
+                    0.0,
+                );
+                self.follow(t);
+            }
+            _ => self.stats.targets_dropped += 1,
+        }
+    }
+
+    fn attitude_target(&mut self, a: &SET_ATTITUDE_TARGET_DATA) {
+        let mask = a.type_mask.bits();
+        if !self.for_me(a.target_system) || self.mode != sub::ALT_HOLD || mask & 0x40 == 0 {
+            // GUIDED's attitude path (bits 6 and 7 clear) gives no speed: not emulated.
+            self.stats.targets_dropped += 1;
+            return;
+        }
+        if let Some(h) = quaternion_heading(a.q) {
+            self.stats.attitude_targets += 1;
+            self.attitude = Some((h, self.t));
+        }
+    }
+
+    /// HEARTBEAT / MANUAL_CONTROL / RC override from MAV_GCS_SYSID: the GCS failsafe's food.
+    fn gcs_alive(&mut self, out: &mut Vec<u8>) {
+        self.gcs_seen = Some(self.t);
+        if self.gcs_failsafe {
+            self.gcs_failsafe = false;
+            self.statustext(
+                MavSeverity::MAV_SEVERITY_CRITICAL,
+                "GCS Failsafe Cleared",
+                out,
+            );
+        }
+    }
+
+    fn pilot_input(&mut self, x: i16, z: i16, out: &mut Vec<u8>) {
+        self.pilot_seen = Some(self.t);
+        self.manual = Some((x.clamp(-1000, 1000), z.clamp(0, 1000), self.t));
+        if self.pilot_failsafe {
+            self.pilot_failsafe = false;
+            self.statustext(
+                MavSeverity::MAV_SEVERITY_CRITICAL,
+                "Manual control regained",
+                out,
+            );
+        }
+    }
+
+    fn handle(&mut self, sender: u8, msg: MavMessage, out: &mut Vec<u8>) {
+        let gcs = sender == self.opts.gcs_sysid;
+        match msg {
+            MavMessage::HEARTBEAT(_) if gcs => {
+                self.stats.gcs_heartbeats += 1;
+                self.gcs_alive(out);
+            }
+            // Accepted only from MAV_GCS_SYSID with target = MAV_SYSID.
+            MavMessage::MANUAL_CONTROL(m) if gcs && m.target == self.opts.system_id => {
+                self.stats.manual_controls += 1;
+                self.gcs_alive(out);
+                self.pilot_input(m.x, m.z, out);
+                // Buttons fire BTNn_FUNCTION: BTN4 disarm, BTN6 arm (defaults).
+                if m.buttons & (1 << 4) != 0 {
+                    self.disarm("Disarming motors", out);
+                }
+            }
+            MavMessage::RC_CHANNELS_OVERRIDE(r) if gcs && self.for_me(r.target_system) => {
+                self.gcs_alive(out);
+                let x = (i32::from(r.chan5_raw) - 1500).clamp(-500, 500) * 2;
+                let z = (i32::from(r.chan3_raw) - 1000).clamp(0, 1000);
+                self.pilot_input(x as i16, z as i16, out);
+            }
+            MavMessage::COMMAND_LONG(c) => self.command(&c, out),
+            MavMessage::SET_POSITION_TARGET_LOCAL_NED(p) => self.local_target(&p),
+            MavMessage::SET_POSITION_TARGET_GLOBAL_INT(p) => self.global_target(&p),
+            MavMessage::SET_ATTITUDE_TARGET(a) => self.attitude_target(&a),
+            _ => {}
+        }
+    }
+
+    /// The pilot (a joystick button, QGroundControl) selects a mode.
+    pub fn pilot_sets_mode(&mut self, mode: u32, out: &mut Vec<u8>) {
+        self.set_mode(mode, out);
+    }
+
+    /// A leak detector trips (FS_LEAK_ENABLE 1 warns; with `leak_surfaces`, SURFACE if armed).
+    pub fn inject_leak(&mut self, out: &mut Vec<u8>) {
+        self.leak = Some(self.t);
+        self.statustext(MavSeverity::MAV_SEVERITY_CRITICAL, "Leak Detected", out);
+        if self.opts.leak_surfaces && self.armed {
+            self.set_mode(sub::SURFACE, out);
+        }
+        self.heartbeat(out);
+    }
+
+    fn failsafes(&mut self, out: &mut Vec<u8>) {
+        if let (Some(limit), Some(seen)) = (self.opts.gcs_failsafe_s, self.gcs_seen)
+            && self.armed
+            && !self.gcs_failsafe
+            && self.t - seen > limit
+        {
+            self.gcs_failsafe = true;
+            self.stats.gcs_failsafes += 1;
+            let text = format!("MYGCS: {}, heartbeat lost", self.opts.gcs_sysid);
+            self.statustext(MavSeverity::MAV_SEVERITY_CRITICAL, &text, out);
+            self.disarm("Disarming motors", out);
+        }
+        if let Some(limit) = self.opts.pilot_failsafe_s
+            && self.armed
+            && !self.pilot_failsafe
+            && self.t - self.pilot_seen.unwrap_or(0.0).max(self.armed_at) > limit
+        {
+            self.pilot_failsafe = true;
+            self.stats.pilot_failsafes += 1;
+            self.statustext(
+                MavSeverity::MAV_SEVERITY_CRITICAL,
+                "Lost manual control",
+                out,
+            );
+            self.disarm("Disarming motors", out);
+        }
+        if let Some(since) = self.leak
+            && self.t - since >= LEAK_REPEAT_S
+        {
+            self.leak = Some(self.t);
+            self.statustext(MavSeverity::MAV_SEVERITY_CRITICAL, "Leak Detected", out);
+        }
+    }
+
+    /// The pilot's forward input (m/s), while its override lasts.
+    fn pilot_forward(&self) -> f64 {
+        match self.manual {
+            Some((x, _, at)) if self.t - at <= RC_OVERRIDE_S => {
+                f64::from(x) / 1000.0 * self.opts.thrust_full_mps
+            }
+            _ => 0.0,
+        }
+    }
+
+    /// Heading, horizontal speed, and the depth controller's (target, max down, max up).
+    fn control(&mut self, out: &mut Vec<u8>) -> (f64, f64, f64, f64, f64) {
+        let (dn, up) = (self.opts.speed_dn, self.opts.speed_up);
+        let here = self.vehicle.heading;
+        if !self.armed {
+            // Positive buoyancy: a disarmed vehicle floats up.
+            return (here, 0.0, 0.0, -self.opts.float_up, self.opts.float_up);
+        }
+        match self.mode {
+            sub::GUIDED => {
+                let timed_out = match &self.guided {
+                    Some(Guided::Velocity { at, .. }) => self.t - at >= SUB_TARGET_TIMEOUT_S,
+                    _ => false,
+                };
+                if timed_out {
+                    // Velocity zeroed; depth and heading held (no STATUSTEXT).
+                    self.stats.target_timeouts += 1;
+                    if let Some(Guided::Velocity { depth, yaw, .. }) = self.guided.take() {
+                        self.depth_target = depth.unwrap_or(self.vehicle.depth);
+                        self.heading_hold = yaw.unwrap_or(here);
+                    }
+                }
+                match self.guided.clone() {
+                    Some(Guided::Velocity {
+                        vel,
+                        depth,
+                        vz,
+                        yaw,
+                        ..
+                    }) => {
+                        if let Some(y) = yaw {
+                            self.heading_hold = y;
+                        }
+                        let speed = vel.0.hypot(vel.1);
+                        let target = match depth {
+                            Some(d) => d,
+                            None => self.vehicle.depth + vz,
+                        };
+                        self.depth_target = target;
+                        (self.heading_hold, speed, target, dn, up)
+                    }
+                    Some(Guided::Waypoint {
+                        north,
+                        east,
+                        depth,
+                        yaw,
+                        at,
+                    }) => {
+                        let (n, e, _) = self.north_east_down();
+                        let (dn_, de) = (north - n, east - e);
+                        let dist = dn_.hypot(de);
+                        let bearing = wrap_heading(de.atan2(dn_).to_degrees());
+                        let heading = yaw.unwrap_or(if dist > 1.0 { bearing } else { here });
+                        let speed = if dist > 1.0 { self.opts.wp_speed } else { 0.0 };
+                        // The restarted trajectory: vertical speed grows from rest.
+                        let ramp = self.opts.wp_accel_z * (self.t - at);
+                        self.depth_target = depth;
+                        (heading, speed, depth, ramp.min(dn), ramp.min(up))
+                    }
+                    None => (self.heading_hold, 0.0, self.depth_target, dn, up),
+                }
+            }
+            sub::ALT_HOLD => {
+                let heading = match self.attitude {
+                    Some((h, at)) if self.t - at <= SUB_ATTITUDE_TIMEOUT_S => h,
+                    _ => self.heading_hold,
+                };
+                (heading, self.pilot_forward(), self.depth_target, dn, up)
+            }
+            sub::SURFACE => {
+                if self.vehicle.depth <= 0.05 {
+                    self.set_mode(sub::ALT_HOLD, out);
+                }
+                (here, 0.0, 0.0, dn, up)
+            }
+            // MANUAL, STABILIZE, ACRO: the pilot's thrust; depth holds (neutral buoyancy).
+            _ => (here, self.pilot_forward(), self.depth_target, dn, up),
+        }
+    }
+
+    fn drive(&mut self, dt: f64, out: &mut Vec<u8>) {
+        self.failsafes(out);
+        let (heading, speed, target, max_dn, max_up) = self.control(out);
+        let target = target.clamp(0.0, self.opts.bottom_m);
+        let want_w = if self.armed {
+            (self.opts.depth_gain * (target - self.vehicle.depth)).clamp(-max_up, max_dn)
+        } else {
+            -self.opts.float_up
+        };
+        let dw = (want_w - self.w).clamp(-self.opts.accel_z * dt, self.opts.accel_z * dt);
+        self.w += dw;
+        let mut d = self.vehicle.depth + self.w * dt;
+        if d <= 0.0 {
+            d = 0.0;
+            self.w = self.w.max(0.0);
+        } else if d >= self.opts.bottom_m {
+            d = self.opts.bottom_m;
+            self.w = self.w.min(0.0);
+        }
+        self.vehicle.depth = d;
+        self.vehicle.set_setpoint(Setpoint {
+            heading,
+            speed,
+            depth: d,
+        });
+        self.vehicle.step(dt);
+    }
+
+    fn stream(&mut self, id: u32, out: &mut Vec<u8>) {
+        let boot_ms = (self.t * 1000.0) as u32;
+        let (n, e, depth) = self.north_east_down();
+        let pos = self.position_ok();
+        let (lat, lon) = if self.initialising() {
+            (0.0, 0.0)
+        } else {
+            self.vehicle.lat_lon()
+        };
+        let v = &self.vehicle;
+        let h = v.heading.to_radians();
+        let (vn, ve) = (v.speed * h.cos(), v.speed * h.sin());
+        let hdg_cd = (v.heading * 100.0).round() as u16 % 36000;
+        let w = self.w;
+        let msg = match id {
+            HEARTBEAT_DATA::ID => return self.heartbeat(out),
+            GLOBAL_POSITION_INT_DATA::ID => {
+                MavMessage::GLOBAL_POSITION_INT(GLOBAL_POSITION_INT_DATA {
+                    time_boot_ms: boot_ms,
+                    lat: (lat * 1e7).round() as i32,
+                    lon: (lon * 1e7).round() as i32,
+                    alt: (-depth * 1000.0) as i32,
+                    // Home (its zero) was re-set at arming.
+                    relative_alt: (-(depth - self.home_depth) * 1000.0) as i32,
+                    vx: (vn * 100.0).round() as i16,
+                    vy: (ve * 100.0).round() as i16,
+                    vz: (w * 100.0).round() as i16,
+                    hdg: hdg_cd,
+                })
+            }
+            LOCAL_POSITION_NED_DATA::ID => {
+                MavMessage::LOCAL_POSITION_NED(LOCAL_POSITION_NED_DATA {
+                    time_boot_ms: boot_ms,
+                    x: n as f32,
+                    y: e as f32,
+                    z: depth as f32,
+                    vx: vn as f32,
+                    vy: ve as f32,
+                    vz: w as f32,
+                })
+            }
+            ATTITUDE_DATA::ID => {
+                let yaw = if v.heading > 180.0 {
+                    v.heading - 360.0
+                } else {
+                    v.heading
+                };
+                MavMessage::ATTITUDE(ATTITUDE_DATA {
+                    time_boot_ms: boot_ms,
+                    // A vectored frame dives level; a little nose-down while descending.
+                    pitch: (-0.05 * w) as f32,
+                    yaw: yaw.to_radians() as f32,
+                    ..Default::default()
+                })
+            }
+            VFR_HUD_DATA::ID => MavMessage::VFR_HUD(VFR_HUD_DATA {
+                airspeed: 0.0,
+                groundspeed: v.speed.abs() as f32,
+                alt: -depth as f32,
+                climb: -w as f32,
+                heading: (hdg_cd / 100) as i16,
+                throttle: 0,
+            }),
+            SYS_STATUS_DATA::ID => {
+                let depth_sensor = MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_ABSOLUTE_PRESSURE;
+                let present = MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_3D_GYRO
+                    | MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_3D_ACCEL
+                    | MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_3D_MAG
+                    | depth_sensor;
+                MavMessage::SYS_STATUS(SYS_STATUS_DATA {
+                    onboard_control_sensors_present: present,
+                    onboard_control_sensors_enabled: present,
+                    onboard_control_sensors_health: present,
+                    load: 100,
+                    voltage_battery: 16_000,
+                    current_battery: 300,
+                    battery_remaining: 90,
+                    ..Default::default()
+                })
+            }
+            GPS_RAW_INT_DATA::ID => MavMessage::GPS_RAW_INT(GPS_RAW_INT_DATA {
+                time_usec: (self.t * 1e6) as u64,
+                lat: (lat * 1e7).round() as i32,
+                lon: (lon * 1e7).round() as i32,
+                fix_type: if pos {
+                    GpsFixType::GPS_FIX_TYPE_RTK_FIXED
+                } else {
+                    GpsFixType::GPS_FIX_TYPE_NO_GPS
+                },
+                eph: 121,
+                epv: 200,
+                satellites_visible: if pos { 10 } else { 0 },
+                ..Default::default()
+            }),
+            EKF_STATUS_REPORT_DATA::ID => {
+                let flags = if self.initialising() {
+                    EkfStatusFlags::EKF_UNINITIALIZED.bits()
+                } else if pos {
+                    EKF_READY
+                } else {
+                    // Attitude, velocities and depth; constant position.
+                    0x00A7
+                };
+                MavMessage::EKF_STATUS_REPORT(EKF_STATUS_REPORT_DATA {
+                    velocity_variance: 0.02,
+                    pos_horiz_variance: 0.01,
+                    pos_vert_variance: 0.01,
+                    compass_variance: 0.02,
+                    terrain_alt_variance: 0.0,
+                    flags: EkfStatusFlags::from_bits_retain(flags),
+                })
+            }
+            // SITL makes every baro a water sensor; a BlueROV2's Bar30 is instance 1.
+            SCALED_PRESSURE_DATA::ID | SCALED_PRESSURE2_DATA::ID => {
+                let p = (SURFACE_HPA + HPA_PER_M * depth) as f32;
+                if id == SCALED_PRESSURE_DATA::ID {
+                    MavMessage::SCALED_PRESSURE(SCALED_PRESSURE_DATA {
+                        time_boot_ms: boot_ms,
+                        press_abs: p,
+                        temperature: 1500,
+                        ..Default::default()
+                    })
+                } else {
+                    MavMessage::SCALED_PRESSURE2(SCALED_PRESSURE2_DATA {
+                        time_boot_ms: boot_ms,
+                        press_abs: p,
+                        press_diff: 0.0,
+                        temperature: 1500,
+                    })
+                }
+            }
+            _ => return,
+        };
+        self.send(msg, out);
+    }
+}
+
+impl Session for SubSession {
+    fn on_bytes(&mut self, bytes: &[u8], out: &mut Vec<u8>) {
+        let mut frames = Vec::new();
+        let mut bad = 0;
+        self.deframer.feed(bytes, &mut |r| match r {
+            Ok(f) => frames.push(f),
+            Err(_) => bad += 1,
+        });
+        self.stats.bad_input += bad;
+        for f in frames {
+            match decode(&f) {
+                Ok((h, msg)) => {
+                    self.stats.frames_in += 1;
+                    self.handle(h.system_id, msg, out);
+                }
+                Err(_) => self.stats.bad_input += 1,
+            }
+        }
+    }
+
+    fn step(&mut self, dt: f64, out: &mut Vec<u8>) {
+        let was_init = self.initialising();
+        self.t += dt;
+        if was_init && !self.initialising() {
+            self.statustext(
+                MavSeverity::MAV_SEVERITY_INFO,
+                "ArduSub V4.7.0-dev (emulated)",
+                out,
+            );
+        }
+        self.drive(dt, out);
+        let due: Vec<u32> = self
+            .intervals
+            .iter()
+            .filter(|(_, (every, last))| self.t - last >= every - 1e-9)
+            .map(|(id, _)| *id)
+            .collect();
+        for id in due {
+            if let Some(e) = self.intervals.get_mut(&id) {
+                e.1 = self.t;
+            }
+            self.stream(id, out);
+        }
+    }
+
+    fn reset_input(&mut self) {
+        self.deframer = Deframer::new();
+    }
+}
+
+/// The signed heading error from `from` to `to`, degrees (for tests and the demo's figures).
+pub fn heading_error(from: f64, to: f64) -> f64 {
+    short_turn(from, to)
+}

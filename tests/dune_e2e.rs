@@ -56,7 +56,7 @@ async fn the_demo_helm_flies_the_triangle_at_depth_through_the_dune_driver() {
     let params = DemoParams {
         east_s: 40.0,
         south_s: 40.0,
-        depth: 2.0,
+        depths: [2.0; 3],
         max_s: 400.0,
         ..Default::default()
     };

@@ -12,17 +12,28 @@ fn parse_message<T: frontseat_config::ServiceConfig + std::fmt::Debug>(text: &st
 
 #[test]
 fn a_key_at_the_top_level_that_moved_into_a_table_names_its_new_place() {
-    let msg = parse_message::<InterfaceConfig>("name = \"auv1\"\ntcp_port = 54321\n");
+    let msg =
+        parse_message::<InterfaceConfig>("name = \"auv1\"\nhuxley_tcp_address = \"10.0.0.2\"\n");
     assert!(
-        msg.starts_with("old.toml:2:1: unknown field `tcp_port`"),
+        msg.starts_with("old.toml:2:1: unknown field `huxley_tcp_address`"),
         "{msg}"
     );
     assert!(
-        msg.contains("This version has `tcp_port` at `driver.basic_simulator.tcp_port`"),
+        msg.contains(
+            "This version has `huxley_tcp_address` at `driver.bluefin.huxley_tcp_address`:"
+        ),
         "{msg}"
     );
     assert!(msg.contains("older version"), "{msg}");
-    assert!(msg.contains("Move it to [driver.basic_simulator]"), "{msg}");
+    assert!(msg.contains("Move it to [driver.bluefin]"), "{msg}");
+}
+
+#[test]
+fn a_key_with_several_homes_names_each() {
+    let msg = parse_message::<InterfaceConfig>("tcp_port = 54321\n");
+    assert!(msg.contains("unknown field `tcp_port`"), "{msg}");
+    assert!(msg.contains("`driver.basic_simulator.tcp_port`"), "{msg}");
+    assert!(msg.contains("`goby3.tcp_port`"), "{msg}");
 }
 
 #[test]

@@ -16,9 +16,15 @@ bin_dir="${1:?usage: test-package.sh BIN_DIR}"
 bin_dir="$(cd "$bin_dir" && pwd)"
 [ "$(id -u)" = 0 ] || { echo "test-package.sh: needs root (dpkg -i)" >&2; exit 2; }
 if dpkg-query -W -f='${Status}' frontseat 2>/dev/null | grep -qE 'installed|config-files'; then
-  # A run that was killed before its cleanup: the package on this test machine is our own.
-  echo "test-package.sh: purging a frontseat package left by an earlier run"
-  dpkg -P frontseat
+  # Under CI, a run killed before its cleanup left it: the machine is CI's own. Elsewhere it may
+  # be someone's installation: refuse.
+  if [ "${CI:-}" = true ]; then
+    echo "test-package.sh: purging a frontseat package left by an earlier run"
+    dpkg -P frontseat
+  else
+    echo "test-package.sh: a frontseat package is installed here; remove it first (dpkg -P frontseat)" >&2
+    exit 2
+  fi
 fi
 
 fail() { echo "test-package.sh: FAILED: $*" >&2; exit 1; }

@@ -337,6 +337,8 @@ fn the_link_finder_sees_links_and_skips_code() {
 fn run_bin(args: &[&str]) -> String {
     let out = Command::new(BIN)
         .args(args)
+        // The help's width, should clap ever wrap to the terminal: the same everywhere.
+        .env("COLUMNS", "100")
         .env("NO_COLOR", "1")
         .env_remove("RUST_LOG")
         .stdin(Stdio::null())

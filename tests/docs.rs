@@ -14,7 +14,9 @@
 //! with this build's `frontseat` first on PATH; the lines under a command are its output (stdout
 //! and stderr together). `...` alone on a line matches any number of lines, `[..]` any text
 //! within a line; `? N` right under a command expects exit code N (default 0). Commands that
-//! serve until stopped belong in ```sh blocks, which are not run.
+//! serve until stopped belong in ```sh blocks, which are not run. A ```toml block with
+//! `<!-- check: interface -->` (or another service) on the line above must pass that service's
+//! `--check`.
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::io::Read;
@@ -252,6 +254,73 @@ fn the_matcher_can_fail() {
     assert_eq!(blocks[0][0].code, 3);
     assert_eq!(blocks[0][0].expected, vec!["x"]);
     assert_eq!(blocks[0][1].command, "true");
+}
+
+/// ```toml blocks marked `<!-- check: SERVICE -->` on the line above: (line, service, text).
+fn checked_toml_blocks(text: &str) -> Vec<(usize, String, String)> {
+    let lines: Vec<&str> = text.lines().collect();
+    let mut out = Vec::new();
+    let mut i = 0;
+    while i < lines.len() {
+        let service = lines[i]
+            .trim()
+            .strip_prefix("<!-- check: ")
+            .and_then(|r| r.strip_suffix(" -->"));
+        if let Some(service) = service
+            && lines.get(i + 1).map(|l| l.trim()) == Some("```toml")
+        {
+            let body: Vec<&str> = lines[i + 2..]
+                .iter()
+                .take_while(|l| l.trim() != "```")
+                .copied()
+                .collect();
+            out.push((i + 2, service.to_string(), body.join("\n") + "\n"));
+            i += body.len() + 2;
+        }
+        i += 1;
+    }
+    out
+}
+
+#[test]
+fn only_marked_toml_blocks_are_checked() {
+    let t = "<!-- check: sim -->\n```toml\nport = 1\n```\n```toml\nx = 1\n```\n";
+    let found = checked_toml_blocks(t);
+    assert_eq!(found.len(), 1);
+    assert_eq!(found[0].1, "sim");
+    assert_eq!(found[0].2, "port = 1\n");
+}
+
+/// A config shown as a complete file loads: `frontseat SERVICE --check` passes on it.
+#[test]
+fn shown_configs_pass_check() {
+    let mut failures = Vec::new();
+    let mut checked = 0;
+    let dir = std::env::temp_dir().join(format!("frontseat-docs-toml-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    for file in markdown_files() {
+        let text = std::fs::read_to_string(&file).unwrap();
+        for (line, service, body) in checked_toml_blocks(&text) {
+            checked += 1;
+            let path = dir.join("shown.toml");
+            std::fs::write(&path, &body).unwrap();
+            let out = Command::new(BIN)
+                .args([service.as_str(), "--check", "-c"])
+                .arg(&path)
+                .output()
+                .unwrap();
+            if !out.status.success() {
+                failures.push(format!(
+                    "{}:{line}: `frontseat {service} --check` refuses the config shown:\n{}",
+                    rel(&file),
+                    String::from_utf8_lossy(&out.stderr)
+                ));
+            }
+        }
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+    assert!(checked >= 5, "only {checked} checked configs found");
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -1,8 +1,7 @@
 //! The errors a newcomer meets first say what to do: a service started without its config points
 //! at `--example_config`; a simulator port already taken names the port and the setting; a config
-//! from an older version names where the field lives now. (A serial port without permission names
-//! the `dialout` group: `actors/src/link/serial.rs`'s test, since root, which runs CI, is never
-//! refused a device.) Real processes, real sockets on loopback.
+//! from an older version names where the field lives now; a serial port the process may not open
+//! names the `dialout` group. Real processes, real sockets on loopback, a real open(2) refused.
 
 use std::process::{Command, Stdio};
 
@@ -97,4 +96,79 @@ fn a_config_from_an_older_version_names_where_the_field_moved() {
         "{err}"
     );
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn a_serial_port_without_permission_names_the_dialout_group() {
+    use std::io::BufRead;
+    use std::os::unix::fs::PermissionsExt;
+    let dir = temp("serial");
+    // A device node nobody may open: mode 000. Root (CI) is refused it only without the
+    // capabilities that bypass file permissions, so the interface runs without them.
+    let port = dir.join("ttyUSB-denied");
+    std::fs::write(&port, b"").unwrap();
+    std::fs::set_permissions(&port, std::fs::Permissions::from_mode(0o000)).unwrap();
+    let cfg = dir.join("iver.toml");
+    std::fs::write(
+        &cfg,
+        format!(
+            "name = \"auv1\"\n[driver]\nname = \"iver3\"\n[driver.iver3]\nserial_port = \"{}\"\nremote_helm_version_major = 5\n",
+            port.display()
+        ),
+    )
+    .unwrap();
+    let is_root = std::fs::metadata("/proc/self").map(|m| {
+        use std::os::unix::fs::MetadataExt;
+        m.uid() == 0
+    });
+    let mut cmd = if is_root.unwrap_or(false) {
+        let mut c = Command::new("setpriv");
+        c.args(["--bounding-set", "-dac_override,-dac_read_search", "--"])
+            .arg(BIN);
+        c
+    } else {
+        Command::new(BIN)
+    };
+    let mut child = cmd
+        .args(["interface", "-c"])
+        .arg(&cfg)
+        .env("RUST_LOG", "warn")
+        .env("NO_COLOR", "1")
+        .stdin(Stdio::null())
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("setpriv (util-linux) and the binary");
+    let stderr = child.stderr.take().unwrap();
+    let (tx, rx) = std::sync::mpsc::channel();
+    std::thread::spawn(move || {
+        for line in std::io::BufReader::new(stderr)
+            .lines()
+            .map_while(Result::ok)
+        {
+            if tx.send(line).is_err() {
+                break;
+            }
+        }
+    });
+    let deadline = std::time::Instant::now() + std::time::Duration::from_secs(30);
+    let mut hint = None;
+    while let Some(left) = deadline.checked_duration_since(std::time::Instant::now()) {
+        match rx.recv_timeout(left) {
+            Ok(line) if line.contains("permission denied") => {
+                hint = Some(line);
+                break;
+            }
+            Ok(_) => {}
+            Err(_) => break,
+        }
+    }
+    let _ = child.kill();
+    let _ = child.wait();
+    let _ = std::fs::remove_dir_all(&dir);
+    let hint = hint.expect("no WARN about the refused serial port within 30 s");
+    assert!(hint.contains("WARN"), "{hint}");
+    assert!(hint.contains(&port.display().to_string()), "{hint}");
+    assert!(hint.contains("`dialout` group"), "{hint}");
+    assert!(hint.contains("usermod -aG dialout"), "{hint}");
 }

@@ -44,8 +44,10 @@ for b in frontseat frontseat-bench frontseat-chaos; do
 done
 start=$(date +%s)
 # --fast: lighter compression; this package is installed once and thrown away.
-CARGO_TARGET_DIR="$work/target" cargo deb --no-build --fast --output "$work/frontseat.deb"
-deb="$work/frontseat.deb"
+mkdir -p "$work/out"
+CARGO_TARGET_DIR="$work/target" cargo deb --no-build --fast --output "$work/out/"
+deb="$(ls "$work"/out/frontseat_*.deb)"
+ddeb="$(ls "$work"/out/frontseat-dbgsym_*.ddeb)" || fail "no -dbgsym package"
 echo "package: $(du -h "$deb" | cut -f1) ($(( $(date +%s) - start )) s to build)"
 dpkg-deb --info "$deb" | grep -E '^ (Package|Version|Architecture|Depends|Installed-Size):'
 dpkg-deb --contents "$deb" | awk '{print $6}' | sed 's#^\./#/#' > "$work/contents"
@@ -63,7 +65,11 @@ stripped=$(stat -c %s /usr/bin/frontseat)
 echo "frontseat binary: $((unstripped / 1048576)) MiB built, $((stripped / 1048576)) MiB installed"
 if file /usr/bin/frontseat 2>/dev/null | grep -q 'not stripped'; then fail "/usr/bin/frontseat is not stripped"; fi
 [ "$stripped" -lt "$unstripped" ] || fail "/usr/bin/frontseat is no smaller than the built binary"
-grep -q '^/usr/lib/debug/' "$work/contents" || fail "no separate debug symbols in the package"
+# The debug info is in the -dbgsym package, not in this one.
+if grep -q '^/usr/lib/debug/' "$work/contents"; then fail "debug symbols inside the main package"; fi
+dpkg-deb --contents "$ddeb" > "$work/ddeb-contents"
+grep -q '/usr/lib/debug/.build-id/.*\.debug' "$work/ddeb-contents" || fail "no debug symbols in $ddeb"
+echo "dbgsym package: $(du -h "$ddeb" | cut -f1)"
 
 # The units, where Debian puts them, verified against the installed binary.
 units=(frontseat-interface.service frontseat-sim.service frontseat-moos-gateway.service

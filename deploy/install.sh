@@ -124,12 +124,14 @@ if [ "$system_actions" = 1 ] && ! id frontseat >/dev/null 2>&1; then
   else
     useradd --system --home-dir /var/lib/frontseat --no-create-home \
       --shell /usr/sbin/nologin --comment "frontseat services" frontseat
+    # Serial vehicles: dialout owns the ports (sysusers' `m frontseat dialout` line does this).
+    if getent group dialout >/dev/null; then usermod -a -G dialout frontseat; fi
   fi
-  echo "  created user frontseat"
+  echo "  created user frontseat (in group dialout)"
 fi
 
 install -d -m 0755 "$destdir$confdir"
-for service in interface sim moos-gateway; do
+for service in interface sim moos-gateway topside; do
   target="$confdir/$service.toml"
   if [ -e "$destdir$target" ]; then
     echo "  $target exists: kept as it is (the current example: $binary $service --example_config)"

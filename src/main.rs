@@ -12,6 +12,7 @@ mod bluefin_sim;
 mod chaos_args;
 mod chaos_cmd;
 mod demo;
+mod docs_gen;
 mod driver_host;
 mod fleet_demo;
 mod gateway_cmd;
@@ -28,10 +29,23 @@ use std::process::ExitCode;
 
 use clap::{Args, Parser, Subcommand};
 
+/// `frontseat --version`: the crate version, the commit and the build (build.rs), so a field
+/// report names exactly what ran. `-V` and the man pages say the version alone.
+const LONG_VERSION: &str = concat!(
+    env!("CARGO_PKG_VERSION"),
+    "\ncommit: ",
+    env!("FRONTSEAT_BUILD_COMMIT"),
+    "\nbuild: ",
+    env!("FRONTSEAT_BUILD_PROFILE"),
+    ", ",
+    env!("FRONTSEAT_BUILD_DATE"),
+);
+
 #[derive(Parser, Debug)]
 #[command(
     name = "frontseat",
     version,
+    long_version = LONG_VERSION,
     about = "Frontseat/backseat interface for marine robots, wire-compatible with Goby3",
     long_about = "Frontseat/backseat interface for marine robots.\n\n\
         Lets an autonomy engine (the helm, e.g. pHelmIvP) drive a vehicle whose own computer \
@@ -148,6 +162,20 @@ enum Command {
     /// as it was recorded, so a helm under test meets the recorded vehicle. Never commands a
     /// vehicle.
     Replay(record_cmd::ReplayArgs),
+    /// Print a shell completion script: `frontseat completions bash > /etc/bash_completion.d/frontseat`
+    /// (zsh: a `_frontseat` file on $fpath; fish: ~/.config/fish/completions/frontseat.fish).
+    Completions {
+        /// The shell.
+        #[arg(value_enum)]
+        shell: clap_complete::Shell,
+    },
+    /// Internal: write the man pages (frontseat.1, one per subcommand) into DIR; the packaged
+    /// pages are these, checked against the committed copy by tests/docs.rs.
+    #[command(hide = true)]
+    ManPages {
+        /// Where the pages go (created if missing).
+        dir: PathBuf,
+    },
 }
 
 /// Console logs always (no colours off a TTY, so journald and files stay clean); OTLP traces when
@@ -270,9 +298,13 @@ fn load_config_with<T: frontseat_config::ServiceConfig>(
         }),
         None if optional => Ok((T::default(), Vec::new())),
         None => {
+            let s = T::SERVICE;
             eprintln!(
-                "frontseat {}: a config file is required: -c FILE (see --example_config)",
-                T::SERVICE
+                "frontseat {s}: a config file is required: frontseat {s} -c FILE\n\
+                 Start from the complete example (every field, its default and unit):\n  \
+                 frontseat {s} --example_config > {s}.toml\n  \
+                 frontseat {s} --check -c {s}.toml\n  \
+                 frontseat {s} -c {s}.toml"
             );
             Err(ExitCode::from(2))
         }
@@ -428,6 +460,22 @@ fn main() -> ExitCode {
                 ExitCode::from(frontseat_topside::run(config, service::shutdown_signal()).await)
             })
         }
+        Command::Completions { shell } => {
+            docs_gen::completions(shell, &mut std::io::stdout());
+            ExitCode::SUCCESS
+        }
+        Command::ManPages { dir } => match docs_gen::man_pages(&dir) {
+            Ok(pages) => {
+                for p in pages {
+                    println!("{}", p.display());
+                }
+                ExitCode::SUCCESS
+            }
+            Err(e) => {
+                eprintln!("frontseat man-pages: {}: {e}", dir.display());
+                ExitCode::from(1)
+            }
+        },
         Command::Log(args) => record_cmd::log(args),
         Command::Replay(args) => {
             run_traced(&Default::default(), "replay", "", record_cmd::replay(args))

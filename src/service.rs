@@ -331,6 +331,22 @@ impl Service for SimService {
     }
 }
 
+/// What to do when the simulator cannot listen: the port and the setting that chose it.
+fn sim_bind_error(addr: SocketAddr, e: &frontseat_sim::SimError) -> String {
+    let in_use = matches!(e, frontseat_sim::SimError::Bind { source, .. }
+        if source.kind() == std::io::ErrorKind::AddrInUse);
+    if in_use {
+        format!(
+            "frontseat sim: cannot listen on {addr}: port {} is already in use (another `frontseat \
+             sim`?). Choose another with `port` in the sim config or `--port`, and set the \
+             interface's `[driver.basic_simulator] tcp_port` to match; `--port 0` takes any free port.",
+            addr.port()
+        )
+    } else {
+        format!("frontseat sim: {e} (the sim config's `bind` and `port`, or --bind/--port)")
+    }
+}
+
 pub async fn sim(config: SimConfig) -> ExitCode {
     let addr: SocketAddr = match format!("{}:{}", config.bind, config.port).parse() {
         Ok(a) => a,
@@ -342,9 +358,18 @@ pub async fn sim(config: SimConfig) -> ExitCode {
             }
         },
     };
+    // Bound here, before the supervisor, so that a port already taken is one clear line naming the
+    // port and the setting to change, not a supervisor failure.
+    let first = match SimServer::bind(addr, sim_options(&config)).await {
+        Ok(s) => s,
+        Err(e) => {
+            eprintln!("{}", sim_bind_error(addr, &e));
+            return ExitCode::from(2);
+        }
+    };
     let current = Arc::new(std::sync::Mutex::new(None));
     let child = sim_child(
-        None,
+        Some(first),
         addr,
         sim_options(&config),
         (&config.supervision).into(),

@@ -46,7 +46,7 @@ const TOKEN: &str = "hostile-memory-test-token";
 /// Every queue on these paths is bounded (bus subscribers, web hub history and tabs, the
 /// Goby3 export and import, log rate limiters): the first flood of a kind fills them to their
 /// bounds and the allocator keeps the pages (high-water), so this bound is loose; the tight one
-/// is [`REPEAT_SLACK_KIB`]. Measured figures: the README's "Hostile input and memory".
+/// is [`REPEAT_SLACK_KIB`]. Measured figures: the guide's "Hostile input and memory" (docs/guide/src/chaos.md).
 const RSS_BOUND_KIB: u64 = 96 * 1024;
 /// What a second, identical flood may add over the first: memory that grew with the volume of
 /// hostile input (a leak, an unbounded queue) shows here, a high-water mark does not.

@@ -174,7 +174,11 @@ fn read_text(path: &Path) -> Result<String, ConfigError> {
 
 /// Parse and validate TOML text; `file_name` only labels the errors.
 pub fn parse<T: ServiceConfig>(text: &str, file_name: &str) -> Result<T, ConfigError> {
-    let cfg: T = toml::from_str(text).map_err(|e| parse_error(&e, text, file_name))?;
+    let cfg: T = toml::from_str(text).map_err(|e| {
+        let mut err = parse_error(&e, text, file_name);
+        moved::explain::<T>(&mut err, text, e.span().map(|s| s.start));
+        err
+    })?;
     let errors = cfg.validate();
     if errors.is_empty() {
         Ok(cfg)
@@ -200,6 +204,8 @@ pub fn schema<T: ServiceConfig>() -> String {
     // A Schema is a serde_json::Value underneath; serializing it cannot fail.
     serde_json::to_string_pretty(&schema).unwrap_or_default()
 }
+
+mod moved;
 
 fn parse_error(e: &toml::de::Error, text: &str, file: &str) -> ConfigError {
     let (line, column) = e

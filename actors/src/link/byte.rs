@@ -87,17 +87,29 @@ pub fn spawn(
     tokio::spawn(async move {
         let mut delay = cfg.backoff_initial;
         let what = cfg.transport.describe();
+        // A failure the operator must fix (a serial port without permission) is said once at
+        // WARN with what to do, not retried silently at DEBUG for ever.
+        let mut hinted = false;
         loop {
             let reason = match &cfg.transport {
                 Transport::Serial(s) => match s.open() {
                     Ok(port) => {
                         delay = cfg.backoff_initial;
+                        hinted = false;
                         add(&stats.opens, 1);
                         Some(run(port, &cfg, &io, &stats).await)
                     }
                     Err(e) => {
                         add(&stats.open_failures, 1);
-                        tracing::debug!(%what, error = %e, "cannot open the serial port; retrying in {:?}", delay);
+                        match s.open_hint(&e) {
+                            Some(hint) if !hinted => {
+                                hinted = true;
+                                tracing::warn!(%what, "{hint}; retrying every {:?} at most", cfg.backoff_max);
+                            }
+                            _ => {
+                                tracing::debug!(%what, error = %e, "cannot open the serial port; retrying in {:?}", delay)
+                            }
+                        }
                         None
                     }
                 },

@@ -45,6 +45,23 @@ impl SerialSettings {
         }
     }
 
+    /// What the operator should do about a port that would not open, when we know: on a fresh
+    /// machine the usual failure is permission, since serial devices belong to the `dialout`
+    /// group (Debian, Ubuntu) and a user is not in it until added.
+    pub fn open_hint(&self, err: &std::io::Error) -> Option<String> {
+        let denied = err.kind() == std::io::ErrorKind::PermissionDenied
+            || err.to_string().contains("Permission denied");
+        denied.then(|| {
+            format!(
+                "cannot open serial port {}: permission denied. Serial ports belong to the \
+                 `dialout` group: add the user that runs frontseat to it \
+                 (`sudo usermod -aG dialout $USER`, then log in again; the packaged `frontseat` \
+                 service user already is), or check the device's owner with `ls -l {}`",
+                self.path, self.path
+            )
+        })
+    }
+
     /// Opens the port; needs a tokio runtime.
     pub fn open(&self) -> std::io::Result<SerialStream> {
         let data_bits = match self.data_bits {
@@ -75,5 +92,28 @@ impl SerialSettings {
             .flow_control(flow)
             .open_native_async()
             .map_err(std::io::Error::from)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_port_without_permission_names_the_dialout_group() {
+        let s = SerialSettings::new_8n1("/dev/ttyUSB0", 19200);
+        // As tokio-serial reports EACCES from open(2).
+        let denied = std::io::Error::new(std::io::ErrorKind::PermissionDenied, "Permission denied");
+        let hint = s.open_hint(&denied).expect("a hint for a permission error");
+        assert!(hint.contains("/dev/ttyUSB0"), "{hint}");
+        assert!(hint.contains("`dialout` group"), "{hint}");
+        assert!(hint.contains("usermod -aG dialout"), "{hint}");
+        // serialport may carry the errno's text with another kind.
+        let other_kind = std::io::Error::other("Permission denied");
+        assert!(s.open_hint(&other_kind).is_some());
+        // Not every failure is the operator's to fix by group: a missing device is retried quietly.
+        let missing =
+            std::io::Error::new(std::io::ErrorKind::NotFound, "No such file or directory");
+        assert_eq!(s.open_hint(&missing), None);
     }
 }

@@ -263,7 +263,7 @@ _frontseat() {
             return 0
             ;;
         frontseat__subcmd__demo)
-            opts="-h --warp --out --east --south --lines --vehicle --web --web-listen --record --fleet --trail-behind --trail-side --fleet-connect --help"
+            opts="-h --warp --out --east --south --lines --vehicle --web --web-listen --record --force --fleet --trail-behind --trail-side --fleet-connect --help"
             if [[ ${cur} == -* || ${COMP_CWORD} -eq 2 ]] ; then
                 COMPREPLY=( $(compgen -W "${opts}" -- "${cur}") )
                 return 0
@@ -286,7 +286,7 @@ _frontseat() {
                     return 0
                     ;;
                 --vehicle)
-                    COMPREPLY=($(compgen -W "basic iver3 waveglider_sv2 bluefin ardupilot" -- "${cur}"))
+                    COMPREPLY=($(compgen -W "basic iver3 waveglider_sv2 bluefin ardupilot dune ardusub" -- "${cur}"))
                     return 0
                     ;;
                 --web-listen)
@@ -699,7 +699,7 @@ _frontseat() {
             return 0
             ;;
         frontseat__subcmd__log__subcmd__export)
-            opts="-o -h --group --format --output --help"
+            opts="-o -h --group --format --output --force --help"
             if [[ ${cur} == -* || ${COMP_CWORD} -eq 3 ]] ; then
                 COMPREPLY=( $(compgen -W "${opts}" -- "${cur}") )
                 return 0
@@ -849,7 +849,7 @@ _frontseat() {
             return 0
             ;;
         frontseat__subcmd__log__subcmd__plot)
-            opts="-h --out --help"
+            opts="-h --out --force --help"
             if [[ ${cur} == -* || ${COMP_CWORD} -eq 3 ]] ; then
                 COMPREPLY=( $(compgen -W "${opts}" -- "${cur}") )
                 return 0
@@ -996,7 +996,7 @@ _frontseat() {
                     return 0
                     ;;
                 --vehicle)
-                    COMPREPLY=($(compgen -W "basic iver3 waveglider_sv2 bluefin ardupilot" -- "${cur}"))
+                    COMPREPLY=($(compgen -W "basic iver3 waveglider_sv2 bluefin ardupilot dune ardusub" -- "${cur}"))
                     return 0
                     ;;
                 --tcp)

@@ -55,7 +55,9 @@ complete -c frontseat -n "__fish_frontseat_using_subcommand sim" -l vehicle -d '
 iver3\t'Iver3 UVC Remote Helm NMEA'
 waveglider_sv2\t'Wave Glider SV2 C&C binary frames'
 bluefin\t'Bluefin Huxley payload NMEA over TCP (port 29500 unless `--port`; see bluefin_sim.rs)'
-ardupilot\t'ArduPilot Rover (motorboat) over MAVLink 2'"
+ardupilot\t'ArduPilot Rover (motorboat) over MAVLink 2'
+dune\t'An LSTS DUNE LAUV over IMC on its BackSeat TCP server (port 6006 unless `--tcp`)'
+ardusub\t'ArduSub (BlueROV2) over MAVLink 2: dives to the depths the helm asks for'"
 complete -c frontseat -n "__fish_frontseat_using_subcommand sim" -l tcp -d 'Serve the emulator on this loopback TCP port (serial-over-IP) instead of a new pseudo-terminal. 0 picks a free port' -r
 complete -c frontseat -n "__fish_frontseat_using_subcommand sim" -l remote-helm-version -d 'Iver3: Remote Helm major version (below 5 $OMS depth is feet)' -r
 complete -c frontseat -n "__fish_frontseat_using_subcommand sim" -l emulator-warp -d 'Run simulated time this many times faster' -r
@@ -92,19 +94,22 @@ complete -c frontseat -n "__fish_frontseat_using_subcommand demo" -l warp -d 'Ru
 complete -c frontseat -n "__fish_frontseat_using_subcommand demo" -l out -d 'Where the track CSV and SVG go' -r -F
 complete -c frontseat -n "__fish_frontseat_using_subcommand demo" -l east -d 'Seconds (simulated) of the east leg' -r
 complete -c frontseat -n "__fish_frontseat_using_subcommand demo" -l south -d 'Seconds (simulated) of the south leg' -r
-complete -c frontseat -n "__fish_frontseat_using_subcommand demo" -l vehicle -d 'Fly a vehicle emulator through its real driver instead of the basic simulator: bluefin (loopback TCP), iver3 or waveglider_sv2 (pseudo-terminal)' -r -f -a "basic\t'The basic simulator\'s line protocol over TCP (the default)'
+complete -c frontseat -n "__fish_frontseat_using_subcommand demo" -l vehicle -d 'Fly a vehicle emulator through its real driver instead of the basic simulator: bluefin, ardupilot or ardusub (loopback TCP; ardusub dives 5 m, 10 m, 5 m), iver3 or waveglider_sv2 (pseudo-terminal)' -r -f -a "basic\t'The basic simulator\'s line protocol over TCP (the default)'
 iver3\t'Iver3 UVC Remote Helm NMEA'
 waveglider_sv2\t'Wave Glider SV2 C&C binary frames'
 bluefin\t'Bluefin Huxley payload NMEA over TCP (port 29500 unless `--port`; see bluefin_sim.rs)'
-ardupilot\t'ArduPilot Rover (motorboat) over MAVLink 2'"
+ardupilot\t'ArduPilot Rover (motorboat) over MAVLink 2'
+dune\t'An LSTS DUNE LAUV over IMC on its BackSeat TCP server (port 6006 unless `--tcp`)'
+ardusub\t'ArduSub (BlueROV2) over MAVLink 2: dives to the depths the helm asks for'"
 complete -c frontseat -n "__fish_frontseat_using_subcommand demo" -l web-listen -d 'Address of the web scope with --web' -r
-complete -c frontseat -n "__fish_frontseat_using_subcommand demo" -l record -d 'Record every group of the run to this MCAP file (`frontseat log info FILE` reads it)' -r -F
+complete -c frontseat -n "__fish_frontseat_using_subcommand demo" -l record -d 'Record every group of the run to this MCAP file (`frontseat log info FILE` reads it). An existing FILE is kept unless --force' -r -F
 complete -c frontseat -n "__fish_frontseat_using_subcommand demo" -l fleet -d 'Fly a fleet of N vehicles (2 to 12; 3 when no number is given): one simulator, one `frontseat interface` process per vehicle (each its own Zenoh platform), a leader on the homework path and N-1 followers trailing it in a V from the leader\'s node_status received over Zenoh. Writes track-<vehicle>.csv per vehicle (track-leader.csv for the leader), fleet.svg and the fleet\'s launch file' -r
 complete -c frontseat -n "__fish_frontseat_using_subcommand demo" -l trail-behind -d 'With --fleet: how far behind the leader each pair of followers keeps. Unit: m' -r
 complete -c frontseat -n "__fish_frontseat_using_subcommand demo" -l trail-side -d 'With --fleet: how far to the side of the leader the followers keep (right, then left). Unit: m' -r
 complete -c frontseat -n "__fish_frontseat_using_subcommand demo" -l fleet-connect -d 'With --fleet: fly only the helms, against interfaces already running elsewhere (other hosts): their Zenoh endpoints, leader first, comma-separated (`tcp/10.0.0.11:7447,tcp/10.0.0.12:7447`). Nothing is launched' -r
 complete -c frontseat -n "__fish_frontseat_using_subcommand demo" -l lines -d 'Print one status line per simulated second instead of a live line'
 complete -c frontseat -n "__fish_frontseat_using_subcommand demo" -l web -d 'Also serve the web scope and commander (on 127.0.0.1:50001 unless --web-listen)'
+complete -c frontseat -n "__fish_frontseat_using_subcommand demo" -l force -d 'With --record: replace FILE if it exists (the new recording is renamed onto it at the end)'
 complete -c frontseat -n "__fish_frontseat_using_subcommand demo" -s h -l help -d 'Print help (see more with \'--help\')'
 complete -c frontseat -n "__fish_frontseat_using_subcommand bench" -l rows -d 'Only these rows, comma-separated (e.g. `--rows P1,P2,M1,M2` for an A/B of two builds); L0 always runs, every ratio is over it. Rows that share a setup run together (M1/M2, P4/P5, Z1–Z3/T1); the table shows only the rows asked for' -r
 complete -c frontseat -n "__fish_frontseat_using_subcommand bench" -l against -d 'A/B against another build: runs this build\'s bench and that `frontseat` executable\'s alternately, `--pairs` times each, and prints mean and median p50/p99 of every latency row with the change (e.g. `--against /tmp/frontseat-old --rows P1,P2,M1,M2`). A build without `--rows` runs its whole table' -r -F
@@ -136,12 +141,14 @@ complete -c frontseat -n "__fish_frontseat_using_subcommand log; and __fish_seen
 complete -c frontseat -n "__fish_frontseat_using_subcommand log; and __fish_seen_subcommand_from export" -l group -d 'The Goby3 group, e.g. goby::middleware::frontseat::node_status' -r
 complete -c frontseat -n "__fish_frontseat_using_subcommand log; and __fish_seen_subcommand_from export" -l format -r -f -a "csv\t''
 json\t''"
-complete -c frontseat -n "__fish_frontseat_using_subcommand log; and __fish_seen_subcommand_from export" -s o -l output -d 'Write here instead of standard output' -r -F
+complete -c frontseat -n "__fish_frontseat_using_subcommand log; and __fish_seen_subcommand_from export" -s o -l output -d 'Write here instead of standard output (through a temporary file beside it, renamed at the end; never the input file)' -r -F
+complete -c frontseat -n "__fish_frontseat_using_subcommand log; and __fish_seen_subcommand_from export" -l force -d 'Replace the output file if it exists'
 complete -c frontseat -n "__fish_frontseat_using_subcommand log; and __fish_seen_subcommand_from export" -s h -l help -d 'Print help'
 complete -c frontseat -n "__fish_frontseat_using_subcommand log; and __fish_seen_subcommand_from import" -s o -l output -d 'The MCAP file to write (default: FILE with the extension .mcap)' -r -F
 complete -c frontseat -n "__fish_frontseat_using_subcommand log; and __fish_seen_subcommand_from import" -l force -d 'Replace the output file if it exists'
 complete -c frontseat -n "__fish_frontseat_using_subcommand log; and __fish_seen_subcommand_from import" -s h -l help -d 'Print help'
 complete -c frontseat -n "__fish_frontseat_using_subcommand log; and __fish_seen_subcommand_from plot" -l out -r -F
+complete -c frontseat -n "__fish_frontseat_using_subcommand log; and __fish_seen_subcommand_from plot" -l force -d 'Replace track.svg and time.svg if they exist'
 complete -c frontseat -n "__fish_frontseat_using_subcommand log; and __fish_seen_subcommand_from plot" -s h -l help -d 'Print help'
 complete -c frontseat -n "__fish_frontseat_using_subcommand log; and __fish_seen_subcommand_from help" -f -a "info" -d 'Span, groups with counts, rates and gaps, the recorder\'s drops, and whether the file was closed or cut short (read up to its last whole chunk)'
 complete -c frontseat -n "__fish_frontseat_using_subcommand log; and __fish_seen_subcommand_from help" -f -a "export" -d 'One group\'s messages as CSV (fields flattened by path) or JSON Lines, decoded with the schema stored in the file'

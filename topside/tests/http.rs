@@ -139,8 +139,12 @@ async fn every_vehicle_appears_a_silent_one_turns_stale_and_garbage_is_counted()
         addr,
         "both vehicles on the page",
         |f| {
+            // auv2 may first appear by its desired_course alone (its node_status puts can
+            // still be dropped before the subscription matches): wait for a fresh fix too.
             vehicle(f, "auv1").is_some_and(|v| v["status"]["state"] == "running:command")
-                && vehicle(f, "auv2").is_some()
+                && vehicle(f, "auv2").is_some_and(|v| {
+                    v["stale"] == false && v["track"].as_array().is_some_and(|t| !t.is_empty())
+                })
         },
         || {
             x += 1.0;

@@ -7,6 +7,7 @@ pub mod logcap;
 pub mod otlp;
 pub mod phelm;
 pub mod procs;
+pub mod python;
 
 use frontseat_actors::bus::test_util::UntypedBus as _;
 use std::time::Duration;

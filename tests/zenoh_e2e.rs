@@ -266,6 +266,50 @@ async fn garbage_on_an_imported_key_is_counted_and_survived() {
     assert!(log.contains("goby.middleware.frontseat.protobuf.DesiredCourse"));
 }
 
+/// Whether the Python helm's packages are there. `.ci/run` installs them and sets
+/// FRONTSEAT_REQUIRE_PYTHON_HELM: there, a missing package is a failure, never a skip. Elsewhere
+/// (a machine with only the Rust toolchain) the skip is reported.
+fn python_helm_can_run(test: &str) -> bool {
+    if python_has_zenoh() {
+        return true;
+    }
+    assert!(
+        std::env::var_os("FRONTSEAT_REQUIRE_PYTHON_HELM").is_none(),
+        "FRONTSEAT_REQUIRE_PYTHON_HELM is set but python3 cannot import zenoh/protobuf/grpc_tools"
+    );
+    println!(
+        "SKIPPED {test}: python3 cannot import zenoh/protobuf/grpc_tools \
+         (pip install -r examples/python/requirements.txt)"
+    );
+    false
+}
+
+/// `examples/python/helm.py` against the stack's Zenoh, its protobuf modules generated into the
+/// stack's directory, stdout and stderr piped.
+fn python_helm(stack: &Stack, platform: &str, args: &[&str]) -> Kill {
+    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
+    let gen_dir = stack.dir.join("gen");
+    let st = Command::new("bash")
+        .arg(root.join("examples/python/gen_protos.sh"))
+        .arg(&gen_dir)
+        .status()
+        .unwrap();
+    assert!(st.success(), "gen_protos.sh failed");
+    Kill(
+        Command::new("python3")
+            .arg(root.join("examples/python/helm.py"))
+            .args(["--connect", &format!("tcp/127.0.0.1:{}", stack.zenoh)])
+            .args(["--platform", platform])
+            .args(["--warp", &WARP.to_string()])
+            .args(args)
+            .env("FRONTSEAT_PY_GEN", &gen_dir)
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap(),
+    )
+}
+
 fn python_has_zenoh() -> bool {
     Command::new("python3")
         .args(["-c", "import zenoh, google.protobuf, grpc_tools"])
@@ -277,40 +321,14 @@ fn python_has_zenoh() -> bool {
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn python_helm_completes_its_triangle() {
-    if !python_has_zenoh() {
-        // `.ci/run` installs the packages and sets this: there, a missing package is a failure,
-        // never a skip. Elsewhere (a machine with only the Rust toolchain) it is reported.
-        assert!(
-            std::env::var_os("FRONTSEAT_REQUIRE_PYTHON_HELM").is_none(),
-            "FRONTSEAT_REQUIRE_PYTHON_HELM is set but python3 cannot import zenoh/protobuf/grpc_tools"
-        );
-        println!(
-            "SKIPPED python_helm_completes_its_triangle: python3 cannot import zenoh/protobuf/grpc_tools \
-             (pip install -r examples/python/requirements.txt)"
-        );
+    if !python_helm_can_run("python_helm_completes_its_triangle") {
         return;
     }
-    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
     let stack = start_stack("python", "pyauv").await;
-    let gen_dir = stack.dir.join("gen");
-    let st = Command::new("bash")
-        .arg(root.join("examples/python/gen_protos.sh"))
-        .arg(&gen_dir)
-        .status()
-        .unwrap();
-    assert!(st.success(), "gen_protos.sh failed");
-    let mut helm = Kill(
-        Command::new("python3")
-            .arg(root.join("examples/python/helm.py"))
-            .args(["--connect", &format!("tcp/127.0.0.1:{}", stack.zenoh)])
-            .args(["--platform", "pyauv", "--t1", "60", "--t2", "60"])
-            .args(["--warp", &WARP.to_string()])
-            .args(["--timeout", "90"])
-            .env("FRONTSEAT_PY_GEN", &gen_dir)
-            .stdout(Stdio::piped())
-            .stderr(Stdio::piped())
-            .spawn()
-            .unwrap(),
+    let mut helm = python_helm(
+        &stack,
+        "pyauv",
+        &["--t1", "60", "--t2", "60", "--timeout", "90"],
     );
     let stdout = helm.0.stdout.take().unwrap();
     let lines = tokio::task::spawn_blocking(move || {
@@ -346,6 +364,68 @@ async fn python_helm_completes_its_triangle() {
         .and_then(|v| v.parse().ok())
         .expect("closest approach printed");
     assert!(closest < 15.0, "closest approach {closest} m:\n{out}");
+}
+
+/// Ctrl-C stops the Python helm: the zenoh library takes SIGINT over when a session opens, and
+/// an open session kept the interpreter from exiting; the helm owns the signal again and closes
+/// its session.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn python_helm_stops_on_ctrl_c() {
+    if !python_helm_can_run("python_helm_stops_on_ctrl_c") {
+        return;
+    }
+    let stack = start_stack("pyint", "pyint").await;
+    let mut helm = python_helm(&stack, "pyint", &["--timeout", "90"]);
+    let stdout = helm.0.stdout.take().unwrap();
+    let (tx, rx) = std::sync::mpsc::channel();
+    std::thread::spawn(move || {
+        for line in BufReader::new(stdout).lines().map_while(Result::ok) {
+            if tx.send(line).is_err() {
+                break;
+            }
+        }
+    });
+    // Interrupted only once it is flying: its session is open and its loop running.
+    let flying = tokio::task::spawn_blocking(move || {
+        let until = std::time::Instant::now() + Duration::from_secs(60);
+        while let Some(left) = until.checked_duration_since(std::time::Instant::now()) {
+            match rx.recv_timeout(left) {
+                Ok(l) if l.starts_with("leg east") => return true,
+                Ok(_) => {}
+                Err(_) => return false,
+            }
+        }
+        false
+    })
+    .await
+    .unwrap();
+    assert!(
+        flying,
+        "the helm never started its first leg\n{}",
+        stack.log()
+    );
+    let st = Command::new("bash")
+        .args(["-c", &format!("kill -INT {}", helm.0.id())])
+        .status()
+        .unwrap();
+    assert!(st.success());
+    let until = std::time::Instant::now() + Duration::from_secs(20);
+    let status = loop {
+        if let Some(s) = helm.0.try_wait().unwrap() {
+            break s;
+        }
+        assert!(
+            std::time::Instant::now() < until,
+            "the helm was still running 20 s after SIGINT"
+        );
+        tokio::time::sleep(Duration::from_millis(50)).await;
+    };
+    let mut err = String::new();
+    if let Some(mut e) = helm.0.stderr.take() {
+        let _ = std::io::Read::read_to_string(&mut e, &mut err);
+    }
+    assert_eq!(status.code(), Some(130), "{err}");
+    assert!(err.contains("helm: interrupted"), "{err}");
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]

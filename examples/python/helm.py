@@ -20,6 +20,7 @@ import math
 import os
 import queue
 import secrets
+import signal
 import sys
 import time
 
@@ -64,6 +65,24 @@ def main():
     a = p.parse_args()
 
     session = open_session(a.connect)
+    # The zenoh library takes over SIGINT when it opens a session, and a session left open keeps
+    # the interpreter from exiting: own both signals again and close the session on the way out.
+    signal.signal(signal.SIGINT, _interrupted)
+    signal.signal(signal.SIGTERM, _interrupted)
+    try:
+        return fly(a, session)
+    except KeyboardInterrupt:
+        print("helm: interrupted", file=sys.stderr, flush=True)
+        return 130
+    finally:
+        session.close()
+
+
+def _interrupted(signum, frame):
+    raise KeyboardInterrupt
+
+
+def fly(a, session):
     key = lambda name: "{}/{}{}".format(a.platform, PREFIX, name)  # noqa: E731
     inbox = queue.Queue(maxsize=10000)
 
@@ -138,7 +157,6 @@ def main():
                 course(t, 315.0, 0.0)
                 for s in subs:
                     s.undeclare()
-                session.close()
                 return 0
         if nxt:
             print("leg {} at t={:.1f} s, position ({:.1f}, {:.1f})".format(nxt, t, pos[0], pos[1]), flush=True)
@@ -146,7 +164,6 @@ def main():
         if leg != "waiting":
             course(t, headings[leg], a.speed)
     print("helm: timed out in leg", leg, file=sys.stderr, flush=True)
-    session.close()
     return 1
 
 

@@ -5,28 +5,34 @@
 //! a Reference each period toward a point ahead on the helm's heading, ended by a MANDONE
 //! Reference and PlanControl STOP when the interface leaves COMMAND. If we die, the maneuver's
 //! own timeout stops the vehicle. Everything goes to the vehicle's IMC id exactly.
+//!
+//! Here: the settings, the counters, the state, writing to the vehicle and the runtime's
+//! `Driver` trait (whose loop decides when a plan starts and a Reference is due). What the
+//! vehicle says is read in `reading`; the plan and its References are sent by `steering`.
 
 use std::sync::Arc;
 use std::time::Duration;
 
-use crate::imc::{self, ByteOrder, Header, ImcError, Message, consts};
-use crate::infer::{self, Control, Position};
+use crate::imc::{self, ByteOrder, Header, Message, consts};
+use crate::infer::Position;
 use frontseat_config::InterfaceConfig;
 
 use frontseat_actors::clock::SimClock;
 use frontseat_actors::driver::{Driver, DriverContext, DriverIoEvent, SignalSink};
 use frontseat_actors::drivers::kit::{
-    DataWatch, OwnedTask, config_secs, log_due, raw_binary, refuse, send_bytes,
+    Asker, DataWatch, OwnedTask, config_secs, log_due, refuse, send_bytes,
 };
 use frontseat_actors::link::LineWriter;
 use frontseat_actors::link::byte::{self, ByteLinkConfig, LinkStats, Transport};
 use frontseat_actors::link::framing::{FrameCutter, Framing};
 use frontseat_actors::proto::goby::middleware::frontseat::protobuf::{
-    CommandRequest, CommandResponse, EulerAngles, FrontSeatState, InterfaceData, InterfaceState,
-    InterfaceStatus, NodeStatus, Raw, Speed,
+    CommandRequest, CommandResponse, FrontSeatState, InterfaceData, InterfaceState,
+    InterfaceStatus, Raw,
 };
-use frontseat_actors::proto::goby::middleware::protobuf::LatLonPoint;
 use frontseat_actors::ratelog::RateLimitedLog;
+
+mod reading;
+mod steering;
 
 /// A raw_send_request larger than this is not a handful of IMC packets.
 const MAX_RAW_BYTES: usize = 4 * imc::MAX_FRAME;
@@ -249,362 +255,6 @@ impl DuneDriver {
         self.why = why;
     }
 
-    fn ours(&self) -> bool {
-        self.plan.is_some()
-            || self
-                .pcs
-                .as_ref()
-                .is_some_and(|p| p.plan_id == self.settings.plan_id)
-    }
-
-    fn on_packet(&mut self, bytes: Vec<u8>, now: Duration, sig: &mut dyn SignalSink) {
-        let decoded = imc::decode(&bytes);
-        sig.raw_from_frontseat(raw_binary(bytes));
-        let (h, msg) = match decoded {
-            Ok(x) => x,
-            Err(e @ ImcError::UnknownMessage(_)) => {
-                // DUNE streams many messages a frontseat has no use for: counted, not logged.
-                self.counters.unknown_messages += 1;
-                let _ = e;
-                return;
-            }
-            Err(e) => return self.bad(&e.to_string()),
-        };
-        self.counters.packets += 1;
-        if h.src == self.settings.own_id {
-            // `Loopback Internal Messages`: our PlanControl and References come back.
-            self.counters.own_echoes += 1;
-            return;
-        }
-        if self.vehicle_id.is_none() {
-            if let Message::VehicleState(_) = msg
-                && h.src != imc::NULL_ADDRESS
-                && h.src != 0
-            {
-                tracing::info!(
-                    imc_id = format_args!("{:#06x}", h.src),
-                    "DUNE vehicle found"
-                );
-                self.vehicle_id = Some(h.src);
-            } else {
-                self.counters.ignored += 1;
-                return;
-            }
-        }
-        let vehicle = self.vehicle_id.unwrap_or_default();
-        if h.src != vehicle {
-            match msg {
-                Message::VehicleState(_)
-                | Message::EstimatedState(_)
-                | Message::PlanControlState(_)
-                | Message::FollowRefState(_)
-                | Message::GpsFix(_) => {
-                    self.counters.foreign += 1;
-                    self.bad(&format!(
-                        "{} from IMC id {:#06x}, not the vehicle ({vehicle:#06x}): ignored",
-                        msg.name(),
-                        h.src
-                    ));
-                }
-                _ => self.counters.ignored += 1,
-            }
-            return;
-        }
-        match msg {
-            Message::VehicleState(vs) => self.on_vehicle_state(vs, now, sig),
-            Message::EstimatedState(e) => self.on_estimated_state(&e, now, sig),
-            Message::PlanControlState(p) => {
-                self.pcs = Some(p);
-            }
-            Message::PlanControl(p) => self.on_plan_control(&p, h.dst, now),
-            Message::FollowRefState(f) => {
-                if f.state == consts::follow_ref_state::TIMEOUT
-                    && f.control_src == self.settings.own_id
-                {
-                    tracing::warn!("DUNE: FollowReference timed out waiting for our References");
-                }
-            }
-            Message::EntityInfo(e) => {
-                if e.label == self.settings.navigation_entity {
-                    self.nav_entity = Some(e.id);
-                }
-            }
-            Message::EntityList(l) => {
-                if let Some(id) = entity_id(&l.list, &self.settings.navigation_entity) {
-                    self.nav_entity = Some(id);
-                }
-            }
-            Message::EntityState(es) => {
-                if Some(h.src_ent) == self.nav_entity && !self.settings.navigation_entity.is_empty()
-                {
-                    let fault = (es.state >= consts::entity_state::ERROR).then(|| {
-                        format!(
-                            "entity {} in {}: {}",
-                            self.settings.navigation_entity,
-                            match es.state {
-                                consts::entity_state::ERROR => "ERROR",
-                                _ => "FAILURE",
-                            },
-                            es.description
-                        )
-                    });
-                    if fault != self.nav_entity_fault {
-                        tracing::warn!(?fault, "DUNE navigation entity");
-                    }
-                    self.nav_entity_fault = fault;
-                }
-            }
-            Message::Abort(_) => {
-                tracing::warn!("DUNE: an Abort is on the vehicle's bus");
-            }
-            _ => self.counters.ignored += 1,
-        }
-    }
-
-    fn on_vehicle_state(&mut self, vs: imc::VehicleState, now: Duration, sig: &mut dyn SignalSink) {
-        self.counters.vehicle_states += 1;
-        self.last_vs = Some(now);
-        let in_followref =
-            vs.op_mode == consts::op_mode::MANEUVER && vs.maneuver_type == infer::FOLLOW_REFERENCE;
-        let pcs_ours = self
-            .pcs
-            .as_ref()
-            .is_some_and(|p| p.plan_id == self.settings.plan_id);
-        // State sent before our own STOP arrived is not a plan to take back.
-        let after_stop = self
-            .last_stop
-            .is_none_or(|t| now.saturating_sub(t) > START_GRACE);
-        if self.plan.is_none() && in_followref && pcs_ours && after_stop {
-            // Our plan from before a reconnection (or a restart) is still running: take it
-            // back, so it is steered, or ended, rather than left to its timeout.
-            tracing::info!("DUNE: our FollowReference plan is running; taking it back");
-            self.plan = Some(Plan {
-                started: now,
-                request_id: self.request_id,
-                confirmed: true,
-                last_reference: None,
-            });
-        }
-        if let Some(p) = &mut self.plan {
-            if in_followref {
-                p.confirmed = true;
-            } else if p.confirmed || now.saturating_sub(p.started) > START_GRACE {
-                let why = if vs.last_error.is_empty() {
-                    format!("vehicle left the maneuver (op_mode {})", vs.op_mode)
-                } else {
-                    format!(
-                        "vehicle left the maneuver (op_mode {}): {}",
-                        vs.op_mode, vs.last_error
-                    )
-                };
-                self.plan_ended(&why);
-            }
-        }
-        let blocked = self.pcs.as_ref().is_some_and(|p| {
-            p.state == consts::pcs::BLOCKED && vs.op_mode == consts::op_mode::SERVICE
-        });
-        let (control, why) = infer::control(&vs, blocked, self.ours());
-        let state = match control {
-            Control::AcceptingCommands => FrontSeatState::FrontseatAcceptingCommands,
-            Control::InControl => FrontSeatState::FrontseatInControl,
-            Control::Idle => FrontSeatState::FrontseatIdle,
-        };
-        self.vs = Some(vs);
-        self.set_state(state, why);
-        if state != FrontSeatState::FrontseatAcceptingCommands && self.course.take().is_some() {
-            tracing::warn!(why = %self.why, "DUNE vehicle no longer takes our course");
-        }
-        let _ = sig;
-    }
-
-    fn plan_ended(&mut self, why: &str) {
-        if self.plan.take().is_some() {
-            self.counters.maneuver_failures += 1;
-            tracing::warn!(%why, "DUNE: our FollowReference plan ended");
-        }
-    }
-
-    fn on_plan_control(&mut self, p: &imc::PlanControl, dst: u16, _now: Duration) {
-        if p.kind == consts::plan_control::REQUEST
-            || p.plan_id != self.settings.plan_id
-            || (dst != self.settings.own_id && dst != imc::NULL_ADDRESS)
-        {
-            self.counters.ignored += 1;
-            return;
-        }
-        match p.kind {
-            consts::plan_control::FAILURE => {
-                let why = format!("vehicle: {}", p.info);
-                self.plan_ended(&why);
-            }
-            consts::plan_control::SUCCESS
-                if p.info.contains("completed") || p.op == consts::plan_control::STOP =>
-            {
-                self.plan.take();
-            }
-            _ => {
-                if let Some(suppressed) = log_due(&mut self.info_log) {
-                    tracing::info!(info = %p.info, suppressed, "DUNE plan engine");
-                }
-            }
-        }
-    }
-
-    fn on_estimated_state(
-        &mut self,
-        e: &imc::EstimatedState,
-        now: Duration,
-        sig: &mut dyn SignalSink,
-    ) {
-        let pos = match infer::position(e) {
-            Ok(p) => p,
-            Err(why) => {
-                self.counters.nav_refused += 1;
-                self.position = None;
-                self.nav.lost();
-                return self.bad(&format!("EstimatedState refused: {why}"));
-            }
-        };
-        self.position = Some(pos);
-        if let Some(why) = self.nav_entity_fault.clone() {
-            if self.nav_problem.as_deref() != Some(why.as_str()) {
-                tracing::warn!(%why, "DUNE navigation not usable: not providing data");
-            }
-            self.nav_problem = Some(why);
-            self.nav.lost();
-            self.counters.nav_refused += 1;
-            return;
-        }
-        if self.nav_problem.take().is_some() {
-            tracing::info!("DUNE navigation usable again");
-        }
-        let ns = NodeStatus {
-            time: SimClock::unix_now(),
-            global_fix: LatLonPoint {
-                lat: pos.lat,
-                lon: pos.lon,
-                depth: Some(pos.depth),
-                altitude: pos.altitude,
-            },
-            pose: EulerAngles {
-                heading: Some(pos.heading),
-                roll: Some(pos.roll),
-                pitch: Some(pos.pitch),
-                ..Default::default()
-            },
-            speed: Speed {
-                over_ground: pos.speed_over_ground,
-                over_water: None,
-            },
-            ..Default::default()
-        };
-        self.counters.nav_published += 1;
-        self.nav.fresh(now);
-        sig.data_from_frontseat(InterfaceData {
-            node_status: Some(ns),
-            ..Default::default()
-        });
-    }
-
-    fn start_plan(&mut self, now: Duration, sig: &mut dyn SignalSink) {
-        self.request_id = self.request_id.wrapping_add(1);
-        let msg = imc::PlanControl {
-            kind: consts::plan_control::REQUEST,
-            op: consts::plan_control::START,
-            request_id: self.request_id,
-            plan_id: self.settings.plan_id.clone(),
-            flags: 0,
-            arg: Some(Box::new(
-                imc::FollowReference {
-                    control_src: self.settings.own_id,
-                    control_ent: imc::ANY_ENTITY,
-                    timeout: self.settings.maneuver_timeout,
-                    loiter_radius: 0.0,
-                    altitude_interval: 0.0,
-                }
-                .into(),
-            )),
-            info: String::new(),
-        };
-        self.last_start = Some(now);
-        if self.send(msg.into(), sig) {
-            self.counters.plan_starts += 1;
-            self.command_entered = false;
-            tracing::info!(
-                timeout_s = self.settings.maneuver_timeout,
-                "DUNE: PlanControl START FollowReference"
-            );
-            self.plan = Some(Plan {
-                started: now,
-                request_id: self.request_id,
-                confirmed: false,
-                last_reference: None,
-            });
-            self.send_reference(now, sig);
-        }
-    }
-
-    fn stop_plan(&mut self, why: &str, now: Duration, sig: &mut dyn SignalSink) {
-        let Some(plan) = self.plan.take() else {
-            return;
-        };
-        self.last_stop = Some(now);
-        tracing::info!(%why, "DUNE: ending our FollowReference plan (MANDONE, STOP)");
-        let (lat, lon) = self
-            .position
-            .map(|p| (p.lat.to_radians(), p.lon.to_radians()))
-            .unwrap_or_default();
-        self.send(
-            imc::Reference {
-                flags: consts::reference::MANDONE,
-                speed: None,
-                z: None,
-                lat,
-                lon,
-                radius: 0.0,
-            }
-            .into(),
-            sig,
-        );
-        self.send(
-            imc::PlanControl {
-                kind: consts::plan_control::REQUEST,
-                op: consts::plan_control::STOP,
-                request_id: plan.request_id,
-                plan_id: self.settings.plan_id.clone(),
-                flags: 0,
-                arg: None,
-                info: String::new(),
-            }
-            .into(),
-            sig,
-        );
-        self.counters.plan_stops += 1;
-    }
-
-    fn send_reference(&mut self, now: Duration, sig: &mut dyn SignalSink) {
-        let (Some(c), Some(p)) = (self.course, self.position) else {
-            return;
-        };
-        if now.saturating_sub(c.renewed) > self.settings.course_timeout {
-            return;
-        }
-        let r = infer::steering_reference(
-            p.lat,
-            p.lon,
-            c.heading,
-            c.speed,
-            c.depth,
-            self.settings.lookahead_m,
-        );
-        if self.send(r.into(), sig) {
-            self.counters.references_sent += 1;
-            if let Some(plan) = &mut self.plan {
-                plan.last_reference = Some(now);
-            }
-        }
-    }
-
     fn vehicle_lost(&mut self, why: &str) {
         self.set_state(FrontSeatState::FrontseatNotConnected, why.into());
         self.nav.lost();
@@ -615,14 +265,6 @@ impl DuneDriver {
         // Without a link nothing can be ended; the maneuver's own timeout ends it.
         self.plan = None;
     }
-}
-
-/// `Name=id;Name=id` (EntityList) → the id of `name`.
-fn entity_id(list: &str, name: &str) -> Option<u8> {
-    list.split(';')
-        .filter_map(|kv| kv.split_once('='))
-        .find(|(k, _)| *k == name)
-        .and_then(|(_, v)| v.trim().parse().ok())
 }
 
 impl Driver for DuneDriver {
@@ -699,14 +341,7 @@ impl Driver for DuneDriver {
         if self.plan.is_some() && changed {
             self.send_reference(now, sig);
         }
-        if req.response_requested() {
-            sig.command_response(CommandResponse {
-                request_successful: Some(true),
-                request_id: req.request_id,
-                error_code: Some(0),
-                error_string: None,
-            });
-        }
+        Asker::of(req).answer(sig, true, 0, None);
     }
 
     fn send_data_to_frontseat(

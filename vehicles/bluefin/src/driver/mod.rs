@@ -1,0 +1,440 @@
+//! The Bluefin driver's state: what the Huxley told us (frontseat state, providing data, the
+//! last navigation fix), the stop-and-wait write queue with its acknowledgements, resends and
+//! demerits, and the `$BPSTS` heartbeat. Everything the Huxley sends arrives as a line through
+//! [`Driver::handle_io`]; timers run in [`Driver::do_loop`] at 10 Hz of simulated time.
+//!
+//! Goby3's behaviour is the reference (see `docs/goby3-differences.md` for where this differs):
+//! requests are answered per request (not per command type), every command sentence gets an
+//! answer (including cancel, abort and the mission confirms), an ack for a pending command never
+//! releases another sentence's wait, an unmatched ack clears nothing, the heartbeat runs at its
+//! configured period, and an unresponsive Huxley gets its connection re-opened.
+//!
+//! Here: the settings, the counters, the state and the runtime's `Driver` trait. The parts of
+//! the work each own a file, all on this one state: `inbound` (what the Huxley's sentences
+//! become), `outbound` (what we send, as sentences) and `queue` (how a sentence is delivered:
+//! stop-and-wait with acknowledgements, resends and demerits).
+
+use std::collections::VecDeque;
+use std::time::Duration;
+
+use frontseat_config::{AcceptingCommandsHook, InterfaceConfig};
+
+use crate::codec::{self, FromPayload, Nvg, Sentence};
+use frontseat_actors::clock::SimClock;
+use frontseat_actors::driver::{
+    Driver, DriverContext, DriverExtension, DriverIoEvent, IoSender, SignalSink, refuse_extension,
+};
+use frontseat_actors::drivers::kit::{LinkState, OwnedTask, decoded};
+use frontseat_actors::link::{self, LinkConfig};
+use frontseat_actors::proto::frontseat::protobuf::bluefin as bf;
+use frontseat_actors::proto::goby::middleware::frontseat::protobuf::{
+    CommandRequest, CommandResponse, DesiredCourse, FrontSeatState, InterfaceData, Raw,
+    bluefin_extra_data::PayloadStatus,
+};
+use frontseat_actors::ratelog::{LogDecision, RateLimitedLog};
+
+mod inbound;
+mod outbound;
+mod queue;
+
+/// The types of the Bluefin extension (Goby3's field 1000), as its groups declare them.
+pub const COMMAND: &str =
+    frontseat_actors::groups::FRONTSEAT_BLUEFIN_BLUEFIN_COMMAND_REQUEST.type_name();
+pub const DATA: &str =
+    frontseat_actors::groups::FRONTSEAT_BLUEFIN_BLUEFIN_DATA_FROM_FRONTSEAT.type_name();
+
+/// Sentences waiting to be written before new ones are refused: a Huxley that stops acking
+/// must not grow our memory.
+pub const MAX_QUEUE: usize = 256;
+/// Sentences the Huxley answered "pending" (status 3) and not yet finally: a Huxley that answers
+/// pending to everything must not grow our memory either. Past this the oldest is given up.
+pub const MAX_PENDING: usize = 256;
+/// Payload statuses kept for the heartbeat (they expire by themselves).
+const MAX_PAYLOAD_STATUSES: usize = 64;
+/// Longest line accepted from the Huxley.
+pub const MAX_LINE_BYTES: usize = 2048;
+
+/// CommandResponse error codes of ours (Goby3 uses the BFACK status, 0 or 1).
+pub mod error_code {
+    /// Huxley: invalid request (BFACK status 0).
+    pub const INVALID: i32 = 0;
+    /// Huxley: request unsuccessfully processed (BFACK status 1).
+    pub const FAILED: i32 = 1;
+    /// Written `nmea_resend_attempts` times without an acknowledgement.
+    pub const NOT_ACKNOWLEDGED: i32 = 10;
+    /// The connection closed (or was re-opened) before the Huxley answered.
+    pub const CONNECTION_LOST: i32 = 11;
+    /// Nothing in the request this driver can send, or a value it cannot write.
+    pub const BAD_REQUEST: i32 = 12;
+    /// The write queue is full.
+    pub const QUEUE_FULL: i32 = 13;
+    /// Cancelled by a later request's cancel_request_id.
+    pub const CANCELLED: i32 = 14;
+    /// Answered "pending" and then crowded out by `MAX_PENDING` newer pending sentences before
+    /// the Huxley gave its final answer.
+    pub const PENDING_OVERFLOW: i32 = 15;
+}
+
+#[derive(Clone, Debug)]
+pub struct Settings {
+    pub link: LinkConfig,
+    pub resend_attempts: u32,
+    pub resend_interval: Duration,
+    pub allowed_demerits: u32,
+    pub missing_nav: Duration,
+    pub heartbeat: Duration,
+    /// `$BPLOG,<id>,ON` at every connect, in order.
+    pub bplog: Vec<String>,
+    pub send_tmr: bool,
+    pub disable_ack: bool,
+    pub hook: AcceptingCommandsHook,
+    /// (speed m/s, rpm) sorted by speed, when commanding RPM.
+    pub rpm_table: Option<Vec<(f64, f64)>>,
+}
+
+impl Settings {
+    pub fn from_config(cfg: &InterfaceConfig) -> Self {
+        let b = &cfg.driver.bluefin;
+        let mut bplog: Vec<String> = Vec::new();
+        if !b.disable_ack {
+            // First, so that every other sentence is acknowledged.
+            bplog.push("ACK".into());
+        }
+        for id in [
+            "NVG", "MIS", "MSC", "NVR", "SVS", "RVL", "SHT", "TOP", "MBS", "MBE", "CTD", "DVL",
+            "BOY", "TRM",
+        ] {
+            bplog.push(id.into());
+        }
+        if b.accepting_commands_hook == AcceptingCommandsHook::BfctlTrigger {
+            bplog.push("CTL".into());
+        }
+        bplog.extend(b.extra_bplog.iter().map(|s| s.to_ascii_uppercase()));
+        let rpm_table = b.use_rpm_table_for_speed.then(|| {
+            let mut t: Vec<(f64, f64)> = b
+                .rpm_table
+                .iter()
+                .filter(|e| e.speed.is_finite())
+                .map(|e| (e.speed, f64::from(e.rpm)))
+                .collect();
+            t.sort_by(|a, b| a.0.total_cmp(&b.0));
+            t
+        });
+        Self {
+            link: LinkConfig {
+                host: b.huxley_tcp_address.clone(),
+                port: b.huxley_tcp_port,
+                backoff_initial: Duration::from_millis(50),
+                backoff_max: Duration::from_secs(u64::from(b.reconnect_interval.max(1))),
+                max_line_bytes: MAX_LINE_BYTES,
+            },
+            resend_attempts: b.nmea_resend_attempts.max(1),
+            resend_interval: Duration::from_secs(u64::from(b.nmea_resend_interval.max(1))),
+            allowed_demerits: b.allowed_nmea_demerits,
+            missing_nav: Duration::from_secs(u64::from(b.allow_missing_nav_interval.max(1))),
+            heartbeat: Duration::from_secs(u64::from(b.heartbeat_interval.max(1))),
+            bplog,
+            send_tmr: b.send_tmr_messages,
+            disable_ack: b.disable_ack,
+            hook: b.accepting_commands_hook,
+            rpm_table,
+        }
+    }
+}
+
+/// Counters since the driver started.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct BluefinStats {
+    /// Lines that are not sentences, fail their checksum, or have malformed fields.
+    pub bad_lines: u64,
+    /// Well-formed sentences of an id the driver does not act on.
+    pub ignored_sentences: u64,
+    /// `$BFACK`s that match nothing in flight or pending.
+    pub unmatched_acks: u64,
+    /// Sentences dropped after `nmea_resend_attempts` writes without an ack.
+    pub dropped_unacked: u64,
+    /// Sentences rewritten after `nmea_resend_interval`.
+    pub resends: u64,
+    /// Sentences refused because the queue was full.
+    pub queue_full: u64,
+    /// Lines that could not be handed to the socket.
+    pub write_failures: u64,
+    /// Pending sentences given up because `MAX_PENDING` newer ones were pending too.
+    pub pending_overflow: u64,
+    /// Connections re-opened because the Huxley stopped acknowledging.
+    pub unresponsive_resets: u64,
+}
+
+/// One sentence on its way to the Huxley.
+#[derive(Clone, Debug)]
+struct Outgoing {
+    /// The 3-letter id the Huxley acknowledges it by.
+    ack_id: String,
+    line: String,
+    /// The request to answer when the Huxley answers this sentence.
+    request: Option<Option<i32>>,
+    written_at: Option<Duration>,
+    writes: u32,
+}
+
+/// Wall clock (Unix seconds) used for sentence timestamps and NodeStatus dates; a test fixes it.
+pub type WallClock = Box<dyn Fn(Duration) -> f64 + Send>;
+
+pub struct BluefinDriver {
+    settings: Settings,
+    wall: WallClock,
+    io: Option<IoSender>,
+    /// Its data watch: `$BFNVG`.
+    link: LinkState,
+    link_task: OwnedTask,
+    nvg: Option<Nvg>,
+    /// Head may be in flight (written, waiting for its ack).
+    queue: VecDeque<Outgoing>,
+    /// Acknowledged "pending" (status 3), waiting for the final answer.
+    pending: VecDeque<Outgoing>,
+    demerits: u32,
+    last_heartbeat: Option<Duration>,
+    payload_status: Vec<PayloadStatus>,
+    /// The interface is in HELM_ERROR or FS_ERROR: the heartbeat says not all ok.
+    interface_in_error: bool,
+    /// Bad input is logged a few times per window, then summarised (a garbage stream must not
+    /// flood the journal); the counters keep counting.
+    problems: RateLimitedLog,
+    pub stats: BluefinStats,
+}
+
+impl BluefinDriver {
+    pub fn new(settings: Settings) -> Self {
+        Self::with_wall_clock(settings, Box::new(|_| SimClock::unix_now()))
+    }
+
+    /// A driver whose timestamps come from `wall` (given the driver's simulated time).
+    pub fn with_wall_clock(settings: Settings, wall: WallClock) -> Self {
+        Self {
+            settings,
+            wall,
+            io: None,
+            link: LinkState::default(),
+            link_task: OwnedTask::default(),
+            nvg: None,
+            queue: VecDeque::new(),
+            pending: VecDeque::new(),
+            demerits: 0,
+            last_heartbeat: None,
+            payload_status: Vec::new(),
+            interface_in_error: false,
+            problems: RateLimitedLog::for_bad_input(),
+            stats: BluefinStats::default(),
+        }
+    }
+
+    /// Sentences queued or in flight, and pending a final answer.
+    pub fn queue_lengths(&self) -> (usize, usize) {
+        (self.queue.len(), self.pending.len())
+    }
+
+    fn tod(&self, now: Duration) -> f64 {
+        codec::seconds_of_day((self.wall)(now))
+    }
+
+    fn problem(&mut self, what: &str, line: &str) {
+        let line: String = line.chars().take(120).collect();
+        match self.problems.decide(tokio::time::Instant::now()) {
+            LogDecision::Log { suppressed_before } if suppressed_before > 0 => tracing::warn!(
+                %line,
+                "{what} (…and {suppressed_before} more Bluefin input problems in the last {}s)",
+                self.problems.window().as_secs()
+            ),
+            LogDecision::Log { .. } => tracing::warn!(%line, "{what}"),
+            LogDecision::Suppress => tracing::debug!(%line, "{what}"),
+        }
+    }
+
+    fn answer(
+        sig: &mut dyn SignalSink,
+        request_id: Option<i32>,
+        ok: bool,
+        code: i32,
+        why: impl Into<String>,
+    ) {
+        sig.command_response(CommandResponse {
+            request_successful: Some(ok),
+            request_id,
+            error_code: (!ok).then_some(code),
+            error_string: (!ok).then(|| why.into()),
+        });
+    }
+
+    fn initialise(&mut self, now: Duration, sig: &mut dyn SignalSink) {
+        self.fail_all("connection to the Huxley re-opened", sig);
+        self.demerits = 0;
+        for id in self.settings.bplog.clone() {
+            self.enqueue(FromPayload::Log { id, on: true }, None, now, sig);
+        }
+        self.heartbeat(now, sig);
+    }
+}
+
+/// The fields of a CommandRequest, plain or Bluefin-extended.
+struct Cmd<'a> {
+    desired: Option<&'a DesiredCourse>,
+    ext: Option<
+        &'a frontseat_actors::proto::goby::middleware::frontseat::protobuf::BluefinExtraCommands,
+    >,
+    response_requested: bool,
+    request_id: Option<i32>,
+    cancel_request_id: Option<i32>,
+}
+
+impl Driver for BluefinDriver {
+    fn send_extension(&mut self, ext: &DriverExtension, now: Duration, sig: &mut dyn SignalSink) {
+        match ext.type_name() {
+            COMMAND => {
+                if let Some(r) = decoded::<bf::CommandRequest>(ext, sig, self.name()) {
+                    self.send_bluefin_command(&r, now, sig);
+                }
+            }
+            DATA => {
+                if let Some(d) = decoded::<bf::InterfaceData>(ext, sig, self.name()) {
+                    self.send_bluefin_data(&d, now, sig);
+                }
+            }
+            _ => refuse_extension(sig, ext, self.name()),
+        }
+    }
+
+    fn name(&self) -> &str {
+        "bluefin"
+    }
+
+    fn start(&mut self, ctx: DriverContext) {
+        self.io = Some(ctx.io.clone());
+        self.link_task
+            .set(link::spawn(self.settings.link.clone(), ctx.io));
+    }
+
+    fn handle_io(&mut self, ev: DriverIoEvent, now: Duration, sig: &mut dyn SignalSink) {
+        match ev {
+            DriverIoEvent::Connected(w) => {
+                tracing::info!(
+                    host = %self.settings.link.host,
+                    port = self.settings.link.port,
+                    "connected to the Huxley; enabling its sentences"
+                );
+                self.link.opened(w, FrontSeatState::FrontseatIdle);
+                self.initialise(now, sig);
+            }
+            DriverIoEvent::Line(line) => self.handle_line(&line, now, sig),
+            DriverIoEvent::BadInput(what) => {
+                self.stats.bad_lines += 1;
+                frontseat_actors::drivers::kit::bad_line();
+                self.problem("bad input from the Huxley", &what);
+            }
+            DriverIoEvent::Frame(_) => {
+                self.stats.bad_lines += 1;
+                frontseat_actors::drivers::kit::bad_line();
+                self.problem("binary frame on a Huxley link", "");
+            }
+            DriverIoEvent::Disconnected(reason) => {
+                tracing::warn!(%reason, "Huxley connection lost; reconnecting");
+                self.link.lost();
+                self.fail_all("connection to the Huxley lost", sig);
+            }
+        }
+    }
+
+    fn send_command_to_frontseat(
+        &mut self,
+        req: &CommandRequest,
+        now: Duration,
+        sig: &mut dyn SignalSink,
+    ) {
+        let c = Cmd {
+            desired: req.desired_course.as_ref(),
+            ext: None,
+            response_requested: req.response_requested(),
+            request_id: req.request_id,
+            cancel_request_id: req.cancel_request_id,
+        };
+        self.command(c, now, sig);
+    }
+
+    fn send_data_to_frontseat(
+        &mut self,
+        data: &InterfaceData,
+        now: Duration,
+        sig: &mut dyn SignalSink,
+    ) {
+        self.data(data, now, sig);
+    }
+
+    fn send_raw_to_frontseat(&mut self, raw: &Raw, now: Duration, sig: &mut dyn SignalSink) {
+        let bytes = raw.raw.as_deref().unwrap_or_default();
+        let Ok(text) = std::str::from_utf8(bytes) else {
+            self.stats.bad_lines += 1;
+            frontseat_actors::drivers::kit::bad_line();
+            self.problem(
+                "raw_send_request is not text; Huxley sentences are ASCII",
+                "",
+            );
+            return;
+        };
+        // A supplied checksum is replaced by a fresh one, as Goby3 does.
+        let text = text.trim();
+        let body = match text.len().checked_sub(3).map(|i| text.split_at(i)) {
+            Some((b, cs)) if cs.starts_with('*') => b,
+            _ => text,
+        };
+        match Sentence::parse(body) {
+            Ok(s) => self.enqueue(FromPayload::Other(s), None, now, sig),
+            Err(e) => {
+                self.stats.bad_lines += 1;
+                frontseat_actors::drivers::kit::bad_line();
+                self.problem(&format!("raw_send_request is not a sentence: {e}"), text);
+            }
+        }
+    }
+
+    fn do_loop(&mut self, now: Duration, sig: &mut dyn SignalSink) {
+        if self.link.data.expired(now, self.settings.missing_nav) {
+            tracing::warn!(
+                "no $BFNVG for {:?} (sim time): Huxley not providing data",
+                self.settings.missing_nav
+            );
+        }
+        if !self.link.is_open() {
+            return;
+        }
+        if self
+            .last_heartbeat
+            .is_none_or(|t| now.saturating_sub(t) >= self.settings.heartbeat)
+        {
+            self.heartbeat(now, sig);
+        }
+        self.resend_or_drop(now, sig);
+        self.try_send(now, sig);
+    }
+
+    fn interface_status(
+        &mut self,
+        status: &frontseat_actors::proto::goby::middleware::frontseat::protobuf::InterfaceStatus,
+    ) {
+        use frontseat_actors::proto::goby::middleware::frontseat::protobuf::InterfaceState;
+        self.interface_in_error = matches!(
+            status.state(),
+            InterfaceState::InterfaceHelmError | InterfaceState::InterfaceFsError
+        );
+    }
+
+    fn frontseat_state(&self) -> FrontSeatState {
+        self.link.state
+    }
+
+    fn frontseat_providing_data(&self) -> bool {
+        self.link.data.providing()
+    }
+
+    fn stop(&mut self) {
+        self.link.close();
+    }
+}

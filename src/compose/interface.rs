@@ -130,7 +130,7 @@ pub(super) fn with_every_child(mut config: InterfaceConfig) -> InterfaceConfig {
 }
 
 /// The actors `frontseat interface` hosts, hence what its gateway exports and imports.
-pub fn interface_actors(cfg: &InterfaceConfig) -> Vec<&'static str> {
+fn interface_actors(cfg: &InterfaceConfig) -> Vec<&'static str> {
     let mut hosted = vec!["FrontSeatInterface", "RootSupervisor", "HealthReporter"];
     if cfg.moos.is_some() {
         hosted.push("FrontSeatTranslation");

@@ -21,7 +21,7 @@ pub mod emulators;
 mod gateways;
 pub mod interface;
 pub mod moos_gateway;
-pub mod recording;
+mod recording;
 pub mod simulator;
 
 use frontseat_actors::bus::Bus;

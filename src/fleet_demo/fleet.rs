@@ -6,6 +6,7 @@ pub const MAX_FLEET: usize = 12;
 /// The leader's vehicle name; followers are `follower1`, `follower2`, …
 pub const LEADER: &str = "leader";
 
+/// The fleet's vehicle names, the leader first.
 pub fn names(n: usize) -> Vec<String> {
     std::iter::once(LEADER.to_string())
         .chain((1..n).map(|k| format!("follower{k}")))

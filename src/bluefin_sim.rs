@@ -1,11 +1,11 @@
-//! `frontseat sim --vehicle bluefin` and `frontseat demo --vehicle bluefin`: the Huxley emulator on the payload port (29500 unless
-//! `--port`), with the simulator config's bind address, line bound, vehicle count and current.
+//! `frontseat sim --vehicle bluefin`'s own option (how the emulated Huxley answers) and its
+//! check; the Huxley emulator on the payload port (29500 unless `--port`), with the simulator
+//! config's bind address, line bound, vehicle count and current, is `compose::emulators`.
 
-use std::net::SocketAddr;
 use std::process::ExitCode;
 
 use clap::ValueEnum;
-use frontseat_bluefin::{HuxleyOptions, HuxleyServer, HuxleyServerOptions, Refusal};
+use frontseat_bluefin::Refusal;
 use frontseat_config::SimConfig;
 
 /// How the emulated Huxley answers commands.
@@ -33,19 +33,7 @@ impl From<RefusalArg> for Refusal {
     }
 }
 
-pub fn server_options(config: &SimConfig, refusal: RefusalArg, warp: f64) -> HuxleyServerOptions {
-    HuxleyServerOptions {
-        huxley: HuxleyOptions {
-            refusal: refusal.into(),
-            current: (config.current.east, config.current.north),
-            ..Default::default()
-        },
-        warp,
-        max_line_bytes: config.max_line_bytes,
-        max_vehicles: config.max_vehicles,
-    }
-}
-
+/// `frontseat sim --vehicle bluefin`: checks the warp, then runs the Huxley emulator's root.
 pub async fn serve(
     config: SimConfig,
     port: Option<u16>,
@@ -56,27 +44,5 @@ pub async fn serve(
         eprintln!("--warp must be in (0, 1000]");
         return ExitCode::from(2);
     }
-    let port = port.unwrap_or(frontseat_bluefin::DEFAULT_PORT);
-    let addr: SocketAddr = match format!("{}:{port}", config.bind)
-        .parse()
-        .or_else(|_| format!("[{}]:{port}", config.bind).parse())
-    {
-        Ok(a) => a,
-        Err(e) => {
-            eprintln!("bind address `{}`: {e}", config.bind);
-            return ExitCode::from(2);
-        }
-    };
-    let server = match HuxleyServer::bind(addr, server_options(&config, refusal, warp)).await {
-        Ok(s) => s,
-        Err(e) => {
-            tracing::error!(error = %e, %addr, "cannot start the Huxley emulator");
-            return ExitCode::from(2);
-        }
-    };
-    tracing::info!(addr = %server.local_addr(), ?refusal, warp, "Bluefin Huxley emulator listening");
-    crate::shutdown::shutdown_signal().await;
-    server.shutdown().await;
-    tracing::info!(stats = ?server.stats(), "Huxley emulator stopped");
-    ExitCode::SUCCESS
+    crate::compose::emulators::serve_huxley(config, port, refusal.into(), warp).await
 }

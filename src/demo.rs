@@ -9,12 +9,10 @@ use std::process::ExitCode;
 use clap::Args;
 use frontseat_actors::bus::Bus;
 use frontseat_actors::clock::SimClock;
-use frontseat_actors::supervisor::SupervisorHandle;
 use frontseat_config::InterfaceConfig;
 use frontseat_demo_helm::{self as demo_helm, DemoParams};
-use frontseat_sim::{SimOptions, SimServer};
 
-use crate::service::SHUTDOWN_BOUND;
+use crate::compose;
 use crate::vehicle_kind::VehicleKind;
 
 #[derive(Args, Debug, Clone)]
@@ -74,9 +72,9 @@ pub struct DemoArgs {
 }
 
 /// The basic simulator or the Bluefin emulator over loopback TCP (the serial vehicles' demo is
-/// `vehicle_sim::run_demo`; `main` picks). One root supervisor runs the simulator server, the
-/// FrontSeatInterface and (with --web) the web scope, as `frontseat sim` and `frontseat
-/// interface` do; the Huxley emulator runs beside it.
+/// `vehicle_sim::run_demo`; `main` picks). The demo's root (`compose::demo`) runs the simulator
+/// server, the FrontSeatInterface and (with --web) the web scope, as `frontseat sim` and
+/// `frontseat interface` do; this flies the example helm on its bus.
 pub async fn run(args: DemoArgs) -> ExitCode {
     if !(args.warp.is_finite() && args.warp > 0.0 && args.warp <= 1000.0) {
         eprintln!("--warp must be in (0, 1000]");
@@ -104,99 +102,15 @@ pub async fn run(args: DemoArgs) -> ExitCode {
             ..Default::default()
         };
     }
-    if let Err(held) = bus.claim(frontseat_actors::bus::BusRole::LiveDriver) {
-        eprintln!("the bus is already claimed by {held:?}");
-        return ExitCode::from(2);
-    }
-    let recorder = match &args.record {
-        Some(path) => crate::record_cmd::start_demo_recorder(&bus, &cfg, path, args.force),
-        None => crate::record_cmd::start_recorder(&bus, &cfg, "demo").map_err(|e| (1, e)),
-    };
-    let recorder = match recorder {
-        Ok(r) => r,
+    let record = args.record.as_deref().map(|p| (p, args.force));
+    let demo = match compose::demo::start(&mut cfg, &bus, args.vehicle, args.warp, record).await {
+        Ok(d) => d,
         Err((code, e)) => {
-            eprintln!("cannot record: {e}");
+            eprintln!("{e}");
             return ExitCode::from(code);
         }
     };
-    if let Some(p) = &args.record {
-        eprintln!("frontseat demo: recording to {}", p.display());
-    }
-    let loopback = ([127, 0, 0, 1], 0).into();
-    let mut children = Vec::new();
-    let mut huxley = None;
-    let vehicle_addr = match args.vehicle {
-        // ArduPilot is flown by vehicle_sim::run_demo (main picks); the basic simulator stands in.
-        VehicleKind::Basic
-        | VehicleKind::Iver3
-        | VehicleKind::WavegliderSv2
-        | VehicleKind::Ardupilot
-        | VehicleKind::Dune
-        | VehicleKind::Ardusub => {
-            let sim = match SimServer::bind(loopback, SimOptions::default()).await {
-                Ok(s) => s,
-                Err(e) => {
-                    eprintln!("cannot start the simulator: {e}");
-                    return ExitCode::from(1);
-                }
-            };
-            let addr = sim.local_addr();
-            cfg.driver.basic_simulator.tcp_port = addr.port();
-            cfg.driver.basic_simulator.start.lat = cfg.origin.lat;
-            cfg.driver.basic_simulator.start.lon = cfg.origin.lon;
-            children.push(crate::service::sim_child(
-                Some(sim),
-                addr,
-                SimOptions::default(),
-                (&frontseat_config::RestartConfig::default()).into(),
-                Default::default(),
-                Some(bus.clone()),
-            ));
-            addr
-        }
-        VehicleKind::Bluefin => {
-            let opts = crate::bluefin_sim::server_options(
-                &frontseat_config::SimConfig::default(),
-                crate::bluefin_sim::RefusalArg::None,
-                args.warp,
-            );
-            let opts = frontseat_bluefin::HuxleyServerOptions {
-                huxley: frontseat_bluefin::HuxleyOptions {
-                    lat: cfg.origin.lat,
-                    lon: cfg.origin.lon,
-                    ..opts.huxley
-                },
-                ..opts
-            };
-            let h = match frontseat_bluefin::HuxleyServer::bind(loopback, opts).await {
-                Ok(s) => s,
-                Err(e) => {
-                    eprintln!("cannot start the Huxley emulator: {e}");
-                    return ExitCode::from(1);
-                }
-            };
-            cfg.driver.name = frontseat_config::BLUEFIN.into();
-            cfg.driver.bluefin.huxley_tcp_port = h.local_addr().port();
-            let addr = h.local_addr();
-            huxley = Some(h);
-            addr
-        }
-    };
-    children.extend(crate::service::interface_children(
-        &cfg,
-        &bus,
-        Default::default(),
-    ));
-    let root = match SupervisorHandle::start("root", children, Some(&bus)).await {
-        Ok(r) => r,
-        Err(e) => {
-            eprintln!("cannot start the demo: {e}");
-            if let Some(h) = huxley {
-                h.shutdown().await;
-            }
-            return ExitCode::from(1);
-        }
-    };
+    let vehicle_addr = demo.vehicle_addr;
     if args.web {
         eprintln!("frontseat demo: web scope on http://{}/", args.web_listen);
     }
@@ -229,13 +143,9 @@ pub async fn run(args: DemoArgs) -> ExitCode {
             "frontseat demo: path done; web scope still on http://{}/ — Ctrl-C to stop",
             args.web_listen
         );
-        crate::service::shutdown_signal().await;
+        crate::shutdown::shutdown_signal().await;
     }
-    root.shutdown(SHUTDOWN_BOUND * 3).await;
-    if let Some(h) = huxley {
-        h.shutdown().await;
-    }
-    crate::record_cmd::stop_recorder(recorder).await;
+    demo.shutdown().await;
 
     write_outputs(&args.out, &report)
 }

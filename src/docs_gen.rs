@@ -6,30 +6,26 @@
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
-use clap::CommandFactory;
-
-use crate::Cli;
-
-/// The command tree as the pages show it: built (so subcommands inherit the version), with the
-/// version alone, since a page that names a commit would change with every commit.
-fn command() -> clap::Command {
-    let mut cmd = Cli::command().long_version(None::<&str>);
+/// The command tree `cli` as the pages show it: built (so subcommands inherit the version), with
+/// the version alone, since a page that names a commit would change with every commit.
+fn command(cli: clap::Command) -> clap::Command {
+    let mut cmd = cli.long_version(None::<&str>);
     cmd.build();
     cmd
 }
 
 /// Writes the completion script of `shell` for `frontseat`.
-pub fn completions(shell: clap_complete::Shell, out: &mut dyn Write) {
-    let mut cmd = command();
+pub fn completions(cli: clap::Command, shell: clap_complete::Shell, out: &mut dyn Write) {
+    let mut cmd = command(cli);
     clap_complete::generate(shell, &mut cmd, "frontseat", out);
 }
 
 /// Writes `frontseat.1` and `frontseat-<sub>[-<sub>].1` for every visible subcommand into `dir`;
 /// returns the files written, in order.
-pub fn man_pages(dir: &Path) -> std::io::Result<Vec<PathBuf>> {
+pub fn man_pages(cli: clap::Command, dir: &Path) -> std::io::Result<Vec<PathBuf>> {
     std::fs::create_dir_all(dir)?;
     let mut written = Vec::new();
-    page(&command(), "frontseat", dir, &mut written)?;
+    page(&command(cli), "frontseat", dir, &mut written)?;
     Ok(written)
 }
 

@@ -5,7 +5,7 @@ use std::process::ExitCode;
 
 use frontseat_launch::LaunchConfig;
 
-use crate::ConfigArgs;
+use crate::config_args::{ConfigArgs, config_commands, load_config, load_plain};
 
 pub fn run(a: &ConfigArgs) -> ExitCode {
     let frontseat = match std::env::current_exe() {
@@ -46,19 +46,19 @@ pub fn run(a: &ConfigArgs) -> ExitCode {
             }
         };
     }
-    if let Some(code) = crate::config_commands(a, crate::load_plain::<LaunchConfig>) {
+    if let Some(code) = config_commands(a, load_plain::<LaunchConfig>) {
         return code;
     }
-    let cfg = match crate::load_config::<LaunchConfig>(a, false) {
+    let cfg = match load_config::<LaunchConfig>(a, false) {
         Ok(c) => c,
         Err(code) => return code,
     };
     let Some(file) = a.file().cloned() else {
         return ExitCode::from(2);
     };
-    crate::run_traced(&Default::default(), "launch", "", async move {
+    crate::runtime::run_traced(&Default::default(), "launch", "", async move {
         let outcome =
-            frontseat_launch::run(cfg, &file, frontseat, crate::service::shutdown_signal()).await;
+            frontseat_launch::run(cfg, &file, frontseat, crate::shutdown::shutdown_signal()).await;
         match &outcome {
             frontseat_launch::Outcome::Clean => {}
             frontseat_launch::Outcome::Failed(f) => eprintln!(

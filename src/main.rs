@@ -1,5 +1,6 @@
-//! The `frontseat` command line: parses arguments, loads and validates config, composes the
-//! crates, waits for a shutdown signal and drains. Everything with logic lives in the crates.
+//! The `frontseat` command line: parses arguments, loads and validates config, and hands each
+//! service to its composition root (`compose/`), which starts it, waits for a shutdown signal and
+//! drains. Everything with logic lives in the crates.
 #![forbid(unsafe_code)]
 
 // The flags are parsed here and read by the sibling executables (src/bin/): no field is read in
@@ -11,14 +12,15 @@ mod bluefin_sim;
 #[allow(dead_code)]
 mod chaos_args;
 mod chaos_cmd;
+mod compose;
+mod config_args;
 mod demo;
 mod docs_gen;
 mod driver_host;
 mod fleet_demo;
-mod gateway_cmd;
 mod launch_cmd;
 mod record_cmd;
-mod service;
+mod runtime;
 mod shutdown;
 mod sibling;
 mod vehicle_kind;
@@ -27,7 +29,12 @@ mod vehicle_sim;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-use clap::{Args, Parser, Subcommand};
+use clap::{CommandFactory, Parser, Subcommand};
+
+use config_args::{
+    ConfigArgs, config_commands, load_config, load_config_with, load_interface, load_plain,
+};
+use runtime::run_traced;
 
 /// `frontseat --version`: the crate version, the commit and the build (build.rs), so a field
 /// report names exactly what ran. `-V` and the man pages say the version alone.
@@ -55,44 +62,6 @@ const LONG_VERSION: &str = concat!(
 struct Cli {
     #[command(subcommand)]
     command: Command,
-}
-
-/// Config handling shared by every service subcommand.
-#[derive(Args, Debug, Clone)]
-struct ConfigArgs {
-    /// Configuration file: TOML, or a Goby3 .pb.cfg of the Goby3 application this replaces.
-    /// `--example_config` prints a complete TOML one.
-    #[arg(short = 'c', long = "config", value_name = "FILE")]
-    config: Option<PathBuf>,
-    /// The configuration file given as Goby3 applications take it (`goby_frontseat_interface
-    /// vehicle.pb.cfg`): the same as -c.
-    #[arg(value_name = "CONFIG", conflicts_with = "config")]
-    config_positional: Option<PathBuf>,
-    /// Print a complete example config (every field, its default, unit and description) and exit.
-    #[arg(long = "example_config", alias = "example-config")]
-    example_config: bool,
-    /// Print the JSON Schema of the config and exit.
-    #[arg(long)]
-    schema: bool,
-    /// Validate the config given with -c and exit: 0 when valid, 2 with the errors otherwise.
-    #[arg(long)]
-    check: bool,
-    /// Print the TOML equivalent of a Goby3 .pb.cfg of the Goby3 application this replaces
-    /// (goby_frontseat_interface, goby_moos_gateway), a comment per field, and exit. `-c
-    /// FILE.pb.cfg` runs such a file as it is.
-    #[arg(
-        long = "import-goby3",
-        alias = "import_goby3",
-        value_name = "FILE.pb.cfg"
-    )]
-    import_goby3: Option<PathBuf>,
-}
-
-impl ConfigArgs {
-    /// The config file, by -c or as Goby3's positional argument.
-    fn file(&self) -> Option<&PathBuf> {
-        self.config.as_ref().or(self.config_positional.as_ref())
-    }
 }
 
 #[derive(Subcommand, Debug)]
@@ -178,139 +147,6 @@ enum Command {
     },
 }
 
-/// Console logs always (no colours off a TTY, so journald and files stay clean); OTLP traces when
-/// `[telemetry]` or the OTEL_* environment asks. Returns the handle that flushes on shutdown.
-fn init_telemetry(
-    cfg: &frontseat_config::TelemetryConfig,
-    role: &str,
-    platform: &str,
-) -> frontseat_telemetry::Telemetry {
-    frontseat_telemetry::init(cfg, role, platform)
-}
-
-/// Runs a service with telemetry, and flushes the last spans before exiting.
-fn run_traced(
-    cfg: &frontseat_config::TelemetryConfig,
-    role: &str,
-    platform: &str,
-    fut: impl std::future::Future<Output = ExitCode>,
-) -> ExitCode {
-    let mut telemetry = init_telemetry(cfg, role, platform);
-    let code = run(fut);
-    telemetry.shutdown();
-    code
-}
-
-/// How a service's config is loaded: the config and the lines to log about it (a Goby3 .pb.cfg's
-/// ignored fields, the driver a Goby3 library name selected).
-type Loaded<T> = Result<(T, Vec<String>), frontseat_config::ConfigError>;
-
-fn load_plain<T: frontseat_config::ServiceConfig>(path: &std::path::Path) -> Loaded<T> {
-    frontseat_config::load_with_notes::<T>(path)
-}
-
-/// The interface's config as Goby3 would choose its driver: FRONTSEAT_DRIVER_LIBRARY naming one
-/// of Goby3's driver libraries selects our built-in driver of that vehicle (then validated again,
-/// since that driver's section now counts).
-fn load_interface(path: &std::path::Path) -> Loaded<frontseat_config::InterfaceConfig> {
-    use frontseat_config::ServiceConfig;
-    let (mut cfg, mut notes) = load_plain::<frontseat_config::InterfaceConfig>(path)?;
-    let env = std::env::var("FRONTSEAT_DRIVER_LIBRARY").ok();
-    if let Some(chosen) = cfg.select_goby3_driver(env.as_deref()) {
-        notes.push(chosen);
-        let errors = cfg.validate();
-        if !errors.is_empty() {
-            return Err(frontseat_config::ConfigError::Invalid {
-                file: path.display().to_string(),
-                errors,
-            });
-        }
-    }
-    Ok((cfg, notes))
-}
-
-/// `--example_config`, `--schema`, `--check`, `--import-goby3`: answered here, before any service
-/// starts. Returns Some(exit code) when one of them was asked for.
-fn config_commands<T: frontseat_config::ServiceConfig>(
-    a: &ConfigArgs,
-    loader: fn(&std::path::Path) -> Loaded<T>,
-) -> Option<ExitCode> {
-    if let Some(path) = &a.import_goby3 {
-        return Some(match frontseat_config::import_goby3::<T>(path) {
-            Ok(imported) => {
-                print!("{}", imported.toml);
-                ExitCode::SUCCESS
-            }
-            Err(e) => {
-                eprintln!("{e}");
-                ExitCode::from(2)
-            }
-        });
-    }
-    if a.example_config {
-        print!("{}", frontseat_config::example::<T>());
-        return Some(ExitCode::SUCCESS);
-    }
-    if a.schema {
-        println!("{}", frontseat_config::schema::<T>());
-        return Some(ExitCode::SUCCESS);
-    }
-    if a.check {
-        let Some(path) = a.file() else {
-            eprintln!("--check needs a config file: --check -c FILE");
-            return Some(ExitCode::from(2));
-        };
-        return Some(match loader(path) {
-            Ok((cfg, notes)) => {
-                for w in notes.iter().chain(cfg.warnings().iter()) {
-                    eprintln!("{}: warning: {w}", path.display());
-                }
-                println!("{}: ok ({} config)", path.display(), T::SERVICE);
-                ExitCode::SUCCESS
-            }
-            Err(e) => {
-                eprintln!("{e}");
-                ExitCode::from(2)
-            }
-        });
-    }
-    None
-}
-
-/// Loads the config named by -c, or the defaults when `optional` and none is given.
-fn load_config<T: frontseat_config::ServiceConfig>(
-    a: &ConfigArgs,
-    optional: bool,
-) -> Result<T, ExitCode> {
-    load_config_with(a, optional, load_plain::<T>).map(|(cfg, _)| cfg)
-}
-
-/// [`load_config`] with the service's loader, keeping the lines to log once logging is up.
-fn load_config_with<T: frontseat_config::ServiceConfig>(
-    a: &ConfigArgs,
-    optional: bool,
-    loader: fn(&std::path::Path) -> Loaded<T>,
-) -> Result<(T, Vec<String>), ExitCode> {
-    match a.file() {
-        Some(path) => loader(path).map_err(|e| {
-            eprintln!("{e}");
-            ExitCode::from(2)
-        }),
-        None if optional => Ok((T::default(), Vec::new())),
-        None => {
-            let s = T::SERVICE;
-            eprintln!(
-                "frontseat {s}: a config file is required: frontseat {s} -c FILE\n\
-                 Start from the complete example (every field, its default and unit):\n  \
-                 frontseat {s} --example_config > {s}.toml\n  \
-                 frontseat {s} --check -c {s}.toml\n  \
-                 frontseat {s} -c {s}.toml"
-            );
-            Err(ExitCode::from(2))
-        }
-    }
-}
-
 /// The command line, with Goby3's application names as aliases: installed (or linked) as
 /// `goby_frontseat_interface` this binary is `frontseat interface`, as `goby_moos_gateway` it is
 /// `frontseat moos-gateway`, so a Goby3 unit file's ExecStart works with the binary swapped.
@@ -337,7 +173,7 @@ fn main() -> ExitCode {
     match cli.command {
         Command::Interfaces => {
             print!("{}", frontseat_actors::generated::RESOLVED_INTERFACES_YAML);
-            print!("{}", service::supervision_tree());
+            print!("{}", compose::supervision_tree());
             ExitCode::SUCCESS
         }
         Command::Interface { cfg } => {
@@ -352,7 +188,7 @@ fn main() -> ExitCode {
             let name = config.name.clone();
             run_traced(&tel, "interface", &name, async move {
                 log_config_notes(&notes);
-                service::interface(config).await
+                compose::interface::run(config).await
             })
         }
         Command::Sim {
@@ -400,7 +236,7 @@ fn main() -> ExitCode {
                 config.bind = b;
             }
             let tel = config.telemetry.clone();
-            run_traced(&tel, "sim", "", service::sim(config))
+            run_traced(&tel, "sim", "", compose::simulator::run(config))
         }
         Command::MoosGateway { cfg } => {
             if let Some(code) = config_commands(&cfg, load_plain::<frontseat_config::GatewayConfig>)
@@ -419,7 +255,7 @@ fn main() -> ExitCode {
             let name = config.name.clone();
             run_traced(&tel, "moos-gateway", &name, async move {
                 log_config_notes(&notes);
-                gateway_cmd::moos_gateway(config).await
+                compose::moos_gateway::run(config).await
             })
         }
         // No logging set-up: stdout carries the frames to the interface.
@@ -457,14 +293,14 @@ fn main() -> ExitCode {
                 Err(code) => return code,
             };
             run_traced(&Default::default(), "topside", "", async move {
-                ExitCode::from(frontseat_topside::run(config, service::shutdown_signal()).await)
+                ExitCode::from(frontseat_topside::run(config, shutdown::shutdown_signal()).await)
             })
         }
         Command::Completions { shell } => {
-            docs_gen::completions(shell, &mut std::io::stdout());
+            docs_gen::completions(Cli::command(), shell, &mut std::io::stdout());
             ExitCode::SUCCESS
         }
-        Command::ManPages { dir } => match docs_gen::man_pages(&dir) {
+        Command::ManPages { dir } => match docs_gen::man_pages(Cli::command(), &dir) {
             Ok(pages) => {
                 for p in pages {
                     println!("{}", p.display());
@@ -488,18 +324,5 @@ fn main() -> ExitCode {
 fn log_config_notes(notes: &[String]) {
     for n in notes {
         tracing::warn!("config: {n}");
-    }
-}
-
-fn run(fut: impl std::future::Future<Output = ExitCode>) -> ExitCode {
-    match tokio::runtime::Builder::new_multi_thread()
-        .enable_all()
-        .build()
-    {
-        Ok(rt) => rt.block_on(fut),
-        Err(e) => {
-            eprintln!("cannot start the async runtime: {e}");
-            ExitCode::from(1)
-        }
     }
 }

@@ -1,8 +1,8 @@
-//! Zenoh and Goby3 for the services: the gateways `frontseat interface` starts when
-//! `[interprocess] enabled` (Zenoh) and `[goby3] enabled` (a gobyd client), hosting the
-//! FrontSeatInterface, plus the FrontSeatTranslation when it runs the MOOS bridge in-process; and
-//! `frontseat moos-gateway` — the FrontSeatTranslation alone between a MOOSDB and the interface
-//! reached over Zenoh and/or gobyd, as Goby3's goby_moos_gateway.
+//! The composition root of `frontseat moos-gateway` (Goby3's goby_moos_gateway): the
+//! FrontSeatTranslation alone between a MOOSDB and the interface, reached over Zenoh and/or
+//! gobyd. Its root supervisor's children in start order (the transports, the goby_coroner
+//! responder, the translation), the recorder of the helm's side of the link, systemd's READY and
+//! watchdog, and the exit code.
 
 use std::process::ExitCode;
 use std::sync::Arc;
@@ -11,94 +11,11 @@ use frontseat_actors::bus::Bus;
 use frontseat_actors::interface::ServiceExit;
 use frontseat_actors::service_child::{Service, service_child_with};
 use frontseat_actors::supervisor::{ChildSpec, SupervisorHandle};
-use frontseat_config::Goby3Config;
-use frontseat_config::{GatewayConfig, InterfaceConfig};
-use frontseat_helm_side::goby3::{Goby3Handle, Goby3Settings};
-use frontseat_helm_side::{GatewayError, GatewayHandle, GatewayOptions};
+use frontseat_config::GatewayConfig;
+use frontseat_helm_side::{GatewayError, GatewayOptions};
 
-/// The actors `frontseat interface` hosts, hence what its gateway exports and imports.
-pub fn interface_actors(cfg: &InterfaceConfig) -> Vec<&'static str> {
-    let mut hosted = vec!["FrontSeatInterface", "RootSupervisor", "HealthReporter"];
-    if cfg.moos.is_some() {
-        hosted.push("FrontSeatTranslation");
-    }
-    hosted
-}
-
-/// Starts the interface's gateway; `None` when `[interprocess] enabled = false`. Start it before
-/// the interface so that its first statuses are already exported.
-pub async fn start_for_interface(
-    cfg: &InterfaceConfig,
-    bus: &Bus,
-) -> Result<Option<GatewayHandle>, GatewayError> {
-    if !cfg.interprocess.enabled {
-        return Ok(None);
-    }
-    let platform = frontseat_helm_side::resolve_platform(&cfg.interprocess, &cfg.name)?;
-    frontseat_helm_side::start(
-        bus,
-        &cfg.interprocess,
-        &platform,
-        &interface_actors(cfg),
-        GatewayOptions::default(),
-    )
-    .await
-    .map(Some)
-}
-
-/// Starts the Goby3 transport for `hosted` actors; `None` when `[goby3] enabled = false`. It
-/// returns at once: gobyd is joined (and re-joined) in the background.
-pub fn start_goby3(
-    cfg: &Goby3Config,
-    name: &str,
-    bus: &Bus,
-    hosted: &[&str],
-) -> Result<Option<Goby3Handle>, GatewayError> {
-    if !cfg.enabled {
-        return Ok(None);
-    }
-    let settings = Goby3Settings::from_config(cfg, name)?;
-    frontseat_helm_side::goby3::start(bus, settings, hosted, GatewayOptions::default()).map(Some)
-}
-
-/// The Goby3 transport as a child of a root supervisor, for `hosted` actors.
-pub fn goby3_child(
-    cfg: &Goby3Config,
-    name: &str,
-    bus: &Bus,
-    hosted: Vec<&'static str>,
-    policy: frontseat_actors::supervisor::Policy,
-) -> ChildSpec {
-    let ctx = (Arc::new(cfg.clone()), name.to_string(), bus.clone(), hosted);
-    service_child_with(
-        "Goby3Gateway",
-        policy,
-        ctx,
-        |(cfg, name, bus, hosted)| async move {
-            match start_goby3(&cfg, &name, &bus, &hosted) {
-                Ok(Some(g)) => Ok(Box::new(g) as Box<dyn Service>),
-                Ok(None) => Err("[goby3] is not enabled".to_string()),
-                Err(e) => Err(e.to_string()),
-            }
-        },
-    )
-}
-
-/// The goby_coroner responder as a child of a root supervisor, answering as `name`; restarted
-/// by the default policy (it holds nothing but the last statuses).
-pub fn health_child(name: &str, bus: &Bus) -> ChildSpec {
-    service_child_with(
-        "HealthReporter",
-        (&frontseat_config::RestartConfig::default()).into(),
-        (name.to_string(), bus.clone()),
-        |(name, bus)| async move {
-            Ok(
-                Box::new(frontseat_actors::health::HealthReporter::spawn(&bus, &name))
-                    as Box<dyn Service>,
-            )
-        },
-    )
-}
+use super::gateways::{goby3_child, health_child};
+use super::recording;
 
 /// A hint for the commonest failure: the interface already listens on the default endpoint.
 fn open_hint(e: &GatewayError) -> &'static str {
@@ -112,16 +29,16 @@ fn open_hint(e: &GatewayError) -> &'static str {
 }
 
 /// `frontseat moos-gateway`'s children with both transports on, for the printed tree.
-pub fn tree_children(bus: &Bus) -> Vec<ChildSpec> {
+pub(super) fn tree_children(bus: &Bus) -> Vec<ChildSpec> {
     let mut cfg = GatewayConfig::default();
     cfg.interprocess.enabled = true;
     cfg.goby3.enabled = true;
-    gateway_children(&cfg, "platform", bus)
+    children(&cfg, "platform", bus)
 }
 
 /// The root supervisor's children for `frontseat moos-gateway`, in start order: the transports
 /// first, so that what the MOOS side publishes from its first moment is exported.
-fn gateway_children(cfg: &GatewayConfig, platform: &str, bus: &Bus) -> Vec<ChildSpec> {
+pub(super) fn children(cfg: &GatewayConfig, platform: &str, bus: &Bus) -> Vec<ChildSpec> {
     const HOSTED: [&str; 3] = ["FrontSeatTranslation", "RootSupervisor", "HealthReporter"];
     let sup = &cfg.supervision;
     let mut children = Vec::new();
@@ -191,7 +108,7 @@ fn gateway_children(cfg: &GatewayConfig, platform: &str, bus: &Bus) -> Vec<Child
 
 /// `frontseat moos-gateway -c FILE`: runs until SIGTERM/SIGINT, or until its root supervisor
 /// gives up on a child (non-zero exit).
-pub async fn moos_gateway(cfg: GatewayConfig) -> ExitCode {
+pub async fn run(cfg: GatewayConfig) -> ExitCode {
     let bus = Bus::new();
     let notifier = std::sync::Arc::new(frontseat_actors::systemd::Notifier::from_env());
     let reporter = frontseat_actors::systemd::spawn_translation_reporter(notifier.clone(), &bus);
@@ -202,7 +119,7 @@ pub async fn moos_gateway(cfg: GatewayConfig) -> ExitCode {
             return ExitCode::from(2);
         }
     };
-    let recorder = match crate::record_cmd::start_gateway_recorder(&bus, &cfg) {
+    let recorder = match recording::start_gateway_recorder(&bus, &cfg) {
         Ok(r) => r,
         Err(e) => {
             tracing::error!(error = %e, "cannot start the recorder ([record])");
@@ -210,13 +127,13 @@ pub async fn moos_gateway(cfg: GatewayConfig) -> ExitCode {
             return ExitCode::from(2);
         }
     };
-    let children = gateway_children(&cfg, &platform, &bus);
+    let children = children(&cfg, &platform, &bus);
     let mut root = match SupervisorHandle::start("root", children, Some(&bus)).await {
         Ok(r) => r,
         Err(e) => {
             tracing::error!(error = %e, "cannot start the MOOS gateway");
             reporter.abort();
-            crate::record_cmd::stop_recorder(recorder).await;
+            recording::stop_recorder(recorder).await;
             return ExitCode::from(2);
         }
     };
@@ -239,7 +156,7 @@ pub async fn moos_gateway(cfg: GatewayConfig) -> ExitCode {
     }
     root.shutdown(crate::shutdown::SHUTDOWN_BOUND * 3).await;
     reporter.abort();
-    crate::record_cmd::stop_recorder(recorder).await;
+    recording::stop_recorder(recorder).await;
     tracing::info!("MOOS gateway stopped");
     crate::shutdown::exit_code(&exit)
 }

@@ -10,7 +10,7 @@
 //! | `frontseat sim --vehicle <v>` (a vehicle's emulator) | [`emulators`] |
 //! | `frontseat moos-gateway` | [`moos_gateway`] |
 //! | `frontseat demo` (simulator + interface under one root; the helm flies on its bus) | [`demo`] |
-//! | `frontseat topside` | `frontseat_topside::run` (the whole process is that crate) |
+//! | `frontseat topside` | `frontseat_topside::run` (the whole process is that crate; its children: `frontseat_topside::children`) |
 //! | `frontseat launch` | `frontseat_launch::run` (its children are the launch file's processes) |
 //!
 //! [`supervision_tree`] is what `frontseat interfaces` prints: rendered from the same child
@@ -55,8 +55,18 @@ pub fn supervision_tree() -> String {
         "gives up past a child's limit: exit 3",
         &nodes(moos_gateway::tree_children(&bus)),
     ));
+    out.push_str(&render_tree(
+        "frontseat topside",
+        "never gives up on its own: the page server is restarted without end",
+        &nodes(frontseat_topside::children(Default::default(), None)),
+    ));
+    out.push_str(LAUNCH_TREE);
     out
 }
+
+/// `frontseat launch`'s children are its file's processes: `frontseat launch --check -c FILE`
+/// prints them in start order with their restart policies, from the same plan the launch runs.
+const LAUNCH_TREE: &str = "# frontseat launch\n#   root supervisor   gives up when a process fails past its own `restart`\n#   └── one child per process of the launch file, in its order: `frontseat launch --check -c FILE` prints them\n";
 
 #[cfg(test)]
 mod tests {

@@ -677,11 +677,32 @@ async fn stop_recorder(r: Recorder) {
     }
 }
 
+/// The topside's root supervisor's children: one, the page server with its Zenoh session,
+/// restarted with backoff and never ending the process (it steers nothing by itself). Also what
+/// `frontseat interfaces` prints for `frontseat topside`.
+pub fn children(
+    cfg: TopsideConfig,
+    input: Option<RecordInput>,
+) -> Vec<frontseat_actors::supervisor::ChildSpec> {
+    use frontseat_actors::service_child::service_child_with;
+    use frontseat_actors::supervisor::Policy;
+    let policy = Policy::from(&frontseat_config::RestartConfig::default()).helm_side();
+    let ctx = (Arc::new(cfg), input);
+    vec![
+        service_child_with("Topside", policy, ctx, |(cfg, input)| async move {
+            Topside::start_with(&cfg, None, input)
+                .await
+                .map(|t| Box::new(t) as Box<dyn Service>)
+                .map_err(|e| e.to_string())
+        })
+        .noted("the page server and its Zenoh session; restarted without end, jittered"),
+    ]
+}
+
 /// The topside under a supervisor until `stop`: restarted (with backoff) if its server fails.
 /// The recorder is started once, outside the restarts, so a restart continues its file.
 pub async fn run(cfg: TopsideConfig, stop: impl std::future::Future<Output = ()>) -> u8 {
-    use frontseat_actors::service_child::service_child_with;
-    use frontseat_actors::supervisor::{Policy, SupervisorHandle};
+    use frontseat_actors::supervisor::SupervisorHandle;
     // Fail fast on what a restart cannot fix.
     if let Err(e) = effective_token(&cfg) {
         tracing::error!("{e}");
@@ -695,15 +716,7 @@ pub async fn run(cfg: TopsideConfig, stop: impl std::future::Future<Output = ()>
             return 2;
         }
     };
-    let policy = Policy::from(&frontseat_config::RestartConfig::default()).helm_side();
-    let ctx = (Arc::new(cfg), input);
-    let child = service_child_with("Topside", policy, ctx, |(cfg, input)| async move {
-        Topside::start_with(&cfg, None, input)
-            .await
-            .map(|t| Box::new(t) as Box<dyn Service>)
-            .map_err(|e| e.to_string())
-    });
-    let mut root = match SupervisorHandle::start("topside", vec![child], None).await {
+    let mut root = match SupervisorHandle::start("topside", children(cfg, input), None).await {
         Ok(r) => r,
         Err(e) => {
             tracing::error!(error = %e, "cannot start the topside");

@@ -3,13 +3,19 @@
 //! fact the driver relies on.
 
 use super::*;
+use crate::codec::MavMessage;
+use crate::dialect::MavCmd;
 use crate::dialect::{MANUAL_CONTROL_DATA, MavFrame};
+use crate::infer;
+use frontseat_actors::link::LineWriter;
+use frontseat_actors::proto::frontseat::protobuf::ardupilot::ardupilot_command::Action;
 use frontseat_actors::proto::goby::middleware::frontseat::protobuf::DesiredCourse;
+use frontseat_config::{ArdupilotVehicle, InterfaceConfig};
 use tokio::sync::mpsc::Receiver;
 
 type Sink = frontseat_actors::driver::RecordingSink;
 
-const FIXTURE: &str = include_str!("../fixtures/pymavlink_sub_frames.hex");
+const FIXTURE: &str = include_str!("../../fixtures/pymavlink_sub_frames.hex");
 
 fn frame(name: &str) -> Vec<u8> {
     let hex = FIXTURE

@@ -165,6 +165,9 @@ impl Driver for ArdupilotDriver {
 }
 
 #[cfg(test)]
+mod test_link;
+
+#[cfg(test)]
 mod tests;
 
 #[cfg(test)]

@@ -4,37 +4,25 @@
 use super::*;
 use crate::codec::MavMessage;
 use crate::dialect::{MavCmd, MavSysStatusSensor};
-use frontseat_actors::link::LineWriter;
 use frontseat_actors::proto::frontseat::protobuf::ardupilot::ArdupilotCommand;
 use frontseat_actors::proto::frontseat::protobuf::ardupilot::ardupilot_command::Action;
 use frontseat_actors::proto::goby::middleware::frontseat::protobuf::DesiredCourse;
 use frontseat_config::InterfaceConfig;
 use tokio::sync::mpsc::Receiver;
 
-type Sink = frontseat_actors::driver::RecordingSink;
+use super::test_link::{Sink, connected, feed_frame, fixture_frame, written};
 
 /// Vehicle-side frames encoded by pymavlink (see the file's header).
 const FIXTURE: &str = include_str!("../../fixtures/pymavlink_vehicle_frames.hex");
 
 fn frame(name: &str) -> Vec<u8> {
-    let hex = FIXTURE
-        .lines()
-        .find_map(|l| l.strip_prefix(name).and_then(|r| r.strip_prefix(' ')))
-        .unwrap_or_else(|| panic!("no fixture {name}"));
-    (0..hex.len())
-        .step_by(2)
-        .map(|i| u8::from_str_radix(&hex[i..i + 2], 16).unwrap())
-        .collect()
+    fixture_frame(FIXTURE, name)
 }
 
 fn driver_with(f: impl FnOnce(&mut InterfaceConfig)) -> (ArdupilotDriver, Receiver<Vec<u8>>, Sink) {
     let mut cfg = InterfaceConfig::default();
     f(&mut cfg);
-    let mut d = ArdupilotDriver::new(Settings::from_config(&cfg));
-    let mut sink = Sink::default();
-    let (w, rx) = LineWriter::for_test();
-    d.handle_io(DriverIoEvent::Connected(w), Duration::ZERO, &mut sink);
-    (d, rx, sink)
+    connected(&cfg)
 }
 
 fn driver() -> (ArdupilotDriver, Receiver<Vec<u8>>, Sink) {
@@ -42,20 +30,11 @@ fn driver() -> (ArdupilotDriver, Receiver<Vec<u8>>, Sink) {
 }
 
 fn feed(d: &mut ArdupilotDriver, sink: &mut Sink, name: &str, t: f64) {
-    d.handle_io(
-        DriverIoEvent::Frame(frame(name)),
-        Duration::from_secs_f64(t),
-        sink,
-    );
+    feed_frame(d, sink, frame(name), t);
 }
 
 fn sent(rx: &mut Receiver<Vec<u8>>) -> Vec<MavMessage> {
-    let mut v = Vec::new();
-    while let Ok(b) = rx.try_recv() {
-        let mut d = codec::Deframer::new();
-        d.feed(&b, &mut |r| v.push(codec::decode(&r.unwrap()).unwrap().1));
-    }
-    v
+    written(rx).into_iter().map(|(_, m)| m).collect()
 }
 
 fn ready(d: &mut ArdupilotDriver, sink: &mut Sink, t: f64) {

@@ -12,11 +12,11 @@
 //! LOCAL_POSITION_NED.z. The vehicle's failsafes stay its watchdog on us: our HEARTBEAT (and,
 //! with `pilot_input_keepalive`, a neutral MANUAL_CONTROL) go out only while we run and hear it.
 //!
-//! One state ([`state`]) and the modules that act on it, each owning one part: [`settings`] (the
-//! config, the framing), [`inbound`] (frame → the part that owns the message), [`heartbeat`]
-//! (state inference), [`navigation`] (NodeStatus), [`keepalive`] (what goes out unasked),
-//! [`course`] and [`sub_course`] (the helm's course: Rover, Sub), [`mode_commands`] (the
-//! extension), [`acks`] (verdicts). This file is the runtime's `Driver` trait over them.
+//! One state (`state`) and the modules that act on it, each owning one part: `settings` (the
+//! config, the framing), `inbound` (frame → the part that owns the message), `heartbeat`
+//! (state inference), `navigation` (NodeStatus), `keepalive` (what goes out unasked),
+//! `course` and `sub_course` (the helm's course: Rover, Sub), `mode_commands` (the
+//! extension), `acks` (verdicts). This file is the runtime's `Driver` trait over them.
 
 use std::time::Duration;
 

@@ -4,18 +4,18 @@
 //! GUIDED targets read by the README's type_mask rules and ignored outside GUIDED, the 3 s
 //! target timeout on sim time, WP_SPEED, and readiness: an EKF that needs time for an absolute
 //! position, and the EKF failsafe to HOLD of a vehicle put in GUIDED before it.
-
-use std::collections::BTreeMap;
+//! What it shares with the other firmware (frames, the stream schedule, arming, COMMAND_ACK,
+//! STATUSTEXT, the streamed messages' layout) is written once in `session`; this file is its own part.
 
 use mavlink::MessageData;
 
-use frontseat_sim::emulator::Session;
 use frontseat_sim::vehicle::{Limits, Setpoint, Vehicle};
 
-use crate::codec::{Deframer, FrameError, MavMessage, Sender, decode};
+use crate::codec::MavMessage;
 use crate::dialect::*;
 use crate::infer::{self, EKF_READY, TARGET_TIMEOUT_S, TARGET_TIMEOUT_TEXT, Target};
 use crate::modes::{Firmware, rover};
+use crate::session::{self, Autopilot, Face};
 
 /// How the emulated Rover starts.
 #[derive(Debug, Clone, PartialEq)]
@@ -83,22 +83,13 @@ const STREAMABLE: [u32; 8] = [
     EKF_STATUS_REPORT_DATA::ID,
     STATUSTEXT_DATA::ID,
 ];
-/// Fastest stream a backseat may ask for: a flood of our own making helps nobody.
-const MIN_INTERVAL_S: f64 = 0.01;
-/// Statustexts kept for inspection.
-const MAX_TEXTS: usize = 64;
 
 pub struct RoverSession {
     opts: RoverOptions,
     vehicle: Vehicle,
-    tx: Sender,
-    deframer: Deframer,
-    /// Sim seconds since boot.
-    t: f64,
+    ap: Autopilot,
     mode: u32,
     armed: bool,
-    /// Seconds between sends, and when each was last sent.
-    intervals: BTreeMap<u32, (f64, f64)>,
     target: Option<Target>,
     last_target_t: Option<f64>,
     /// GUIDED was entered before the EKF had an absolute position.
@@ -109,16 +100,11 @@ pub struct RoverSession {
 
 impl RoverSession {
     pub fn new(opts: RoverOptions) -> Self {
-        let mut intervals = BTreeMap::new();
-        intervals.insert(HEARTBEAT_DATA::ID, (1.0, f64::NEG_INFINITY));
         Self {
             vehicle: Vehicle::new(opts.lat, opts.lon, opts.limits, (0.0, 0.0)),
-            tx: Sender::new(opts.system_id, opts.component_id),
-            deframer: Deframer::new(),
-            t: 0.0,
+            ap: Autopilot::new(opts.system_id, opts.component_id, opts.init_s, &STREAMABLE),
             mode: rover::INITIALISING,
             armed: false,
-            intervals,
             target: None,
             last_target_t: None,
             guided_on_backup: false,
@@ -141,15 +127,11 @@ impl RoverSession {
     }
 
     pub fn sim_time(&self) -> f64 {
-        self.t
-    }
-
-    fn initialising(&self) -> bool {
-        self.t < self.opts.init_s
+        self.ap.t
     }
 
     pub fn ekf_ready(&self) -> bool {
-        self.t >= self.opts.ekf_ready_s
+        self.ap.t >= self.opts.ekf_ready_s
     }
 
     fn failsafe(&self) -> bool {
@@ -157,7 +139,7 @@ impl RoverSession {
     }
 
     fn ekf_flags(&self) -> u16 {
-        if self.initialising() {
+        if self.ap.initialising() {
             EkfStatusFlags::EKF_UNINITIALIZED.bits()
         } else if self.ekf_ready() {
             EKF_READY
@@ -172,23 +154,9 @@ impl RoverSession {
         }
     }
 
-    fn send(&mut self, msg: MavMessage, out: &mut Vec<u8>) {
-        out.extend_from_slice(&self.tx.frame(&msg));
-    }
-
     /// Sends a STATUSTEXT (cut to the 50 characters the message holds).
     pub fn statustext(&mut self, severity: MavSeverity, text: &str, out: &mut Vec<u8>) {
-        let cut: String = text.chars().take(50).collect();
-        if self.stats.statustexts.len() < MAX_TEXTS {
-            self.stats.statustexts.push(cut.clone());
-        }
-        self.send(
-            MavMessage::STATUSTEXT(STATUSTEXT_DATA {
-                severity,
-                text: cut.as_str().into(),
-            }),
-            out,
-        );
+        Face::statustext(self, severity, text, out);
     }
 
     fn set_mode(&mut self, mode: u32, out: &mut Vec<u8>) {
@@ -217,43 +185,16 @@ impl RoverSession {
             rover::AUTO | rover::RTL | rover::SMART_RTL => MavModeFlag::MAV_MODE_FLAG_AUTO_ENABLED,
             _ => MavModeFlag::MAV_MODE_FLAG_MANUAL_INPUT_ENABLED,
         };
-        let system_status = if self.initialising() {
-            MavState::MAV_STATE_CALIBRATING
-        } else if self.failsafe() {
-            MavState::MAV_STATE_CRITICAL
-        } else if self.armed {
-            MavState::MAV_STATE_ACTIVE
-        } else {
-            MavState::MAV_STATE_STANDBY
-        };
-        let msg = MavMessage::HEARTBEAT(HEARTBEAT_DATA {
-            custom_mode: self.mode,
-            mavtype: self.opts.mav_type,
-            autopilot: MavAutopilot::MAV_AUTOPILOT_ARDUPILOTMEGA,
-            base_mode: base,
-            system_status,
-            mavlink_version: 3,
-        });
-        self.send(msg, out);
+        let status =
+            self.ap
+                .system_status(MavState::MAV_STATE_CALIBRATING, self.failsafe(), self.armed);
+        self.ap
+            .heartbeat(self.mode, self.opts.mav_type, base, status, out);
     }
 
-    fn ack(&mut self, command: MavCmd, result: MavResult, out: &mut Vec<u8>) {
-        self.send(
-            MavMessage::COMMAND_ACK(COMMAND_ACK_DATA { command, result }),
-            out,
-        );
-    }
-
-    fn for_me(&self, system: u8) -> bool {
-        system == 0 || system == self.opts.system_id
-    }
-
-    fn command(&mut self, c: &COMMAND_LONG_DATA, out: &mut Vec<u8>) {
-        if !self.for_me(c.target_system) {
-            return;
-        }
-        self.stats.commands += 1;
-        let result = match c.command {
+    /// Rover's own COMMAND_LONGs: mode by number, and no speed change in heading/speed mode.
+    fn rover_command(&mut self, c: &COMMAND_LONG_DATA, out: &mut Vec<u8>) -> MavResult {
+        match c.command {
             MavCmd::MAV_CMD_DO_SET_MODE => {
                 let mode = c.param2;
                 let custom = (c.param1 as u32) & 1 == 1;
@@ -262,70 +203,22 @@ impl RoverSession {
                     && mode.fract() == 0.0
                     && Firmware::Rover.mode_name(mode as u32).is_some()
                     && mode as u32 != rover::INITIALISING;
-                if custom && valid && !self.initialising() {
+                if custom && valid && !self.ap.initialising() {
                     self.set_mode(mode as u32, out);
                     MavResult::MAV_RESULT_ACCEPTED
                 } else {
                     MavResult::MAV_RESULT_FAILED
                 }
             }
-            MavCmd::MAV_CMD_COMPONENT_ARM_DISARM => {
-                if c.param1 == 1.0 {
-                    if self.initialising() {
-                        self.statustext(
-                            MavSeverity::MAV_SEVERITY_CRITICAL,
-                            "PreArm: AHRS not healthy",
-                            out,
-                        );
-                        MavResult::MAV_RESULT_FAILED
-                    } else {
-                        if !self.armed {
-                            self.armed = true;
-                            self.statustext(MavSeverity::MAV_SEVERITY_INFO, "Arming motors", out);
-                        }
-                        MavResult::MAV_RESULT_ACCEPTED
-                    }
-                } else if c.param1 == 0.0 {
-                    if self.armed {
-                        self.armed = false;
-                        self.statustext(MavSeverity::MAV_SEVERITY_INFO, "Disarming motors", out);
-                    }
-                    MavResult::MAV_RESULT_ACCEPTED
-                } else {
-                    MavResult::MAV_RESULT_DENIED
-                }
-            }
-            MavCmd::MAV_CMD_SET_MESSAGE_INTERVAL => {
-                let id = c.param1;
-                let us = c.param2;
-                let known = id.is_finite()
-                    && id >= 0.0
-                    && STREAMABLE.contains(&(id as u32))
-                    && us.is_finite();
-                if !known {
-                    MavResult::MAV_RESULT_FAILED
-                } else {
-                    let id = id as u32;
-                    if us < 0.0 {
-                        self.intervals.remove(&id);
-                    } else {
-                        let s = if us == 0.0 { 1.0 } else { f64::from(us) * 1e-6 };
-                        self.intervals
-                            .insert(id, (s.max(MIN_INTERVAL_S), f64::NEG_INFINITY));
-                    }
-                    MavResult::MAV_RESULT_ACCEPTED
-                }
-            }
             // README: answers FAILED in heading/speed mode.
             MavCmd::MAV_CMD_DO_CHANGE_SPEED => MavResult::MAV_RESULT_FAILED,
             _ => MavResult::MAV_RESULT_UNSUPPORTED,
-        };
-        self.ack(c.command, result, out);
+        }
     }
 
     fn target(&mut self, t: Target, system: u8, out: &mut Vec<u8>) {
         // Silently ignored outside GUIDED, and never acknowledged.
-        if !self.for_me(system) || self.mode != rover::GUIDED {
+        if !self.ap.for_me(system) || self.mode != rover::GUIDED {
             self.stats.targets_ignored += 1;
             return;
         }
@@ -338,15 +231,52 @@ impl RoverSession {
                 self.stats.targets_followed += 1;
                 self.stats.last_target = Some(t.clone());
                 self.target = Some(t);
-                self.last_target_t = Some(self.t);
+                self.last_target_t = Some(self.ap.t);
             }
         }
     }
 
-    fn handle(&mut self, msg: MavMessage, out: &mut Vec<u8>) {
+    /// Forces the EKF failsafe (tests of what a backseat makes of it).
+    pub fn inject_ekf_failsafe(&mut self, out: &mut Vec<u8>) {
+        self.ekf_failsafe(out);
+    }
+
+    fn ekf_failsafe(&mut self, out: &mut Vec<u8>) {
+        self.stats.ekf_failsafes += 1;
+        self.failsafe_since = Some(self.ap.t);
+        self.statustext(MavSeverity::MAV_SEVERITY_CRITICAL, "EKF failsafe", out);
+        self.set_mode(rover::HOLD, out);
+    }
+}
+
+impl Face for RoverSession {
+    fn command(&mut self, c: &COMMAND_LONG_DATA, out: &mut Vec<u8>) -> MavResult {
+        self.rover_command(c, out)
+    }
+
+    fn arm(&mut self, out: &mut Vec<u8>) {
+        if !self.armed {
+            self.armed = true;
+            self.statustext(MavSeverity::MAV_SEVERITY_INFO, "Arming motors", out);
+        }
+    }
+
+    fn disarm(&mut self, why: &str, out: &mut Vec<u8>) {
+        if self.armed {
+            self.armed = false;
+            self.statustext(MavSeverity::MAV_SEVERITY_INFO, why, out);
+        }
+    }
+
+    fn booted(&mut self, out: &mut Vec<u8>) {
+        self.mode = rover::MANUAL;
+        self.statustext(MavSeverity::MAV_SEVERITY_INFO, "Ready to drive", out);
+    }
+
+    fn handle(&mut self, _sender: u8, msg: MavMessage, out: &mut Vec<u8>) {
         match msg {
             MavMessage::HEARTBEAT(_) => self.stats.gcs_heartbeats += 1,
-            MavMessage::COMMAND_LONG(c) => self.command(&c, out),
+            MavMessage::COMMAND_LONG(c) => session::command(self, &c, out),
             MavMessage::SET_POSITION_TARGET_GLOBAL_INT(p) => {
                 let name = "GLOBAL_INT target";
                 let global = matches!(
@@ -401,22 +331,10 @@ impl RoverSession {
         }
     }
 
-    /// Forces the EKF failsafe (tests of what a backseat makes of it).
-    pub fn inject_ekf_failsafe(&mut self, out: &mut Vec<u8>) {
-        self.ekf_failsafe(out);
-    }
-
-    fn ekf_failsafe(&mut self, out: &mut Vec<u8>) {
-        self.stats.ekf_failsafes += 1;
-        self.failsafe_since = Some(self.t);
-        self.statustext(MavSeverity::MAV_SEVERITY_CRITICAL, "EKF failsafe", out);
-        self.set_mode(rover::HOLD, out);
-    }
-
     fn drive(&mut self, dt: f64, out: &mut Vec<u8>) {
         if self.mode == rover::GUIDED
             && let Some(t0) = self.last_target_t
-            && self.t - t0 >= TARGET_TIMEOUT_S
+            && self.ap.t - t0 >= TARGET_TIMEOUT_S
         {
             self.stats.target_timeouts += 1;
             self.last_target_t = None;
@@ -464,7 +382,7 @@ impl RoverSession {
         }
         if let Some(since) = self.failsafe_since
             && self.ekf_ready()
-            && self.t - since >= 3.0
+            && self.ap.t - since >= 3.0
         {
             self.failsafe_since = None;
             self.guided_on_backup = false;
@@ -473,59 +391,25 @@ impl RoverSession {
     }
 
     fn stream(&mut self, id: u32, out: &mut Vec<u8>) {
-        let v = &self.vehicle;
-        let (north, east) = {
-            let h = v.heading.to_radians();
-            (v.speed * h.cos(), v.speed * h.sin())
-        };
-        let boot_ms = (self.t * 1000.0) as u32;
+        let s = self.ap.snapshot(&mut self.vehicle);
+        let depth = self.vehicle.depth;
         let fix = if self.ekf_ready() {
             GpsFixType::GPS_FIX_TYPE_3D_FIX
         } else {
             GpsFixType::GPS_FIX_TYPE_NO_FIX
         };
-        let (lat, lon) = if self.initialising() {
-            (0.0, 0.0)
-        } else {
-            self.vehicle.lat_lon()
-        };
-        let v = &self.vehicle;
-        let hdg_cd = (v.heading * 100.0).round() as u16 % 36000;
         let msg = match id {
             HEARTBEAT_DATA::ID => return self.heartbeat(out),
             GLOBAL_POSITION_INT_DATA::ID => {
-                MavMessage::GLOBAL_POSITION_INT(GLOBAL_POSITION_INT_DATA {
-                    time_boot_ms: boot_ms,
-                    lat: (lat * 1e7).round() as i32,
-                    lon: (lon * 1e7).round() as i32,
-                    alt: 0,
-                    relative_alt: (-v.depth * 1000.0) as i32,
-                    vx: (north * 100.0).round() as i16,
-                    vy: (east * 100.0).round() as i16,
-                    vz: 0,
-                    hdg: hdg_cd,
-                })
+                session::global_position(&s, 0, (-depth * 1000.0) as i32, 0)
             }
-            ATTITUDE_DATA::ID => {
-                let yaw = if v.heading > 180.0 {
-                    v.heading - 360.0
-                } else {
-                    v.heading
-                };
-                MavMessage::ATTITUDE(ATTITUDE_DATA {
-                    time_boot_ms: boot_ms,
-                    yaw: yaw.to_radians() as f32,
-                    ..Default::default()
-                })
-            }
-            VFR_HUD_DATA::ID => MavMessage::VFR_HUD(VFR_HUD_DATA {
-                airspeed: 0.0,
-                groundspeed: v.speed.abs() as f32,
-                alt: 0.0,
-                climb: 0.0,
-                heading: (hdg_cd / 100) as i16,
-                throttle: ((v.speed.abs() / self.opts.wp_speed.max(0.1)) * 100.0).min(100.0) as u16,
-            }),
+            ATTITUDE_DATA::ID => session::attitude(&s, 0.0),
+            VFR_HUD_DATA::ID => session::vfr_hud(
+                &s,
+                0.0,
+                0.0,
+                ((s.speed / self.opts.wp_speed.max(0.1)) * 100.0).min(100.0) as u16,
+            ),
             SYS_STATUS_DATA::ID => {
                 let mut sensors = MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_3D_GYRO
                     | MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_3D_ACCEL
@@ -534,87 +418,22 @@ impl RoverSession {
                 if self.ekf_ready() {
                     sensors |= MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_GPS;
                 }
-                MavMessage::SYS_STATUS(SYS_STATUS_DATA {
-                    onboard_control_sensors_present: present,
-                    onboard_control_sensors_enabled: present,
-                    onboard_control_sensors_health: sensors,
-                    load: 100,
-                    voltage_battery: 12_600,
-                    current_battery: 150,
-                    battery_remaining: 90,
-                    ..Default::default()
-                })
+                session::sys_status(present, sensors, 12_600, 150)
             }
-            GPS_RAW_INT_DATA::ID => MavMessage::GPS_RAW_INT(GPS_RAW_INT_DATA {
-                time_usec: (self.t * 1e6) as u64,
-                lat: (lat * 1e7).round() as i32,
-                lon: (lon * 1e7).round() as i32,
-                alt: 0,
-                eph: 121,
-                epv: 200,
-                vel: (v.speed.abs() * 100.0) as u16,
-                cog: hdg_cd,
-                fix_type: fix,
-                satellites_visible: if self.ekf_ready() { 10 } else { 0 },
-            }),
-            EKF_STATUS_REPORT_DATA::ID => MavMessage::EKF_STATUS_REPORT(EKF_STATUS_REPORT_DATA {
-                velocity_variance: 0.02,
-                pos_horiz_variance: 0.01,
-                pos_vert_variance: 0.01,
-                compass_variance: 0.02,
-                terrain_alt_variance: 0.0,
-                flags: EkfStatusFlags::from_bits_retain(self.ekf_flags()),
-            }),
+            GPS_RAW_INT_DATA::ID => session::gps_raw(
+                &s,
+                self.ap.t,
+                fix,
+                if self.ekf_ready() { 10 } else { 0 },
+                (s.speed * 100.0) as u16,
+                s.hdg_cd,
+            ),
+            EKF_STATUS_REPORT_DATA::ID => session::ekf_report(self.ekf_flags()),
             // Event-driven: nothing to stream.
             _ => return,
         };
-        self.send(msg, out);
+        self.ap.send(msg, out);
     }
 }
 
-impl Session for RoverSession {
-    fn on_bytes(&mut self, bytes: &[u8], out: &mut Vec<u8>) {
-        let mut frames = Vec::new();
-        let mut bad = 0;
-        self.deframer.feed(bytes, &mut |r| match r {
-            Ok(f) => frames.push(f),
-            Err(FrameError::Noise(_)) | Err(_) => bad += 1,
-        });
-        self.stats.bad_input += bad;
-        for f in frames {
-            match decode(&f) {
-                Ok((_, msg)) => {
-                    self.stats.frames_in += 1;
-                    self.handle(msg, out);
-                }
-                Err(_) => self.stats.bad_input += 1,
-            }
-        }
-    }
-
-    fn step(&mut self, dt: f64, out: &mut Vec<u8>) {
-        let was_init = self.initialising();
-        self.t += dt;
-        if was_init && !self.initialising() {
-            self.mode = rover::MANUAL;
-            self.statustext(MavSeverity::MAV_SEVERITY_INFO, "Ready to drive", out);
-        }
-        self.drive(dt, out);
-        let due: Vec<u32> = self
-            .intervals
-            .iter()
-            .filter(|(_, (every, last))| self.t - last >= every - 1e-9)
-            .map(|(id, _)| *id)
-            .collect();
-        for id in due {
-            if let Some(e) = self.intervals.get_mut(&id) {
-                e.1 = self.t;
-            }
-            self.stream(id, out);
-        }
-    }
-
-    fn reset_input(&mut self) {
-        self.deframer = Deframer::new();
-    }
-}
+session::shared_session!(RoverSession);

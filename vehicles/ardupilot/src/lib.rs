@@ -4,7 +4,8 @@
 //! backseat concludes from what the vehicle says, and what it sends for a course — pure
 //! functions), [`driver`] (the state, the I/O and the glue to the runtime's driver trait),
 //! [`emulator`] (what ArduPilot Rover answers, on the simulator's vehicle model), [`sub_emulator`]
-//! (what ArduSub answers, with depth dynamics). See README.md.
+//! (what ArduSub answers, with depth dynamics), both on `session` (what every emulated firmware
+//! does alike on the link). See README.md.
 
 #![forbid(unsafe_code)]
 
@@ -13,6 +14,7 @@ pub mod driver;
 pub mod emulator;
 pub mod infer;
 pub mod modes;
+mod session;
 pub mod sub_emulator;
 
 pub use mavlink::dialects::ardupilotmega as dialect;

@@ -7,20 +7,20 @@
 //! acceleration drops the message, GLOBAL_INT's yaw is ignored, position-only targets restart
 //! their trajectory), the 3 s velocity timeout, ALT_HOLD's depth / attitude / pilot-thrust path,
 //! and the GCS, pilot-input and leak failsafes.
-
-use std::collections::BTreeMap;
+//! What it shares with the other firmware (frames, the stream schedule, arming, COMMAND_ACK,
+//! STATUSTEXT, the streamed messages' layout) is written once in `session`; this file is its own part.
 
 use mavlink::MessageData;
 
-use frontseat_sim::emulator::Session;
 use frontseat_sim::vehicle::{Limits, Setpoint, Vehicle, short_turn, wrap_heading};
 
-use crate::codec::{Deframer, MavMessage, Sender, decode};
+use crate::codec::MavMessage;
 use crate::dialect::*;
 use crate::infer::{
     self, EKF_READY, SUB_ATTITUDE_TIMEOUT_S, SUB_TARGET_TIMEOUT_S, SubTarget, quaternion_heading,
 };
 use crate::modes::{Firmware, sub};
+use crate::session::{self, Autopilot, Face};
 
 /// How the emulated Sub starts, and its parameters.
 #[derive(Debug, Clone, PartialEq)]
@@ -133,8 +133,6 @@ const STREAMABLE: [u32; 11] = [
     SCALED_PRESSURE2_DATA::ID,
     STATUSTEXT_DATA::ID,
 ];
-const MIN_INTERVAL_S: f64 = 0.01;
-const MAX_TEXTS: usize = 64;
 /// RC_OVERRIDE_TIME: a pilot input lasts this long.
 const RC_OVERRIDE_S: f64 = 3.0;
 /// Surface pressure and its rise per metre of water (ardusub.md: ≈ 99 hPa/m). Unit: hPa.
@@ -167,12 +165,9 @@ enum Guided {
 pub struct SubSession {
     opts: SubOptions,
     vehicle: Vehicle,
-    tx: Sender,
-    deframer: Deframer,
-    t: f64,
+    ap: Autopilot,
     mode: u32,
     armed: bool,
-    intervals: BTreeMap<u32, (f64, f64)>,
     /// Vertical speed, m/s down.
     w: f64,
     depth_target: f64,
@@ -195,8 +190,6 @@ pub struct SubSession {
 
 impl SubSession {
     pub fn new(opts: SubOptions) -> Self {
-        let mut intervals = BTreeMap::new();
-        intervals.insert(HEARTBEAT_DATA::ID, (1.0, f64::NEG_INFINITY));
         let limits = Limits {
             accel: opts.accel,
             hdg_rate: opts.hdg_rate,
@@ -205,12 +198,9 @@ impl SubSession {
         };
         Self {
             vehicle: Vehicle::new(opts.lat, opts.lon, limits, (0.0, 0.0)),
-            tx: Sender::new(opts.system_id, opts.component_id),
-            deframer: Deframer::new(),
-            t: 0.0,
+            ap: Autopilot::new(opts.system_id, opts.component_id, opts.init_s, &STREAMABLE),
             mode: sub::MANUAL,
             armed: false,
-            intervals,
             w: 0.0,
             depth_target: 0.0,
             heading_hold: 0.0,
@@ -242,7 +232,7 @@ impl SubSession {
         self.vehicle.depth
     }
     pub fn sim_time(&self) -> f64 {
-        self.t
+        self.ap.t
     }
     /// Places the vehicle at a depth (tests start from one).
     pub fn set_depth(&mut self, d: f64) {
@@ -250,35 +240,18 @@ impl SubSession {
         self.depth_target = self.vehicle.depth;
     }
 
-    fn initialising(&self) -> bool {
-        self.t < self.opts.init_s
-    }
-
     /// The EKF has a horizontal position (GUIDED, AUTO, POSHOLD, CIRCLE may be entered).
     pub fn position_ok(&self) -> bool {
-        self.opts.position_estimate && self.t >= self.opts.ekf_ready_s
+        self.opts.position_estimate && self.ap.t >= self.opts.ekf_ready_s
     }
 
     fn failsafe(&self) -> bool {
         self.gcs_failsafe || self.pilot_failsafe || self.leak.is_some()
     }
 
-    fn send(&mut self, msg: MavMessage, out: &mut Vec<u8>) {
-        out.extend_from_slice(&self.tx.frame(&msg));
-    }
-
+    /// Sends a STATUSTEXT (cut to the 50 characters the message holds).
     pub fn statustext(&mut self, severity: MavSeverity, text: &str, out: &mut Vec<u8>) {
-        let cut: String = text.chars().take(50).collect();
-        if self.stats.statustexts.len() < MAX_TEXTS {
-            self.stats.statustexts.push(cut.clone());
-        }
-        self.send(
-            MavMessage::STATUSTEXT(STATUSTEXT_DATA {
-                severity,
-                text: cut.as_str().into(),
-            }),
-            out,
-        );
+        Face::statustext(self, severity, text, out);
     }
 
     fn needs_position(mode: u32) -> bool {
@@ -297,14 +270,6 @@ impl SubSession {
         }
     }
 
-    fn disarm(&mut self, why: &str, out: &mut Vec<u8>) {
-        if self.armed {
-            self.armed = false;
-            self.statustext(MavSeverity::MAV_SEVERITY_INFO, why, out);
-            self.heartbeat(out);
-        }
-    }
-
     fn heartbeat(&mut self, out: &mut Vec<u8>) {
         // ardusub.md: 0x51 disarmed, 0x80 added when armed.
         let mut base = MavModeFlag::MAV_MODE_FLAG_CUSTOM_MODE_ENABLED
@@ -313,43 +278,17 @@ impl SubSession {
         if self.armed {
             base |= MavModeFlag::MAV_MODE_FLAG_SAFETY_ARMED;
         }
-        let system_status = if self.initialising() {
-            MavState::MAV_STATE_BOOT
-        } else if self.failsafe() {
-            MavState::MAV_STATE_CRITICAL
-        } else if self.armed {
-            MavState::MAV_STATE_ACTIVE
-        } else {
-            MavState::MAV_STATE_STANDBY
-        };
-        let msg = MavMessage::HEARTBEAT(HEARTBEAT_DATA {
-            custom_mode: self.mode,
-            mavtype: MavType::MAV_TYPE_SUBMARINE,
-            autopilot: MavAutopilot::MAV_AUTOPILOT_ARDUPILOTMEGA,
-            base_mode: base,
-            system_status,
-            mavlink_version: 3,
-        });
-        self.send(msg, out);
+        let status = self
+            .ap
+            .system_status(MavState::MAV_STATE_BOOT, self.failsafe(), self.armed);
+        self.ap
+            .heartbeat(self.mode, MavType::MAV_TYPE_SUBMARINE, base, status, out);
     }
 
-    fn ack(&mut self, command: MavCmd, result: MavResult, out: &mut Vec<u8>) {
-        self.send(
-            MavMessage::COMMAND_ACK(COMMAND_ACK_DATA { command, result }),
-            out,
-        );
-    }
-
-    fn for_me(&self, system: u8) -> bool {
-        system == 0 || system == self.opts.system_id
-    }
-
-    fn command(&mut self, c: &COMMAND_LONG_DATA, out: &mut Vec<u8>) {
-        if !self.for_me(c.target_system) {
-            return;
-        }
-        self.stats.commands += 1;
-        let result = match c.command {
+    /// ArduSub's own COMMAND_LONGs: mode by number (the position modes only with a position),
+    /// the WP speed, and a heading in GUIDED.
+    fn sub_command(&mut self, c: &COMMAND_LONG_DATA, out: &mut Vec<u8>) -> MavResult {
+        match c.command {
             MavCmd::MAV_CMD_DO_SET_MODE => {
                 let m = c.param2;
                 let valid = (c.param1 as u32) & 1 == 1
@@ -357,7 +296,7 @@ impl SubSession {
                     && m >= 0.0
                     && m.fract() == 0.0
                     && Firmware::Sub.mode_name(m as u32).is_some();
-                if !valid || self.initialising() {
+                if !valid || self.ap.initialising() {
                     MavResult::MAV_RESULT_FAILED
                 } else if Self::needs_position(m as u32) && !self.position_ok() {
                     let name = Firmware::Sub.mode_name(m as u32).unwrap_or("mode");
@@ -369,53 +308,6 @@ impl SubSession {
                     MavResult::MAV_RESULT_FAILED
                 } else {
                     self.set_mode(m as u32, out);
-                    MavResult::MAV_RESULT_ACCEPTED
-                }
-            }
-            MavCmd::MAV_CMD_COMPONENT_ARM_DISARM => {
-                if c.param1 == 1.0 {
-                    if self.initialising() {
-                        self.statustext(
-                            MavSeverity::MAV_SEVERITY_CRITICAL,
-                            "PreArm: AHRS not healthy",
-                            out,
-                        );
-                        MavResult::MAV_RESULT_FAILED
-                    } else {
-                        if !self.armed {
-                            self.armed = true;
-                            self.armed_at = self.t;
-                            // Home moves to here at every arming: relative_alt's zero moves.
-                            self.home_depth = self.vehicle.depth;
-                            self.depth_target = self.vehicle.depth;
-                            self.heading_hold = self.vehicle.heading;
-                            self.statustext(MavSeverity::MAV_SEVERITY_INFO, "Arming motors", out);
-                        }
-                        MavResult::MAV_RESULT_ACCEPTED
-                    }
-                } else if c.param1 == 0.0 {
-                    self.disarm("Disarming motors", out);
-                    MavResult::MAV_RESULT_ACCEPTED
-                } else {
-                    MavResult::MAV_RESULT_DENIED
-                }
-            }
-            MavCmd::MAV_CMD_SET_MESSAGE_INTERVAL => {
-                let (id, us) = (c.param1, c.param2);
-                let known = id.is_finite()
-                    && id >= 0.0
-                    && STREAMABLE.contains(&(id as u32))
-                    && us.is_finite();
-                if !known {
-                    MavResult::MAV_RESULT_FAILED
-                } else {
-                    if us < 0.0 {
-                        self.intervals.remove(&(id as u32));
-                    } else {
-                        let s = if us == 0.0 { 1.0 } else { f64::from(us) * 1e-6 };
-                        self.intervals
-                            .insert(id as u32, (s.max(MIN_INTERVAL_S), f64::NEG_INFINITY));
-                    }
                     MavResult::MAV_RESULT_ACCEPTED
                 }
             }
@@ -442,13 +334,12 @@ impl SubSession {
                 }
             }
             _ => MavResult::MAV_RESULT_UNSUPPORTED,
-        };
-        self.ack(c.command, result, out);
+        }
     }
 
     /// A target GUIDED accepted.
     fn follow(&mut self, t: SubTarget) {
-        let now = self.t;
+        let now = self.ap.t;
         let g = match &t {
             SubTarget::PosVel { pos, vel, yaw } => Guided::Velocity {
                 vel: *vel,
@@ -491,7 +382,7 @@ impl SubSession {
     }
 
     fn local_target(&mut self, p: &SET_POSITION_TARGET_LOCAL_NED_DATA) {
-        if !self.for_me(p.target_system) || self.mode != sub::GUIDED {
+        if !self.ap.for_me(p.target_system) || self.mode != sub::GUIDED {
             self.stats.targets_dropped += 1;
             return;
         }
@@ -527,7 +418,7 @@ impl SubSession {
     }
 
     fn global_target(&mut self, p: &SET_POSITION_TARGET_GLOBAL_INT_DATA) {
-        if !self.for_me(p.target_system) {
+        if !self.ap.for_me(p.target_system) {
             self.stats.targets_dropped += 1;
             return;
         }
@@ -563,20 +454,20 @@ impl SubSession {
 
     fn attitude_target(&mut self, a: &SET_ATTITUDE_TARGET_DATA) {
         let mask = a.type_mask.bits();
-        if !self.for_me(a.target_system) || self.mode != sub::ALT_HOLD || mask & 0x40 == 0 {
+        if !self.ap.for_me(a.target_system) || self.mode != sub::ALT_HOLD || mask & 0x40 == 0 {
             // GUIDED's attitude path (bits 6 and 7 clear) gives no speed: not emulated.
             self.stats.targets_dropped += 1;
             return;
         }
         if let Some(h) = quaternion_heading(a.q) {
             self.stats.attitude_targets += 1;
-            self.attitude = Some((h, self.t));
+            self.attitude = Some((h, self.ap.t));
         }
     }
 
     /// HEARTBEAT / MANUAL_CONTROL / RC override from MAV_GCS_SYSID: the GCS failsafe's food.
     fn gcs_alive(&mut self, out: &mut Vec<u8>) {
-        self.gcs_seen = Some(self.t);
+        self.gcs_seen = Some(self.ap.t);
         if self.gcs_failsafe {
             self.gcs_failsafe = false;
             self.statustext(
@@ -588,8 +479,8 @@ impl SubSession {
     }
 
     fn pilot_input(&mut self, x: i16, z: i16, out: &mut Vec<u8>) {
-        self.pilot_seen = Some(self.t);
-        self.manual = Some((x.clamp(-1000, 1000), z.clamp(0, 1000), self.t));
+        self.pilot_seen = Some(self.ap.t);
+        self.manual = Some((x.clamp(-1000, 1000), z.clamp(0, 1000), self.ap.t));
         if self.pilot_failsafe {
             self.pilot_failsafe = false;
             self.statustext(
@@ -600,37 +491,6 @@ impl SubSession {
         }
     }
 
-    fn handle(&mut self, sender: u8, msg: MavMessage, out: &mut Vec<u8>) {
-        let gcs = sender == self.opts.gcs_sysid;
-        match msg {
-            MavMessage::HEARTBEAT(_) if gcs => {
-                self.stats.gcs_heartbeats += 1;
-                self.gcs_alive(out);
-            }
-            // Accepted only from MAV_GCS_SYSID with target = MAV_SYSID.
-            MavMessage::MANUAL_CONTROL(m) if gcs && m.target == self.opts.system_id => {
-                self.stats.manual_controls += 1;
-                self.gcs_alive(out);
-                self.pilot_input(m.x, m.z, out);
-                // Buttons fire BTNn_FUNCTION: BTN4 disarm, BTN6 arm (defaults).
-                if m.buttons & (1 << 4) != 0 {
-                    self.disarm("Disarming motors", out);
-                }
-            }
-            MavMessage::RC_CHANNELS_OVERRIDE(r) if gcs && self.for_me(r.target_system) => {
-                self.gcs_alive(out);
-                let x = (i32::from(r.chan5_raw) - 1500).clamp(-500, 500) * 2;
-                let z = (i32::from(r.chan3_raw) - 1000).clamp(0, 1000);
-                self.pilot_input(x as i16, z as i16, out);
-            }
-            MavMessage::COMMAND_LONG(c) => self.command(&c, out),
-            MavMessage::SET_POSITION_TARGET_LOCAL_NED(p) => self.local_target(&p),
-            MavMessage::SET_POSITION_TARGET_GLOBAL_INT(p) => self.global_target(&p),
-            MavMessage::SET_ATTITUDE_TARGET(a) => self.attitude_target(&a),
-            _ => {}
-        }
-    }
-
     /// The pilot (a joystick button, QGroundControl) selects a mode.
     pub fn pilot_sets_mode(&mut self, mode: u32, out: &mut Vec<u8>) {
         self.set_mode(mode, out);
@@ -638,7 +498,7 @@ impl SubSession {
 
     /// A leak detector trips (FS_LEAK_ENABLE 1 warns; with `leak_surfaces`, SURFACE if armed).
     pub fn inject_leak(&mut self, out: &mut Vec<u8>) {
-        self.leak = Some(self.t);
+        self.leak = Some(self.ap.t);
         self.statustext(MavSeverity::MAV_SEVERITY_CRITICAL, "Leak Detected", out);
         if self.opts.leak_surfaces && self.armed {
             self.set_mode(sub::SURFACE, out);
@@ -650,7 +510,7 @@ impl SubSession {
         if let (Some(limit), Some(seen)) = (self.opts.gcs_failsafe_s, self.gcs_seen)
             && self.armed
             && !self.gcs_failsafe
-            && self.t - seen > limit
+            && self.ap.t - seen > limit
         {
             self.gcs_failsafe = true;
             self.stats.gcs_failsafes += 1;
@@ -661,7 +521,7 @@ impl SubSession {
         if let Some(limit) = self.opts.pilot_failsafe_s
             && self.armed
             && !self.pilot_failsafe
-            && self.t - self.pilot_seen.unwrap_or(0.0).max(self.armed_at) > limit
+            && self.ap.t - self.pilot_seen.unwrap_or(0.0).max(self.armed_at) > limit
         {
             self.pilot_failsafe = true;
             self.stats.pilot_failsafes += 1;
@@ -673,9 +533,9 @@ impl SubSession {
             self.disarm("Disarming motors", out);
         }
         if let Some(since) = self.leak
-            && self.t - since >= LEAK_REPEAT_S
+            && self.ap.t - since >= LEAK_REPEAT_S
         {
-            self.leak = Some(self.t);
+            self.leak = Some(self.ap.t);
             self.statustext(MavSeverity::MAV_SEVERITY_CRITICAL, "Leak Detected", out);
         }
     }
@@ -683,7 +543,7 @@ impl SubSession {
     /// The pilot's forward input (m/s), while its override lasts.
     fn pilot_forward(&self) -> f64 {
         match self.manual {
-            Some((x, _, at)) if self.t - at <= RC_OVERRIDE_S => {
+            Some((x, _, at)) if self.ap.t - at <= RC_OVERRIDE_S => {
                 f64::from(x) / 1000.0 * self.opts.thrust_full_mps
             }
             _ => 0.0,
@@ -701,7 +561,7 @@ impl SubSession {
         match self.mode {
             sub::GUIDED => {
                 let timed_out = match &self.guided {
-                    Some(Guided::Velocity { at, .. }) => self.t - at >= SUB_TARGET_TIMEOUT_S,
+                    Some(Guided::Velocity { at, .. }) => self.ap.t - at >= SUB_TARGET_TIMEOUT_S,
                     _ => false,
                 };
                 if timed_out {
@@ -745,7 +605,7 @@ impl SubSession {
                         let heading = yaw.unwrap_or(if dist > 1.0 { bearing } else { here });
                         let speed = if dist > 1.0 { self.opts.wp_speed } else { 0.0 };
                         // The restarted trajectory: vertical speed grows from rest.
-                        let ramp = self.opts.wp_accel_z * (self.t - at);
+                        let ramp = self.opts.wp_accel_z * (self.ap.t - at);
                         self.depth_target = depth;
                         (heading, speed, depth, ramp.min(dn), ramp.min(up))
                     }
@@ -754,7 +614,7 @@ impl SubSession {
             }
             sub::ALT_HOLD => {
                 let heading = match self.attitude {
-                    Some((h, at)) if self.t - at <= SUB_ATTITUDE_TIMEOUT_S => h,
+                    Some((h, at)) if self.ap.t - at <= SUB_ATTITUDE_TIMEOUT_S => h,
                     _ => self.heading_hold,
                 };
                 (heading, self.pilot_forward(), self.depth_target, dn, up)
@@ -768,6 +628,71 @@ impl SubSession {
             // MANUAL, STABILIZE, ACRO: the pilot's thrust; depth holds (neutral buoyancy).
             _ => (here, self.pilot_forward(), self.depth_target, dn, up),
         }
+    }
+}
+
+impl Face for SubSession {
+    fn handle(&mut self, sender: u8, msg: MavMessage, out: &mut Vec<u8>) {
+        let gcs = sender == self.opts.gcs_sysid;
+        match msg {
+            MavMessage::HEARTBEAT(_) if gcs => {
+                self.stats.gcs_heartbeats += 1;
+                self.gcs_alive(out);
+            }
+            // Accepted only from MAV_GCS_SYSID with target = MAV_SYSID.
+            MavMessage::MANUAL_CONTROL(m) if gcs && m.target == self.opts.system_id => {
+                self.stats.manual_controls += 1;
+                self.gcs_alive(out);
+                self.pilot_input(m.x, m.z, out);
+                // Buttons fire BTNn_FUNCTION: BTN4 disarm, BTN6 arm (defaults).
+                if m.buttons & (1 << 4) != 0 {
+                    self.disarm("Disarming motors", out);
+                }
+            }
+            MavMessage::RC_CHANNELS_OVERRIDE(r) if gcs && self.ap.for_me(r.target_system) => {
+                self.gcs_alive(out);
+                let x = (i32::from(r.chan5_raw) - 1500).clamp(-500, 500) * 2;
+                let z = (i32::from(r.chan3_raw) - 1000).clamp(0, 1000);
+                self.pilot_input(x as i16, z as i16, out);
+            }
+            MavMessage::COMMAND_LONG(c) => session::command(self, &c, out),
+            MavMessage::SET_POSITION_TARGET_LOCAL_NED(p) => self.local_target(&p),
+            MavMessage::SET_POSITION_TARGET_GLOBAL_INT(p) => self.global_target(&p),
+            MavMessage::SET_ATTITUDE_TARGET(a) => self.attitude_target(&a),
+            _ => {}
+        }
+    }
+
+    fn command(&mut self, c: &COMMAND_LONG_DATA, out: &mut Vec<u8>) -> MavResult {
+        self.sub_command(c, out)
+    }
+
+    fn arm(&mut self, out: &mut Vec<u8>) {
+        if !self.armed {
+            self.armed = true;
+            self.armed_at = self.ap.t;
+            // Home moves to here at every arming: relative_alt's zero moves.
+            self.home_depth = self.vehicle.depth;
+            self.depth_target = self.vehicle.depth;
+            self.heading_hold = self.vehicle.heading;
+            self.statustext(MavSeverity::MAV_SEVERITY_INFO, "Arming motors", out);
+        }
+    }
+
+    fn disarm(&mut self, why: &str, out: &mut Vec<u8>) {
+        if self.armed {
+            self.armed = false;
+            self.statustext(MavSeverity::MAV_SEVERITY_INFO, why, out);
+            self.heartbeat(out);
+        }
+    }
+
+    fn booted(&mut self, out: &mut Vec<u8>) {
+        self.statustext(
+            MavSeverity::MAV_SEVERITY_INFO,
+            "ArduSub V4.7.0-dev (emulated)",
+            out,
+        );
     }
 
     fn drive(&mut self, dt: f64, out: &mut Vec<u8>) {
@@ -799,130 +724,74 @@ impl SubSession {
     }
 
     fn stream(&mut self, id: u32, out: &mut Vec<u8>) {
-        let boot_ms = (self.t * 1000.0) as u32;
         let (n, e, depth) = self.north_east_down();
         let pos = self.position_ok();
-        let (lat, lon) = if self.initialising() {
-            (0.0, 0.0)
-        } else {
-            self.vehicle.lat_lon()
-        };
-        let v = &self.vehicle;
-        let h = v.heading.to_radians();
-        let (vn, ve) = (v.speed * h.cos(), v.speed * h.sin());
-        let hdg_cd = (v.heading * 100.0).round() as u16 % 36000;
+        let s = self.ap.snapshot(&mut self.vehicle);
         let w = self.w;
         let msg = match id {
             HEARTBEAT_DATA::ID => return self.heartbeat(out),
-            GLOBAL_POSITION_INT_DATA::ID => {
-                MavMessage::GLOBAL_POSITION_INT(GLOBAL_POSITION_INT_DATA {
-                    time_boot_ms: boot_ms,
-                    lat: (lat * 1e7).round() as i32,
-                    lon: (lon * 1e7).round() as i32,
-                    alt: (-depth * 1000.0) as i32,
-                    // Home (its zero) was re-set at arming.
-                    relative_alt: (-(depth - self.home_depth) * 1000.0) as i32,
-                    vx: (vn * 100.0).round() as i16,
-                    vy: (ve * 100.0).round() as i16,
-                    vz: (w * 100.0).round() as i16,
-                    hdg: hdg_cd,
-                })
-            }
+            GLOBAL_POSITION_INT_DATA::ID => session::global_position(
+                &s,
+                (-depth * 1000.0) as i32,
+                // Home (its zero) was re-set at arming.
+                (-(depth - self.home_depth) * 1000.0) as i32,
+                (w * 100.0).round() as i16,
+            ),
             LOCAL_POSITION_NED_DATA::ID => {
                 MavMessage::LOCAL_POSITION_NED(LOCAL_POSITION_NED_DATA {
-                    time_boot_ms: boot_ms,
+                    time_boot_ms: s.boot_ms,
                     x: n as f32,
                     y: e as f32,
                     z: depth as f32,
-                    vx: vn as f32,
-                    vy: ve as f32,
+                    vx: s.vn as f32,
+                    vy: s.ve as f32,
                     vz: w as f32,
                 })
             }
-            ATTITUDE_DATA::ID => {
-                let yaw = if v.heading > 180.0 {
-                    v.heading - 360.0
-                } else {
-                    v.heading
-                };
-                MavMessage::ATTITUDE(ATTITUDE_DATA {
-                    time_boot_ms: boot_ms,
-                    // A vectored frame dives level; a little nose-down while descending.
-                    pitch: (-0.05 * w) as f32,
-                    yaw: yaw.to_radians() as f32,
-                    ..Default::default()
-                })
-            }
-            VFR_HUD_DATA::ID => MavMessage::VFR_HUD(VFR_HUD_DATA {
-                airspeed: 0.0,
-                groundspeed: v.speed.abs() as f32,
-                alt: -depth as f32,
-                climb: -w as f32,
-                heading: (hdg_cd / 100) as i16,
-                throttle: 0,
-            }),
+            // A vectored frame dives level; a little nose-down while descending.
+            ATTITUDE_DATA::ID => session::attitude(&s, (-0.05 * w) as f32),
+            VFR_HUD_DATA::ID => session::vfr_hud(&s, -depth as f32, -w as f32, 0),
             SYS_STATUS_DATA::ID => {
                 let depth_sensor = MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_ABSOLUTE_PRESSURE;
                 let present = MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_3D_GYRO
                     | MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_3D_ACCEL
                     | MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_3D_MAG
                     | depth_sensor;
-                MavMessage::SYS_STATUS(SYS_STATUS_DATA {
-                    onboard_control_sensors_present: present,
-                    onboard_control_sensors_enabled: present,
-                    onboard_control_sensors_health: present,
-                    load: 100,
-                    voltage_battery: 16_000,
-                    current_battery: 300,
-                    battery_remaining: 90,
-                    ..Default::default()
-                })
+                session::sys_status(present, present, 16_000, 300)
             }
-            GPS_RAW_INT_DATA::ID => MavMessage::GPS_RAW_INT(GPS_RAW_INT_DATA {
-                time_usec: (self.t * 1e6) as u64,
-                lat: (lat * 1e7).round() as i32,
-                lon: (lon * 1e7).round() as i32,
-                fix_type: if pos {
+            GPS_RAW_INT_DATA::ID => session::gps_raw(
+                &s,
+                self.ap.t,
+                if pos {
                     GpsFixType::GPS_FIX_TYPE_RTK_FIXED
                 } else {
                     GpsFixType::GPS_FIX_TYPE_NO_GPS
                 },
-                eph: 121,
-                epv: 200,
-                satellites_visible: if pos { 10 } else { 0 },
-                ..Default::default()
+                if pos { 10 } else { 0 },
+                0,
+                0,
+            ),
+            EKF_STATUS_REPORT_DATA::ID => session::ekf_report(if self.ap.initialising() {
+                EkfStatusFlags::EKF_UNINITIALIZED.bits()
+            } else if pos {
+                EKF_READY
+            } else {
+                // Attitude, velocities and depth; constant position.
+                0x00A7
             }),
-            EKF_STATUS_REPORT_DATA::ID => {
-                let flags = if self.initialising() {
-                    EkfStatusFlags::EKF_UNINITIALIZED.bits()
-                } else if pos {
-                    EKF_READY
-                } else {
-                    // Attitude, velocities and depth; constant position.
-                    0x00A7
-                };
-                MavMessage::EKF_STATUS_REPORT(EKF_STATUS_REPORT_DATA {
-                    velocity_variance: 0.02,
-                    pos_horiz_variance: 0.01,
-                    pos_vert_variance: 0.01,
-                    compass_variance: 0.02,
-                    terrain_alt_variance: 0.0,
-                    flags: EkfStatusFlags::from_bits_retain(flags),
-                })
-            }
             // SITL makes every baro a water sensor; a BlueROV2's Bar30 is instance 1.
             SCALED_PRESSURE_DATA::ID | SCALED_PRESSURE2_DATA::ID => {
                 let p = (SURFACE_HPA + HPA_PER_M * depth) as f32;
                 if id == SCALED_PRESSURE_DATA::ID {
                     MavMessage::SCALED_PRESSURE(SCALED_PRESSURE_DATA {
-                        time_boot_ms: boot_ms,
+                        time_boot_ms: s.boot_ms,
                         press_abs: p,
                         temperature: 1500,
                         ..Default::default()
                     })
                 } else {
                     MavMessage::SCALED_PRESSURE2(SCALED_PRESSURE2_DATA {
-                        time_boot_ms: boot_ms,
+                        time_boot_ms: s.boot_ms,
                         press_abs: p,
                         press_diff: 0.0,
                         temperature: 1500,
@@ -931,59 +800,10 @@ impl SubSession {
             }
             _ => return,
         };
-        self.send(msg, out);
+        self.ap.send(msg, out);
     }
 }
-
-impl Session for SubSession {
-    fn on_bytes(&mut self, bytes: &[u8], out: &mut Vec<u8>) {
-        let mut frames = Vec::new();
-        let mut bad = 0;
-        self.deframer.feed(bytes, &mut |r| match r {
-            Ok(f) => frames.push(f),
-            Err(_) => bad += 1,
-        });
-        self.stats.bad_input += bad;
-        for f in frames {
-            match decode(&f) {
-                Ok((h, msg)) => {
-                    self.stats.frames_in += 1;
-                    self.handle(h.system_id, msg, out);
-                }
-                Err(_) => self.stats.bad_input += 1,
-            }
-        }
-    }
-
-    fn step(&mut self, dt: f64, out: &mut Vec<u8>) {
-        let was_init = self.initialising();
-        self.t += dt;
-        if was_init && !self.initialising() {
-            self.statustext(
-                MavSeverity::MAV_SEVERITY_INFO,
-                "ArduSub V4.7.0-dev (emulated)",
-                out,
-            );
-        }
-        self.drive(dt, out);
-        let due: Vec<u32> = self
-            .intervals
-            .iter()
-            .filter(|(_, (every, last))| self.t - last >= every - 1e-9)
-            .map(|(id, _)| *id)
-            .collect();
-        for id in due {
-            if let Some(e) = self.intervals.get_mut(&id) {
-                e.1 = self.t;
-            }
-            self.stream(id, out);
-        }
-    }
-
-    fn reset_input(&mut self) {
-        self.deframer = Deframer::new();
-    }
-}
+session::shared_session!(SubSession);
 
 /// The signed heading error from `from` to `to`, degrees (for tests and the demo's figures).
 pub fn heading_error(from: f64, to: f64) -> f64 {

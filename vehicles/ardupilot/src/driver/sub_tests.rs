@@ -3,55 +3,37 @@
 //! fact the driver relies on.
 
 use super::*;
+use crate::codec::MavMessage;
+use crate::dialect::MavCmd;
 use crate::dialect::{MANUAL_CONTROL_DATA, MavFrame};
+use crate::infer;
+use frontseat_actors::proto::frontseat::protobuf::ardupilot::ardupilot_command::Action;
 use frontseat_actors::proto::goby::middleware::frontseat::protobuf::DesiredCourse;
+use frontseat_config::{ArdupilotVehicle, InterfaceConfig};
 use tokio::sync::mpsc::Receiver;
 
-type Sink = frontseat_actors::driver::RecordingSink;
+use super::test_link::{Sink, connected, feed_frame, fixture_frame, written};
 
-const FIXTURE: &str = include_str!("../fixtures/pymavlink_sub_frames.hex");
+const FIXTURE: &str = include_str!("../../fixtures/pymavlink_sub_frames.hex");
 
 fn frame(name: &str) -> Vec<u8> {
-    let hex = FIXTURE
-        .lines()
-        .find_map(|l| l.strip_prefix(name).and_then(|r| r.strip_prefix(' ')))
-        .unwrap_or_else(|| panic!("no fixture {name}"));
-    (0..hex.len())
-        .step_by(2)
-        .map(|i| u8::from_str_radix(&hex[i..i + 2], 16).unwrap())
-        .collect()
+    fixture_frame(FIXTURE, name)
 }
 
 fn driver_with(f: impl FnOnce(&mut InterfaceConfig)) -> (ArdupilotDriver, Receiver<Vec<u8>>, Sink) {
     let mut cfg = InterfaceConfig::default();
     cfg.driver.ardupilot.vehicle = ArdupilotVehicle::Sub;
     f(&mut cfg);
-    let mut d = ArdupilotDriver::new(Settings::from_config(&cfg));
-    let mut sink = Sink::default();
-    let (w, rx) = LineWriter::for_test();
-    d.handle_io(DriverIoEvent::Connected(w), Duration::ZERO, &mut sink);
-    (d, rx, sink)
+    connected(&cfg)
 }
 
 fn feed(d: &mut ArdupilotDriver, sink: &mut Sink, name: &str, t: f64) {
-    d.handle_io(
-        DriverIoEvent::Frame(frame(name)),
-        Duration::from_secs_f64(t),
-        sink,
-    );
+    feed_frame(d, sink, frame(name), t);
 }
 
 /// Everything the driver wrote, with the sender's system id.
 fn sent(rx: &mut Receiver<Vec<u8>>) -> Vec<(u8, MavMessage)> {
-    let mut v = Vec::new();
-    while let Ok(b) = rx.try_recv() {
-        let mut d = codec::Deframer::new();
-        d.feed(&b, &mut |r| {
-            let (h, m) = codec::decode(&r.unwrap()).unwrap();
-            v.push((h.system_id, m));
-        });
-    }
-    v
+    written(rx)
 }
 
 fn msgs(rx: &mut Receiver<Vec<u8>>) -> Vec<MavMessage> {

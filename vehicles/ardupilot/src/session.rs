@@ -1,0 +1,436 @@
+//! What every emulated ArduPilot firmware does alike on the link, written once for the Rover
+//! (`emulator`) and the Sub (`sub_emulator`): the session's frames in and out (deframing, our
+//! sequence numbers, the sim clock since boot and the boot time), the streams a GCS asks for with
+//! SET_MESSAGE_INTERVAL and their schedule, COMMAND_LONG's arming and answer by COMMAND_ACK,
+//! STATUSTEXT, the HEARTBEAT's frame, and the stream messages' common layout. A firmware adds its
+//! modes, targets, dynamics and failsafes through [`Face`].
+
+use std::collections::BTreeMap;
+
+use mavlink::MessageData;
+
+use frontseat_sim::vehicle::Vehicle;
+
+use crate::codec::{Deframer, MavMessage, Sender, decode};
+use crate::dialect::*;
+
+/// Fastest stream a backseat may ask for: a flood of our own making helps nobody.
+const MIN_INTERVAL_S: f64 = 0.01;
+/// Statustexts kept for inspection.
+const MAX_TEXTS: usize = 64;
+
+/// The shared part of an emulated firmware's session.
+pub(crate) struct Autopilot {
+    system_id: u8,
+    tx: Sender,
+    deframer: Deframer,
+    /// Sim seconds since boot.
+    pub(crate) t: f64,
+    /// Sim seconds of boot (no arming, EKF uninitialised).
+    init_s: f64,
+    /// Streamed messages the firmware can send, by id.
+    streamable: &'static [u32],
+    /// Seconds between sends, and when each was last sent.
+    intervals: BTreeMap<u32, (f64, f64)>,
+}
+
+/// Where a firmware's stats count what the shared part sees.
+pub(crate) struct Tally<'a> {
+    pub(crate) frames_in: &'a mut u64,
+    pub(crate) bad_input: &'a mut u64,
+    pub(crate) commands: &'a mut u64,
+    pub(crate) statustexts: &'a mut Vec<String>,
+}
+
+/// How the shared part reaches a firmware's session: written by [`shared_session!`].
+pub(crate) trait Shared {
+    fn autopilot(&mut self) -> &mut Autopilot;
+    fn tally(&mut self) -> Tally<'_>;
+}
+
+/// A firmware's session (a struct with the shared part in `ap` and its stats, which count
+/// `frames_in`, `bad_input`, `commands` and `statustexts`, in `stats`) made a simulator
+/// [`Session`](frontseat_sim::emulator::Session) whose frames in, steps and input resets go
+/// through the shared part.
+macro_rules! shared_session {
+    ($session:ty) => {
+        impl $crate::session::Shared for $session {
+            fn autopilot(&mut self) -> &mut $crate::session::Autopilot {
+                &mut self.ap
+            }
+
+            fn tally(&mut self) -> $crate::session::Tally<'_> {
+                let s = &mut self.stats;
+                $crate::session::Tally {
+                    frames_in: &mut s.frames_in,
+                    bad_input: &mut s.bad_input,
+                    commands: &mut s.commands,
+                    statustexts: &mut s.statustexts,
+                }
+            }
+        }
+
+        impl frontseat_sim::emulator::Session for $session {
+            fn on_bytes(&mut self, bytes: &[u8], out: &mut Vec<u8>) {
+                $crate::session::on_bytes(self, bytes, out);
+            }
+
+            fn step(&mut self, dt: f64, out: &mut Vec<u8>) {
+                $crate::session::step(self, dt, out);
+            }
+
+            fn reset_input(&mut self) {
+                self.ap.reset_input();
+            }
+        }
+    };
+}
+pub(crate) use shared_session;
+
+/// What a firmware adds to the shared part.
+pub(crate) trait Face: Shared {
+    /// A decoded message from system `sender`.
+    fn handle(&mut self, sender: u8, msg: MavMessage, out: &mut Vec<u8>);
+    /// The COMMAND_LONGs other than arming and message intervals, addressed to us.
+    fn command(&mut self, c: &COMMAND_LONG_DATA, out: &mut Vec<u8>) -> MavResult;
+    /// Arming accepted after boot (a no-op when armed already).
+    fn arm(&mut self, out: &mut Vec<u8>);
+    /// Disarming, saying `why` (a no-op when disarmed).
+    fn disarm(&mut self, why: &str, out: &mut Vec<u8>);
+    /// Boot is over.
+    fn booted(&mut self, out: &mut Vec<u8>);
+    /// `dt` sim seconds of the firmware's control and dynamics.
+    fn drive(&mut self, dt: f64, out: &mut Vec<u8>);
+    /// The stream `id` is due.
+    fn stream(&mut self, id: u32, out: &mut Vec<u8>);
+
+    /// Sends a STATUSTEXT (cut to the 50 characters the message holds).
+    fn statustext(&mut self, severity: MavSeverity, text: &str, out: &mut Vec<u8>) {
+        let cut: String = text.chars().take(50).collect();
+        let texts = self.tally().statustexts;
+        if texts.len() < MAX_TEXTS {
+            texts.push(cut.clone());
+        }
+        self.autopilot().send(
+            MavMessage::STATUSTEXT(STATUSTEXT_DATA {
+                severity,
+                text: cut.as_str().into(),
+            }),
+            out,
+        );
+    }
+}
+
+impl Autopilot {
+    /// A session at boot, streaming HEARTBEAT at 1 Hz until asked otherwise.
+    pub(crate) fn new(
+        system_id: u8,
+        component_id: u8,
+        init_s: f64,
+        streamable: &'static [u32],
+    ) -> Self {
+        let mut intervals = BTreeMap::new();
+        intervals.insert(HEARTBEAT_DATA::ID, (1.0, f64::NEG_INFINITY));
+        Self {
+            system_id,
+            tx: Sender::new(system_id, component_id),
+            deframer: Deframer::new(),
+            t: 0.0,
+            init_s,
+            streamable,
+            intervals,
+        }
+    }
+
+    pub(crate) fn initialising(&self) -> bool {
+        self.t < self.init_s
+    }
+
+    pub(crate) fn send(&mut self, msg: MavMessage, out: &mut Vec<u8>) {
+        out.extend_from_slice(&self.tx.frame(&msg));
+    }
+
+    pub(crate) fn for_me(&self, system: u8) -> bool {
+        system == 0 || system == self.system_id
+    }
+
+    /// The HEARTBEAT of an ArduPilot autopilot in `custom_mode`.
+    pub(crate) fn heartbeat(
+        &mut self,
+        custom_mode: u32,
+        mavtype: MavType,
+        base_mode: MavModeFlag,
+        system_status: MavState,
+        out: &mut Vec<u8>,
+    ) {
+        let msg = MavMessage::HEARTBEAT(HEARTBEAT_DATA {
+            custom_mode,
+            mavtype,
+            autopilot: MavAutopilot::MAV_AUTOPILOT_ARDUPILOTMEGA,
+            base_mode,
+            system_status,
+            mavlink_version: 3,
+        });
+        self.send(msg, out);
+    }
+
+    /// HEARTBEAT's system_status: `booting` during boot, then critical in a failsafe, active
+    /// when armed, standby.
+    pub(crate) fn system_status(&self, booting: MavState, failsafe: bool, armed: bool) -> MavState {
+        if self.initialising() {
+            booting
+        } else if failsafe {
+            MavState::MAV_STATE_CRITICAL
+        } else if armed {
+            MavState::MAV_STATE_ACTIVE
+        } else {
+            MavState::MAV_STATE_STANDBY
+        }
+    }
+
+    /// MAV_CMD_SET_MESSAGE_INTERVAL: param1 the message id, param2 µs (0 the default 1 s, < 0
+    /// stops it).
+    fn set_interval(&mut self, id: f32, us: f32) -> MavResult {
+        let known =
+            id.is_finite() && id >= 0.0 && self.streamable.contains(&(id as u32)) && us.is_finite();
+        if !known {
+            MavResult::MAV_RESULT_FAILED
+        } else {
+            let id = id as u32;
+            if us < 0.0 {
+                self.intervals.remove(&id);
+            } else {
+                let s = if us == 0.0 { 1.0 } else { f64::from(us) * 1e-6 };
+                self.intervals
+                    .insert(id, (s.max(MIN_INTERVAL_S), f64::NEG_INFINITY));
+            }
+            MavResult::MAV_RESULT_ACCEPTED
+        }
+    }
+
+    /// The streams due now, marked sent.
+    fn due(&mut self) -> Vec<u32> {
+        let due: Vec<u32> = self
+            .intervals
+            .iter()
+            .filter(|(_, (every, last))| self.t - last >= every - 1e-9)
+            .map(|(id, _)| *id)
+            .collect();
+        for id in &due {
+            if let Some(e) = self.intervals.get_mut(id) {
+                e.1 = self.t;
+            }
+        }
+        due
+    }
+
+    pub(crate) fn reset_input(&mut self) {
+        self.deframer = Deframer::new();
+    }
+
+    /// What every stream reads of the vehicle model, in MAVLink's units.
+    pub(crate) fn snapshot(&self, v: &mut Vehicle) -> Snapshot {
+        let h = v.heading.to_radians();
+        let (lat, lon) = if self.initialising() {
+            (0.0, 0.0)
+        } else {
+            v.lat_lon()
+        };
+        Snapshot {
+            boot_ms: (self.t * 1000.0) as u32,
+            lat,
+            lon,
+            vn: v.speed * h.cos(),
+            ve: v.speed * h.sin(),
+            hdg_cd: (v.heading * 100.0).round() as u16 % 36000,
+            yaw: if v.heading > 180.0 {
+                v.heading - 360.0
+            } else {
+                v.heading
+            },
+            speed: v.speed.abs(),
+        }
+    }
+}
+
+/// Bytes from the backseat: each whole frame decoded and handed to the firmware.
+pub(crate) fn on_bytes<F: Face>(f: &mut F, bytes: &[u8], out: &mut Vec<u8>) {
+    let mut frames = Vec::new();
+    let mut bad = 0;
+    f.autopilot().deframer.feed(bytes, &mut |r| match r {
+        Ok(fr) => frames.push(fr),
+        Err(_) => bad += 1,
+    });
+    *f.tally().bad_input += bad;
+    for fr in frames {
+        match decode(&fr) {
+            Ok((h, msg)) => {
+                *f.tally().frames_in += 1;
+                f.handle(h.system_id, msg, out);
+            }
+            Err(_) => *f.tally().bad_input += 1,
+        }
+    }
+}
+
+/// `dt` sim seconds: the end of boot, the firmware's dynamics, then the streams due.
+pub(crate) fn step<F: Face>(f: &mut F, dt: f64, out: &mut Vec<u8>) {
+    let ap = f.autopilot();
+    let was_init = ap.initialising();
+    ap.t += dt;
+    if was_init && !ap.initialising() {
+        f.booted(out);
+    }
+    f.drive(dt, out);
+    for id in f.autopilot().due() {
+        f.stream(id, out);
+    }
+}
+
+/// A COMMAND_LONG addressed to us, answered by COMMAND_ACK: arming and message intervals alike
+/// on every firmware, the rest the firmware's own.
+pub(crate) fn command<F: Face>(f: &mut F, c: &COMMAND_LONG_DATA, out: &mut Vec<u8>) {
+    if !f.autopilot().for_me(c.target_system) {
+        return;
+    }
+    *f.tally().commands += 1;
+    let result = match c.command {
+        MavCmd::MAV_CMD_COMPONENT_ARM_DISARM => {
+            if c.param1 == 1.0 {
+                if f.autopilot().initialising() {
+                    f.statustext(
+                        MavSeverity::MAV_SEVERITY_CRITICAL,
+                        "PreArm: AHRS not healthy",
+                        out,
+                    );
+                    MavResult::MAV_RESULT_FAILED
+                } else {
+                    f.arm(out);
+                    MavResult::MAV_RESULT_ACCEPTED
+                }
+            } else if c.param1 == 0.0 {
+                f.disarm("Disarming motors", out);
+                MavResult::MAV_RESULT_ACCEPTED
+            } else {
+                MavResult::MAV_RESULT_DENIED
+            }
+        }
+        MavCmd::MAV_CMD_SET_MESSAGE_INTERVAL => f.autopilot().set_interval(c.param1, c.param2),
+        _ => f.command(c, out),
+    };
+    f.autopilot().send(
+        MavMessage::COMMAND_ACK(COMMAND_ACK_DATA {
+            command: c.command,
+            result,
+        }),
+        out,
+    );
+}
+
+/// The vehicle model as the streams read it.
+pub(crate) struct Snapshot {
+    pub(crate) boot_ms: u32,
+    /// (0, 0) during boot.
+    pub(crate) lat: f64,
+    pub(crate) lon: f64,
+    /// Velocity north and east. Unit: m/s.
+    pub(crate) vn: f64,
+    pub(crate) ve: f64,
+    /// Heading. Unit: centidegrees, 0..36000.
+    pub(crate) hdg_cd: u16,
+    /// Heading. Unit: degrees, −180..180.
+    pub(crate) yaw: f64,
+    /// Speed over ground. Unit: m/s.
+    pub(crate) speed: f64,
+}
+
+/// GLOBAL_POSITION_INT; altitudes in mm, vertical speed in cm/s (down).
+pub(crate) fn global_position(s: &Snapshot, alt: i32, relative_alt: i32, vz: i16) -> MavMessage {
+    MavMessage::GLOBAL_POSITION_INT(GLOBAL_POSITION_INT_DATA {
+        time_boot_ms: s.boot_ms,
+        lat: (s.lat * 1e7).round() as i32,
+        lon: (s.lon * 1e7).round() as i32,
+        alt,
+        relative_alt,
+        vx: (s.vn * 100.0).round() as i16,
+        vy: (s.ve * 100.0).round() as i16,
+        vz,
+        hdg: s.hdg_cd,
+    })
+}
+
+/// ATTITUDE: level but for `pitch` (rad).
+pub(crate) fn attitude(s: &Snapshot, pitch: f32) -> MavMessage {
+    MavMessage::ATTITUDE(ATTITUDE_DATA {
+        time_boot_ms: s.boot_ms,
+        pitch,
+        yaw: s.yaw.to_radians() as f32,
+        ..Default::default()
+    })
+}
+
+/// VFR_HUD; `alt` m up, `climb` m/s up, `throttle` %.
+pub(crate) fn vfr_hud(s: &Snapshot, alt: f32, climb: f32, throttle: u16) -> MavMessage {
+    MavMessage::VFR_HUD(VFR_HUD_DATA {
+        airspeed: 0.0,
+        groundspeed: s.speed as f32,
+        alt,
+        climb,
+        heading: (s.hdg_cd / 100) as i16,
+        throttle,
+    })
+}
+
+/// SYS_STATUS of sensors present and enabled, `health` the healthy ones; battery in mV, cA.
+pub(crate) fn sys_status(
+    present: MavSysStatusSensor,
+    health: MavSysStatusSensor,
+    voltage_battery: u16,
+    current_battery: i16,
+) -> MavMessage {
+    MavMessage::SYS_STATUS(SYS_STATUS_DATA {
+        onboard_control_sensors_present: present,
+        onboard_control_sensors_enabled: present,
+        onboard_control_sensors_health: health,
+        load: 100,
+        voltage_battery,
+        current_battery,
+        battery_remaining: 90,
+        ..Default::default()
+    })
+}
+
+/// GPS_RAW_INT at sim time `t` (s); `vel` cm/s, `cog` cd.
+pub(crate) fn gps_raw(
+    s: &Snapshot,
+    t: f64,
+    fix_type: GpsFixType,
+    satellites_visible: u8,
+    vel: u16,
+    cog: u16,
+) -> MavMessage {
+    MavMessage::GPS_RAW_INT(GPS_RAW_INT_DATA {
+        time_usec: (t * 1e6) as u64,
+        lat: (s.lat * 1e7).round() as i32,
+        lon: (s.lon * 1e7).round() as i32,
+        alt: 0,
+        eph: 121,
+        epv: 200,
+        vel,
+        cog,
+        fix_type,
+        satellites_visible,
+    })
+}
+
+/// EKF_STATUS_REPORT with `flags` and small, settled variances.
+pub(crate) fn ekf_report(flags: u16) -> MavMessage {
+    MavMessage::EKF_STATUS_REPORT(EKF_STATUS_REPORT_DATA {
+        velocity_variance: 0.02,
+        pos_horiz_variance: 0.01,
+        pos_vert_variance: 0.01,
+        compass_variance: 0.02,
+        terrain_alt_variance: 0.0,
+        flags: EkfStatusFlags::from_bits_retain(flags),
+    })
+}

@@ -26,8 +26,10 @@ pub struct EmulatorArgs {
     /// Vehicle protocol to emulate.
     #[arg(long, value_enum, default_value_t = VehicleKind::Basic)]
     pub vehicle: VehicleKind,
-    /// Serve the emulator on this loopback TCP port (serial-over-IP) instead of a new
-    /// pseudo-terminal. 0 picks a free port.
+    /// Serve the emulator on this loopback TCP port. For iver3, waveglider_sv2, ardupilot and
+    /// ardusub: serial-over-IP instead of a new pseudo-terminal; for dune: its BackSeat port
+    /// instead of 6006. 0 picks a free port. (bluefin takes `--port`; the basic simulator, its
+    /// config's port.)
     #[arg(long, value_name = "PORT")]
     pub tcp: Option<u16>,
     /// Iver3: Remote Helm major version (below 5 $OMS depth is feet).

@@ -58,7 +58,7 @@ bluefin\t'Bluefin Huxley payload NMEA over TCP (port 29500 unless `--port`; see 
 ardupilot\t'ArduPilot Rover (motorboat) over MAVLink 2'
 dune\t'An LSTS DUNE LAUV over IMC on its BackSeat TCP server (port 6006 unless `--tcp`)'
 ardusub\t'ArduSub (BlueROV2) over MAVLink 2: dives to the depths the helm asks for'"
-complete -c frontseat -n "__fish_frontseat_using_subcommand sim" -l tcp -d 'Serve the emulator on this loopback TCP port (serial-over-IP) instead of a new pseudo-terminal. 0 picks a free port' -r
+complete -c frontseat -n "__fish_frontseat_using_subcommand sim" -l tcp -d 'Serve the emulator on this loopback TCP port. For iver3, waveglider_sv2, ardupilot and ardusub: serial-over-IP instead of a new pseudo-terminal; for dune: its BackSeat port instead of 6006. 0 picks a free port. (bluefin takes `--port`; the basic simulator, its config\'s port.)' -r
 complete -c frontseat -n "__fish_frontseat_using_subcommand sim" -l remote-helm-version -d 'Iver3: Remote Helm major version (below 5 $OMS depth is feet)' -r
 complete -c frontseat -n "__fish_frontseat_using_subcommand sim" -l emulator-warp -d 'Run simulated time this many times faster' -r
 complete -c frontseat -n "__fish_frontseat_using_subcommand sim" -l refusal -d 'Bluefin: how the emulated Huxley answers commands' -r -f -a "none\t'Acknowledge everything as successful'

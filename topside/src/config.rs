@@ -119,6 +119,11 @@ pub struct TopsideWebConfig {
     /// answered. Unit: s, 1 to 300.
     #[schemars(range(min = 1, max = 300))]
     pub header_timeout_s: u64,
+    /// A connection that neither sends nor receives for this long is closed (the page polls
+    /// every second, so only an idle or stalled socket is); a request not answered within this
+    /// long of its first byte (trickled) is closed too. Unit: s, 1 to 3600.
+    #[schemars(range(min = 1, max = 3600))]
+    pub idle_timeout_s: u64,
 }
 
 impl Default for TopsideWebConfig {
@@ -128,6 +133,7 @@ impl Default for TopsideWebConfig {
             token: None,
             max_connections: 64,
             header_timeout_s: 5,
+            idle_timeout_s: 30,
         }
     }
 }
@@ -184,6 +190,13 @@ impl ServiceConfig for TopsideConfig {
                 "web.header_timeout_s",
                 self.web.header_timeout_s,
                 "outside [1, 300]",
+            ));
+        }
+        if !(1..=3600).contains(&self.web.idle_timeout_s) {
+            e.push(FieldError::new(
+                "web.idle_timeout_s",
+                self.web.idle_timeout_s,
+                "outside [1, 3600]",
             ));
         }
         if !(self.stale_after_s.is_finite()

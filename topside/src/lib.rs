@@ -419,7 +419,7 @@ impl Topside {
             listener,
             frontseat_web::conn::ConnLimits {
                 max_connections: cfg.web.max_connections,
-                idle: Duration::from_secs(30),
+                idle: Duration::from_secs(cfg.web.idle_timeout_s.max(1)),
                 header_timeout: Duration::from_secs(cfg.web.header_timeout_s.max(1)),
             },
             Arc::new(frontseat_web::ServerCounters::default()),

@@ -164,3 +164,40 @@ async fn the_topside_foxglove_refuses_a_foreign_origin_or_host() {
     assert_eq!(first_op(&mut ws).await["op"], "serverInfo");
     top.shutdown().await;
 }
+
+/// `web.idle_timeout_s` bounds a request whose body trickles in a byte at a time (each byte
+/// resets the idle timer, the head is complete, so the header timeout is past): closed once
+/// that long has gone by since its first byte with no answer. Was a fixed 30 s.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_trickled_request_is_closed_after_the_configured_idle_timeout() {
+    let mut cfg = config();
+    cfg.foxglove.enabled = false;
+    cfg.web.idle_timeout_s = 1;
+    let top = Topside::start(&cfg).await.unwrap();
+    let addr = top.local_addr();
+    let mut s = TcpStream::connect(addr).await.unwrap();
+    let head = format!(
+        "POST /api/vehicle/auv1/send HTTP/1.1\r\nHost: {addr}\r\nContent-Type: application/json\r\nContent-Length: 4096\r\n\r\n{{"
+    );
+    s.write_all(head.as_bytes()).await.unwrap();
+    let (mut rd, mut wr) = s.into_split();
+    let trickle = tokio::spawn(async move {
+        let mut tick = tokio::time::interval(Duration::from_millis(200));
+        loop {
+            tick.tick().await;
+            if wr.write_all(b" ").await.is_err() {
+                return;
+            }
+        }
+    });
+    // Closed (end of stream or reset) well before the 30 s it used to take; an answer, if the
+    // server sends one before closing, is read through.
+    let mut buf = Vec::new();
+    let closed = tokio::time::timeout(BOUND, rd.read_to_end(&mut buf)).await;
+    trickle.abort();
+    assert!(
+        closed.is_ok(),
+        "the trickled request was still open after {BOUND:?}"
+    );
+    top.shutdown().await;
+}

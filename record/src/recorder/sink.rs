@@ -76,7 +76,7 @@ struct OpenFile {
 }
 
 /// The writer thread's state.
-struct Sink {
+pub(super) struct Sink {
     opts: RecorderOptions,
     meta: BTreeMap<String, String>,
     pool: &'static prost_reflect::DescriptorPool,

@@ -1,5 +1,5 @@
 //! Compiles the descriptors of Goby3's config messages (proto/goby3/) into OUT_DIR, so that a
-//! Goby3 .pb.cfg is read with Goby3's own names and types (see src/goby3_import.rs).
+//! Goby3 .pb.cfg is read with Goby3's own names and types (see src/goby3_import/text.rs).
 
 use prost::Message;
 

@@ -36,7 +36,7 @@ fn record(path: &Path) {
     };
     let mut opts = RecorderOptions::file(path);
     // A few kilobytes: the disk guard must not stop this recording on a test machine whose temp
-    // dir has little free (it has its own test in record/src/recorder.rs).
+    // dir has little free (it has its own test, `a_disk_below_the_floor_stops_writing_and_counts_the_drops`, in record/tests/record_read_replay.rs).
     opts.min_free_bytes = 0;
     let rec = Recorder::start(&bus, opts, meta).unwrap();
     for i in 0..N {

@@ -64,7 +64,7 @@ impl Notifier {
 
     /// A notifier whose messages go to a channel instead of a socket, with the watchdog interval
     /// systemd would have given in WATCHDOG_USEC.
-    #[allow(dead_code)] // used by tests/deploy.rs, which includes this module
+    #[allow(dead_code)] // used by tests/deploy/sd_notify.rs, which includes this module
     pub fn recording(
         watchdog_usec: Option<Duration>,
     ) -> (Self, tokio::sync::mpsc::UnboundedReceiver<String>) {
@@ -80,7 +80,7 @@ impl Notifier {
     }
 
     /// Whether messages go anywhere.
-    #[allow(dead_code)] // used by tests/deploy.rs
+    #[allow(dead_code)] // used by tests/deploy/sd_notify.rs
     pub fn enabled(&self) -> bool {
         !matches!(self.sink, Sink::Off)
     }

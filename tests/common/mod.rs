@@ -8,6 +8,7 @@ pub mod otlp;
 pub mod phelm;
 pub mod procs;
 pub mod python;
+pub mod temp_dir;
 
 use frontseat_actors::bus::test_util::UntypedBus as _;
 use std::time::Duration;

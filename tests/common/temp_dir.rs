@@ -1,6 +1,5 @@
-//! A scratch directory for one test, removed when the test ends (passed or failed). The
-//! deployment tests (tests/deploy.rs, tests/sd_notify.rs) include it by path rather than through
-//! common/mod.rs: tests/deploy.rs needs nothing else of common (no simulator, no bus).
+//! A scratch directory for one test, removed when the test ends (passed or failed): the
+//! deployment tests' (`tests/deploy/`).
 
 use std::path::PathBuf;
 

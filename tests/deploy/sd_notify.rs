@@ -2,10 +2,6 @@
 //! withholds the watchdog from a hung actor, in process; and the real binaries speak sd_notify to
 //! a socket this test owns.
 
-mod common;
-#[path = "common/temp_dir.rs"]
-mod temp_dir;
-
 use frontseat_actors::bus::test_util::UntypedBus as _;
 use std::io::{BufRead, BufReader};
 use std::os::unix::net::UnixDatagram;
@@ -14,7 +10,8 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
-use common::{config_for, start_sim};
+use crate::common::temp_dir::TempDir;
+use crate::common::{self, config_for, start_sim};
 use frontseat_actors::bus::Bus;
 use frontseat_actors::groups;
 use frontseat_actors::interface::InterfaceService;
@@ -24,7 +21,6 @@ use frontseat_actors::proto::goby::middleware::frontseat::protobuf::{
 use frontseat_actors::systemd::{
     self, Notifier, spawn_status_reporter, spawn_watchdog, status_text,
 };
-use temp_dir::TempDir;
 
 const BIN: &str = env!("CARGO_BIN_EXE_frontseat");
 

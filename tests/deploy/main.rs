@@ -1,15 +1,17 @@
 //! Deployment under systemd, the files: the unit files pass `systemd-analyze verify`, the
 //! example configs pass `--check`, and install.sh/uninstall.sh work in a staging directory. How
-//! the running services speak sd_notify is tests/sd_notify.rs.
+//! the running services speak sd_notify is `sd_notify.rs` beside this file: one test binary for
+//! both, so the split costs no extra link of the whole workspace.
 
-#[path = "common/temp_dir.rs"]
-mod temp_dir;
+#[path = "../common/mod.rs"]
+mod common;
+mod sd_notify;
 
 use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-use temp_dir::TempDir;
+use common::temp_dir::TempDir;
 
 const BIN: &str = env!("CARGO_BIN_EXE_frontseat");
 const UNITS: [&str; 3] = [

@@ -25,6 +25,7 @@ mod navigation;
 mod service;
 mod settings;
 mod state;
+mod vehicle_thread;
 
 pub use crate::clock::heartbeat_now;
 /// Why the service ended (the supervision tree's word; the interface's path kept for its users).
@@ -35,3 +36,4 @@ pub use navigation::compute_missing;
 pub use service::{InterfaceService, StartError};
 pub use settings::{InterfaceSettings, command_timeout, driver_node};
 pub use state::FsiState;
+pub use vehicle_thread::THREAD_NAME as VEHICLE_THREAD;

@@ -4,21 +4,24 @@
 use std::time::Duration;
 
 use frontseat_config::InterfaceConfig;
-use ractor::{Actor, ActorRef};
+use ractor::ActorRef;
 use tokio::sync::watch;
 
 use crate::bus::Bus;
 use crate::driver::DriverFactory;
 use crate::supervisor::ServiceExit;
 
-use super::actor::{FrontSeatInterface, FsiArgs};
+use super::actor::FsiArgs;
 use super::messages::{FsiMsg, Snapshot};
 use super::settings::InterfaceSettings;
+use super::vehicle_thread::{self, Started};
 
-/// The running interface: the actor, and how it ended.
+/// The running interface: the actor, and how it ended. The actor and the rest of the vehicle
+/// side run on their own thread ([`vehicle_thread`]); this handle is held on the caller's.
 pub struct InterfaceService {
     actor: ActorRef<FsiMsg>,
-    join: tokio::task::JoinHandle<()>,
+    /// True once the interface actor's task has ended.
+    ended: watch::Receiver<bool>,
     exit: watch::Receiver<Option<ServiceExit>>,
 }
 
@@ -49,21 +52,17 @@ impl InterfaceService {
         factory: DriverFactory,
     ) -> Result<Self, StartError> {
         let (tx, rx) = watch::channel(None);
-        let (actor, join) = Actor::spawn(
-            None,
-            FrontSeatInterface,
-            FsiArgs {
-                settings,
-                bus: bus.clone(),
-                factory,
-                exit: tx,
-            },
-        )
+        let Started { actor, ended } = vehicle_thread::spawn(FsiArgs {
+            settings,
+            bus: bus.clone(),
+            factory,
+            exit: tx,
+        })
         .await
-        .map_err(|e| StartError::Spawn(e.to_string()))?;
+        .map_err(StartError::Spawn)?;
         Ok(Self {
             actor,
-            join,
+            ended,
             exit: rx,
         })
     }
@@ -83,22 +82,21 @@ impl InterfaceService {
 
     /// Resolves when the service ends by itself (error exit, restart limit, actor failure).
     pub async fn wait(&mut self) -> ServiceExit {
+        let ended = || ServiceExit::Failed("interface actor ended".into());
         loop {
             if let Some(e) = self.exit.borrow().clone() {
                 return e;
             }
-            if self.join.is_finished() {
-                return self
-                    .exit
-                    .borrow()
-                    .clone()
-                    .unwrap_or(ServiceExit::Failed("interface actor ended".into()));
+            if *self.ended.borrow() {
+                return self.exit.borrow().clone().unwrap_or_else(ended);
             }
             tokio::select! {
                 r = self.exit.changed() => if r.is_err() {
-                    return ServiceExit::Failed("interface actor ended".into());
+                    return ended();
                 },
-                _ = &mut self.join => {}
+                r = self.ended.changed() => if r.is_err() {
+                    return self.exit.borrow().clone().unwrap_or_else(ended);
+                },
             }
         }
     }
@@ -107,10 +105,7 @@ impl InterfaceService {
     /// the frontseat connection.
     pub async fn shutdown(mut self, within: Duration) -> ServiceExit {
         let _ = self.actor.call(FsiMsg::Shutdown, Some(within)).await;
-        // `wait` may have consumed the join already (a JoinHandle must not be polled twice).
-        if !self.join.is_finished() {
-            let _ = tokio::time::timeout(within, &mut self.join).await;
-        }
+        let _ = tokio::time::timeout(within, self.ended.wait_for(|ended| *ended)).await;
         // An interface actor that was killed ran no cleanup: its DriverActor (and so the
         // frontseat connection) would outlive it, beside the one a restart starts.
         self.actor

@@ -14,6 +14,10 @@
 //! into a DesiredCourse or a HelmState, `health` keeps the TranslationStatus, `config` makes
 //! the MOOS client's configuration, `task` runs the data path, `actor` supervises it.
 
+/// Log lines keep the target this module had as one file, whatever part now writes them:
+/// operators filter and grep on it.
+const LOG_TARGET: &str = "frontseat_helm_side::translation";
+
 mod actor;
 mod config;
 mod health;

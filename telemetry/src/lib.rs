@@ -22,6 +22,10 @@
 
 #![forbid(unsafe_code)]
 
+/// Log lines keep the target this crate had as one file, whatever module now writes them:
+/// operators filter and grep on it.
+const LOG_TARGET: &str = "frontseat_telemetry";
+
 mod context;
 mod export;
 pub mod metrics;

@@ -100,7 +100,7 @@ pub fn sampler_for(r: &Resolved) -> Sampler {
         match standard_sampler(name, r.sampling_ratio) {
             Some(s) => return s,
             None => {
-                tracing::warn!(sampler = %name, "unknown OTEL_TRACES_SAMPLER; using frontseat's")
+                tracing::warn!(target: crate::LOG_TARGET, sampler = %name, "unknown OTEL_TRACES_SAMPLER; using frontseat's")
             }
         }
     }

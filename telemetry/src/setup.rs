@@ -33,7 +33,7 @@ impl Telemetry {
         if let Some(p) = &self.provider
             && let Err(e) = p.force_flush()
         {
-            tracing::warn!(error = %e, "flushing spans failed");
+            tracing::warn!(target: crate::LOG_TARGET, error = %e, "flushing spans failed");
         }
     }
     pub fn shutdown(&mut self) {
@@ -41,18 +41,19 @@ impl Telemetry {
             return;
         };
         if let Err(e) = p.force_flush() {
-            tracing::warn!(error = %e, "flushing spans failed");
+            tracing::warn!(target: crate::LOG_TARGET, error = %e, "flushing spans failed");
         }
         let _ = p.shutdown();
         // After the spans, so the last metrics carry the final span counts.
         if let Some(m) = self.meters.take()
             && let Err(e) = m.shutdown()
         {
-            tracing::warn!(error = %e, "exporting the last metrics failed");
+            tracing::warn!(target: crate::LOG_TARGET, error = %e, "exporting the last metrics failed");
         }
         ENABLED.store(false, Ordering::Relaxed);
         let c = span_counts();
         tracing::info!(
+            target: crate::LOG_TARGET,
             spans_exported = c.exported,
             spans_dropped = c.dropped(),
             queue_full = c.queue_full,
@@ -126,7 +127,7 @@ pub fn init(cfg: &TelemetryConfig, role: &str, platform: &str) -> Telemetry {
         Ok(e) => e,
         Err(e) => {
             let _ = tracing_subscriber::registry().with(fmt).try_init();
-            tracing::error!(error = %e, "cannot build the OTLP exporter; traces are off");
+            tracing::error!(target: crate::LOG_TARGET, error = %e, "cannot build the OTLP exporter; traces are off");
             return Telemetry::default();
         }
     };
@@ -141,11 +142,12 @@ pub fn init(cfg: &TelemetryConfig, role: &str, platform: &str) -> Telemetry {
         None => None,
         Some(Ok(m)) => Some(m),
         Some(Err(e)) => {
-            tracing::error!(error = %e, "cannot build the OTLP metric exporter; metrics are off");
+            tracing::error!(target: crate::LOG_TARGET, error = %e, "cannot build the OTLP metric exporter; metrics are off");
             None
         }
     };
     tracing::info!(
+        target: crate::LOG_TARGET,
         endpoint = r
             .endpoint
             .as_deref()

@@ -56,7 +56,7 @@ impl Actor for FrontSeatInterface {
         let frame = match LocalGrid::new(args.settings.origin.0, args.settings.origin.1) {
             Ok(f) => Some(f),
             Err(e) => {
-                tracing::error!(error = %e, "bad origin: local_fix will not be computed");
+                tracing::error!(target: super::LOG_TARGET, error = %e, "bad origin: local_fix will not be computed");
                 None
             }
         };
@@ -118,7 +118,7 @@ impl Actor for FrontSeatInterface {
             .await?,
         );
         state.publish_status();
-        tracing::info!(state = "standby", "frontseat interface started");
+        tracing::info!(target: super::LOG_TARGET, state = "standby", "frontseat interface started");
         Ok(state)
     }
 
@@ -165,7 +165,7 @@ impl FrontSeatInterface {
     ) -> Result<(), ActorProcessingErr> {
         use FrontSeatInterfaceInbox as I;
         if crate::chaos::take(&st.faults).is_some() {
-            tracing::warn!("chaos: making the FrontSeatInterface panic");
+            tracing::warn!(target: super::LOG_TARGET, "chaos: making the FrontSeatInterface panic");
             panic!("chaos: FrontSeatInterface panic injected");
         }
         match msg {
@@ -185,7 +185,7 @@ impl FrontSeatInterface {
                             .publish_data_to_frontseat_with(env.msg.clone(), env.meta());
                     } else {
                         st.counters.data_gated += 1;
-                        tracing::debug!("data_to_frontseat dropped: not in listen or command");
+                        tracing::debug!(target: super::LOG_TARGET, "data_to_frontseat dropped: not in listen or command");
                     }
                 }
                 I::VehicleExtension(env) => st.handle_extension_to_frontseat(env),
@@ -193,7 +193,7 @@ impl FrontSeatInterface {
                 I::HelmState(env) => {
                     let helm = env.msg.state();
                     if helm != st.inputs.helm {
-                        tracing::info!(?helm, "helm state");
+                        tracing::info!(target: super::LOG_TARGET, ?helm, "helm state");
                     }
                     st.inputs.helm = helm;
                     st.helm_heard = tokio::time::Instant::now();
@@ -203,10 +203,12 @@ impl FrontSeatInterface {
                     let d = env.msg.datum;
                     match LocalGrid::new(d.lat, d.lon) {
                         Ok(f) => {
-                            tracing::info!(lat = d.lat, lon = d.lon, "datum updated");
+                            tracing::info!(target: super::LOG_TARGET, lat = d.lat, lon = d.lon, "datum updated");
                             st.frame = Some(f);
                         }
-                        Err(e) => tracing::warn!(error = %e, "datum_update refused"),
+                        Err(e) => {
+                            tracing::warn!(target: super::LOG_TARGET, error = %e, "datum_update refused")
+                        }
                     }
                 }
                 I::CommandResponse(env) => st.handle_driver_response(env),
@@ -233,6 +235,7 @@ impl FrontSeatInterface {
                     && st.helm_heard.elapsed() > st.helm_state_timeout
                 {
                     tracing::warn!(
+                        target: super::LOG_TARGET,
                         timeout = ?st.helm_state_timeout,
                         "helm_state not heard within helm_state_timeout: helm treated as not running"
                     );
@@ -256,6 +259,7 @@ impl FrontSeatInterface {
             FsiMsg::DriverDown(why) => st.driver_down(&myself, &why),
             FsiMsg::Shutdown(reply) => {
                 tracing::info!(
+                    target: super::LOG_TARGET,
                     "orderly shutdown: refusing commands, closing the frontseat connection"
                 );
                 st.shutting_down = true;
@@ -336,7 +340,7 @@ impl FrontSeatInterface {
         // This may come before the supervisor's word that the driver is down.
         st.driver_down(&myself, &why);
         if !st.shutting_down {
-            tracing::error!("{why}");
+            tracing::error!(target: super::LOG_TARGET, "{why}");
             st.finish(&myself, exit);
         }
         Ok(())

@@ -61,7 +61,7 @@ impl FsiState {
                 format!("not in {needs} state (state: {state})"),
             )
         };
-        tracing::debug!(state, reason = %why, "command dropped");
+        tracing::debug!(target: super::LOG_TARGET, state, reason = %why, "command dropped");
         self.refuse(req, code, why);
     }
 
@@ -89,6 +89,7 @@ impl FsiState {
                 self.counters.setpoints_refused += 1;
                 match self.refused_log.decide_at(self.now()) {
                     LogDecision::Log { suppressed_before } => tracing::warn!(
+                        target: super::LOG_TARGET,
                         field = r.field,
                         value = r.value,
                         refused_total = self.counters.setpoints_refused,
@@ -123,6 +124,7 @@ impl FsiState {
                     self.raw_refused_log.decide_at(self.now())
                 {
                     tracing::warn!(
+                        target: super::LOG_TARGET,
                         source = source_name(source),
                         raw_refused_total = self.counters.raw_refused,
                         "raw_send_request refused: {why}: {:?}{}",
@@ -142,12 +144,13 @@ impl FsiState {
         };
         if !self.listen_or_command() {
             self.counters.raw_gated += 1;
-            tracing::debug!("raw_send_request dropped: not in listen or command");
+            tracing::debug!(target: super::LOG_TARGET, "raw_send_request dropped: not in listen or command");
             return;
         }
         self.counters.raw_sent += 1;
         if let LogDecision::Log { suppressed_before } = self.raw_log.decide_at(self.now()) {
             tracing::info!(
+                target: super::LOG_TARGET,
                 source = source_name(source),
                 raw_sent_total = self.counters.raw_sent,
                 "raw_send_request to the frontseat: {:?}{}",
@@ -171,7 +174,7 @@ impl FsiState {
         } else {
             // After our timeout answered, a restart, or a second answer to the same request.
             self.counters.late_responses += 1;
-            tracing::debug!(request_id = ?key, "late or further command response forwarded");
+            tracing::debug!(target: super::LOG_TARGET, request_id = ?key, "late or further command response forwarded");
         }
         self.ports
             .publish_command_response_with(env.msg.clone(), env.meta());

@@ -20,6 +20,7 @@ fn extension_dropped(type_name: &str, why: &str) {
     let n = DROPPED.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
     if n.is_power_of_two() {
         tracing::warn!(
+            target: super::LOG_TARGET,
             type_name,
             dropped_total = n,
             "vehicle extension dropped: {why}"
@@ -43,6 +44,7 @@ impl FsiState {
                 } else {
                     self.counters.data_gated += 1;
                     tracing::debug!(
+                        target: super::LOG_TARGET,
                         group = spec.group,
                         "{} data_to_frontseat dropped: not in listen or command",
                         spec.vehicle

@@ -17,6 +17,10 @@
 //! `navigation` (the navigation gate and compute_missing), `actor` (start and dispatch) and
 //! `service` (the running interface as its users hold it).
 
+/// Every log line of the interface keeps the target it had as one file, whatever part it now
+/// comes from: operators filter and grep on `frontseat_actors::interface`.
+const LOG_TARGET: &str = "frontseat_actors::interface";
+
 mod actor;
 mod commands;
 mod extensions;

@@ -48,6 +48,7 @@ impl FsiState {
             && let LogDecision::Log { suppressed_before } = self.nav_drop_log.decide_at(self.now())
         {
             tracing::warn!(
+                target: super::LOG_TARGET,
                 field = v.field.name(),
                 value = v.value,
                 fields = dropped.len(),
@@ -66,6 +67,7 @@ impl FsiState {
         self.counters.nav_refused += 1;
         if let LogDecision::Log { suppressed_before } = self.nav_log.decide_at(self.now()) {
             tracing::warn!(
+                target: super::LOG_TARGET,
                 field = r.field.name(),
                 value = r.value,
                 "navigation from the frontseat refused: {r}{}",
@@ -172,6 +174,7 @@ fn warn_fix(what: &str, e: &dyn std::fmt::Display) {
     let mut log = LOG.lock().unwrap_or_else(|p| p.into_inner());
     if let LogDecision::Log { suppressed_before } = log.decide(tokio::time::Instant::now()) {
         tracing::warn!(
+            target: super::LOG_TARGET,
             error = %e,
             "cannot compute {what}{}",
             more(suppressed_before, "fixes not converted", log.window())

@@ -186,7 +186,7 @@ impl FsiState {
             )
         {
             let why = format!("exit_on_error: entered {}", state_words(self.sm.state()));
-            tracing::error!("{why}");
+            tracing::error!(target: super::LOG_TARGET, "{why}");
             self.finish(myself, ServiceExit::ErrorState(why));
         }
     }
@@ -215,6 +215,7 @@ impl FsiState {
         if let Some(n) = self.refused_log.summary_due_at(now) {
             let line = summary(n, "refused setpoints", self.refused_log.window());
             tracing::warn!(
+                target: super::LOG_TARGET,
                 suppressed = n,
                 refused_total = self.counters.setpoints_refused,
                 "{line}"
@@ -223,6 +224,7 @@ impl FsiState {
         if let Some(n) = self.raw_log.summary_due_at(now) {
             let line = summary(n, "raw sends", self.raw_log.window());
             tracing::info!(
+                target: super::LOG_TARGET,
                 suppressed = n,
                 raw_sent_total = self.counters.raw_sent,
                 "{line}"
@@ -231,6 +233,7 @@ impl FsiState {
         if let Some(n) = self.raw_refused_log.summary_due_at(now) {
             let line = summary(n, "refused raw sends", self.raw_refused_log.window());
             tracing::warn!(
+                target: super::LOG_TARGET,
                 suppressed = n,
                 raw_refused_total = self.counters.raw_refused,
                 "{line}"
@@ -243,6 +246,7 @@ impl FsiState {
                 self.nav_drop_log.window(),
             );
             tracing::warn!(
+                target: super::LOG_TARGET,
                 suppressed = n,
                 nav_fields_dropped_total = self.counters.nav_fields_dropped,
                 "{line}"
@@ -251,6 +255,7 @@ impl FsiState {
         if let Some(n) = self.nav_log.summary_due_at(now) {
             let line = summary(n, "refused navigation messages", self.nav_log.window());
             tracing::warn!(
+                target: super::LOG_TARGET,
                 suppressed = n,
                 nav_refused_total = self.counters.nav_refused,
                 "{line}"
@@ -306,7 +311,7 @@ impl FsiState {
         if self.shutting_down {
             return;
         }
-        tracing::error!(%why, "driver failed: frontseat treated as not connected");
+        tracing::error!(target: super::LOG_TARGET, %why, "driver failed: frontseat treated as not connected");
         self.evaluate(myself);
     }
 }
@@ -344,6 +349,7 @@ pub(super) fn state_name(n: i32) -> &'static str {
 
 fn log_transition(t: &Transition) {
     tracing::info!(
+        target: super::LOG_TARGET,
         from = state_words(t.from),
         to = state_words(t.to),
         helm_error = ?t.helm_error,

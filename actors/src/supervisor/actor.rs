@@ -211,6 +211,7 @@ impl SupervisorState {
         match decision {
             Decision::Restart { after, nth } => {
                 tracing::warn!(
+                    target: super::LOG_TARGET,
                     supervisor = %sup,
                     child = %child.spec.name,
                     restart = nth,
@@ -222,15 +223,15 @@ impl SupervisorState {
                 None
             }
             Decision::LeaveDown if ending == Ending::Failed => {
-                tracing::error!(supervisor = %sup, child = %child.spec.name, %why, "helm-side actor failed and is left down (policy never): degraded");
+                tracing::error!(target: super::LOG_TARGET, supervisor = %sup, child = %child.spec.name, %why, "helm-side actor failed and is left down (policy never): degraded");
                 None
             }
             Decision::LeaveDown => {
-                tracing::info!(supervisor = %sup, child = %child.spec.name, %why, "supervised actor stopped");
+                tracing::info!(target: super::LOG_TARGET, supervisor = %sup, child = %child.spec.name, %why, "supervised actor stopped");
                 None
             }
             Decision::GiveUp(reason) => {
-                tracing::error!(supervisor = %sup, child = %child.spec.name, "{reason}");
+                tracing::error!(target: super::LOG_TARGET, supervisor = %sup, child = %child.spec.name, "{reason}");
                 // The child's own exit when it named one (an error state: 2, its restart
                 // limit: 3, the interface failing: 4), else the restart limit's.
                 let exit = failure
@@ -296,7 +297,7 @@ impl Actor for Supervisor {
                 let start = st.children[i].spec.start.clone();
                 match start(myself.get_cell()).await {
                     Ok(cell) => {
-                        tracing::info!(supervisor = %st.name, child = %st.children[i].spec.name, "supervised actor restarted");
+                        tracing::info!(target: super::LOG_TARGET, supervisor = %st.name, child = %st.children[i].spec.name, "supervised actor restarted");
                         st.children[i].cell = Some(cell);
                         st.children[i].down_since = None;
                         st.publish();

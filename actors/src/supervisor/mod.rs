@@ -17,6 +17,10 @@
 //! through a [`ChildObserver`]; the web scope its hub). The tree `frontseat interfaces` prints is
 //! rendered ([`render_tree`]) from the [`Node`]s of the very [`ChildSpec`]s a service starts.
 
+/// Log lines keep the target this module had as one file, whatever part now writes them:
+/// operators filter and grep on it.
+const LOG_TARGET: &str = "frontseat_actors::supervisor";
+
 mod actor;
 mod policy;
 mod spec;

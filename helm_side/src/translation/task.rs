@@ -165,6 +165,7 @@ pub async fn spawn_with_faults(
         last_nav_trace: String::new(),
     };
     tracing::info!(
+        target: super::LOG_TARGET,
         vehicle = vehicle_name,
         moosdb = %format!("{}:{}", cfg.server, cfg.port),
         app = %cfg.app_name,
@@ -242,7 +243,7 @@ impl Task {
                 ev = events.recv() => match ev {
                     Some(ev) => self.on_event(ev),
                     None => {
-                        tracing::warn!("MOOS client ended; FrontSeatTranslation stops");
+                        tracing::warn!(target: super::LOG_TARGET, "MOOS client ended; FrontSeatTranslation stops");
                         break;
                     }
                 },
@@ -258,7 +259,7 @@ impl Task {
         self.moos.shutdown().await;
         self.health.connected = false;
         self.publish_status(true);
-        tracing::info!(counters = ?self.counters, "FrontSeatTranslation stopped");
+        tracing::info!(target: super::LOG_TARGET, counters = ?self.counters, "FrontSeatTranslation stopped");
     }
 
     fn post_node_status(&mut self, ns: &NodeStatus) {
@@ -271,7 +272,7 @@ impl Task {
                 Ok(()) => self.counters.nav_notifies += 1,
                 Err(e) => {
                     self.counters.notify_failures += 1;
-                    tracing::warn!(key, error = %e, "cannot post to MOOS");
+                    tracing::warn!(target: super::LOG_TARGET, key, error = %e, "cannot post to MOOS");
                 }
             }
         }
@@ -299,17 +300,18 @@ impl Task {
                 let community = welcome.as_ref().map(|w| w.community.as_str());
                 if !self.community.is_empty() && community != Some(self.community.as_str()) {
                     tracing::warn!(
+                        target: super::LOG_TARGET,
                         expected = %self.community,
                         announced = ?community,
                         "the MOOSDB announces another community"
                     );
                 }
-                tracing::info!(?community, "connected to the MOOSDB");
+                tracing::info!(target: super::LOG_TARGET, ?community, "connected to the MOOSDB");
                 self.counters_tx.send_replace(self.counters);
                 self.publish_status(false);
             }
             MoosEvent::Disconnected(reason) => {
-                tracing::warn!(%reason, "MOOSDB connection lost; reconnecting");
+                tracing::warn!(target: super::LOG_TARGET, %reason, "MOOSDB connection lost; reconnecting");
                 self.health.connected = false;
                 self.publish_status(false);
             }
@@ -350,7 +352,7 @@ impl Task {
             return;
         }
         let Some(var) = DesiredVar::from_key(&key) else {
-            tracing::debug!(%key, "mail for a variable we did not register; ignored");
+            tracing::debug!(target: super::LOG_TARGET, %key, "mail for a variable we did not register; ignored");
             return;
         };
         let Some(value) = m.as_double() else {
@@ -360,6 +362,7 @@ impl Task {
                 self.bad_mail_log.decide(tokio::time::Instant::now())
             {
                 tracing::warn!(
+                    target: super::LOG_TARGET,
                     %key,
                     data_type = ?m.data_type,
                     "DESIRED_* is not a double; ignored{}",
@@ -405,6 +408,7 @@ impl Task {
                 self.bad_mail_log.window(),
             );
             tracing::warn!(
+                target: super::LOG_TARGET,
                 suppressed = n,
                 bad_mail_total = self.counters.bad_mail,
                 "{line}"

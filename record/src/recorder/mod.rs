@@ -14,6 +14,10 @@
 //! - Failures stay here: an I/O error closes the file, counts, logs (rate-limited) and retries a
 //!   new file later; the thread never takes the process with it.
 
+/// Log lines keep the target this module had as one file, whatever part now writes them:
+/// operators filter and grep on it.
+const LOG_TARGET: &str = "frontseat_record::recorder";
+
 mod options;
 mod queue;
 mod sink;
@@ -228,6 +232,7 @@ impl Recorder {
 
     fn log_started(&self) {
         tracing::info!(
+            target: LOG_TARGET,
             groups = self.groups.len(),
             file = %self.current_file().map(|p| p.display().to_string()).unwrap_or_default(),
             "recording"
@@ -254,6 +259,7 @@ impl Recorder {
                 let new = now.dropped().saturating_sub(last.dropped());
                 if new > 0 {
                     tracing::warn!(
+                        target: LOG_TARGET,
                         dropped = new,
                         total = now.dropped(),
                         queue_full = now.dropped_queue,
@@ -292,7 +298,7 @@ impl Recorder {
         if let Some(t) = self.thread.take() {
             frontseat_telemetry::metrics::recorder_running(false);
             if t.join().is_err() {
-                tracing::error!("the recorder thread panicked; the last file may lack its summary");
+                tracing::error!(target: LOG_TARGET, "the recorder thread panicked; the last file may lack its summary");
             }
         }
     }

@@ -187,6 +187,7 @@ impl Sink {
         let n = bump(&self.counters.write_errors);
         if worth_logging(n) {
             tracing::warn!(
+                target: super::LOG_TARGET,
                 error = why,
                 count = n,
                 "recorder: cannot write; messages are dropped and counted until a new file works"
@@ -253,6 +254,7 @@ impl Sink {
                         Ok(f) => {
                             if n > 0 {
                                 tracing::warn!(
+                                    target: super::LOG_TARGET,
                                     kept = %p.display(),
                                     recording_to = %path.display(),
                                     "recorder: record.path exists (a previous run's recording?): kept untouched; this run records to a new name"
@@ -417,7 +419,7 @@ impl Sink {
                     Ok(()) => {
                         total = total.saturating_sub(len);
                         bump(&self.counters.files_removed);
-                        tracing::info!(file = %path.display(), "recorder: removed the oldest record to stay within record.budget_mb");
+                        tracing::info!(target: super::LOG_TARGET, file = %path.display(), "recorder: removed the oldest record to stay within record.budget_mb");
                     }
                     Err(e) => self.fail(&format!("removing {}: {e}", path.display())),
                 }
@@ -445,11 +447,11 @@ impl Sink {
         if low {
             let n = bump(&self.counters.disk_low);
             if worth_logging(n) {
-                tracing::warn!(dir = %dir.display(), free_mb = free >> 20, min_free_mb = self.opts.min_free_bytes >> 20, count = n, "recorder: the disk is nearly full");
+                tracing::warn!(target: super::LOG_TARGET, dir = %dir.display(), free_mb = free >> 20, min_free_mb = self.opts.min_free_bytes >> 20, count = n, "recorder: the disk is nearly full");
             }
         }
         if was_ok && !self.disk_ok {
-            tracing::error!(dir = %dir.display(), free_mb = free >> 20, "recorder: stopped writing, the disk is below half of record.min_free_mb; messages are dropped and counted");
+            tracing::error!(target: super::LOG_TARGET, dir = %dir.display(), free_mb = free >> 20, "recorder: stopped writing, the disk is below half of record.min_free_mb; messages are dropped and counted");
             self.close_file();
         }
     }

@@ -37,7 +37,7 @@ impl ArdupilotDriver {
                 self.counters.unmatched_acks += 1;
             }
             if result != MavResult::MAV_RESULT_ACCEPTED {
-                tracing::debug!(?command, ?result, "COMMAND_ACK not accepted");
+                tracing::debug!(target: super::LOG_TARGET, ?command, ?result, "COMMAND_ACK not accepted");
             }
             return;
         };

@@ -115,7 +115,7 @@ impl ArdupilotDriver {
         if let Some(c) = self.course {
             if now.saturating_sub(c.renewed) > self.settings.course_timeout {
                 // The helm stopped: stop re-sending, and the vehicle's own 3 s timeout stops it.
-                tracing::info!("helm course not renewed: no longer re-sending the GUIDED target");
+                tracing::info!(target: super::LOG_TARGET, "helm course not renewed: no longer re-sending the GUIDED target");
                 self.course = None;
                 self.stop_thrust(now, sig);
             } else if c.sent.is_none_or(|s| {

@@ -63,9 +63,9 @@ impl ArdupilotDriver {
             if self.state == FrontSeatState::FrontseatAcceptingCommands
                 && state != FrontSeatState::FrontseatAcceptingCommands
             {
-                tracing::warn!(reason = %self.reason, state = ?state, "ArduPilot vehicle no longer accepts commands");
+                tracing::warn!(target: super::LOG_TARGET, reason = %self.reason, state = ?state, "ArduPilot vehicle no longer accepts commands");
             } else {
-                tracing::info!(reason = %self.reason, state = ?state, "ArduPilot vehicle state");
+                tracing::info!(target: super::LOG_TARGET, reason = %self.reason, state = ?state, "ArduPilot vehicle state");
             }
         }
         // Another commanded mode (GUIDED ↔ ALT_HOLD) takes other messages: start afresh.
@@ -74,7 +74,7 @@ impl ArdupilotDriver {
         if (control != Control::AcceptingCommands || mode_changed) && self.course.take().is_some() {
             // Targets are ignored outside the commanded modes: stop sending them, and say so to
             // whoever waits.
-            tracing::warn!(reason = %self.reason, "no longer sending the helm's course");
+            tracing::warn!(target: super::LOG_TARGET, reason = %self.reason, "no longer sending the helm's course");
             let why = format!("vehicle left its commanded mode: {}", self.reason);
             self.fail_course_verdicts(&why, sig);
             self.stop_thrust(now, sig);

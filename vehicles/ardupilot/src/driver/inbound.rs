@@ -46,6 +46,7 @@ impl ArdupilotDriver {
                                 || self.settings.system_id == h.system_id) =>
                     {
                         tracing::info!(
+                            target: super::LOG_TARGET,
                             system = h.system_id,
                             component = h.component_id,
                             "ArduPilot autopilot found"
@@ -133,9 +134,9 @@ impl ArdupilotDriver {
         let serious = (severity as u8) <= MavSeverity::MAV_SEVERITY_WARNING as u8;
         if let Some(suppressed) = log_due(&mut self.text_log) {
             if serious {
-                tracing::warn!(%text, ?severity, suppressed, "ArduPilot says");
+                tracing::warn!(target: super::LOG_TARGET, %text, ?severity, suppressed, "ArduPilot says");
             } else {
-                tracing::info!(%text, ?severity, suppressed, "ArduPilot says");
+                tracing::info!(target: super::LOG_TARGET, %text, ?severity, suppressed, "ArduPilot says");
             }
         }
         // Rover refuses a target by its mask only in words: the course waiting for a verdict fails

@@ -18,6 +18,10 @@
 //! `course` and `sub_course` (the helm's course: Rover, Sub), `mode_commands` (the
 //! extension), `acks` (verdicts). This file is the runtime's `Driver` trait over them.
 
+/// Log lines keep the target this module had as one file, whatever part now writes them:
+/// operators filter and grep on it.
+const LOG_TARGET: &str = "frontseat_ardupilot::driver";
+
 use std::time::Duration;
 
 use crate::codec;
@@ -65,6 +69,7 @@ impl Driver for ArdupilotDriver {
                     .set(byte::spawn(link, ctx.io, self.link_stats.clone()));
             }
             None => tracing::error!(
+                target: LOG_TARGET,
                 address = %self.settings.address,
                 "ArduPilot address does not parse (tcpout:HOST:PORT, udpin:ADDR:PORT, udpout:HOST:PORT, serial:PATH:BAUD); not connecting"
             ),
@@ -74,7 +79,7 @@ impl Driver for ArdupilotDriver {
     fn handle_io(&mut self, ev: DriverIoEvent, now: Duration, sig: &mut dyn SignalSink) {
         match ev {
             DriverIoEvent::Connected(w) => {
-                tracing::info!(address = %self.settings.address, "MAVLink link open");
+                tracing::info!(target: LOG_TARGET, address = %self.settings.address, "MAVLink link open");
                 self.writer = Some(w);
                 self.streams_requested = false;
                 // A companion announces itself; SITL's first serial port starts talking on it.
@@ -84,7 +89,7 @@ impl Driver for ArdupilotDriver {
             DriverIoEvent::Line(_) => self.bad("text line on a MAVLink link"),
             DriverIoEvent::BadInput(what) => self.bad(&what),
             DriverIoEvent::Disconnected(reason) => {
-                tracing::warn!(%reason, "MAVLink link lost; reopening");
+                tracing::warn!(target: LOG_TARGET, %reason, "MAVLink link lost; reopening");
                 self.writer = None;
                 self.heartbeat_lost(sig);
             }
@@ -136,13 +141,14 @@ impl Driver for ArdupilotDriver {
             && now.saturating_sub(t) > self.settings.heartbeat_timeout
         {
             tracing::warn!(
+                target: LOG_TARGET,
                 "no HEARTBEAT from the vehicle for {:?}: not connected",
                 self.settings.heartbeat_timeout
             );
             self.heartbeat_lost(sig);
         }
         if self.nav.expired(now, self.settings.heartbeat_timeout) {
-            tracing::warn!("no usable position from the vehicle: not providing data");
+            tracing::warn!(target: LOG_TARGET, "no usable position from the vehicle: not providing data");
         }
         self.resend_course(now, sig);
         if self.is_sub() {

@@ -68,14 +68,14 @@ impl ArdupilotDriver {
     ) {
         if let Err(why) = self.nav_ready() {
             if self.nav_problem.as_deref() != Some(why.as_str()) {
-                tracing::warn!(%why, "ArduPilot navigation not usable: not providing data");
+                tracing::warn!(target: super::LOG_TARGET, %why, "ArduPilot navigation not usable: not providing data");
             }
             self.nav_problem = Some(why);
             self.nav.lost();
             return;
         }
         if self.nav_problem.take().is_some() {
-            tracing::info!("ArduPilot navigation usable again");
+            tracing::info!(target: super::LOG_TARGET, "ArduPilot navigation usable again");
         }
         let (roll, pitch, yaw) = match self.attitude {
             Some((r, p, y)) => (Some(r), Some(p), Some(y)),
@@ -87,7 +87,7 @@ impl ArdupilotDriver {
             let Some(l) = self.local else {
                 let why = "no LOCAL_POSITION_NED (depth) heard yet".to_string();
                 if self.nav_problem.as_deref() != Some(why.as_str()) {
-                    tracing::warn!(%why, "ArduSub navigation not usable: not providing data");
+                    tracing::warn!(target: super::LOG_TARGET, %why, "ArduSub navigation not usable: not providing data");
                 }
                 self.nav_problem = Some(why);
                 self.nav.lost();

@@ -193,7 +193,7 @@ impl ArdupilotDriver {
         self.counters.bad_input += 1;
         frontseat_actors::drivers::kit::bad_line();
         if let Some(suppressed) = log_due(&mut self.bad_log) {
-            tracing::warn!(%what, suppressed, "bad input from the ArduPilot vehicle");
+            tracing::warn!(target: super::LOG_TARGET, %what, suppressed, "bad input from the ArduPilot vehicle");
         }
     }
 
@@ -212,7 +212,7 @@ impl ArdupilotDriver {
             Err(e) => {
                 self.counters.write_failures += 1;
                 if let Some(suppressed) = log_due(&mut self.bad_log) {
-                    tracing::warn!(error = %e, suppressed, "MAVLink frame to the vehicle not sent");
+                    tracing::warn!(target: super::LOG_TARGET, error = %e, suppressed, "MAVLink frame to the vehicle not sent");
                 }
                 false
             }

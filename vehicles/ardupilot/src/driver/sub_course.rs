@@ -57,6 +57,7 @@ impl ArdupilotDriver {
                 self.counters.targets_without_position += 1;
                 if let Some(suppressed) = log_due(&mut self.bad_log) {
                     tracing::warn!(
+                        target: super::LOG_TARGET,
                         suppressed,
                         "no finite LOCAL_POSITION_NED to anchor the Sub's GUIDED target: not sent"
                     );

@@ -154,11 +154,11 @@ impl BluefinDriver {
                 });
             }
             FromHuxley::Sht { .. } => {
-                tracing::warn!("the Huxley says it is shutting down ($BFSHT)");
+                tracing::warn!(target: super::LOG_TARGET, "the Huxley says it is shutting down ($BFSHT)");
             }
             FromHuxley::Other(id) => {
                 self.stats.ignored_sentences += 1;
-                tracing::debug!(%id, "Huxley sentence not acted on");
+                tracing::debug!(target: super::LOG_TARGET, %id, "Huxley sentence not acted on");
             }
         }
     }

@@ -14,6 +14,10 @@
 //! become), `outbound` (what we send, as sentences) and `queue` (how a sentence is delivered:
 //! stop-and-wait with acknowledgements, resends and demerits).
 
+/// Log lines keep the target this module had as one file, whatever part now writes them:
+/// operators filter and grep on it.
+const LOG_TARGET: &str = "frontseat_bluefin::driver";
+
 use std::collections::VecDeque;
 use std::time::Duration;
 
@@ -241,12 +245,13 @@ impl BluefinDriver {
         let line: String = line.chars().take(120).collect();
         match self.problems.decide(tokio::time::Instant::now()) {
             LogDecision::Log { suppressed_before } if suppressed_before > 0 => tracing::warn!(
+                target: LOG_TARGET,
                 %line,
                 "{what} (…and {suppressed_before} more Bluefin input problems in the last {}s)",
                 self.problems.window().as_secs()
             ),
-            LogDecision::Log { .. } => tracing::warn!(%line, "{what}"),
-            LogDecision::Suppress => tracing::debug!(%line, "{what}"),
+            LogDecision::Log { .. } => tracing::warn!(target: LOG_TARGET, %line, "{what}"),
+            LogDecision::Suppress => tracing::debug!(target: LOG_TARGET, %line, "{what}"),
         }
     }
 
@@ -317,6 +322,7 @@ impl Driver for BluefinDriver {
         match ev {
             DriverIoEvent::Connected(w) => {
                 tracing::info!(
+                    target: LOG_TARGET,
                     host = %self.settings.link.host,
                     port = self.settings.link.port,
                     "connected to the Huxley; enabling its sentences"
@@ -336,7 +342,7 @@ impl Driver for BluefinDriver {
                 self.problem("binary frame on a Huxley link", "");
             }
             DriverIoEvent::Disconnected(reason) => {
-                tracing::warn!(%reason, "Huxley connection lost; reconnecting");
+                tracing::warn!(target: LOG_TARGET, %reason, "Huxley connection lost; reconnecting");
                 self.link.lost();
                 self.fail_all("connection to the Huxley lost", sig);
             }
@@ -398,6 +404,7 @@ impl Driver for BluefinDriver {
     fn do_loop(&mut self, now: Duration, sig: &mut dyn SignalSink) {
         if self.link.data.expired(now, self.settings.missing_nav) {
             tracing::warn!(
+                target: LOG_TARGET,
                 "no $BFNVG for {:?} (sim time): Huxley not providing data",
                 self.settings.missing_nav
             );

@@ -125,6 +125,7 @@ impl BluefinDriver {
             (Some(cmd), Some(e)) => {
                 if desired.is_some() {
                     tracing::warn!(
+                        target: super::LOG_TARGET,
                         ?cmd,
                         "a Bluefin command and a desired_course in one request: only the command is sent"
                     );

@@ -50,7 +50,7 @@ impl BluefinDriver {
             Ok(()) => true,
             Err(e) => {
                 self.stats.write_failures += 1;
-                tracing::warn!(line, error = %e, "line to the Huxley not sent");
+                tracing::warn!(target: super::LOG_TARGET, line, error = %e, "line to the Huxley not sent");
                 false
             }
         }
@@ -171,6 +171,7 @@ impl BluefinDriver {
     fn reset_connection(&mut self, sig: &mut dyn SignalSink) {
         self.stats.unresponsive_resets += 1;
         tracing::warn!(
+            target: super::LOG_TARGET,
             demerits = self.demerits,
             "the Huxley is ignoring our sentences; re-opening the connection"
         );
@@ -211,6 +212,7 @@ impl BluefinDriver {
         self.stats.dropped_unacked += 1;
         self.demerits += 1;
         tracing::warn!(
+            target: super::LOG_TARGET,
             line = %dropped.line,
             writes = dropped.writes,
             demerits = self.demerits,

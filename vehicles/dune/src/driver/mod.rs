@@ -10,6 +10,10 @@
 //! `Driver` trait (whose loop decides when a plan starts and a Reference is due). What the
 //! vehicle says is read in `reading`; the plan and its References are sent by `steering`.
 
+/// Log lines keep the target this module had as one file, whatever part now writes them:
+/// operators filter and grep on it.
+const LOG_TARGET: &str = "frontseat_dune::driver";
+
 use std::sync::Arc;
 use std::time::Duration;
 
@@ -215,7 +219,7 @@ impl DuneDriver {
         self.counters.bad_input += 1;
         frontseat_actors::drivers::kit::bad_line();
         if let Some(suppressed) = log_due(&mut self.bad_log) {
-            tracing::warn!(%what, suppressed, "bad input from the DUNE vehicle");
+            tracing::warn!(target: LOG_TARGET, %what, suppressed, "bad input from the DUNE vehicle");
         }
     }
 
@@ -240,7 +244,7 @@ impl DuneDriver {
             Err(e) => {
                 self.counters.write_failures += 1;
                 if let Some(suppressed) = log_due(&mut self.bad_log) {
-                    tracing::warn!(error = %e, suppressed, "IMC packet to the vehicle not sent");
+                    tracing::warn!(target: LOG_TARGET, error = %e, suppressed, "IMC packet to the vehicle not sent");
                 }
                 false
             }
@@ -249,7 +253,7 @@ impl DuneDriver {
 
     fn set_state(&mut self, state: FrontSeatState, why: String) {
         if state != self.state || why != self.why {
-            tracing::info!(?state, %why, "DUNE vehicle state");
+            tracing::info!(target: LOG_TARGET, ?state, %why, "DUNE vehicle state");
         }
         self.state = state;
         self.why = why;
@@ -283,14 +287,14 @@ impl Driver for DuneDriver {
     fn handle_io(&mut self, ev: DriverIoEvent, now: Duration, sig: &mut dyn SignalSink) {
         match ev {
             DriverIoEvent::Connected(w) => {
-                tracing::info!(address = %self.settings.address, "IMC BackSeat link open");
+                tracing::info!(target: LOG_TARGET, address = %self.settings.address, "IMC BackSeat link open");
                 self.writer = Some(w);
             }
             DriverIoEvent::Frame(b) => self.on_packet(b, now, sig),
             DriverIoEvent::Line(_) => self.bad("text line on an IMC link"),
             DriverIoEvent::BadInput(what) => self.bad(&what),
             DriverIoEvent::Disconnected(reason) => {
-                tracing::warn!(%reason, "IMC BackSeat link lost; reconnecting");
+                tracing::warn!(target: LOG_TARGET, %reason, "IMC BackSeat link lost; reconnecting");
                 self.writer = None;
                 self.vehicle_lost("link lost");
             }
@@ -381,13 +385,14 @@ impl Driver for DuneDriver {
             && now.saturating_sub(t) > self.settings.vehicle_state_timeout
         {
             tracing::warn!(
+                target: LOG_TARGET,
                 "no VehicleState from the vehicle for {:?}: not connected",
                 self.settings.vehicle_state_timeout
             );
             self.vehicle_lost("VehicleState silent");
         }
         if self.nav.expired(now, self.settings.navigation_timeout) {
-            tracing::warn!("no usable EstimatedState from the vehicle: not providing data");
+            tracing::warn!(target: LOG_TARGET, "no usable EstimatedState from the vehicle: not providing data");
         }
         let commanding = self.interface == InterfaceState::InterfaceCommand;
         if !commanding {

@@ -42,6 +42,7 @@ impl DuneDriver {
                 && h.src != 0
             {
                 tracing::info!(
+                    target: super::LOG_TARGET,
                     imc_id = format_args!("{:#06x}", h.src),
                     "DUNE vehicle found"
                 );
@@ -81,7 +82,7 @@ impl DuneDriver {
                 if f.state == consts::follow_ref_state::TIMEOUT
                     && f.control_src == self.settings.own_id
                 {
-                    tracing::warn!("DUNE: FollowReference timed out waiting for our References");
+                    tracing::warn!(target: super::LOG_TARGET, "DUNE: FollowReference timed out waiting for our References");
                 }
             }
             Message::EntityInfo(e) => {
@@ -109,13 +110,13 @@ impl DuneDriver {
                         )
                     });
                     if fault != self.nav_entity_fault {
-                        tracing::warn!(?fault, "DUNE navigation entity");
+                        tracing::warn!(target: super::LOG_TARGET, ?fault, "DUNE navigation entity");
                     }
                     self.nav_entity_fault = fault;
                 }
             }
             Message::Abort(_) => {
-                tracing::warn!("DUNE: an Abort is on the vehicle's bus");
+                tracing::warn!(target: super::LOG_TARGET, "DUNE: an Abort is on the vehicle's bus");
             }
             _ => self.counters.ignored += 1,
         }
@@ -137,7 +138,7 @@ impl DuneDriver {
         if self.plan.is_none() && in_followref && pcs_ours && after_stop {
             // Our plan from before a reconnection (or a restart) is still running: take it
             // back, so it is steered, or ended, rather than left to its timeout.
-            tracing::info!("DUNE: our FollowReference plan is running; taking it back");
+            tracing::info!(target: super::LOG_TARGET, "DUNE: our FollowReference plan is running; taking it back");
             self.plan = Some(Plan {
                 started: now,
                 request_id: self.request_id,
@@ -172,7 +173,7 @@ impl DuneDriver {
         self.vs = Some(vs);
         self.set_state(state, why);
         if state != FrontSeatState::FrontseatAcceptingCommands && self.course.take().is_some() {
-            tracing::warn!(why = %self.why, "DUNE vehicle no longer takes our course");
+            tracing::warn!(target: super::LOG_TARGET, why = %self.why, "DUNE vehicle no longer takes our course");
         }
         let _ = sig;
     }
@@ -197,7 +198,7 @@ impl DuneDriver {
             }
             _ => {
                 if let Some(suppressed) = log_due(&mut self.info_log) {
-                    tracing::info!(info = %p.info, suppressed, "DUNE plan engine");
+                    tracing::info!(target: super::LOG_TARGET, info = %p.info, suppressed, "DUNE plan engine");
                 }
             }
         }
@@ -221,7 +222,7 @@ impl DuneDriver {
         self.position = Some(pos);
         if let Some(why) = self.nav_entity_fault.clone() {
             if self.nav_problem.as_deref() != Some(why.as_str()) {
-                tracing::warn!(%why, "DUNE navigation not usable: not providing data");
+                tracing::warn!(target: super::LOG_TARGET, %why, "DUNE navigation not usable: not providing data");
             }
             self.nav_problem = Some(why);
             self.nav.lost();
@@ -229,7 +230,7 @@ impl DuneDriver {
             return;
         }
         if self.nav_problem.take().is_some() {
-            tracing::info!("DUNE navigation usable again");
+            tracing::info!(target: super::LOG_TARGET, "DUNE navigation usable again");
         }
         let ns = NodeStatus {
             time: SimClock::unix_now(),

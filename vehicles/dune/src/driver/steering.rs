@@ -22,7 +22,7 @@ impl DuneDriver {
     pub(super) fn plan_ended(&mut self, why: &str) {
         if self.plan.take().is_some() {
             self.counters.maneuver_failures += 1;
-            tracing::warn!(%why, "DUNE: our FollowReference plan ended");
+            tracing::warn!(target: super::LOG_TARGET, %why, "DUNE: our FollowReference plan ended");
         }
     }
 
@@ -51,6 +51,7 @@ impl DuneDriver {
             self.counters.plan_starts += 1;
             self.command_entered = false;
             tracing::info!(
+                target: super::LOG_TARGET,
                 timeout_s = self.settings.maneuver_timeout,
                 "DUNE: PlanControl START FollowReference"
             );
@@ -69,7 +70,7 @@ impl DuneDriver {
             return;
         };
         self.last_stop = Some(now);
-        tracing::info!(%why, "DUNE: ending our FollowReference plan (MANDONE, STOP)");
+        tracing::info!(target: super::LOG_TARGET, %why, "DUNE: ending our FollowReference plan (MANDONE, STOP)");
         let (lat, lon) = self
             .position
             .map(|p| (p.lat.to_radians(), p.lon.to_radians()))

@@ -3,6 +3,10 @@
 //! data, `$ACK` becomes a CommandResponse, `$C` before any `$OSI` publishes nothing, and the
 //! `Mp` manual-parking mode is recognised. Polls with `$OSD` on every loop tick.
 
+/// Log lines keep the target this module had as one file, whatever part now writes them:
+/// operators filter and grep on it.
+const LOG_TARGET: &str = "frontseat_iver3::driver";
+
 use std::sync::Arc;
 use std::time::Duration;
 
@@ -168,7 +172,7 @@ impl Iver3Driver {
             Err(e) => {
                 self.counters.write_failures += 1;
                 if let Some(suppressed) = log_due(&mut self.bad_log) {
-                    tracing::warn!(line, error = %e, suppressed, "line to the Iver not sent");
+                    tracing::warn!(target: LOG_TARGET, line, error = %e, suppressed, "line to the Iver not sent");
                 }
                 false
             }
@@ -179,7 +183,7 @@ impl Iver3Driver {
         self.counters.bad_lines += 1;
         frontseat_actors::drivers::kit::bad_line();
         if let Some(suppressed) = log_due(&mut self.bad_log) {
-            tracing::warn!(%what, suppressed, "bad input from the Iver");
+            tracing::warn!(target: LOG_TARGET, %what, suppressed, "bad input from the Iver");
         }
     }
 
@@ -276,7 +280,7 @@ impl Iver3Driver {
             }
             _ => {
                 self.counters.ignored += 1;
-                tracing::trace!(line, "ignoring sentence from the Iver");
+                tracing::trace!(target: LOG_TARGET, line, "ignoring sentence from the Iver");
             }
         }
     }
@@ -319,7 +323,7 @@ impl Iver3Driver {
         let extra = req.iver_command.as_ref();
         let sentence = match extra.map(|c| (c.command(), c.mission.as_deref().unwrap_or(""))) {
             Some((IverCommand::StartMission, "")) => {
-                tracing::warn!("iver_command START_MISSION without a mission name: refused");
+                tracing::warn!(target: LOG_TARGET, "iver_command START_MISSION without a mission name: refused");
                 refuse(&base, "START_MISSION needs a mission name", sig);
                 return;
             }
@@ -411,7 +415,7 @@ impl Driver for Iver3Driver {
     fn handle_io(&mut self, ev: DriverIoEvent, now: Duration, sig: &mut dyn SignalSink) {
         match ev {
             DriverIoEvent::Connected(w) => {
-                tracing::info!(link = %self.settings.link.transport.describe(), "connected to the Iver");
+                tracing::info!(target: LOG_TARGET, link = %self.settings.link.transport.describe(), "connected to the Iver");
                 // Open but not yet told its mode: Goby3's "unknown" until the first $OSI.
                 self.link.opened(w, FrontSeatState::FrontseatNotConnected);
             }
@@ -419,7 +423,7 @@ impl Driver for Iver3Driver {
             DriverIoEvent::Frame(_) => self.bad("binary frame on a Remote Helm link"),
             DriverIoEvent::BadInput(what) => self.bad(&what),
             DriverIoEvent::Disconnected(reason) => {
-                tracing::warn!(%reason, "Iver link lost; reopening");
+                tracing::warn!(target: LOG_TARGET, %reason, "Iver link lost; reopening");
                 self.link.lost();
                 self.mode = IverMode::Unknown;
             }
@@ -498,6 +502,7 @@ impl Driver for Iver3Driver {
             .expired(now, self.settings.providing_data_timeout)
         {
             tracing::warn!(
+                target: LOG_TARGET,
                 "no $OSI or $C from the Iver for {:?}: not providing data",
                 self.settings.providing_data_timeout
             );

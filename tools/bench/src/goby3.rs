@@ -94,6 +94,8 @@ async fn run_inner(plan: Plan) -> Result<Vec<Row>, String> {
     cfg.driver.basic_simulator.tcp_port = fs.port();
     // G2 carries its sequence number in DEPTH, as P2 does.
     cfg.limits.max_depth = 1e9;
+    // G1's NAV lines step their DEPTH 1 m a line: past the navigation gate's depth-rate bound.
+    cfg.limits.navigation.max_abs_depth_rate = 1e9;
     let capacity = cfg.bus.queue_capacity;
 
     let bus_if = Bus::new();

@@ -59,6 +59,8 @@ const SEQUENCE_DEPTH_LIMIT: f64 = 1e9;
 /// The navigation gate's depth bound for the bench: above any sequence number a NAV line carries
 /// (and the largest `[limits.navigation] max_depth` validation accepts).
 const NAV_SEQUENCE_DEPTH_LIMIT: f64 = 1e5;
+/// The navigation gate's depth-rate bound for the bench: above 1 m a line at any rate a row writes.
+const NAV_SEQUENCE_DEPTH_RATE: f64 = 1e9;
 
 /// Runs P1, P2, P6, then M1 and M2 on one interface (those of them `sel` wants; M1 and M2
 /// together); returns their rows in that order.
@@ -102,6 +104,10 @@ async fn run_inner(plan: Plan, sel: &super::Selection) -> Result<Vec<Row>, Strin
     // comes after P1's 10 000 lines, lost every sample in a full run. The gate's own bound is
     // raised as far as validation allows; every other navigation bound stays at its default.
     cfg.limits.navigation.max_depth = NAV_SEQUENCE_DEPTH_LIMIT;
+    // And that sequence steps 1 m a line at 500 Hz: 500 m/s, past the gate's depth-rate bound
+    // (20 m/s), which refused four lines in five (P1 "lost 8000" since that bound came in) and
+    // left the row measuring a biased fifth.
+    cfg.limits.navigation.max_abs_depth_rate = NAV_SEQUENCE_DEPTH_RATE;
     let capacity = cfg.bus.queue_capacity;
 
     let bus = Bus::new();

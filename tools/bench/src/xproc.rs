@@ -149,7 +149,11 @@ async fn measure(exe: &Path, plan: &Plan, sink: Option<&Sink>) -> Result<Measure
          # Z2 carries its sequence number in DEPTH (up to z2_count): the default 300 m limit\n\
          # would refuse the rest. 12000 is the most a config file may say.\n\
          [limits]\n\
-         max_depth = 12000.0\n{telemetry}",
+         max_depth = 12000.0\n\n\
+         # Z1's NAV lines step their DEPTH 1 m a line at 500 Hz: past the navigation gate's\n\
+         # depth-rate bound, which would refuse four lines in five.\n\
+         [limits.navigation]\n\
+         max_abs_depth_rate = 1e9\n{telemetry}",
         fs.port()
     );
     std::fs::write(&path, cfg).map_err(|e| format!("writing {}: {e}", path.display()))?;

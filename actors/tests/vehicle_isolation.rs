@@ -60,8 +60,11 @@ impl Frontseat {
                 let mut n = 0u64;
                 while !nav_halt.load(Ordering::Acquire) {
                     n += 1;
+                    // 0.1 m a line at 50 Hz: 5 m/s, inside the navigation gate's depth-rate
+                    // bound, so every line is a NAV the interface takes.
                     let line = format!(
-                        "NAV,LAT:42.358456,LON:-71.087589,DEPTH:{n},HEADING:90,SPEED:1.5\r\n"
+                        "NAV,LAT:42.358456,LON:-71.087589,DEPTH:{:.1},HEADING:90,SPEED:1.5\r\n",
+                        n as f64 * 0.1
                     );
                     if !send(&nav_conn, &line) {
                         return;

@@ -146,7 +146,14 @@ async fn the_demo_at_warp_20_exports_every_span_and_its_metrics() {
             .filter(|s| s.name == "actor.handle")
             .map(|s| s.attr("actor"))
             .collect();
-        assert_eq!(handlers, ["FrontSeatInterface", "DriverActor"], "{names:?}");
+        // A course takes the interface's setpoint lane (written in the span that delivered it
+        // to the interface), or both actors when something bound for the vehicle was ahead of it.
+        let lane = names.ends_with(&["bus.deliver", "setpoint.direct", "frontseat.socket_write"]);
+        if lane {
+            assert!(handlers.is_empty(), "{names:?}");
+        } else {
+            assert_eq!(handlers, ["FrontSeatInterface", "DriverActor"], "{names:?}");
+        }
     }
     // Not only the setpoints: no exported span anywhere lost its parent.
     let orphans = st

@@ -1,6 +1,7 @@
 //! Traces end to end with the SDK's in-memory exporter: the real simulator over loopback, the
 //! real interface, a helm on the bus. One NAV line must form one trace from the socket read to
-//! the node_status subscriber; one setpoint one trace from the helm to the socket write.
+//! the node_status subscriber; one setpoint one trace from the helm to the socket write (a course
+//! through the interface's setpoint lane, a command_request through both actors).
 
 mod common;
 
@@ -13,7 +14,7 @@ use frontseat_actors::bus::Bus;
 use frontseat_actors::groups;
 use frontseat_actors::interface::InterfaceService;
 use frontseat_actors::proto::goby::middleware::frontseat::protobuf::{
-    DesiredCourse, HelmState, InterfaceState,
+    CommandRequest, DesiredCourse, HelmState, InterfaceState,
 };
 use opentelemetry::trace::{SpanId, TraceId};
 use opentelemetry_sdk::trace::{InMemorySpanExporter, SpanData};
@@ -74,6 +75,22 @@ async fn spans_until(
         // Spans are exported as they end, on other tasks: poll the exporter briefly.
         tokio::time::sleep(Duration::from_millis(20)).await;
     }
+}
+
+/// The ancestry of the socket write of the CMD line that starts with `prefix`, once exported.
+async fn setpoint_chain(exporter: &InMemorySpanExporter, prefix: &str) -> Vec<SpanData> {
+    let is_cmd_write = |s: &SpanData| {
+        s.name == "frontseat.socket_write" && attr(s, "line").is_some_and(|l| l.starts_with(prefix))
+    };
+    // Wait for the whole chain: spans are exported as they end, the root last.
+    let spans = spans_until(exporter, "the setpoint's trace", |spans| {
+        spans.iter().find(|s| is_cmd_write(s)).is_some_and(|leaf| {
+            ancestry(spans, leaf).first().map(|r| r.name.as_ref()) == Some("helm.setpoint")
+        })
+    })
+    .await;
+    let leaf = spans.iter().find(|s| is_cmd_write(s)).unwrap();
+    ancestry(&spans, leaf)
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
@@ -174,7 +191,7 @@ async fn one_nav_line_and_one_setpoint_each_form_one_trace() {
         Some("goby.middleware.frontseat.protobuf.NodeStatus")
     );
 
-    // --- one setpoint: helm → interface → driver → socket write
+    // --- one course: helm → the interface's setpoint lane → socket write, on the helm's thread
     let root = tracing::trace_span!(target: "frontseat", "helm.setpoint");
     root.in_scope(|| {
         bus.publish(
@@ -188,16 +205,46 @@ async fn one_nav_line_and_one_setpoint_each_form_one_trace() {
         );
     });
     drop(root);
-    let is_cmd_write = |s: &SpanData| {
-        s.name == "frontseat.socket_write"
-            && attr(s, "line").is_some_and(|l| l.starts_with("CMD,HEADING:123,"))
-    };
-    let spans = spans_until(&exporter, "the setpoint's socket write", |spans| {
-        spans.iter().any(is_cmd_write)
-    })
-    .await;
-    let leaf = spans.iter().find(|s| is_cmd_write(s)).unwrap();
-    let chain = ancestry(&spans, leaf);
+    let chain = setpoint_chain(&exporter, "CMD,HEADING:123,").await;
+    let names: Vec<&str> = chain.iter().map(|s| s.name.as_ref()).collect();
+    assert_eq!(
+        names,
+        vec![
+            "helm.setpoint",
+            "bus.publish",
+            "bus.deliver",
+            "setpoint.direct",
+            "frontseat.socket_write",
+        ],
+        "course span tree"
+    );
+    assert_eq!(
+        attr(&chain[1], "group").as_deref(),
+        Some("goby::middleware::frontseat::desired_course")
+    );
+    assert_eq!(
+        attr(&chain[2], "subscriber").as_deref(),
+        Some("FrontSeatInterface")
+    );
+
+    // --- one command_request: helm → interface → driver → socket write, through both actors
+    let root = tracing::trace_span!(target: "frontseat", "helm.setpoint");
+    root.in_scope(|| {
+        bus.publish(
+            &groups::GOBY_MIDDLEWARE_FRONTSEAT_COMMAND_REQUEST,
+            CommandRequest {
+                desired_course: Some(DesiredCourse {
+                    time: 0.0,
+                    heading: Some(124.0),
+                    speed: Some(1.0),
+                    ..Default::default()
+                }),
+                ..Default::default()
+            },
+        );
+    });
+    drop(root);
+    let chain = setpoint_chain(&exporter, "CMD,HEADING:124,").await;
     let names: Vec<&str> = chain.iter().map(|s| s.name.as_ref()).collect();
     assert_eq!(
         names,
@@ -211,11 +258,11 @@ async fn one_nav_line_and_one_setpoint_each_form_one_trace() {
             "actor.handle",
             "frontseat.socket_write",
         ],
-        "setpoint span tree"
+        "command_request span tree"
     );
     assert_eq!(
         attr(&chain[1], "group").as_deref(),
-        Some("goby::middleware::frontseat::desired_course")
+        Some("goby::middleware::frontseat::command_request")
     );
     assert_eq!(
         attr(&chain[4], "group").as_deref(),

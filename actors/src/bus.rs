@@ -137,6 +137,18 @@ impl Drop for Ticket {
     }
 }
 
+/// Something kept alive as long as a delivery, and as long as the deliveries of what the
+/// receiver re-publishes from it with [`Bus::publish_held`]: the setpoint lane's fence
+/// (`crate::setpoint_lane`) learns from its drop that a message has left the actors.
+#[derive(Clone)]
+pub struct Held(#[allow(dead_code)] Arc<dyn Any + Send + Sync>);
+
+impl Held {
+    pub(crate) fn new(what: impl Any + Send + Sync) -> Self {
+        Self(Arc::new(what))
+    }
+}
+
 /// One delivery of one message to one subscriber.
 pub struct Envelope<T> {
     pub group: &'static str,
@@ -145,6 +157,7 @@ pub struct Envelope<T> {
     pub trace: Option<TraceContext>,
     pub origin: Origin,
     _ticket: Ticket,
+    held: Option<Held>,
 }
 
 impl<T> Envelope<T> {
@@ -158,7 +171,19 @@ impl<T> Envelope<T> {
             trace: env.trace,
             origin: env.origin,
             _ticket: env._ticket,
+            held: env.held,
         }
+    }
+
+    /// What this delivery keeps alive (see [`Held`]).
+    pub(crate) fn held(&self) -> Option<Held> {
+        self.held.clone()
+    }
+
+    /// The same delivery, keeping `held` alive until it is dropped.
+    pub(crate) fn holding(mut self, held: Held) -> Self {
+        self.held = Some(held);
+        self
     }
 
     /// The publish metadata, to pass the trace on when re-publishing.
@@ -345,6 +370,17 @@ impl Bus {
         msg: Arc<T>,
         meta: PublishMeta,
     ) -> PublishReport {
+        self.publish_held(group, msg, meta, None)
+    }
+
+    /// As [`Bus::publish_with`], and every delivery keeps `held` alive until it is dropped.
+    pub(crate) fn publish_held<T: BusMessage>(
+        &self,
+        group: &Group<T>,
+        msg: Arc<T>,
+        meta: PublishMeta,
+        held: Option<Held>,
+    ) -> PublishReport {
         let mut report = PublishReport::default();
         let Some(slot) = self.slot(group) else {
             return report;
@@ -409,6 +445,7 @@ impl Bus {
                     trace,
                     origin: meta.origin,
                     _ticket: Ticket(sub.in_flight.clone()),
+                    held: held.clone(),
                 };
                 match (sub.deliver)(env) {
                     Ok(()) => {

@@ -32,6 +32,9 @@ pub trait SignalSink {
 /// What a driver's I/O tasks observe and how they hand it over: defined with the links that
 /// produce it.
 pub use crate::link::{DriverIoEvent, IoSender};
+/// How a driver writes a course at once from the helm's thread: defined with the lane that
+/// calls it.
+pub use crate::setpoint_lane::DirectCommand;
 
 /// A [`SignalSink`] that keeps every signal, for driver tests (one for every driver).
 #[derive(Debug, Default)]
@@ -172,6 +175,13 @@ pub trait Driver: Send + 'static {
     fn frontseat_providing_data(&self) -> bool;
     /// Orderly stop: close the frontseat connection cleanly.
     fn stop(&mut self) {}
+    /// Its way to write a course at once from the publisher's thread, while it has one (a
+    /// connection that can take it): the setpoint lane (`crate::setpoint_lane`) then skips the
+    /// actor hops. Asked after every message the DriverActor handles. None (the default): every
+    /// course comes through `send_command_to_frontseat`.
+    fn direct_command(&self) -> Option<std::sync::Arc<dyn DirectCommand>> {
+        None
+    }
 }
 
 /// Builds a fresh driver for every (re)start.

@@ -15,12 +15,15 @@ use ractor::{Actor, ActorProcessingErr, ActorRef};
 use crate::bus::{Bus, Subscription, Undeliverable};
 use crate::chaos::{Fault, FaultPort};
 use crate::clock::SimClock;
-use crate::driver::{Driver, DriverContext, DriverFactory, DriverIoEvent, IoSender, SignalSink};
+use crate::driver::{
+    DirectCommand, Driver, DriverContext, DriverFactory, DriverIoEvent, IoSender, SignalSink,
+};
 use crate::ports::{DriverActorInbox, DriverActorPorts};
 use crate::proto::frontseat::protobuf::DriverStatus;
 use crate::proto::goby::middleware::frontseat::protobuf::{
     CommandResponse, FrontSeatState, InterfaceData, Raw,
 };
+use crate::setpoint_lane::SetpointLane;
 
 pub enum DriverMsg {
     Bus(DriverActorInbox),
@@ -50,6 +53,8 @@ pub struct DriverArgs {
     pub queue_capacity: usize,
     /// Only with `[chaos] enabled` (crate::chaos).
     pub faults: Option<FaultPort>,
+    /// Where the driver's [`crate::driver::DirectCommand`] is installed while it has one.
+    pub lane: SetpointLane,
 }
 
 pub struct DriverActor;
@@ -66,6 +71,9 @@ pub struct DriverActorState {
     faults: Option<FaultPort>,
     /// The links' sender: told of each event handled, so they read on (flow control).
     io: IoSender,
+    lane: SetpointLane,
+    /// The DirectCommand last installed in the lane (compared by pointer).
+    installed: Option<Arc<dyn DirectCommand>>,
 }
 
 /// A driver that panics or is killed runs no `post_stop` (ractor skips it then), but its state is
@@ -80,6 +88,8 @@ impl Drop for DriverActorState {
         for s in self.subs.drain(..) {
             s.cancel();
         }
+        // A crashed driver's connection takes no more courses from the lane.
+        self.lane.uninstall(self.restarts);
     }
 }
 
@@ -104,6 +114,20 @@ impl SignalSink for PortSink<'_> {
 }
 
 impl DriverActorState {
+    /// Installs the driver's DirectCommand in the lane when it changed (connected, lost).
+    fn sync_direct(&mut self) {
+        let now = self.driver.direct_command();
+        let same = match (&now, &self.installed) {
+            (Some(a), Some(b)) => Arc::ptr_eq(a, b),
+            (None, None) => true,
+            _ => false,
+        };
+        if !same {
+            self.lane.install(self.restarts, now.clone(), &self.ports);
+            self.installed = now;
+        }
+    }
+
     fn publish_status_if_changed(&mut self, force: bool) {
         let now = (
             self.driver.frontseat_state(),
@@ -168,7 +192,10 @@ impl Actor for DriverActor {
             ticker: Some(ticker),
             faults: args.faults,
             io,
+            lane: args.lane,
+            installed: None,
         };
+        state.sync_direct();
         state.publish_status_if_changed(true);
         Ok(state)
     }
@@ -224,6 +251,7 @@ impl Actor for DriverActor {
                     .store(crate::clock::heartbeat_now(), Ordering::Relaxed);
             }
         }
+        state.sync_direct();
         state.publish_status_if_changed(false);
         Ok(())
     }
@@ -236,6 +264,8 @@ impl Actor for DriverActor {
         // An orderly stop (its supervisor stopping it, or the interface stopping that supervisor)
         // closes the frontseat connection cleanly; a driver's stop may run twice.
         state.driver.stop();
+        state.lane.uninstall(state.restarts);
+        state.installed = None;
         if let Some(t) = state.ticker.take() {
             t.abort();
         }

@@ -36,6 +36,7 @@ pub mod nav_gate;
 pub mod ratelog;
 pub mod raw_gate;
 pub mod service_child;
+pub mod setpoint_lane;
 pub mod sim_glue;
 pub mod state_machine;
 pub mod supervisor;

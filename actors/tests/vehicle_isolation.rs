@@ -9,19 +9,17 @@
 //! `std::sync::mpsc` channels with `recv_timeout`; every wait has a deadline, and the blocked
 //! workers are released at the end (or after their own bound).
 
+mod common;
+
+use common::frontseat::Frontseat;
 use frontseat_actors::bus::test_util::UntypedBus as _;
-use std::io::{BufRead, BufReader, Write};
-use std::net::{Ipv4Addr, TcpListener, TcpStream};
-use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex, mpsc};
 use std::time::{Duration, Instant};
 
 use frontseat_actors::bus::Bus;
 use frontseat_actors::groups;
 use frontseat_actors::interface::InterfaceService;
-use frontseat_actors::proto::goby::middleware::frontseat::protobuf::{
-    DesiredCourse, HelmState, HelmStateReport, InterfaceState,
-};
+use frontseat_actors::proto::goby::middleware::frontseat::protobuf::DesiredCourse;
 use frontseat_config::InterfaceConfig;
 
 const WORKERS: usize = 2;
@@ -30,70 +28,6 @@ const ON_TIME: Duration = Duration::from_secs(1);
 /// How long the wedged workers stay blocked at most (they are released before).
 const WEDGE_BOUND: Duration = Duration::from_secs(20);
 const DEADLINE: Duration = Duration::from_secs(10);
-
-/// A basic-simulator frontseat on plain threads: answers START with PAYLOAD, acknowledges every
-/// CMD (and reports it), and writes a NAV line every 20 ms.
-struct Frontseat {
-    port: u16,
-    cmds: mpsc::Receiver<(String, Instant)>,
-    stop: Arc<AtomicBool>,
-}
-
-impl Frontseat {
-    fn start() -> Self {
-        let listener = TcpListener::bind((Ipv4Addr::LOCALHOST, 0)).unwrap();
-        let port = listener.local_addr().unwrap().port();
-        let stop = Arc::new(AtomicBool::new(false));
-        let (tx, cmds) = mpsc::channel();
-        let halt = stop.clone();
-        std::thread::spawn(move || {
-            let Ok((stream, _)) = listener.accept() else {
-                return;
-            };
-            stream.set_nodelay(true).unwrap();
-            let conn = Arc::new(Mutex::new(stream.try_clone().unwrap()));
-            let send = |c: &Mutex<TcpStream>, line: &str| {
-                c.lock().unwrap().write_all(line.as_bytes()).is_ok()
-            };
-            let (nav_conn, nav_halt) = (conn.clone(), halt.clone());
-            std::thread::spawn(move || {
-                let mut n = 0u64;
-                while !nav_halt.load(Ordering::Acquire) {
-                    n += 1;
-                    // 0.1 m a line at 50 Hz: 5 m/s, inside the navigation gate's depth-rate
-                    // bound, so every line is a NAV the interface takes.
-                    let line = format!(
-                        "NAV,LAT:42.358456,LON:-71.087589,DEPTH:{:.1},HEADING:90,SPEED:1.5\r\n",
-                        n as f64 * 0.1
-                    );
-                    if !send(&nav_conn, &line) {
-                        return;
-                    }
-                    std::thread::sleep(Duration::from_millis(20));
-                }
-            });
-            for line in BufReader::new(stream).lines() {
-                let Ok(line) = line else { return };
-                if line.starts_with("START,") {
-                    send(&conn, "CTRL,STATE:PAYLOAD\r\n");
-                } else if line.starts_with("CMD,") {
-                    let _ = tx.send((line, Instant::now()));
-                    send(&conn, "CMD,RESULT:OK\r\n");
-                }
-                if halt.load(Ordering::Acquire) {
-                    return;
-                }
-            }
-        });
-        Self { port, cmds, stop }
-    }
-}
-
-impl Drop for Frontseat {
-    fn drop(&mut self) {
-        self.stop.store(true, Ordering::Release);
-    }
-}
 
 /// Blocks every worker thread of the current runtime with a helm-side task that never yields,
 /// until `release` is dropped (or WEDGE_BOUND passes); returns once all of them are blocked.
@@ -140,17 +74,7 @@ async fn a_wedged_helm_side_never_delays_nav_or_setpoints() {
     cfg.driver.basic_simulator.tcp_port = fs.port;
     // Observers that live on the vehicle side's thread: their deliver functions run on the
     // publisher's thread and hand over through std channels, which need no runtime.
-    let (status_tx, status_rx) = mpsc::channel();
-    let status_tx = Mutex::new(status_tx);
-    let _status = bus.subscribe(
-        &groups::GOBY_MIDDLEWARE_FRONTSEAT_STATUS,
-        "test-status",
-        1024,
-        move |env| {
-            let _ = status_tx.lock().unwrap().send(env.msg.state());
-            Ok(())
-        },
-    );
+    let (_status, status_rx) = common::frontseat::states(&bus);
     let (nav_tx, nav_rx) = mpsc::channel();
     let nav_tx = Mutex::new(nav_tx);
     let _nav = bus.subscribe(
@@ -177,23 +101,7 @@ async fn a_wedged_helm_side_never_delays_nav_or_setpoints() {
     let service = InterfaceService::start(&cfg, &bus, frontseat_drivers::BUILT_IN)
         .await
         .expect("the interface starts");
-    bus.publish(
-        &groups::GOBY_MIDDLEWARE_FRONTSEAT_HELM_STATE,
-        HelmStateReport {
-            state: HelmState::HelmDrive as i32,
-        },
-    );
-    let until = Instant::now() + DEADLINE;
-    loop {
-        let left = until.saturating_duration_since(Instant::now());
-        if status_rx
-            .recv_timeout(left)
-            .expect("a status within the deadline")
-            == InterfaceState::InterfaceCommand
-        {
-            break;
-        }
-    }
+    common::frontseat::drive_until_command(&bus, &status_rx, DEADLINE);
 
     // The helm side wedges the process's runtime: from here on no task of it runs.
     let release = wedge_the_runtime();

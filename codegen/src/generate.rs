@@ -280,7 +280,7 @@ fn ports_module(model: &Model, bus: &TokenStream) -> TokenStream {
             use std::sync::Arc;
 
             use super::{groups, proto};
-            use #bus::{Bus, Envelope, PublishMeta, PublishReport, Subscription, Undeliverable};
+            use #bus::{Bus, Envelope, Held, PublishMeta, PublishReport, Subscription, Undeliverable};
 
             #(#actors)*
         }
@@ -371,6 +371,7 @@ fn publish_methods(model: &Model, p: &Port) -> TokenStream {
     let ty = type_path(&g.rust_type);
     let plain = format_ident!("publish_{}", p.ident);
     let with = format_ident!("publish_{}_with", p.ident);
+    let held = format_ident!("publish_{}_held", p.ident);
     let doc = format!(" Publishes on `{}` ({}).", g.name, g.layer.key());
     let doc_with = format!(
         " Publishes an already shared message on `{}`, passing trace context and origin on.",
@@ -385,6 +386,17 @@ fn publish_methods(model: &Model, p: &Port) -> TokenStream {
         #[doc = #doc_with]
         pub fn #with(&self, msg: Arc<#ty>, meta: PublishMeta) -> PublishReport {
             self.bus.publish_with(&groups::#konst, msg, meta)
+        }
+
+        /// As the `_with` publish, and each delivery keeps `held` alive (the delivery this one
+        /// came from passes its fence on: `crate::setpoint_lane`).
+        pub fn #held(
+            &self,
+            msg: Arc<#ty>,
+            meta: PublishMeta,
+            held: Option<Held>,
+        ) -> PublishReport {
+            self.bus.publish_held(&groups::#konst, msg, meta, held)
         }
     }
 }

@@ -12,12 +12,12 @@ use tokio::sync::watch;
 use crate::bus::{Bus, Envelope, Undeliverable};
 use crate::chaos::{FaultPort, FaultTarget};
 use crate::clock::{SimClock, heartbeat_now};
-use crate::command_gate::GateContext;
 use crate::driver::DriverFactory;
 use crate::nav_gate::DepthContinuity;
 use crate::ports::{FrontSeatInterfaceInbox, FrontSeatInterfacePorts};
 use crate::proto::goby::middleware::frontseat::protobuf::CommandRequest;
 use crate::ratelog::RateLimitedLog;
+use crate::setpoint_lane::SetpointLane;
 use crate::state_machine::{Inputs, StateMachine};
 use crate::supervisor::{ChildDown, ChildFailure, ChildObserver, ServiceExit, spawn_nested};
 use frontseat_sim::geodesy::LocalGrid;
@@ -45,12 +45,31 @@ impl Actor for FrontSeatInterface {
         myself: ActorRef<FsiMsg>,
         args: FsiArgs,
     ) -> Result<FsiState, ActorProcessingErr> {
+        let metrics = frontseat_telemetry::metrics::register(&args.settings.name, state_name);
+        let lane = SetpointLane::new(args.settings.limits, metrics.clone());
         let me = myself.clone();
+        let route = lane.clone();
+        use FrontSeatInterfaceInbox as I;
         let subs = FrontSeatInterfaceInbox::subscribe_all(
             &args.bus,
             "FrontSeatInterface",
             args.settings.queue_capacity,
-            move |m| me.cast(FsiMsg::Bus(m)).map_err(|_| Undeliverable),
+            move |m| {
+                // Runs on the publisher's thread: a course the lane takes is at the vehicle
+                // when this returns; everything bound for the vehicle that comes here holds
+                // the lane's fence until it has left the actors.
+                let m = match m {
+                    I::DesiredCourse(env) => match route.offer(env) {
+                        Ok(()) => return Ok(()),
+                        Err(env) => I::DesiredCourse(env),
+                    },
+                    I::CommandRequest(env) => I::CommandRequest(route.fenced(env)),
+                    I::VehicleExtension(env) => I::VehicleExtension(route.fenced(env)),
+                    I::RawSendRequest(env) => I::RawSendRequest(route.fenced(env)),
+                    other => other,
+                };
+                me.cast(FsiMsg::Bus(m)).map_err(|_| Undeliverable)
+            },
         );
         let clock = SimClock::new(args.settings.warp);
         let frame = match LocalGrid::new(args.settings.origin.0, args.settings.origin.1) {
@@ -89,14 +108,14 @@ impl Actor for FrontSeatInterface {
             restarts: 0,
             pending: HashMap::new(),
             counters: Counters::default(),
-            gate: GateContext::default(),
+            lane,
             refused_log: RateLimitedLog::for_bad_input(),
             nav_log: RateLimitedLog::for_bad_input(),
             nav_drop_log: RateLimitedLog::for_bad_input(),
             depth_continuity: DepthContinuity::default(),
             raw_log: RateLimitedLog::for_bad_input(),
             raw_refused_log: RateLimitedLog::for_bad_input(),
-            metrics: frontseat_telemetry::metrics::register(&args.settings.name, state_name),
+            metrics,
             shutting_down: false,
             exit: args.exit,
             subs,
@@ -135,7 +154,9 @@ impl Actor for FrontSeatInterface {
             actor = "FrontSeatInterface",
             message = msg.kind(),
         );
-        self.handle_inner(myself, msg, st).instrument(span).await
+        let result = self.handle_inner(myself, msg, st).instrument(span).await;
+        st.sync_lane();
+        result
     }
 
     async fn handle_supervisor_evt(
@@ -297,6 +318,7 @@ impl FrontSeatInterface {
                     nav_field_violations: st.counters.nav_field_violations,
                     raw_sent: st.counters.raw_sent,
                     raw_refused: st.counters.raw_refused,
+                    setpoints_direct: st.lane.direct_sent(),
                 });
             }
         }

@@ -41,8 +41,9 @@ impl FsiState {
             self.pending
                 .insert(env.msg.request_id, self.now() + self.s.command_timeout);
         }
+        // The lane's fence rides on to the driver (crate::setpoint_lane).
         self.ports
-            .publish_command_request_with(env.msg.clone(), env.meta());
+            .publish_command_request_held(env.msg.clone(), env.meta(), env.held());
     }
 
     /// Refuses and counts a request the state gate stops: shutting down, or not in the state(s)
@@ -74,10 +75,10 @@ impl FsiState {
         let Some(course) = env.msg.desired_course.as_ref() else {
             return Some(env);
         };
-        match check_course(course, &self.s.limits, &self.gate) {
+        match check_course(course, &self.s.limits, &self.lane.gate()) {
             Ok(safe) => {
                 frontseat_telemetry::metrics::VehicleMetrics::add(&self.metrics.setpoints_sent);
-                self.gate.last_commanded_heading = safe.heading;
+                self.lane.commanded(safe.heading);
                 if safe == *course {
                     return Some(env);
                 }
@@ -161,7 +162,7 @@ impl FsiState {
             );
         }
         self.ports
-            .publish_raw_send_request_with(Arc::new(raw), env.meta());
+            .publish_raw_send_request_held(Arc::new(raw), env.meta(), env.held());
     }
 
     /// Every answer a driver gives reaches the helm, whenever it comes, as in Goby3

@@ -34,6 +34,8 @@ impl FsiState {
     /// data_to_frontseat; what passes goes to the driver whole, tagged with its type.
     pub(super) fn handle_extension_to_frontseat(&mut self, env: Envelope<Encoded>) {
         let spec = env.msg.spec;
+        // The lane's fence rides on to the driver with what passes (crate::setpoint_lane).
+        let held = env.held();
         let passed = match spec.kind {
             ExtensionKind::Command => self.gate_extended(env),
             ExtensionKind::Mode => self.gate_mode_command(env),
@@ -62,7 +64,7 @@ impl FsiState {
                 vehicle: Some(spec.vehicle.to_string()),
             };
             self.ports
-                .publish_extension_to_frontseat_with(Arc::new(ext), meta);
+                .publish_extension_to_frontseat_held(Arc::new(ext), meta, held);
         }
     }
 

@@ -72,6 +72,8 @@ pub struct Snapshot {
     /// raw_send_requests passed to the driver, and refused by the raw gate.
     pub raw_sent: u64,
     pub raw_refused: u64,
+    /// Courses the setpoint lane wrote from their publisher's thread (`crate::setpoint_lane`).
+    pub setpoints_direct: u64,
 }
 
 /// How long a running driver actor may go without handling its loop tick before the watchdog

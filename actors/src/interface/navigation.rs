@@ -97,7 +97,7 @@ impl FsiState {
         if let Some(ns) = data.node_status.as_mut() {
             self.compute_missing(ns);
             if let Some(h) = ns.pose.heading {
-                self.gate.current_heading = Some(h);
+                self.lane.navigated(h);
             }
             self.ports
                 .publish_node_status_with(Arc::new(ns.clone()), env.meta());

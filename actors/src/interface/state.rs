@@ -13,7 +13,6 @@ use tokio::sync::watch;
 use crate::bus::{Bus, Subscription};
 use crate::chaos::{FaultPort, FaultTarget};
 use crate::clock::{SimClock, heartbeat_now};
-use crate::command_gate::GateContext;
 use crate::driver::DriverFactory;
 use crate::driver_actor::{DriverActor, DriverArgs};
 use crate::nav_gate::{DepthContinuity, NavField};
@@ -23,6 +22,7 @@ use crate::proto::goby::middleware::frontseat::protobuf::{
     FrontSeatError, FrontSeatState, HelmError, InterfaceState, InterfaceStatus,
 };
 use crate::ratelog::{RateLimitedLog, summary};
+use crate::setpoint_lane::SetpointLane;
 use crate::state_machine::{Inputs, StateMachine, Transition, state_words};
 use crate::supervisor::{ChildSpec, ServiceExit, SupervisorMsg};
 use frontseat_sim::geodesy::LocalGrid;
@@ -67,8 +67,9 @@ pub struct FsiState {
     /// request_id → sim-time deadline of commands awaiting the frontseat's answer.
     pub(super) pending: HashMap<Option<i32>, Duration>,
     pub(super) counters: Counters,
-    /// What the safety envelope needs besides the setpoint (last commanded, current heading).
-    pub(super) gate: GateContext,
+    /// The desired_course path that needs no actor hop, and the safety envelope's context
+    /// (last commanded, current heading) it shares with this actor's own path.
+    pub(super) lane: SetpointLane,
     pub(super) refused_log: RateLimitedLog,
     pub(super) nav_log: RateLimitedLog,
     pub(super) nav_drop_log: RateLimitedLog,
@@ -97,6 +98,8 @@ impl Drop for FsiState {
         for s in self.subs.drain(..) {
             s.cancel();
         }
+        // No course goes to the vehicle without a live interface's gate.
+        self.lane.close();
         // Not linked the other way: the driver (and its frontseat connection) must not outlive
         // an interface that panicked, beside the one its restart starts.
         if let Some(d) = self.drivers.take() {
@@ -194,10 +197,19 @@ impl FsiState {
     pub(super) fn finish(&mut self, myself: &ActorRef<FsiMsg>, exit: ServiceExit) {
         self.exit.send_replace(Some(exit));
         self.shutting_down = true;
+        self.sync_lane();
         if let Some(d) = self.drivers.take() {
             d.stop(None);
         }
         myself.stop(None);
+    }
+
+    /// Tells the setpoint lane whether a course may go to the vehicle now: after every message
+    /// this actor handles, so the lane's gate is never behind the state machine's by more than
+    /// the message that changed it.
+    pub(super) fn sync_lane(&self) {
+        self.lane
+            .set_open(!self.shutting_down && self.sm.state() == InterfaceState::InterfaceCommand);
     }
 
     pub(super) fn listen_or_command(&self) -> bool {
@@ -275,6 +287,7 @@ impl FsiState {
         let clock = self.clock;
         let queue_capacity = self.s.queue_capacity;
         let fault_ports = self.s.fault_ports;
+        let lane = self.lane.clone();
         driver_node(&self.s).spec(Arc::new(move |sup| {
             let restarts = starts.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
             // A fresh driver counts as alive from its start.
@@ -288,6 +301,7 @@ impl FsiState {
                 restarts,
                 queue_capacity,
                 faults: FaultPort::open_if(fault_ports, &bus, FaultTarget::Driver),
+                lane: lane.clone(),
             };
             let fsi = fsi.clone();
             Box::pin(async move {

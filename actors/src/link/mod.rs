@@ -10,8 +10,9 @@ pub mod serial;
 
 use std::time::Duration;
 
-use tokio::io::{AsyncBufReadExt, AsyncReadExt, AsyncWriteExt, BufReader};
+use tokio::io::{AsyncBufReadExt, AsyncReadExt, BufReader};
 use tokio::net::TcpStream;
+use tokio::net::tcp::OwnedWriteHalf;
 use tokio::sync::mpsc;
 
 /// Something the driver's own I/O tasks observed.
@@ -136,9 +137,52 @@ pub struct LinkConfig {
 
 /// Writes whole lines to the current connection. Dropped lines (queue full, connection gone)
 /// are reported, not silently lost.
+///
+/// On a TCP line link a write goes to the socket at once, from the caller's thread, when nothing
+/// is queued before it (one non-blocking `write(2)` under a short lock); what the socket does not
+/// take at once is queued for the connection's writer task, and every later write queues behind
+/// it, so bytes leave in the order they were handed over. Without a socket (the byte links, tests)
+/// every write is queued.
 #[derive(Clone, Debug)]
 pub struct LineWriter {
     tx: mpsc::Sender<Vec<u8>>,
+    direct: Option<std::sync::Arc<DirectSocket>>,
+}
+
+/// The connection's write half, shared by the writer task and the callers that write at once.
+#[derive(Debug)]
+struct DirectSocket {
+    state: std::sync::Mutex<DirectState>,
+    half: OwnedWriteHalf,
+}
+
+#[derive(Debug, Default)]
+struct DirectState {
+    /// Chunks handed to the writer task and not yet wholly written: while any is, a caller
+    /// queues behind it instead of writing.
+    backlog: usize,
+    /// The connection ended (read side closed or failed, a write failed, the link task gone).
+    closed: bool,
+}
+
+impl DirectSocket {
+    fn lock(&self) -> std::sync::MutexGuard<'_, DirectState> {
+        self.state.lock().unwrap_or_else(|p| p.into_inner())
+    }
+    fn close(&self) {
+        self.lock().closed = true;
+    }
+}
+
+/// Marks the connection's write side closed when the connection's task ends, however it ends
+/// (its read side closed, or the link task aborted with its driver): a writer a driver kept
+/// then refuses instead of writing to a connection nobody reads.
+struct CloseOnDrop(std::sync::Arc<DirectSocket>);
+
+impl Drop for CloseOnDrop {
+    fn drop(&mut self) {
+        self.0.close();
+    }
 }
 
 #[derive(Debug, thiserror::Error, PartialEq, Eq)]
@@ -149,33 +193,97 @@ pub enum WriteError {
     Closed,
 }
 
+fn queue_error<T>(e: mpsc::error::TrySendError<T>) -> WriteError {
+    match e {
+        mpsc::error::TrySendError::Full(_) => WriteError::Full,
+        mpsc::error::TrySendError::Closed(_) => WriteError::Closed,
+    }
+}
+
 impl LineWriter {
-    /// Queues `line` plus `\r\n`.
+    /// Writes (or queues) `line` plus `\r\n`.
     pub fn write_line(&self, line: &str) -> Result<(), WriteError> {
         let mut b = Vec::with_capacity(line.len() + 2);
         b.extend_from_slice(line.as_bytes());
         b.extend_from_slice(b"\r\n");
-        self.tx.try_send(b).map_err(|e| match e {
-            mpsc::error::TrySendError::Full(_) => WriteError::Full,
-            mpsc::error::TrySendError::Closed(_) => WriteError::Closed,
-        })
+        self.write_bytes(b)
     }
-    /// Queues bytes as they are (binary frames).
+    /// Writes (or queues) bytes as they are (binary frames).
     pub fn write_bytes(&self, bytes: Vec<u8>) -> Result<(), WriteError> {
-        self.tx.try_send(bytes).map_err(|e| match e {
-            mpsc::error::TrySendError::Full(_) => WriteError::Full,
-            mpsc::error::TrySendError::Closed(_) => WriteError::Closed,
+        let Some(d) = &self.direct else {
+            return self.tx.try_send(bytes).map_err(queue_error);
+        };
+        let mut st = d.lock();
+        if st.closed {
+            return Err(WriteError::Closed);
+        }
+        let rest = if st.backlog == 0 {
+            match d.half.try_write(&bytes) {
+                Ok(n) if n >= bytes.len() => return Ok(()),
+                Ok(n) => bytes[n..].to_vec(),
+                Err(e) if e.kind() == std::io::ErrorKind::WouldBlock => bytes,
+                Err(e) => {
+                    // The writer task would have ended the connection with this error; the
+                    // reader sees the same end and reports it.
+                    tracing::debug!(error = %e, "write to the frontseat failed");
+                    st.closed = true;
+                    return Err(WriteError::Closed);
+                }
+            }
+        } else {
+            bytes
+        };
+        // With nothing queued before it, a partly written chunk's rest always fits the queue: a
+        // line is never cut short.
+        self.tx.try_send(rest).map_err(queue_error)?;
+        st.backlog += 1;
+        Ok(())
+    }
+    /// Whether a write now would go to the socket from the caller's thread: a socket link
+    /// whose connection is open with nothing queued.
+    pub fn writes_at_once(&self) -> bool {
+        self.direct.as_ref().is_some_and(|d| {
+            let st = d.lock();
+            !st.closed && st.backlog == 0
         })
     }
     /// A writer around a channel (the byte links, and tests of drivers without a socket).
     pub(crate) fn from_sender(tx: mpsc::Sender<Vec<u8>>) -> Self {
-        Self { tx }
+        Self { tx, direct: None }
     }
     /// A writer whose lines go to a channel; for tests of drivers without a socket.
     pub fn for_test() -> (Self, mpsc::Receiver<Vec<u8>>) {
         let (tx, rx) = mpsc::channel(WRITE_QUEUE);
-        (Self { tx }, rx)
+        (Self { tx, direct: None }, rx)
     }
+}
+
+/// Writes every queued chunk wholly, in order; each one written frees the way for callers to
+/// write at once again.
+async fn drain_queue(d: &DirectSocket, rx: &mut mpsc::Receiver<Vec<u8>>) -> String {
+    while let Some(b) = rx.recv().await {
+        let mut off = 0;
+        while off < b.len() {
+            if let Err(e) = d.half.writable().await {
+                d.close();
+                return format!("write failed: {e}");
+            }
+            match d.half.try_write(&b[off..]) {
+                Ok(n) => off += n,
+                Err(e) if e.kind() == std::io::ErrorKind::WouldBlock => {}
+                Err(e) => {
+                    d.close();
+                    return format!("write failed: {e}");
+                }
+            }
+        }
+        let mut st = d.lock();
+        st.backlog = st.backlog.saturating_sub(1);
+    }
+    // Every writer is gone (the driver closed the link): end the connection cleanly, as the
+    // driver's stop expects; the read side ends with the frontseat's answer to it.
+    let _ = socket2::SockRef::from(d.half.as_ref()).shutdown(std::net::Shutdown::Write);
+    "closed by driver".to_string()
 }
 
 /// Runs until the driver actor is gone (or the task is aborted by the driver's drop).
@@ -205,20 +313,23 @@ pub fn spawn(cfg: LinkConfig, io: IoSender) -> tokio::task::JoinHandle<()> {
 }
 
 async fn run_connection(stream: TcpStream, cfg: &LinkConfig, io: &IoSender) -> String {
-    let (rd, mut wr) = stream.into_split();
+    let (rd, wr) = stream.into_split();
     let (tx, mut rx) = mpsc::channel::<Vec<u8>>(WRITE_QUEUE);
-    if !io.send(DriverIoEvent::Connected(LineWriter { tx })) {
+    let direct = std::sync::Arc::new(DirectSocket {
+        state: std::sync::Mutex::new(DirectState::default()),
+        half: wr,
+    });
+    let _closed_with_this = CloseOnDrop(direct.clone());
+    let writer = LineWriter {
+        tx,
+        direct: Some(direct.clone()),
+    };
+    if !io.send(DriverIoEvent::Connected(writer)) {
         return "driver gone".into();
     }
-    let writer = tokio::spawn(async move {
-        while let Some(b) = rx.recv().await {
-            if let Err(e) = wr.write_all(&b).await {
-                return format!("write failed: {e}");
-            }
-        }
-        let _ = wr.shutdown().await;
-        "closed by driver".to_string()
-    });
+    // Dropping the last handle on the write half (the task's and every writer's) shuts the
+    // connection's write side down.
+    let writer = tokio::spawn(async move { drain_queue(&direct, &mut rx).await });
     let mut reader = BufReader::new(rd);
     let mut buf = Vec::with_capacity(256);
     let reason = loop {

@@ -7,15 +7,19 @@
 //! then one summary ("…and 95 more bad lines in the last 10 s"), so a broken or hostile
 //! frontseat cannot flood the journal.
 
+use std::collections::VecDeque;
+use std::sync::{Arc, Mutex, MutexGuard};
 use std::time::Duration;
 
 use frontseat_config::InterfaceConfig;
 use frontseat_sim::codec::{self, FieldError, LineError, Outbound};
 
 use frontseat_actors::clock::SimClock;
-use frontseat_actors::driver::{Driver, DriverContext, DriverIoEvent, SignalSink, raw_ascii};
+use frontseat_actors::driver::{
+    DirectCommand, Driver, DriverContext, DriverIoEvent, SignalSink, raw_ascii,
+};
 use frontseat_actors::drivers::kit::{LinkState, OwnedTask, config_secs, refuse, send_line};
-use frontseat_actors::link::{self, LinkConfig};
+use frontseat_actors::link::{self, LineWriter, LinkConfig};
 use frontseat_actors::proto::goby::middleware::frontseat::protobuf::{
     CommandRequest, CommandResponse, EulerAngles, FrontSeatState, InterfaceData, NodeStatus, Raw,
     Speed,
@@ -64,6 +68,68 @@ impl Settings {
 /// the queue grow without end).
 const MAX_IN_FLIGHT: usize = 256;
 
+/// The requests whose CMD lines are on their way, oldest first; shared with the [`DirectCmd`]
+/// that writes courses from the helm's thread.
+#[derive(Clone, Default)]
+struct InFlight(Arc<Mutex<VecDeque<CommandRequest>>>);
+
+impl InFlight {
+    fn lock(&self) -> MutexGuard<'_, VecDeque<CommandRequest>> {
+        self.0.lock().unwrap_or_else(|p| p.into_inner())
+    }
+}
+
+/// Queues `req` to be matched with the next CMD,RESULT, writes its line with `write`, and takes
+/// it back if the line was not sent. The queue is held locked throughout, so an answer read on
+/// another thread cannot look for the request before it is there. A frontseat that stopped
+/// answering loses the oldest (the interface answers it when its own timeout passes).
+fn write_in_flight(
+    in_flight: &InFlight,
+    req: &CommandRequest,
+    write: impl FnOnce() -> bool,
+) -> bool {
+    let mut q = in_flight.lock();
+    q.push_back(*req);
+    if !write() {
+        q.pop_back();
+        return false;
+    }
+    while q.len() > MAX_IN_FLIGHT {
+        q.pop_front();
+    }
+    true
+}
+
+/// The setpoint lane's way to this connection (`frontseat_actors::setpoint_lane`): a course's
+/// CMD line written at once from the publisher's thread. Its request is queued for the answer
+/// under the lock answers are matched under, before the line can reach the frontseat, so a
+/// CMD,RESULT always finds it.
+struct DirectCmd {
+    writer: LineWriter,
+    in_flight: InFlight,
+}
+
+impl DirectCommand for DirectCmd {
+    fn send_now(&self, req: &CommandRequest) -> Option<Raw> {
+        let line = command_line(req)?;
+        // A link with a backlog: the course queues behind it on the driver's own path.
+        if !self.writer.writes_at_once() {
+            return None;
+        }
+        let _span = tracing::trace_span!(
+            target: "frontseat_actors",
+            "frontseat.socket_write",
+            bytes = line.len() + 2,
+            line = frontseat_actors::drivers::kit::truncate(&line),
+        )
+        .entered();
+        write_in_flight(&self.in_flight, req, || {
+            self.writer.write_line(&line).is_ok()
+        })
+        .then(|| raw_ascii(&line, ""))
+    }
+}
+
 pub struct BasicSimulatorDriver {
     settings: Settings,
     /// Its data watch: NAV lines.
@@ -72,7 +138,9 @@ pub struct BasicSimulatorDriver {
     /// The requests whose CMD lines are on their way, oldest first: the simulator answers every
     /// CMD in order, so each CMD,RESULT belongs to the oldest (Goby3 answers with its last
     /// request instead, so a burst got one request answered several times and the rest never).
-    in_flight: std::collections::VecDeque<CommandRequest>,
+    in_flight: InFlight,
+    /// While connected: the lane's way to the connection.
+    direct: Option<Arc<DirectCmd>>,
     /// CMD,RESULT lines with no CMD of ours in flight (a reconnect in between).
     pub unmatched_results: u64,
     pub bad_lines: u64,
@@ -88,7 +156,8 @@ impl BasicSimulatorDriver {
             settings,
             link: LinkState::default(),
             link_task: OwnedTask::default(),
-            in_flight: std::collections::VecDeque::new(),
+            in_flight: InFlight::default(),
+            direct: None,
             unmatched_results: 0,
             bad_lines: 0,
             unknown_lines: 0,
@@ -174,7 +243,8 @@ impl BasicSimulatorDriver {
             }
             "CMD" => {
                 let ok = field(fields, "RESULT") == Some("OK");
-                let Some(req) = self.in_flight.pop_front() else {
+                let popped = self.in_flight.lock().pop_front();
+                let Some(req) = popped else {
                     self.unmatched_results += 1;
                     tracing::debug!(line, "CMD,RESULT with no command in flight");
                     return;
@@ -282,6 +352,10 @@ impl Driver for BasicSimulatorDriver {
                     "connected to the frontseat; sending START"
                 );
                 // Connected but not yet told its state: IDLE until CTRL says otherwise.
+                self.direct = Some(Arc::new(DirectCmd {
+                    writer: w.clone(),
+                    in_flight: self.in_flight.clone(),
+                }));
                 self.link.opened(w, FrontSeatState::FrontseatIdle);
                 let start = self.settings.start_line.clone();
                 let _ = self.write(&start, sig);
@@ -299,8 +373,9 @@ impl Driver for BasicSimulatorDriver {
             DriverIoEvent::Disconnected(reason) => {
                 tracing::warn!(%reason, "frontseat connection lost; reconnecting");
                 self.link.lost();
+                self.direct = None;
                 // Their answers will not come on a new connection (the interface answers them).
-                self.in_flight.clear();
+                self.in_flight.lock().clear();
             }
         }
     }
@@ -313,14 +388,8 @@ impl Driver for BasicSimulatorDriver {
     ) {
         match command_line(req) {
             Some(line) => {
-                if self.write(&line, sig) {
-                    if self.in_flight.len() >= MAX_IN_FLIGHT {
-                        // A frontseat that stopped answering: the oldest is given up on (the
-                        // interface answers it when its own timeout passes).
-                        self.in_flight.pop_front();
-                    }
-                    self.in_flight.push_back(*req);
-                }
+                let in_flight = self.in_flight.clone();
+                write_in_flight(&in_flight, req, || self.write(&line, sig));
             }
             None => refuse(
                 req,
@@ -381,8 +450,13 @@ impl Driver for BasicSimulatorDriver {
         self.link.data.providing()
     }
 
+    fn direct_command(&self) -> Option<Arc<dyn DirectCommand>> {
+        self.direct.clone().map(|d| d as Arc<dyn DirectCommand>)
+    }
+
     fn stop(&mut self) {
-        // Dropping the writer lets the link flush and shut the socket down cleanly.
+        // Dropping the writers lets the link flush and shut the socket down cleanly.
+        self.direct = None;
         self.link.close();
     }
 }

@@ -1,0 +1,3 @@
+//! What the vehicle-side tests share.
+
+pub mod frontseat;

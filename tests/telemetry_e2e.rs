@@ -77,6 +77,31 @@ async fn spans_until(
     }
 }
 
+/// Each `(index, key, value)`: the span at `index` in `chain` has that attribute.
+fn has_attrs(chain: &[SpanData], want: &[(usize, &str, &str)]) {
+    for (i, k, v) in want {
+        assert_eq!(
+            attr(&chain[*i], k).as_deref(),
+            Some(*v),
+            "span {i}, attribute {k}"
+        );
+    }
+}
+
+/// Runs `publish` inside a root span, as a traced helm publishes.
+fn in_helm_span(publish: impl FnOnce()) {
+    tracing::trace_span!(target: "frontseat", "helm.setpoint").in_scope(publish);
+}
+
+fn course(heading: f64) -> DesiredCourse {
+    DesiredCourse {
+        time: 0.0,
+        heading: Some(heading),
+        speed: Some(1.0),
+        ..Default::default()
+    }
+}
+
 /// The ancestry of the socket write of the CMD line that starts with `prefix`, once exported.
 async fn setpoint_chain(exporter: &InMemorySpanExporter, prefix: &str) -> Vec<SpanData> {
     let is_cmd_write = |s: &SpanData| {
@@ -169,42 +194,29 @@ async fn one_nav_line_and_one_setpoint_each_form_one_trace() {
         attr(&chain[0], "line").unwrap().starts_with("NAV,"),
         "raw line on the read span"
     );
-    assert_eq!(attr(&chain[1], "actor").as_deref(), Some("DriverActor"));
-    assert_eq!(
-        attr(&chain[3], "group").as_deref(),
-        Some("frontseat::driver::data_from_frontseat")
-    );
-    assert_eq!(
-        attr(&chain[4], "subscriber").as_deref(),
-        Some("FrontSeatInterface")
-    );
-    assert_eq!(
-        attr(&chain[5], "actor").as_deref(),
-        Some("FrontSeatInterface")
-    );
-    assert_eq!(
-        attr(&chain[6], "group").as_deref(),
-        Some("goby::middleware::frontseat::node_status")
-    );
-    assert_eq!(
-        attr(&chain[6], "message_type").as_deref(),
-        Some("goby.middleware.frontseat.protobuf.NodeStatus")
+    has_attrs(
+        &chain,
+        &[
+            (1, "actor", "DriverActor"),
+            (3, "group", "frontseat::driver::data_from_frontseat"),
+            (4, "subscriber", "FrontSeatInterface"),
+            (5, "actor", "FrontSeatInterface"),
+            (6, "group", "goby::middleware::frontseat::node_status"),
+            (
+                6,
+                "message_type",
+                "goby.middleware.frontseat.protobuf.NodeStatus",
+            ),
+        ],
     );
 
     // --- one course: helm → the interface's setpoint lane → socket write, on the helm's thread
-    let root = tracing::trace_span!(target: "frontseat", "helm.setpoint");
-    root.in_scope(|| {
+    in_helm_span(|| {
         bus.publish(
             &groups::GOBY_MIDDLEWARE_FRONTSEAT_DESIRED_COURSE,
-            DesiredCourse {
-                time: 0.0,
-                heading: Some(123.0),
-                speed: Some(1.0),
-                ..Default::default()
-            },
+            course(123.0),
         );
     });
-    drop(root);
     let chain = setpoint_chain(&exporter, "CMD,HEADING:123,").await;
     let names: Vec<&str> = chain.iter().map(|s| s.name.as_ref()).collect();
     assert_eq!(
@@ -218,32 +230,24 @@ async fn one_nav_line_and_one_setpoint_each_form_one_trace() {
         ],
         "course span tree"
     );
-    assert_eq!(
-        attr(&chain[1], "group").as_deref(),
-        Some("goby::middleware::frontseat::desired_course")
-    );
-    assert_eq!(
-        attr(&chain[2], "subscriber").as_deref(),
-        Some("FrontSeatInterface")
+    has_attrs(
+        &chain,
+        &[
+            (1, "group", "goby::middleware::frontseat::desired_course"),
+            (2, "subscriber", "FrontSeatInterface"),
+        ],
     );
 
     // --- one command_request: helm → interface → driver → socket write, through both actors
-    let root = tracing::trace_span!(target: "frontseat", "helm.setpoint");
-    root.in_scope(|| {
+    in_helm_span(|| {
         bus.publish(
             &groups::GOBY_MIDDLEWARE_FRONTSEAT_COMMAND_REQUEST,
             CommandRequest {
-                desired_course: Some(DesiredCourse {
-                    time: 0.0,
-                    heading: Some(124.0),
-                    speed: Some(1.0),
-                    ..Default::default()
-                }),
+                desired_course: Some(course(124.0)),
                 ..Default::default()
             },
         );
     });
-    drop(root);
     let chain = setpoint_chain(&exporter, "CMD,HEADING:124,").await;
     let names: Vec<&str> = chain.iter().map(|s| s.name.as_ref()).collect();
     assert_eq!(
@@ -260,15 +264,14 @@ async fn one_nav_line_and_one_setpoint_each_form_one_trace() {
         ],
         "command_request span tree"
     );
-    assert_eq!(
-        attr(&chain[1], "group").as_deref(),
-        Some("goby::middleware::frontseat::command_request")
+    has_attrs(
+        &chain,
+        &[
+            (1, "group", "goby::middleware::frontseat::command_request"),
+            (4, "group", "frontseat::driver::command_request"),
+            (6, "actor", "DriverActor"),
+        ],
     );
-    assert_eq!(
-        attr(&chain[4], "group").as_deref(),
-        Some("frontseat::driver::command_request")
-    );
-    assert_eq!(attr(&chain[6], "actor").as_deref(), Some("DriverActor"));
 
     helm.abort();
     service.shutdown(Duration::from_secs(3)).await;

@@ -16,7 +16,7 @@ use common::frontseat::{Frontseat, drive_until_command, states};
 use frontseat_actors::bus::Bus;
 use frontseat_actors::bus::test_util::UntypedBus as _;
 use frontseat_actors::groups;
-use frontseat_actors::interface::InterfaceService;
+use frontseat_actors::interface::{InterfaceService, Snapshot};
 use frontseat_actors::proto::goby::middleware::frontseat::protobuf::{
     CommandRequest, DesiredCourse,
 };
@@ -24,6 +24,7 @@ use frontseat_config::InterfaceConfig;
 
 const DEADLINE: Duration = Duration::from_secs(10);
 
+/// (Every depth here is inside the default envelope's 300 m.)
 fn course(depth: f64, speed: f64) -> DesiredCourse {
     DesiredCourse {
         heading: Some(90.0),
@@ -52,7 +53,17 @@ async fn interface(fs: &Frontseat, bus: &Bus) -> InterfaceService {
         .expect("the interface starts")
 }
 
-/// (Every depth here is inside the default envelope's 300 m.)
+/// The interface in command with the frontseat connected, and its snapshot then.
+async fn in_command() -> (Frontseat, Bus, InterfaceService, Snapshot) {
+    let fs = Frontseat::start();
+    let bus = Bus::new();
+    let (_status, status_rx) = states(&bus);
+    let service = interface(&fs, &bus).await;
+    drive_until_command(&bus, &status_rx, DEADLINE);
+    let before = service.snapshot(DEADLINE).await.expect("a snapshot");
+    (fs, bus, service, before)
+}
+
 /// The next `n` CMD lines the frontseat reads, each within the deadline.
 fn read_cmds(fs: &Frontseat, n: usize) -> Vec<String> {
     (0..n)
@@ -67,12 +78,7 @@ fn read_cmds(fs: &Frontseat, n: usize) -> Vec<String> {
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn courses_reach_the_vehicle_in_publish_order_whichever_path_each_takes() {
-    let fs = Frontseat::start();
-    let bus = Bus::new();
-    let (_status, status_rx) = states(&bus);
-    let service = interface(&fs, &bus).await;
-    drive_until_command(&bus, &status_rx, DEADLINE);
-    let before = service.snapshot(DEADLINE).await.expect("a snapshot");
+    let (fs, bus, service, before) = in_command().await;
 
     // From a plain thread, back to back: courses (the lane's), every 10th a command_request
     // carrying its course (the actors' path), every 7th a course over the speed limit (refused).
@@ -152,12 +158,7 @@ async fn courses_reach_the_vehicle_in_publish_order_whichever_path_each_takes() 
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_lone_course_in_command_is_written_from_its_publishers_thread() {
-    let fs = Frontseat::start();
-    let bus = Bus::new();
-    let (_status, status_rx) = states(&bus);
-    let service = interface(&fs, &bus).await;
-    drive_until_command(&bus, &status_rx, DEADLINE);
-    let before = service.snapshot(DEADLINE).await.expect("a snapshot");
+    let (fs, bus, service, before) = in_command().await;
 
     // One at a time, each read before the next: nothing is ever on its way through the actors,
     // so every one takes the lane.

@@ -23,26 +23,29 @@ use crate::vehicle_kind::VehicleKind;
 /// The BackSeat TCP port of a DUNE LAUV (`etc/auv/transports.ini`).
 const DUNE_BACKSEAT_PORT: u16 = 6006;
 
-/// A started emulator of one of the byte-link vehicles.
-pub enum Running {
-    Iver(Emulator<IverSession>),
-    Sv2(Emulator<Sv2Session>),
-    Rover(Emulator<RoverSession>),
-    Dune(Emulator<DuneSession>),
-    Sub(Emulator<SubSession>),
+/// A started emulator of one of the byte-link vehicles: where its driver connects, and the
+/// emulator, which stops when this is dropped.
+pub struct Running {
+    at: String,
+    _emulator: Box<dyn Send>,
 }
 
 impl Running {
+    fn new<S: frontseat_sim::emulator::Session>(e: Emulator<S>) -> Self {
+        let at = e
+            .pty_path()
+            .map(|p| p.display().to_string())
+            .or(e.tcp_addr().map(|a| a.to_string()))
+            .unwrap_or_default();
+        Self {
+            at,
+            _emulator: Box::new(e),
+        }
+    }
+
     /// Where its driver connects: the pseudo-terminal's path, or the TCP address.
     pub fn where_(&self) -> String {
-        let (p, a) = match self {
-            Running::Iver(e) => (e.pty_path().map(|p| p.display().to_string()), e.tcp_addr()),
-            Running::Sv2(e) => (e.pty_path().map(|p| p.display().to_string()), e.tcp_addr()),
-            Running::Rover(e) => (e.pty_path().map(|p| p.display().to_string()), e.tcp_addr()),
-            Running::Dune(e) => (e.pty_path().map(|p| p.display().to_string()), e.tcp_addr()),
-            Running::Sub(e) => (e.pty_path().map(|p| p.display().to_string()), e.tcp_addr()),
-        };
-        p.or(a.map(|a| a.to_string())).unwrap_or_default()
+        self.at.clone()
     }
 }
 
@@ -56,76 +59,63 @@ pub async fn start(
     cruise_speed: f64,
     origin: (f64, f64),
 ) -> std::io::Result<Running> {
-    Ok(match kind {
+    let (lat, lon) = origin;
+    match kind {
         // The Huxley emulator is a TCP server of its own (serve_huxley), not a byte-link session.
-        VehicleKind::Bluefin => {
-            return Err(std::io::Error::other(
-                "the Bluefin emulator is started by bluefin_sim",
-            ));
+        VehicleKind::Bluefin => Err(std::io::Error::other(
+            "the Bluefin emulator is started by bluefin_sim",
+        )),
+        VehicleKind::Iver3 | VehicleKind::Basic => {
+            let options = IverOptions {
+                lat,
+                lon,
+                remote_helm_version_major: rh,
+                ..Default::default()
+            };
+            started(IverSession::new(options), endpoint, warp).await
         }
-        VehicleKind::Iver3 | VehicleKind::Basic => Running::Iver(
-            Emulator::start(
-                IverSession::new(IverOptions {
-                    lat: origin.0,
-                    lon: origin.1,
-                    remote_helm_version_major: rh,
-                    ..Default::default()
-                }),
-                endpoint,
-                warp,
-            )
-            .await?,
-        ),
-        VehicleKind::Ardupilot => Running::Rover(
-            Emulator::start(
-                RoverSession::new(RoverOptions {
-                    lat: origin.0,
-                    lon: origin.1,
-                    ..Default::default()
-                }),
-                endpoint,
-                warp,
-            )
-            .await?,
-        ),
-        VehicleKind::Dune => Running::Dune(
-            Emulator::start(
-                DuneSession::new(DuneOptions {
-                    lat: origin.0,
-                    lon: origin.1,
-                    ..Default::default()
-                }),
-                endpoint,
-                warp,
-            )
-            .await?,
-        ),
-        VehicleKind::Ardusub => Running::Sub(
-            Emulator::start(
-                SubSession::new(SubOptions {
-                    lat: origin.0,
-                    lon: origin.1,
-                    ..Default::default()
-                }),
-                endpoint,
-                warp,
-            )
-            .await?,
-        ),
-        VehicleKind::WavegliderSv2 => Running::Sv2(
-            Emulator::start(
-                Sv2Session::new(Sv2Options {
-                    lat: origin.0,
-                    lon: origin.1,
-                    cruise_speed,
-                    ..Default::default()
-                }),
-                endpoint,
-                warp,
-            )
-            .await?,
-        ),
-    })
+        VehicleKind::Ardupilot => {
+            let options = RoverOptions {
+                lat,
+                lon,
+                ..Default::default()
+            };
+            started(RoverSession::new(options), endpoint, warp).await
+        }
+        VehicleKind::Dune => {
+            let options = DuneOptions {
+                lat,
+                lon,
+                ..Default::default()
+            };
+            started(DuneSession::new(options), endpoint, warp).await
+        }
+        VehicleKind::Ardusub => {
+            let options = SubOptions {
+                lat,
+                lon,
+                ..Default::default()
+            };
+            started(SubSession::new(options), endpoint, warp).await
+        }
+        VehicleKind::WavegliderSv2 => {
+            let options = Sv2Options {
+                lat,
+                lon,
+                cruise_speed,
+                ..Default::default()
+            };
+            started(Sv2Session::new(options), endpoint, warp).await
+        }
+    }
+}
+
+async fn started<S: frontseat_sim::emulator::Session>(
+    session: S,
+    endpoint: Endpoint,
+    warp: f64,
+) -> std::io::Result<Running> {
+    Ok(Running::new(Emulator::start(session, endpoint, warp).await?))
 }
 
 /// `frontseat sim --vehicle iver3|waveglider_sv2|ardupilot|ardusub|dune`: starts the emulator

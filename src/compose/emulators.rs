@@ -115,7 +115,9 @@ async fn started<S: frontseat_sim::emulator::Session>(
     endpoint: Endpoint,
     warp: f64,
 ) -> std::io::Result<Running> {
-    Ok(Running::new(Emulator::start(session, endpoint, warp).await?))
+    Ok(Running::new(
+        Emulator::start(session, endpoint, warp).await?,
+    ))
 }
 
 /// `frontseat sim --vehicle iver3|waveglider_sv2|ardupilot|ardusub|dune`: starts the emulator

@@ -24,6 +24,17 @@ use crate::world::web::{WEB_FLOODERS, web_exchange, web_flood_request};
 const SERVICE_RESTART_SEC: Duration = Duration::from_millis(100);
 
 impl Run {
+    /// A simulator fault that ends the connection: injected, then the interface leaves command
+    /// and the driver reconnects; the injection is the moment.
+    async fn connection_ending(&mut self, fault: sim_fault::Fault, f: &PlannedFault) -> Instant {
+        let t = Instant::now();
+        let before = self.connections();
+        self.sim_fault(fault);
+        self.monitor.until_left_command(f.hold).await;
+        self.until_reconnected(before).await;
+        t
+    }
+
     /// Injects `f` and returns when it cleared: for a one-shot fault (a crash, a dropped
     /// connection, bad lines) the moment it happened — the hold is then only a window for the
     /// interface to notice; for a held fault (CTRL AUV, PARK, a stopped simulator or broker, a
@@ -38,12 +49,8 @@ impl Run {
                 one_shot(t)
             }
             FaultKind::DropConnection => {
-                let t = Instant::now();
-                let before = self.connections();
-                self.sim_fault(sim_fault::Fault::DropConnection(true));
-                self.monitor.until_left_command(f.hold).await;
-                self.until_reconnected(before).await;
-                one_shot(t)
+                self.connection_ending(sim_fault::Fault::DropConnection(true), f)
+                    .await
             }
             FaultKind::Garbage => {
                 let t = Instant::now();
@@ -52,12 +59,8 @@ impl Run {
                 one_shot(t)
             }
             FaultKind::Oversized => {
-                let t = Instant::now();
-                let before = self.connections();
-                self.sim_fault(sim_fault::Fault::OversizedLine(true));
-                self.monitor.until_left_command(f.hold).await;
-                self.until_reconnected(before).await;
-                one_shot(t)
+                self.connection_ending(sim_fault::Fault::OversizedLine(true), f)
+                    .await
             }
             FaultKind::CtrlPayload => {
                 let t = Instant::now();

@@ -196,3 +196,96 @@ impl SetpointLane {
         self.in_actors.load(Ordering::Acquire)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::bus::{Bus, Layer, PublishMeta};
+    use crate::command_gate::Limits;
+
+    #[derive(Clone, PartialEq, prost::Message)]
+    struct Ping {
+        #[prost(uint32, tag = "1")]
+        n: u32,
+    }
+    const IN: crate::bus::Group<Ping> =
+        crate::bus::Group::new("test::in", "test.Ping", Layer::Interthread);
+    const OUT: crate::bus::Group<Ping> =
+        crate::bus::Group::new("test::out", "test.Ping", Layer::Interthread);
+
+    fn lane() -> SetpointLane {
+        SetpointLane::new(
+            Limits::default(),
+            Arc::new(frontseat_telemetry::metrics::VehicleMetrics::default()),
+        )
+    }
+
+    /// The fence holds while the delivery lives, and on through what is re-published from it
+    /// with its `held`; it lifts when the last of them is dropped, and a delivery the bus could
+    /// not queue holds nothing.
+    #[tokio::test]
+    async fn the_fence_follows_a_message_through_a_republication() {
+        let lane = lane();
+        let bus = Bus::new();
+        let (_i, mut rin) = bus.subscribe_channel(&IN, "interface", 4);
+        let (_o, mut rout) = bus.subscribe_channel(&OUT, "driver", 1);
+        bus.publish(&IN, Ping { n: 1 });
+        let env = lane.fenced(rin.recv().await.unwrap());
+        assert_eq!(lane.in_actors(), 1);
+        // The interface re-publishes it to the driver and is done with its own delivery.
+        let held = env.held();
+        bus.publish_held(&OUT, env.msg.clone(), PublishMeta::default(), held.clone());
+        drop(env);
+        drop(held);
+        assert_eq!(lane.in_actors(), 1, "the driver's delivery holds it");
+        // A second re-publication finds the driver's queue full: nothing of it is kept.
+        let again = lane.fenced(bus_envelope(&bus, &mut rin).await);
+        assert_eq!(lane.in_actors(), 2);
+        let report = bus.publish_held(
+            &OUT,
+            again.msg.clone(),
+            PublishMeta::default(),
+            again.held(),
+        );
+        assert_eq!(report.dropped, 1);
+        drop(again);
+        assert_eq!(lane.in_actors(), 1);
+        drop(rout.recv().await.unwrap());
+        assert_eq!(
+            lane.in_actors(),
+            0,
+            "the driver handled it: the lane is free"
+        );
+    }
+
+    async fn bus_envelope(
+        bus: &Bus,
+        rx: &mut tokio::sync::mpsc::UnboundedReceiver<crate::bus::Envelope<Ping>>,
+    ) -> crate::bus::Envelope<Ping> {
+        bus.publish(&IN, Ping { n: 2 });
+        rx.recv().await.unwrap()
+    }
+
+    /// Closed (not in command), or with no driver way in, the lane gives every course back,
+    /// fenced: it goes the actors' way.
+    #[tokio::test]
+    async fn a_closed_lane_gives_the_course_back() {
+        let lane = lane();
+        let bus = Bus::new();
+        let group = crate::groups::GOBY_MIDDLEWARE_FRONTSEAT_DESIRED_COURSE;
+        let (_s, mut rx) = bus.subscribe_channel(&group, "interface", 4);
+        bus.publish(&group, DesiredCourse::default());
+        let env = rx.recv().await.unwrap();
+        let back = lane.offer(env).err().expect("closed: given back");
+        assert_eq!(lane.in_actors(), 1);
+        lane.set_open(true);
+        drop(back);
+        bus.publish(&group, DesiredCourse::default());
+        let env = rx.recv().await.unwrap();
+        let back = lane.offer(env).err().expect("no DirectCommand: given back");
+        assert_eq!(lane.in_actors(), 1);
+        drop(back);
+        assert_eq!(lane.in_actors(), 0);
+        assert_eq!(lane.direct_sent(), 0);
+    }
+}

@@ -137,15 +137,22 @@ async fn run_inner(plan: Plan, sel: &super::Selection) -> Result<Vec<Row>, Strin
             rows.push(p1(&plan, &fs, &nav_written, &node_status_at).await);
         }
         if sel.wants("P2") {
-            rows.push(p2(&plan, &bus, &fs, &cmd_sent, &cmd_read).await);
+            let lane0 = lane_sent(&service).await;
+            let mut row = p2(&plan, &bus, &fs, &cmd_sent, &cmd_read).await;
+            note_lane(&mut row, &service, lane0).await;
+            rows.push(row);
         }
         if sel.wants("P6") {
             rows.push(p6(&plan, &bus, &fs, &nav_written, &node_status_at, &raw_in_at).await);
         }
         if sel.wants("M1") || sel.wants("M2") {
-            rows.extend(
-                moos_rows(&plan, &bus, &fs, &nav_written, &cmd_sent, &cmd_read, base).await,
-            );
+            let lane0 = lane_sent(&service).await;
+            let mut moos =
+                moos_rows(&plan, &bus, &fs, &nav_written, &cmd_sent, &cmd_read, base).await;
+            if let Some(m2) = moos.iter_mut().find(|r| r.id == "M2") {
+                note_lane(m2, &service, lane0).await;
+            }
+            rows.extend(moos);
         }
         Ok(rows)
     } else {
@@ -157,6 +164,27 @@ async fn run_inner(plan: Plan, sel: &super::Selection) -> Result<Vec<Row>, Strin
     }
     fs.stop();
     rows
+}
+
+/// Courses the interface's setpoint lane has written so far (0 when it does not answer).
+async fn lane_sent(service: &InterfaceService) -> u64 {
+    service
+        .snapshot(Duration::from_secs(2))
+        .await
+        .map_or(0, |s| s.setpoints_direct)
+}
+
+/// Says in `row` how many of its courses took the setpoint lane (the rest went through both
+/// actors): a row whose courses stopped taking it measures another path.
+async fn note_lane(row: &mut Row, service: &InterfaceService, before: u64) {
+    let n = lane_sent(service).await.saturating_sub(before);
+    row.detail.push_str(&format!(
+        "; {} through the setpoint lane",
+        fmt_count(n as f64)
+    ));
+    if let serde_json::Value::Object(m) = &mut row.extra {
+        m.insert("setpoint_lane".into(), json!(n));
+    }
 }
 
 /// Stamps every node_status on `bus` whose DEPTH carries a sequence number (`DEPTH:n + 1`) with

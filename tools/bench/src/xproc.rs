@@ -151,8 +151,11 @@ async fn measure(exe: &Path, plan: &Plan, sink: Option<&Sink>) -> Result<Measure
          [limits]\n\
          max_depth = 12000.0\n\n\
          # Z1's NAV lines step their DEPTH 1 m a line at 500 Hz: past the navigation gate's\n\
-         # depth-rate bound, which would refuse four lines in five.\n\
+         # depth-rate bound, which would refuse four lines in five. Z3's carry sequence numbers\n\
+         # up to z1 + z3 (55 000): past the gate's depth bound (11 000 m), which refused all\n\
+         # but the first 6 000 node_status; 1e5 is the most validation accepts.\n\
          [limits.navigation]\n\
+         max_depth = 100000.0\n\
          max_abs_depth_rate = 1e9\n{telemetry}",
         fs.port()
     );

@@ -2,8 +2,10 @@
 //! FrontSeatInterface with the basic simulator's driver over loopback TCP to a frontseat on plain
 //! OS threads, in a process whose async runtime the helm side has wedged — every worker thread
 //! blocked by a helm-side task, and a bus subscriber that never reads. NAV must still reach the
-//! interface's state machine (its node_status comes out) and each setpoint must still reach the
-//! vehicle's link, because the vehicle side runs on its own thread (`frontseat-vehicle`).
+//! interface's state machine (its node_status comes out), because the vehicle side runs on its own
+//! thread (`frontseat-vehicle`), and each setpoint must still reach the vehicle's link (a course
+//! in command is written by its publisher's thread through the setpoint lane; one that is not
+//! would go through the vehicle thread).
 //!
 //! While the runtime is wedged its timers and I/O do not run, so this test waits on plain
 //! `std::sync::mpsc` channels with `recv_timeout`; every wait has a deadline, and the blocked

@@ -21,7 +21,9 @@ use std::time::{Duration, Instant};
 use frontseat_actors::bus::Bus;
 use frontseat_actors::groups;
 use frontseat_actors::interface::InterfaceService;
-use frontseat_actors::proto::goby::middleware::frontseat::protobuf::DesiredCourse;
+use frontseat_actors::proto::goby::middleware::frontseat::protobuf::{
+    CommandRequest, DesiredCourse,
+};
 use frontseat_config::InterfaceConfig;
 
 const WORKERS: usize = 2;
@@ -143,6 +145,26 @@ async fn a_wedged_helm_side_never_delays_nav_or_setpoints() {
         assert!(line.contains(&format!("DEPTH:{i}")), "{line}");
         assert!(read.duration_since(sent) < ON_TIME);
     }
+    // A command_request goes through both actors, on the vehicle thread: on time as well.
+    let sent = Instant::now();
+    bus.publish(
+        &groups::GOBY_MIDDLEWARE_FRONTSEAT_COMMAND_REQUEST,
+        CommandRequest {
+            desired_course: Some(DesiredCourse {
+                heading: Some(90.0),
+                speed: Some(1.0),
+                depth: Some(42.0),
+                ..Default::default()
+            }),
+            ..Default::default()
+        },
+    );
+    let (line, read) = fs
+        .cmds
+        .recv_timeout(ON_TIME)
+        .expect("a command_request reaches the vehicle while the helm side is wedged");
+    assert!(line.contains("DEPTH:42"), "{line}");
+    assert!(read.duration_since(sent) < ON_TIME);
     // The stuck client missed what it did not read, counted, and held nothing up.
     assert!(
         bus.total_dropped() > 0,

@@ -93,23 +93,51 @@ impl Drop for DriverActorState {
     }
 }
 
-struct PortSink<'a>(&'a DriverActorPorts);
+/// The driver's signals as publications, in the order the driver gives them, but for one: the
+/// raw copy of what the vehicle sent (raw_from_frontseat) goes out after what the driver decoded
+/// from it in the same handling (when the sink is dropped). The interface hands each on to the helm
+/// side in that order, and the first hand-over to the helm side's runtime pays for waking one of
+/// its threads (half the floor on a small VM): the navigation a helm steers by should not wait
+/// behind its raw copy.
+struct PortSink<'a> {
+    ports: &'a DriverActorPorts,
+    raw_in: Vec<Raw>,
+}
+
+impl<'a> PortSink<'a> {
+    fn new(ports: &'a DriverActorPorts) -> Self {
+        Self {
+            ports,
+            raw_in: Vec::new(),
+        }
+    }
+}
+
+/// The raw copies held back go out when the handling ends — also when the driver panicked in it:
+/// the line that crashed a driver is the one an operator most needs to see on raw_in.
+impl Drop for PortSink<'_> {
+    fn drop(&mut self) {
+        for raw in self.raw_in.drain(..) {
+            self.ports.publish_raw_from_frontseat(raw);
+        }
+    }
+}
 
 impl SignalSink for PortSink<'_> {
     fn command_response(&mut self, response: CommandResponse) {
-        self.0.publish_command_response(response);
+        self.ports.publish_command_response(response);
     }
     fn data_from_frontseat(&mut self, data: InterfaceData) {
-        self.0.publish_data_from_frontseat(data);
+        self.ports.publish_data_from_frontseat(data);
     }
     fn raw_from_frontseat(&mut self, raw: Raw) {
-        self.0.publish_raw_from_frontseat(raw);
+        self.raw_in.push(raw);
     }
     fn raw_to_frontseat(&mut self, raw: Raw) {
-        self.0.publish_raw_to_frontseat(raw);
+        self.ports.publish_raw_to_frontseat(raw);
     }
     fn extension_from_frontseat(&mut self, ext: crate::driver::DriverExtension) {
-        self.0.publish_extension_from_frontseat(ext);
+        self.ports.publish_extension_from_frontseat(ext);
     }
 }
 
@@ -207,7 +235,7 @@ impl Actor for DriverActor {
         state: &mut DriverActorState,
     ) -> Result<(), ActorProcessingErr> {
         let now = state.clock.now();
-        let mut sink = PortSink(&state.ports);
+        let mut sink = PortSink::new(&state.ports);
         let _span = tracing::trace_span!(
             target: "frontseat_actors",
             "actor.handle",
@@ -251,6 +279,7 @@ impl Actor for DriverActor {
                     .store(crate::clock::heartbeat_now(), Ordering::Relaxed);
             }
         }
+        drop(sink);
         state.sync_direct();
         state.publish_status_if_changed(false);
         Ok(())

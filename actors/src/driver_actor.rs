@@ -304,3 +304,64 @@ impl Actor for DriverActor {
         Ok(())
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::groups;
+    use std::sync::Mutex;
+
+    /// Which of the two groups each publication went to, in order.
+    fn watch(bus: &Bus) -> (Vec<Subscription>, Arc<Mutex<Vec<&'static str>>>) {
+        let seen = Arc::new(Mutex::new(Vec::new()));
+        let (a, b) = (seen.clone(), seen.clone());
+        let subs = vec![
+            bus.subscribe(
+                &groups::FRONTSEAT_DRIVER_DATA_FROM_FRONTSEAT,
+                "t",
+                8,
+                move |_| {
+                    a.lock().unwrap().push("data");
+                    Ok(())
+                },
+            ),
+            bus.subscribe(
+                &groups::FRONTSEAT_DRIVER_RAW_FROM_FRONTSEAT,
+                "t",
+                8,
+                move |_| {
+                    b.lock().unwrap().push("raw");
+                    Ok(())
+                },
+            ),
+        ];
+        (subs, seen)
+    }
+
+    #[test]
+    fn a_lines_raw_copy_goes_out_after_what_was_decoded_from_it() {
+        let bus = Bus::new();
+        let (_subs, seen) = watch(&bus);
+        let ports = DriverActorPorts::new(&bus);
+        let mut sink = PortSink::new(&ports);
+        sink.raw_from_frontseat(Raw::default());
+        sink.data_from_frontseat(InterfaceData::default());
+        assert_eq!(*seen.lock().unwrap(), ["data"], "the raw copy is held");
+        drop(sink);
+        assert_eq!(*seen.lock().unwrap(), ["data", "raw"]);
+    }
+
+    #[test]
+    fn a_driver_that_panics_on_a_line_still_gets_its_raw_copy_out() {
+        let bus = Bus::new();
+        let (_subs, seen) = watch(&bus);
+        let ports = DriverActorPorts::new(&bus);
+        let crashed = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+            let mut sink = PortSink::new(&ports);
+            sink.raw_from_frontseat(Raw::default());
+            panic!("a driver bug on this line");
+        }));
+        assert!(crashed.is_err());
+        assert_eq!(*seen.lock().unwrap(), ["raw"]);
+    }
+}

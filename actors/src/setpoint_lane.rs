@@ -276,13 +276,13 @@ mod tests {
         let (_s, mut rx) = bus.subscribe_channel(&group, "interface", 4);
         bus.publish(&group, DesiredCourse::default());
         let env = rx.recv().await.unwrap();
-        let back = lane.offer(env).err().expect("closed: given back");
+        let back = lane.offer(env).expect_err("closed: given back");
         assert_eq!(lane.in_actors(), 1);
         lane.set_open(true);
         drop(back);
         bus.publish(&group, DesiredCourse::default());
         let env = rx.recv().await.unwrap();
-        let back = lane.offer(env).err().expect("no DirectCommand: given back");
+        let back = lane.offer(env).expect_err("no DirectCommand: given back");
         assert_eq!(lane.in_actors(), 1);
         drop(back);
         assert_eq!(lane.in_actors(), 0);

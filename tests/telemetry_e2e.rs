@@ -210,26 +210,44 @@ async fn one_nav_line_and_one_setpoint_each_form_one_trace() {
         ],
     );
 
-    // --- one course: helm → the interface's setpoint lane → socket write, on the helm's thread
-    in_helm_span(|| {
-        bus.publish(
-            &groups::GOBY_MIDDLEWARE_FRONTSEAT_DESIRED_COURSE,
-            course(123.0),
-        );
-    });
-    let chain = setpoint_chain(&exporter, "CMD,HEADING:123,").await;
-    let names: Vec<&str> = chain.iter().map(|s| s.name.as_ref()).collect();
-    assert_eq!(
-        names,
-        vec![
-            "helm.setpoint",
-            "bus.publish",
-            "bus.deliver",
-            "setpoint.direct",
-            "frontseat.socket_write",
-        ],
-        "course span tree"
-    );
+    // --- one course: helm → the interface's setpoint lane → socket write, on the helm's thread.
+    // A course takes the lane only while nothing bound for the vehicle is on its way through the
+    // actors and the link has no backlog; on a loaded machine one may find it so and go through
+    // both actors (a whole trace of its own, checked too). Up to five courses: one must take it.
+    let lane = [
+        "helm.setpoint",
+        "bus.publish",
+        "bus.deliver",
+        "setpoint.direct",
+        "frontseat.socket_write",
+    ];
+    let actors = [
+        "helm.setpoint",
+        "bus.publish",
+        "bus.deliver",
+        "actor.handle",
+        "bus.publish",
+        "bus.deliver",
+        "actor.handle",
+        "frontseat.socket_write",
+    ];
+    let mut took_lane = None;
+    for heading in 121..126 {
+        in_helm_span(|| {
+            bus.publish(
+                &groups::GOBY_MIDDLEWARE_FRONTSEAT_DESIRED_COURSE,
+                course(f64::from(heading)),
+            );
+        });
+        let chain = setpoint_chain(&exporter, &format!("CMD,HEADING:{heading},")).await;
+        let names: Vec<&str> = chain.iter().map(|s| s.name.as_ref()).collect();
+        if names == lane {
+            took_lane = Some(chain);
+            break;
+        }
+        assert_eq!(names, actors, "course span tree (through the actors)");
+    }
+    let chain = took_lane.expect("no course of five took the setpoint lane");
     has_attrs(
         &chain,
         &[
@@ -243,12 +261,12 @@ async fn one_nav_line_and_one_setpoint_each_form_one_trace() {
         bus.publish(
             &groups::GOBY_MIDDLEWARE_FRONTSEAT_COMMAND_REQUEST,
             CommandRequest {
-                desired_course: Some(course(124.0)),
+                desired_course: Some(course(130.0)),
                 ..Default::default()
             },
         );
     });
-    let chain = setpoint_chain(&exporter, "CMD,HEADING:124,").await;
+    let chain = setpoint_chain(&exporter, "CMD,HEADING:130,").await;
     let names: Vec<&str> = chain.iter().map(|s| s.name.as_ref()).collect();
     assert_eq!(
         names,

@@ -640,13 +640,14 @@ pub mod test_util {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
 
+    /// A bus message for the runtime's own unit tests (the bus's and the setpoint lane's).
     #[derive(Clone, PartialEq, prost::Message)]
-    struct Ping {
+    pub(crate) struct Ping {
         #[prost(uint32, tag = "1")]
-        n: u32,
+        pub(crate) n: u32,
     }
 
     const PING: Group<Ping> = Group::new("test::ping", "test.Ping", Layer::Interthread);

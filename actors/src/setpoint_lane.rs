@@ -200,14 +200,10 @@ impl SetpointLane {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::bus::tests::Ping;
     use crate::bus::{Bus, Layer, PublishMeta};
     use crate::command_gate::Limits;
 
-    #[derive(Clone, PartialEq, prost::Message)]
-    struct Ping {
-        #[prost(uint32, tag = "1")]
-        n: u32,
-    }
     const IN: crate::bus::Group<Ping> =
         crate::bus::Group::new("test::in", "test.Ping", Layer::Interthread);
     const OUT: crate::bus::Group<Ping> =

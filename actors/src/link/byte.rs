@@ -16,6 +16,7 @@ use super::framing::{Deframer, Framing};
 use super::serial::SerialSettings;
 use super::{DriverIoEvent, IoSender};
 use super::{LineWriter, WRITE_QUEUE};
+use crate::ratelog::{LogDecision, RateLimitedLog};
 
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub enum Transport {
@@ -87,29 +88,19 @@ pub fn spawn(
     tokio::spawn(async move {
         let mut delay = cfg.backoff_initial;
         let what = cfg.transport.describe();
-        // A failure the operator must fix (a serial port without permission) is said once at
-        // WARN with what to do, not retried silently at DEBUG for ever.
-        let mut hinted = false;
+        let mut failures = OpenFailures::new(cfg.backoff_max);
         loop {
             let reason = match &cfg.transport {
                 Transport::Serial(s) => match s.open() {
                     Ok(port) => {
                         delay = cfg.backoff_initial;
-                        hinted = false;
+                        failures.opened(s);
                         add(&stats.opens, 1);
                         Some(run(port, &cfg, &io, &stats).await)
                     }
                     Err(e) => {
                         add(&stats.open_failures, 1);
-                        match s.open_hint(&e) {
-                            Some(hint) if !hinted => {
-                                hinted = true;
-                                tracing::warn!(%what, "{hint}; retrying every {:?} at most", cfg.backoff_max);
-                            }
-                            _ => {
-                                tracing::debug!(%what, error = %e, "cannot open the serial port; retrying in {:?}", delay)
-                            }
-                        }
+                        failures.failed(s, &e, delay);
                         None
                     }
                 },
@@ -154,6 +145,86 @@ pub fn spawn(
             delay = (delay * 2).min(cfg.backoff_max);
         }
     })
+}
+
+/// Open failures of one serial port since it was last open, and what of them was logged. A
+/// USB adapter that is unplugged fails to open for as long as it is out (every backoff step, for
+/// hours): the first failure of an outage is logged at WARN with the configured path and the
+/// error (for a permission error, what to do about it), so is the first of another kind (the
+/// device back, but not yet ours: missing → permission denied), and further ones at most once a
+/// minute with how many were not logged (the counter is [`LinkStats::open_failures`]); the reopen
+/// says how long it was away.
+struct OpenFailures {
+    limiter: RateLimitedLog,
+    backoff_max: Duration,
+    /// Failed opens since the port was last open (or since the link started).
+    count: u64,
+    since: Option<tokio::time::Instant>,
+    /// The kinds of error this outage has logged at once (few: the kinds are a small enum).
+    kinds: Vec<std::io::ErrorKind>,
+}
+
+/// At most one line per this long while a port stays unopenable.
+const OPEN_FAILURE_LOG_EVERY: Duration = Duration::from_secs(60);
+
+impl OpenFailures {
+    fn new(backoff_max: Duration) -> Self {
+        Self {
+            limiter: RateLimitedLog::new(1, OPEN_FAILURE_LOG_EVERY),
+            backoff_max,
+            count: 0,
+            since: None,
+            kinds: Vec::new(),
+        }
+    }
+
+    fn failed(&mut self, s: &SerialSettings, e: &std::io::Error, retry_in: Duration) {
+        let now = tokio::time::Instant::now();
+        self.count += 1;
+        let since = *self.since.get_or_insert(now);
+        let path = s.path.as_str();
+        let kind = e.kind();
+        if !self.kinds.contains(&kind) {
+            // A new outage, or a new reason: said at once, and the limiter's window starts here.
+            self.kinds.push(kind);
+            self.limiter = RateLimitedLog::new(1, OPEN_FAILURE_LOG_EVERY);
+            self.limiter.decide(now);
+            let what = s
+                .open_hint(e)
+                .unwrap_or_else(|| format!("cannot open serial port {path}: {e}"));
+            tracing::warn!(
+                path,
+                "{what}; retrying with backoff up to {:?}, logged again at most once a minute",
+                self.backoff_max
+            );
+            return;
+        }
+        match self.limiter.decide(now) {
+            LogDecision::Log { suppressed_before } => tracing::warn!(
+                path,
+                "still cannot open serial port {path}: {e} ({} failed opens in {:.0?}{}); retrying",
+                self.count,
+                now.saturating_duration_since(since),
+                crate::ratelog::more(suppressed_before, "failed opens", OPEN_FAILURE_LOG_EVERY),
+            ),
+            LogDecision::Suppress => {
+                tracing::debug!(path, error = %e, "cannot open the serial port; retrying in {retry_in:?}")
+            }
+        }
+    }
+
+    fn opened(&mut self, s: &SerialSettings) {
+        if let Some(since) = self.since.take() {
+            tracing::info!(
+                path = s.path.as_str(),
+                "serial port {} open again after {} failed opens in {:.1?}",
+                s.path,
+                self.count,
+                since.elapsed()
+            );
+        }
+        *self = Self::new(self.backoff_max);
+    }
 }
 
 async fn run<S>(stream: S, cfg: &ByteLinkConfig, io: &IoSender, stats: &Arc<LinkStats>) -> String

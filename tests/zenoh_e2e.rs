@@ -8,7 +8,7 @@ mod common;
 use common::procs::{Kill, free_port, scratch, wait_for_tcp};
 
 use std::io::{BufRead, BufReader};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::Duration;
 
@@ -287,6 +287,11 @@ fn python_helm_can_run(test: &str) -> bool {
 /// `examples/python/helm.py` against the stack's Zenoh, its protobuf modules generated into the
 /// stack's directory, stdout and stderr piped.
 fn python_helm(stack: &Stack, platform: &str, args: &[&str]) -> Kill {
+    python_helm_spawn(stack, &python_gen(stack), platform, args)
+}
+
+/// The helm's protobuf modules, generated into the stack's directory.
+fn python_gen(stack: &Stack) -> PathBuf {
     let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
     let gen_dir = stack.dir.join("gen");
     let st = Command::new("bash")
@@ -295,6 +300,11 @@ fn python_helm(stack: &Stack, platform: &str, args: &[&str]) -> Kill {
         .status()
         .unwrap();
     assert!(st.success(), "gen_protos.sh failed");
+    gen_dir
+}
+
+fn python_helm_spawn(stack: &Stack, gen_dir: &Path, platform: &str, args: &[&str]) -> Kill {
+    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
     Kill(
         Command::new("python3")
             .arg(root.join("examples/python/helm.py"))
@@ -302,12 +312,55 @@ fn python_helm(stack: &Stack, platform: &str, args: &[&str]) -> Kill {
             .args(["--platform", platform])
             .args(["--warp", &WARP.to_string()])
             .args(args)
-            .env("FRONTSEAT_PY_GEN", &gen_dir)
+            .env("FRONTSEAT_PY_GEN", gen_dir)
             .stdout(Stdio::piped())
             .stderr(Stdio::piped())
             .spawn()
             .unwrap(),
     )
+}
+
+/// Sends `signal` (a `kill` name: INT, TERM) to the helm, then awaits its exit for at most 20 s;
+/// returns its exit code and everything it wrote on stderr (`stderr` collects it in a thread).
+async fn signal_and_wait(
+    helm: &mut Kill,
+    signal: &str,
+    stderr: std::sync::mpsc::Receiver<String>,
+) -> (Option<i32>, String) {
+    // bash's built-in kill: no procps needed.
+    let st = Command::new("bash")
+        .args(["-c", &format!("kill -{signal} {}", helm.0.id())])
+        .status()
+        .unwrap();
+    assert!(st.success(), "kill -{signal}");
+    let until = std::time::Instant::now() + Duration::from_secs(20);
+    let status = loop {
+        if let Some(s) = helm.0.try_wait().unwrap() {
+            break s;
+        }
+        assert!(
+            std::time::Instant::now() < until,
+            "the helm was still running 20 s after SIG{signal}"
+        );
+        tokio::time::sleep(Duration::from_millis(20)).await;
+    };
+    // The pipe closes with the process: the reader thread ends and every line is in.
+    let err: Vec<String> = stderr.iter().collect();
+    (status.code(), err.join("\n"))
+}
+
+/// The helm's stderr, line by line, from a thread (a pipe read blocks).
+fn stderr_lines(helm: &mut Kill) -> std::sync::mpsc::Receiver<String> {
+    let stderr = helm.0.stderr.take().unwrap();
+    let (tx, rx) = std::sync::mpsc::channel();
+    std::thread::spawn(move || {
+        for line in BufReader::new(stderr).lines().map_while(Result::ok) {
+            if tx.send(line).is_err() {
+                break;
+            }
+        }
+    });
+    rx
 }
 
 fn python_has_zenoh() -> bool {
@@ -404,28 +457,53 @@ async fn python_helm_stops_on_ctrl_c() {
         "the helm never started its first leg\n{}",
         stack.log()
     );
-    let st = Command::new("bash")
-        .args(["-c", &format!("kill -INT {}", helm.0.id())])
-        .status()
-        .unwrap();
-    assert!(st.success());
-    let until = std::time::Instant::now() + Duration::from_secs(20);
-    let status = loop {
-        if let Some(s) = helm.0.try_wait().unwrap() {
-            break s;
-        }
-        assert!(
-            std::time::Instant::now() < until,
-            "the helm was still running 20 s after SIGINT"
-        );
-        tokio::time::sleep(Duration::from_millis(50)).await;
-    };
-    let mut err = String::new();
-    if let Some(mut e) = helm.0.stderr.take() {
-        let _ = std::io::Read::read_to_string(&mut e, &mut err);
-    }
-    assert_eq!(status.code(), Some(130), "{err}");
+    let errs = stderr_lines(&mut helm);
+    let (code, err) = signal_and_wait(&mut helm, "INT", errs).await;
+    assert_eq!(code, Some(130), "{err}");
     assert!(err.contains("helm: interrupted"), "{err}");
+    assert!(!err.contains("Traceback"), "{err}");
+}
+
+/// Ctrl-C at any moment of the helm's start — its imports (zenoh's takes a while), the session
+/// opening, its first heartbeats — ends it the same way: exit 130, "helm: interrupted", no
+/// traceback (Python's own KeyboardInterrupt printed one from wherever it landed, exit 1 or killed
+/// by the signal). The moments are taken after the helm's first line ("helm: started": its
+/// handlers are in place; before it is the interpreter's own start), spread over its start-up.
+/// SIGTERM likewise, with 143.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn python_helm_stops_cleanly_on_ctrl_c_at_any_moment_of_its_start() {
+    if !python_helm_can_run("python_helm_stops_cleanly_on_ctrl_c_at_any_moment_of_its_start") {
+        return;
+    }
+    let stack = start_stack("pystart", "pystart").await;
+    let gen_dir = python_gen(&stack);
+    let moments_ms = [0u64, 5, 20, 50, 100, 200, 400, 800, 1500];
+    let cases = moments_ms
+        .iter()
+        .map(|&ms| ("INT", ms, 130))
+        .chain([("TERM", 50, 143), ("TERM", 1500, 143)]);
+    for (signal, ms, want) in cases {
+        let mut helm = python_helm_spawn(&stack, &gen_dir, "pystart", &["--timeout", "90"]);
+        let errs = stderr_lines(&mut helm);
+        let first = tokio::task::spawn_blocking(move || {
+            let first = errs.recv_timeout(Duration::from_secs(30));
+            (first, errs)
+        });
+        let (first, errs) = first.await.unwrap();
+        assert_eq!(
+            first.as_deref(),
+            Ok("helm: started"),
+            "the helm's first line on stderr"
+        );
+        // The moment to interrupt, counted from its first line: not a wait for anything.
+        tokio::time::sleep(Duration::from_millis(ms)).await;
+        let (code, err) = signal_and_wait(&mut helm, signal, errs).await;
+        assert_eq!(code, Some(want), "SIG{signal} {ms} ms after start:\n{err}");
+        assert!(
+            err.contains("helm: interrupted") && !err.contains("Traceback"),
+            "SIG{signal} {ms} ms after start:\n{err}"
+        );
+    }
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]

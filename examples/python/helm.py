@@ -11,26 +11,59 @@ traceparent in the Zenoh attachment.
     examples/python/gen_protos.sh
     python3 examples/python/helm.py --connect tcp/127.0.0.1:7447 --platform auv1
 
-Exits 0 when the triangle is done, 1 on timeout.
+Exits 0 when the triangle is done, 1 on timeout or when no Zenoh session opens, and 130 on Ctrl-C
+(SIGINT) or 143 on SIGTERM (128 + the signal, as a shell reports a process a signal ended): at
+any moment once it printed "helm: started" (its first line, on stderr) — importing, opening the
+session, flying, closing — with one line "helm: interrupted" and no traceback.
 """
 
-import argparse
-import json
-import math
-import os
-import queue
-import secrets
 import signal
 import sys
-import time
 
-HERE = os.path.dirname(os.path.abspath(__file__))
-sys.path.insert(0, os.environ.get("FRONTSEAT_PY_GEN", os.path.join(HERE, "gen")))
 
-import zenoh  # noqa: E402
-from google.protobuf.message import DecodeError  # noqa: E402
-from goby.middleware.frontseat import frontseat_pb2 as fs  # noqa: E402
-from goby.middleware.frontseat import frontseat_data_pb2 as fsd  # noqa: E402
+class Stopped(Exception):
+    """Ctrl-C or SIGTERM: the helm ends with 128 + the signal."""
+
+    def __init__(self, signum):
+        super().__init__(signum)
+        self.signum = signum
+
+
+def _stop(signum, frame):
+    raise Stopped(signum)
+
+
+def _stopped(e):
+    print("helm: interrupted", file=sys.stderr, flush=True)
+    return 128 + e.signum
+
+
+# Owned before anything else, the imports first (zenoh's takes a while): a Ctrl-C during them,
+# while the session opens, in the loop or as it closes ends the helm the same way; Python's own
+# KeyboardInterrupt printed a traceback from wherever it landed. Only the interpreter's start,
+# before this line, is Python's; "helm: started" says it is past.
+signal.signal(signal.SIGINT, _stop)
+signal.signal(signal.SIGTERM, _stop)
+print("helm: started", file=sys.stderr, flush=True)
+
+try:
+    import argparse  # noqa: E402
+    import json  # noqa: E402
+    import math  # noqa: E402
+    import os  # noqa: E402
+    import queue  # noqa: E402
+    import secrets  # noqa: E402
+    import time  # noqa: E402
+
+    HERE = os.path.dirname(os.path.abspath(__file__))
+    sys.path.insert(0, os.environ.get("FRONTSEAT_PY_GEN", os.path.join(HERE, "gen")))
+
+    import zenoh  # noqa: E402
+    from google.protobuf.message import DecodeError  # noqa: E402
+    from goby.middleware.frontseat import frontseat_pb2 as fs  # noqa: E402
+    from goby.middleware.frontseat import frontseat_data_pb2 as fsd  # noqa: E402
+except Stopped as e:
+    sys.exit(_stopped(e))
 
 PREFIX = "goby/middleware/frontseat/"
 
@@ -64,22 +97,21 @@ def main():
     p.add_argument("--timeout", type=float, default=600.0, help="wall seconds")
     a = p.parse_args()
 
-    session = open_session(a.connect)
-    # The zenoh library takes over SIGINT when it opens a session, and a session left open keeps
-    # the interpreter from exiting: own both signals again and close the session on the way out.
-    signal.signal(signal.SIGINT, _interrupted)
-    signal.signal(signal.SIGTERM, _interrupted)
     try:
+        session = open_session(a.connect)
+    except zenoh.ZError as e:
+        print("helm: no Zenoh session on {}: {}".format(a.connect, e), file=sys.stderr, flush=True)
+        return 1
+    try:
+        # Owned again once the session is open, whatever the zenoh library did with them.
+        signal.signal(signal.SIGINT, _stop)
+        signal.signal(signal.SIGTERM, _stop)
         return fly(a, session)
-    except KeyboardInterrupt:
-        print("helm: interrupted", file=sys.stderr, flush=True)
-        return 130
     finally:
+        # A second Ctrl-C while the session closes must not cut the close short with a traceback.
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
+        signal.signal(signal.SIGTERM, signal.SIG_IGN)
         session.close()
-
-
-def _interrupted(signum, frame):
-    raise KeyboardInterrupt
 
 
 def fly(a, session):
@@ -168,4 +200,8 @@ def fly(a, session):
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    try:
+        code = main()
+    except Stopped as e:
+        code = _stopped(e)
+    sys.exit(code)

@@ -38,10 +38,18 @@ pub enum Endpoint {
     Tcp(SocketAddr),
 }
 
+/// What the handle asks of the running emulator.
+enum Ask {
+    /// Bytes written to the backseat as they are.
+    Bytes(Vec<u8>),
+    /// Close the backseat's connection.
+    HangUp,
+}
+
 /// A running emulator.
 pub struct Emulator<S: Session> {
     session: Arc<Mutex<S>>,
-    inject: mpsc::UnboundedSender<Vec<u8>>,
+    inject: mpsc::UnboundedSender<Ask>,
     task: tokio::task::JoinHandle<()>,
     pty_path: Option<PathBuf>,
     tcp_addr: Option<SocketAddr>,
@@ -98,7 +106,14 @@ impl<S: Session> Emulator<S> {
 
     /// Writes raw bytes to the backseat (line noise, broken frames) as they are.
     pub fn inject_bytes(&self, bytes: Vec<u8>) {
-        let _ = self.inject.send(bytes);
+        let _ = self.inject.send(Ask::Bytes(bytes));
+    }
+
+    /// Closes the backseat's current TCP connection as a pulled cable would (a fault hook): the
+    /// emulator keeps listening and takes the next connection. A pseudo-terminal has no
+    /// connection to close: there it does nothing (`stop` makes the device vanish).
+    pub fn drop_connection(&self) {
+        let _ = self.inject.send(Ask::HangUp);
     }
 
     /// Stops the emulator; on a pty the driver sees the device vanish.
@@ -112,7 +127,7 @@ fn lock<S>(m: &Mutex<S>) -> MutexGuard<'_, S> {
 async fn run_pty<S: Session>(
     master: PtyMaster,
     session: Arc<Mutex<S>>,
-    mut inject: mpsc::UnboundedReceiver<Vec<u8>>,
+    mut inject: mpsc::UnboundedReceiver<Ask>,
     step_wall: Duration,
 ) {
     let mut tick = tokio::time::interval(step_wall);
@@ -129,7 +144,7 @@ async fn run_pty<S: Session>(
                     return;
                 }
             },
-            Some(b) = inject.recv() => out.extend_from_slice(&b),
+            Some(Ask::Bytes(b)) = inject.recv() => out.extend_from_slice(&b),
         }
         if !out.is_empty() {
             if let Err(e) = master.write_all(&out, WRITE_WITHIN).await {
@@ -144,7 +159,7 @@ async fn run_pty<S: Session>(
 async fn run_tcp<S: Session>(
     listener: TcpListener,
     session: Arc<Mutex<S>>,
-    mut inject: mpsc::UnboundedReceiver<Vec<u8>>,
+    mut inject: mpsc::UnboundedReceiver<Ask>,
     step_wall: Duration,
 ) {
     let mut tick = tokio::time::interval(step_wall);
@@ -166,7 +181,10 @@ async fn run_tcp<S: Session>(
                 Ok(0) | Err(_) => lost = true,
                 Ok(n) => lock(&session).on_bytes(&buf[..n], &mut out),
             },
-            Some(b) = inject.recv() => out.extend_from_slice(&b),
+            Some(ask) = inject.recv() => match ask {
+                Ask::Bytes(b) => out.extend_from_slice(&b),
+                Ask::HangUp => lost = peer.is_some(),
+            },
         }
         if lost {
             peer = None;

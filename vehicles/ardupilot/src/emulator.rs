@@ -6,6 +6,20 @@
 //! position, and the EKF failsafe to HOLD of a vehicle put in GUIDED before it.
 //! What it shares with the other firmware (frames, the stream schedule, arming, COMMAND_ACK,
 //! STATUSTEXT, the streamed messages' layout) is written once in `session`; this file is its own part.
+//!
+//! # Fault hooks (for the chaos harness and tests)
+//! On a running [`Emulator`](frontseat_sim::emulator::Emulator) of either firmware
+//! ([`RoverSession`], [`SubSession`](crate::sub_emulator::SubSession)), through
+//! `emu.session()`; each takes effect without an output buffer:
+//! - `refuse_commands(Some(MavResult::MAV_RESULT_DENIED))`: every COMMAND_LONG and SET_MODE
+//!   addressed to the vehicle is answered so (any MAV_RESULT) and not acted on; `None` ends it.
+//! - `change_mode(mode)`: the vehicle switches mode by itself at its next step, as a pilot's RC
+//!   switch or a failsafe would, and announces it by a HEARTBEAT.
+//! - `go_silent(true)`: the vehicle sends nothing (HEARTBEAT, streams, ACKs, STATUSTEXT) until
+//!   `go_silent(false)`; it goes on hearing and acting.
+//! - `fault_counters()`: what the hooks made it do ([`FaultCounters`]).
+//! - dropping the backseat's connection is the runner's: `emu.drop_connection()` (TCP).
+//! - garbage and truncated frames are the runner's too: `emu.inject_bytes(bytes)`.
 
 use mavlink::MessageData;
 
@@ -15,6 +29,7 @@ use crate::codec::MavMessage;
 use crate::dialect::*;
 use crate::infer::{self, EKF_READY, TARGET_TIMEOUT_S, TARGET_TIMEOUT_TEXT, Target};
 use crate::modes::{Firmware, rover};
+pub use crate::session::FaultCounters;
 use crate::session::{self, Autopilot, Face};
 
 /// How the emulated Rover starts.
@@ -236,6 +251,29 @@ impl RoverSession {
         }
     }
 
+    /// Fault hook: every COMMAND_LONG and SET_MODE addressed to the vehicle is answered with
+    /// `answer` (MAV_RESULT_DENIED, _FAILED, …) and not acted on; `None` ends it.
+    pub fn refuse_commands(&mut self, answer: Option<MavResult>) {
+        self.ap.faults.refusal = answer;
+    }
+
+    /// Fault hook: the vehicle switches to `mode` by itself at its next step (after boot), as a
+    /// pilot's RC switch or a failsafe would, announcing it by a HEARTBEAT.
+    pub fn change_mode(&mut self, mode: u32) {
+        self.ap.faults.own_mode = Some(mode);
+    }
+
+    /// Fault hook: the vehicle sends nothing (no HEARTBEAT, stream, ACK or STATUSTEXT) while
+    /// `silent`, and goes on hearing and acting on what it is sent.
+    pub fn go_silent(&mut self, silent: bool) {
+        self.ap.faults.silent = silent;
+    }
+
+    /// What the fault hooks made the vehicle do.
+    pub fn fault_counters(&self) -> FaultCounters {
+        self.ap.faults.counters.clone()
+    }
+
     /// Forces the EKF failsafe (tests of what a backseat makes of it).
     pub fn inject_ekf_failsafe(&mut self, out: &mut Vec<u8>) {
         self.ekf_failsafe(out);
@@ -250,6 +288,10 @@ impl RoverSession {
 }
 
 impl Face for RoverSession {
+    fn set_mode(&mut self, mode: u32, out: &mut Vec<u8>) {
+        RoverSession::set_mode(self, mode, out);
+    }
+
     fn command(&mut self, c: &COMMAND_LONG_DATA, out: &mut Vec<u8>) -> MavResult {
         self.rover_command(c, out)
     }

@@ -32,6 +32,32 @@ pub(crate) struct Autopilot {
     streamable: &'static [u32],
     /// Seconds between sends, and when each was last sent.
     intervals: BTreeMap<u32, (f64, f64)>,
+    /// The chaos harness's faults, set through the emulator's fault hooks.
+    pub(crate) faults: Faults,
+}
+
+/// The faults a test or the chaos harness has switched on (the emulator module's doc lists
+/// the hooks that set them).
+#[derive(Debug, Default)]
+pub(crate) struct Faults {
+    /// Every COMMAND_LONG and SET_MODE addressed to us is answered with this, and not acted on.
+    pub(crate) refusal: Option<MavResult>,
+    /// Nothing is sent.
+    pub(crate) silent: bool,
+    /// A mode the vehicle switches to by itself at the next step after boot.
+    pub(crate) own_mode: Option<u32>,
+    pub(crate) counters: FaultCounters,
+}
+
+/// What the fault hooks made the emulated vehicle do.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct FaultCounters {
+    /// COMMAND_LONGs and SET_MODEs answered with the refusal instead of acted on.
+    pub commands_refused: u64,
+    /// Mode changes the vehicle made by itself (`change_mode`).
+    pub own_mode_changes: u64,
+    /// Bytes not sent while silent.
+    pub bytes_withheld: u64,
 }
 
 /// Where a firmware's stats count what the shared part sees.
@@ -99,6 +125,8 @@ pub(crate) trait Face: Shared {
     fn disarm(&mut self, why: &str, out: &mut Vec<u8>);
     /// Boot is over.
     fn booted(&mut self, out: &mut Vec<u8>);
+    /// The vehicle is put in `mode` (announced by a HEARTBEAT at once; a no-op when in it).
+    fn set_mode(&mut self, mode: u32, out: &mut Vec<u8>);
     /// `dt` sim seconds of the firmware's control and dynamics.
     fn drive(&mut self, dt: f64, out: &mut Vec<u8>);
     /// The stream `id` is due.
@@ -139,6 +167,7 @@ impl Autopilot {
             init_s,
             streamable,
             intervals,
+            faults: Faults::default(),
         }
     }
 
@@ -253,8 +282,15 @@ impl Autopilot {
     }
 }
 
-/// Bytes from the backseat: each whole frame decoded and handed to the firmware.
+/// Bytes from the backseat: each whole frame decoded and handed to the firmware; a silent
+/// vehicle sends nothing back.
 pub(crate) fn on_bytes<F: Face>(f: &mut F, bytes: &[u8], out: &mut Vec<u8>) {
+    let start = out.len();
+    receive(f, bytes, out);
+    withhold_if_silent(f.autopilot(), start, out);
+}
+
+fn receive<F: Face>(f: &mut F, bytes: &[u8], out: &mut Vec<u8>) {
     let mut frames = Vec::new();
     let mut bad = 0;
     f.autopilot().deframer.feed(bytes, &mut |r| match r {
@@ -266,24 +302,56 @@ pub(crate) fn on_bytes<F: Face>(f: &mut F, bytes: &[u8], out: &mut Vec<u8>) {
         match decode(&fr) {
             Ok((h, msg)) => {
                 *f.tally().frames_in += 1;
-                f.handle(h.system_id, msg, out);
+                match msg {
+                    // ArduPilot takes the old SET_MODE as DO_SET_MODE and acknowledges it so.
+                    #[allow(deprecated)]
+                    MavMessage::SET_MODE(m) => command(
+                        f,
+                        &COMMAND_LONG_DATA {
+                            command: MavCmd::MAV_CMD_DO_SET_MODE,
+                            param1: f32::from(m.base_mode.bits()),
+                            param2: m.custom_mode as f32,
+                            target_system: m.target_system,
+                            ..Default::default()
+                        },
+                        out,
+                    ),
+                    msg => f.handle(h.system_id, msg, out),
+                }
             }
             Err(_) => *f.tally().bad_input += 1,
         }
     }
 }
 
-/// `dt` sim seconds: the end of boot, the firmware's dynamics, then the streams due.
+/// `dt` sim seconds: the end of boot, a mode change of the vehicle's own, the firmware's
+/// dynamics, then the streams due; a silent vehicle sends nothing.
 pub(crate) fn step<F: Face>(f: &mut F, dt: f64, out: &mut Vec<u8>) {
+    let start = out.len();
     let ap = f.autopilot();
     let was_init = ap.initialising();
     ap.t += dt;
     if was_init && !ap.initialising() {
         f.booted(out);
     }
+    let ap = f.autopilot();
+    if !ap.initialising()
+        && let Some(mode) = ap.faults.own_mode.take()
+    {
+        ap.faults.counters.own_mode_changes += 1;
+        f.set_mode(mode, out);
+    }
     f.drive(dt, out);
     for id in f.autopilot().due() {
         f.stream(id, out);
+    }
+    withhold_if_silent(f.autopilot(), start, out);
+}
+
+fn withhold_if_silent(ap: &mut Autopilot, start: usize, out: &mut Vec<u8>) {
+    if ap.faults.silent && out.len() > start {
+        ap.faults.counters.bytes_withheld += (out.len() - start) as u64;
+        out.truncate(start);
     }
 }
 
@@ -294,29 +362,34 @@ pub(crate) fn command<F: Face>(f: &mut F, c: &COMMAND_LONG_DATA, out: &mut Vec<u
         return;
     }
     *f.tally().commands += 1;
-    let result = match c.command {
-        MavCmd::MAV_CMD_COMPONENT_ARM_DISARM => {
-            if c.param1 == 1.0 {
-                if f.autopilot().initialising() {
-                    f.statustext(
-                        MavSeverity::MAV_SEVERITY_CRITICAL,
-                        "PreArm: AHRS not healthy",
-                        out,
-                    );
-                    MavResult::MAV_RESULT_FAILED
-                } else {
-                    f.arm(out);
+    let result = if let Some(refusal) = f.autopilot().faults.refusal {
+        f.autopilot().faults.counters.commands_refused += 1;
+        refusal
+    } else {
+        match c.command {
+            MavCmd::MAV_CMD_COMPONENT_ARM_DISARM => {
+                if c.param1 == 1.0 {
+                    if f.autopilot().initialising() {
+                        f.statustext(
+                            MavSeverity::MAV_SEVERITY_CRITICAL,
+                            "PreArm: AHRS not healthy",
+                            out,
+                        );
+                        MavResult::MAV_RESULT_FAILED
+                    } else {
+                        f.arm(out);
+                        MavResult::MAV_RESULT_ACCEPTED
+                    }
+                } else if c.param1 == 0.0 {
+                    f.disarm("Disarming motors", out);
                     MavResult::MAV_RESULT_ACCEPTED
+                } else {
+                    MavResult::MAV_RESULT_DENIED
                 }
-            } else if c.param1 == 0.0 {
-                f.disarm("Disarming motors", out);
-                MavResult::MAV_RESULT_ACCEPTED
-            } else {
-                MavResult::MAV_RESULT_DENIED
             }
+            MavCmd::MAV_CMD_SET_MESSAGE_INTERVAL => f.autopilot().set_interval(c.param1, c.param2),
+            _ => f.command(c, out),
         }
-        MavCmd::MAV_CMD_SET_MESSAGE_INTERVAL => f.autopilot().set_interval(c.param1, c.param2),
-        _ => f.command(c, out),
     };
     f.autopilot().send(
         MavMessage::COMMAND_ACK(COMMAND_ACK_DATA {

@@ -20,6 +20,7 @@ use crate::infer::{
     self, EKF_READY, SUB_ATTITUDE_TIMEOUT_S, SUB_TARGET_TIMEOUT_S, SubTarget, quaternion_heading,
 };
 use crate::modes::{Firmware, sub};
+pub use crate::session::FaultCounters;
 use crate::session::{self, Autopilot, Face};
 
 /// How the emulated Sub starts, and its parameters.
@@ -491,6 +492,29 @@ impl SubSession {
         }
     }
 
+    /// Fault hook: every COMMAND_LONG and SET_MODE addressed to the vehicle is answered with
+    /// `answer` (MAV_RESULT_DENIED, _FAILED, …) and not acted on; `None` ends it.
+    pub fn refuse_commands(&mut self, answer: Option<MavResult>) {
+        self.ap.faults.refusal = answer;
+    }
+
+    /// Fault hook: the vehicle switches to `mode` by itself at its next step (after boot), as a
+    /// pilot's RC switch or a failsafe would, announcing it by a HEARTBEAT.
+    pub fn change_mode(&mut self, mode: u32) {
+        self.ap.faults.own_mode = Some(mode);
+    }
+
+    /// Fault hook: the vehicle sends nothing (no HEARTBEAT, stream, ACK or STATUSTEXT) while
+    /// `silent`, and goes on hearing and acting on what it is sent.
+    pub fn go_silent(&mut self, silent: bool) {
+        self.ap.faults.silent = silent;
+    }
+
+    /// What the fault hooks made the vehicle do.
+    pub fn fault_counters(&self) -> FaultCounters {
+        self.ap.faults.counters.clone()
+    }
+
     /// The pilot (a joystick button, QGroundControl) selects a mode.
     pub fn pilot_sets_mode(&mut self, mode: u32, out: &mut Vec<u8>) {
         self.set_mode(mode, out);
@@ -632,6 +656,10 @@ impl SubSession {
 }
 
 impl Face for SubSession {
+    fn set_mode(&mut self, mode: u32, out: &mut Vec<u8>) {
+        SubSession::set_mode(self, mode, out);
+    }
+
     fn handle(&mut self, sender: u8, msg: MavMessage, out: &mut Vec<u8>) {
         let gcs = sender == self.opts.gcs_sysid;
         match msg {

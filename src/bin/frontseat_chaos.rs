@@ -68,6 +68,23 @@ async fn run(args: chaos_args::ChaosArgs) -> ExitCode {
         eprintln!("--recovery-bound must be a positive number of seconds");
         return ExitCode::from(2);
     }
+    let family = match args.vehicle.as_str() {
+        "basic" | "basic_simulator" => None,
+        k => match frontseat_chaos::Family::from_key(k) {
+            Some(f) => Some(f),
+            None => {
+                let keys: Vec<&str> = frontseat_chaos::Family::ALL
+                    .iter()
+                    .map(|f| f.key())
+                    .collect();
+                eprintln!(
+                    "--vehicle: unknown vehicle {k:?}; one of basic, {}",
+                    keys.join(", ")
+                );
+                return ExitCode::from(2);
+            }
+        },
+    };
     let mut only = Vec::new();
     for k in &args.only {
         match frontseat_chaos::FaultKind::from_key(k) {
@@ -75,6 +92,7 @@ async fn run(args: chaos_args::ChaosArgs) -> ExitCode {
             None => {
                 let keys: Vec<&str> = frontseat_chaos::FaultKind::ALL
                     .iter()
+                    .chain(&frontseat_chaos::FaultKind::VEHICLE)
                     .map(|k| k.key())
                     .collect();
                 eprintln!("--only: unknown fault {k:?}; one of {}", keys.join(", "));
@@ -98,7 +116,10 @@ async fn run(args: chaos_args::ChaosArgs) -> ExitCode {
         return ExitCode::from(2);
     }
     eprintln!(
-        "frontseat chaos: seed {}, {}{}",
+        "frontseat chaos: {}seed {}, {}{}",
+        family
+            .map(|f| format!("vehicle {}, ", f.key()))
+            .unwrap_or_default(),
         opts.seed,
         match opts.soak {
             Some(d) => format!(
@@ -113,7 +134,11 @@ async fn run(args: chaos_args::ChaosArgs) -> ExitCode {
             .map(|p| format!(", config {}", p.display()))
             .unwrap_or_default()
     );
-    match frontseat_chaos::run(config, opts, |p| eprintln!("chaos: {p}")).await {
+    let report = match family {
+        Some(f) => frontseat_chaos::run_family(f, config, opts, |p| eprintln!("chaos: {p}")).await,
+        None => frontseat_chaos::run(config, opts, |p| eprintln!("chaos: {p}")).await,
+    };
+    match report {
         Ok(report) => {
             print!("{}", report.render());
             if report.passed() {

@@ -21,10 +21,16 @@
 //! - `monitor`: what the bus says (states, node_status, CommandResponses), counted as it passes.
 //! - `panics`: the process-wide panic hook that tells injected panics from escaped ones.
 //! - `resources`: RSS, fds, threads, tasks and bus subscriptions, sampled.
+//! - `family`: the vehicle families (`--vehicle`): each one's emulator, driver settings,
+//!   faults and command count.
+//! - `link`: the chaos link, a loopback proxy between a family's emulator and its driver that
+//!   drops, silences, delays and writes broken frames into the line.
 //! - `run`: the run itself — start, faults, settle, shut down, the invariants table.
 //! - `report`: the [`ChaosReport`] and its Markdown rendering.
 #![forbid(unsafe_code)]
 
+mod family;
+mod link;
 mod monitor;
 mod options;
 mod panics;
@@ -34,10 +40,12 @@ mod resources;
 mod run;
 mod world;
 
+pub use family::Family;
 pub use options::{ChaosHarnessError, ChaosOptions, DEFAULT_CONFIG, default_config};
 pub use plan::{FaultKind, PlannedFault, Planner, Rng, plan};
 pub use report::{ChaosReport, Invariant, KindStats};
 pub use resources::{Sample, open_fds, rss_kib, threads};
+pub use run::family::run_family;
 pub use run::invariants::soak_invariant;
 pub use run::run;
 pub use world::web::{course_body, send_request};

@@ -9,7 +9,8 @@ use std::time::Duration;
 use frontseat_actors::bus::{Bus, Subscription};
 use frontseat_actors::interface::error_code;
 use frontseat_actors::ports::ChaosMonitorInbox;
-use frontseat_actors::proto::goby::middleware::frontseat::protobuf::InterfaceState;
+use frontseat_actors::proto::goby::middleware::frontseat::protobuf::{InterfaceState, NodeStatus};
+use frontseat_config::NavLimitsConfig;
 use tokio::sync::watch;
 use tokio::time::Instant;
 
@@ -111,11 +112,59 @@ pub(crate) struct Monitor {
     /// Every change of state with its wall time, to measure how long each fault kept the
     /// interface out of COMMAND.
     pub(crate) changes: Mutex<Vec<(Instant, InterfaceState)>>,
+    /// Bumped at every change of state, with the moment of the last one: a reading taken with
+    /// the same count before and after it saw one unbroken stretch of a state.
+    change_count: AtomicU64,
+    last_change: Mutex<Instant>,
     pub(crate) rss_max_kib: AtomicU64,
+    /// What a helm must never be handed: the interface's own navigation bounds.
+    limits: NavLimitsConfig,
+    /// node_status outside those bounds (or not finite), with the first few.
+    pub(crate) absurd_nav: AtomicU64,
+    pub(crate) absurd_examples: Mutex<Vec<String>>,
+}
+
+/// Why `n` is absurd for a helm under `l`, or None: position off the globe, a value not finite,
+/// a speed or depth past the interface's own navigation bounds, a heading not wrapped.
+pub(crate) fn absurd(n: &NodeStatus, l: &NavLimitsConfig) -> Option<String> {
+    let g = &n.global_fix;
+    let bad = |v: Option<f64>, lo: f64, hi: f64| {
+        v.is_some_and(|x| !(x.is_finite() && (lo..=hi).contains(&x)))
+    };
+    if !n.time.is_finite() {
+        return Some(format!("time {}", n.time));
+    }
+    if bad(Some(g.lat), -90.0, 90.0) || bad(Some(g.lon), -180.0, 180.0) {
+        return Some(format!("position {:?}, {:?}", g.lat, g.lon));
+    }
+    if bad(g.depth, l.min_depth, l.max_depth) {
+        return Some(format!("depth {:?}", g.depth));
+    }
+    if bad(n.pose.heading, 0.0, 360.0) || bad(n.pose.course_over_ground, 0.0, 360.0) {
+        return Some(format!(
+            "heading {:?}, course {:?}",
+            n.pose.heading, n.pose.course_over_ground
+        ));
+    }
+    let s = l.max_abs_speed;
+    if bad(Some(n.speed.over_ground), -s, s) || bad(n.speed.over_water, -s, s) {
+        return Some(format!(
+            "speed {} / {:?}",
+            n.speed.over_ground, n.speed.over_water
+        ));
+    }
+    if let Some(c) = &n.local_fix
+        && [Some(c.x), Some(c.y), c.z]
+            .iter()
+            .any(|v| v.is_some_and(|x| !x.is_finite()))
+    {
+        return Some(format!("local fix {c:?}"));
+    }
+    None
 }
 
 impl Monitor {
-    pub(crate) fn new() -> Arc<Self> {
+    pub(crate) fn new(limits: NavLimitsConfig) -> Arc<Self> {
         let (state, _) = watch::channel(InterfaceState::InterfaceStandby);
         Arc::new(Self {
             statuses: AtomicU64::new(0),
@@ -125,7 +174,12 @@ impl Monitor {
             responses: Mutex::new(Responses::default()),
             state,
             changes: Mutex::new(Vec::new()),
+            change_count: AtomicU64::new(0),
+            last_change: Mutex::new(Instant::now()),
             rss_max_kib: AtomicU64::new(0),
+            limits,
+            absurd_nav: AtomicU64::new(0),
+            absurd_examples: Mutex::new(Vec::new()),
         })
     }
 
@@ -143,8 +197,8 @@ impl Monitor {
                                 *cur = s;
                                 c
                             });
-                            if changed && let Ok(mut v) = m.changes.lock() {
-                                push_change(&mut v, (Instant::now(), s));
+                            if changed {
+                                m.changed(s);
                             }
                         }
                         _ => {
@@ -157,8 +211,16 @@ impl Monitor {
                         }
                     }
                 }
-                ChaosMonitorInbox::NodeStatus(_) => {
+                ChaosMonitorInbox::NodeStatus(env) => {
                     m.node_status.fetch_add(1, Ordering::Relaxed);
+                    if let Some(why) = absurd(&env.msg, &m.limits) {
+                        m.absurd_nav.fetch_add(1, Ordering::Relaxed);
+                        if let Ok(mut v) = m.absurd_examples.lock()
+                            && v.len() < 5
+                        {
+                            v.push(why);
+                        }
+                    }
                 }
                 ChaosMonitorInbox::CommandResponse(env) => {
                     let mut r = m.responses.lock().unwrap_or_else(|p| p.into_inner());
@@ -187,6 +249,26 @@ impl Monitor {
         *self.state.borrow()
     }
 
+    fn changed(&self, s: InterfaceState) {
+        let now = Instant::now();
+        *self.last_change.lock().unwrap_or_else(|p| p.into_inner()) = now;
+        self.change_count.fetch_add(1, Ordering::SeqCst);
+        if let Ok(mut v) = self.changes.lock() {
+            push_change(&mut v, (now, s));
+        }
+    }
+
+    /// The state, how many changes there have been and when the last was.
+    pub(crate) fn stretch(&self) -> (InterfaceState, u64, Instant) {
+        let count = self.change_count.load(Ordering::SeqCst);
+        let at = *self.last_change.lock().unwrap_or_else(|p| p.into_inner());
+        (self.state(), count, at)
+    }
+
+    pub(crate) fn change_count(&self) -> u64 {
+        self.change_count.load(Ordering::SeqCst)
+    }
+
     /// The process ended: no state until the new one publishes (it starts in STANDBY).
     pub(crate) fn process_gone(&self) {
         let s = InterfaceState::InterfaceStandby;
@@ -194,9 +276,8 @@ impl Monitor {
             let c = *cur != s;
             *cur = s;
             c
-        }) && let Ok(mut v) = self.changes.lock()
-        {
-            push_change(&mut v, (Instant::now(), s));
+        }) {
+            self.changed(s);
         }
     }
 

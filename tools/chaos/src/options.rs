@@ -94,6 +94,8 @@ pub enum ChaosHarnessError {
     Web(String),
     #[error("gobyd stand-in or Goby3 gateway: {0}")]
     Goby3(String),
+    #[error("vehicle emulator: {0}")]
+    Vehicle(String),
     #[error("the interface did not reach COMMAND within {0:?} at start")]
     NoStart(Duration),
 }

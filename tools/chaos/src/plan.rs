@@ -25,6 +25,16 @@ pub enum FaultKind {
     WebFlood,
     ProcessRestart,
     GobydGone,
+    // The vehicle families' faults (`frontseat chaos --vehicle <family>`): injected in the link
+    // between the vehicle's emulator and its real driver, or through the emulator's own hooks.
+    // Not in `ALL`, so the basic simulator's schedules are what they were.
+    LinkDrop,
+    LinkGarbage,
+    TruncatedFrame,
+    SilentVehicle,
+    SlowLink,
+    VehicleRefuses,
+    VehicleModeChange,
 }
 
 impl FaultKind {
@@ -83,6 +93,18 @@ impl FaultKind {
         )
     }
 
+    /// The vehicle families' own faults; a family draws from these, the crashes and the
+    /// helm-side faults it supports ([`crate::family::Family::kinds`]).
+    pub const VEHICLE: [FaultKind; 7] = [
+        FaultKind::LinkDrop,
+        FaultKind::LinkGarbage,
+        FaultKind::TruncatedFrame,
+        FaultKind::SilentVehicle,
+        FaultKind::SlowLink,
+        FaultKind::VehicleRefuses,
+        FaultKind::VehicleModeChange,
+    ];
+
     /// The short name `--only` takes (`frontseat chaos --only moos-crash-loop,web-flood`).
     pub fn key(self) -> &'static str {
         match self {
@@ -105,12 +127,22 @@ impl FaultKind {
             FaultKind::WebFlood => "web-flood",
             FaultKind::ProcessRestart => "process-restart",
             FaultKind::GobydGone => "gobyd-gone",
+            FaultKind::LinkDrop => "link-drop",
+            FaultKind::LinkGarbage => "link-garbage",
+            FaultKind::TruncatedFrame => "truncated-frame",
+            FaultKind::SilentVehicle => "silent-vehicle",
+            FaultKind::SlowLink => "slow-link",
+            FaultKind::VehicleRefuses => "vehicle-refuses",
+            FaultKind::VehicleModeChange => "vehicle-mode-change",
         }
     }
 
     /// The kind a `key` names.
     pub fn from_key(key: &str) -> Option<Self> {
-        Self::ALL.into_iter().find(|k| k.key() == key)
+        Self::ALL
+            .into_iter()
+            .chain(Self::VEHICLE)
+            .find(|k| k.key() == key)
     }
 
     pub fn name(self) -> &'static str {
@@ -134,6 +166,13 @@ impl FaultKind {
             FaultKind::WebFlood => "web client flooding the commander (60 s sim)",
             FaultKind::ProcessRestart => "process ended, restarted by the service manager",
             FaultKind::GobydGone => "gobyd gone (60 s sim), then back",
+            FaultKind::LinkDrop => "vehicle link dropped",
+            FaultKind::LinkGarbage => "garbage frames in the vehicle's protocol",
+            FaultKind::TruncatedFrame => "truncated frames",
+            FaultKind::SilentVehicle => "vehicle silent",
+            FaultKind::SlowLink => "slow link",
+            FaultKind::VehicleRefuses => "vehicle refuses commands",
+            FaultKind::VehicleModeChange => "vehicle changes mode on its own",
         }
     }
 
@@ -149,6 +188,9 @@ impl FaultKind {
             FaultKind::CtrlPayload => 1,
             FaultKind::MoosCrashLoop | FaultKind::WebFlood | FaultKind::ProcessRestart => 1,
             FaultKind::GobydGone => 1,
+            FaultKind::LinkDrop | FaultKind::LinkGarbage | FaultKind::TruncatedFrame => 3,
+            FaultKind::SilentVehicle | FaultKind::SlowLink => 2,
+            FaultKind::VehicleRefuses | FaultKind::VehicleModeChange => 2,
         }
     }
 }
@@ -231,6 +273,31 @@ impl Planner {
         }
     }
 
+    /// A schedule over exactly `kinds` (a vehicle family's), narrowed by `only` when it is not
+    /// empty; with none left, a dropped vehicle link.
+    pub fn with_kinds(
+        seed: u64,
+        kinds: &[FaultKind],
+        nav_timeout_s: f64,
+        only: &[FaultKind],
+    ) -> Self {
+        let mut kinds: Vec<FaultKind> = kinds
+            .iter()
+            .copied()
+            .filter(|k| only.is_empty() || only.contains(k))
+            .collect();
+        if kinds.is_empty() {
+            kinds.push(FaultKind::LinkDrop);
+        }
+        let total = kinds.iter().map(|k| k.weight()).sum();
+        Self {
+            rng: Rng::new(seed),
+            kinds,
+            total,
+            nav_timeout_s,
+        }
+    }
+
     pub fn next_fault(&mut self) -> PlannedFault {
         let rng = &mut self.rng;
         let ms =
@@ -253,6 +320,20 @@ impl Planner {
             // The long helm-side faults: `amount` is their length in simulated seconds.
             FaultKind::MoosCrashLoop | FaultKind::WebFlood | FaultKind::GobydGone => {
                 (ms(rng, 10.0, 100.0), 60.0)
+            }
+            // `amount`: garbage or truncated frames written.
+            FaultKind::LinkGarbage | FaultKind::TruncatedFrame => {
+                (ms(rng, 5.0, 50.0), (1 + rng.below(40)) as f64)
+            }
+            // `amount`: simulated seconds of silence, shorter and longer than the driver's
+            // timeout for a silent vehicle (`nav_timeout_s` for a family).
+            FaultKind::SilentVehicle => (Duration::ZERO, rng.range(0.2, 2.5 * self.nav_timeout_s)),
+            // `amount`: the link's added latency each way, simulated seconds.
+            FaultKind::SlowLink => (ms(rng, 100.0, 600.0), rng.range(0.05, 1.5)),
+            // Held long enough that a command let through would be seen (the check's grace
+            // is 300 ms wall).
+            FaultKind::VehicleRefuses | FaultKind::VehicleModeChange => {
+                (ms(rng, 400.0, 900.0), 0.0)
             }
             _ => (ms(rng, 10.0, 200.0), 0.0),
         };

@@ -5,6 +5,15 @@
 //! References it follows (toward the point, at the speed and depth given, loitering when close),
 //! the maneuver's timeout (References stop → FAILURE, SERVICE, thrust off), MANDONE, STOP and
 //! Abort (dst = its id exactly); our own requests come back as DUNE loops them back.
+//!
+//! Fault hooks, for the chaos harness (`frontseat chaos --vehicle dune`), set through the
+//! running emulator's session and acted on at its next step:
+//! - [`DuneSession::refuse_plans`]: the vehicle refuses plans — the running maneuver fails
+//!   ("plan refused by the vehicle") and every PlanControl START is answered FAILURE until the
+//!   refusal is lifted; the vehicle stays in SERVICE.
+//! - [`DuneSession::take_control`]: the vehicle changes mode on its own — the maneuver fails and
+//!   the vehicle goes to the given op_mode (EXTERNAL: someone else holds the control loops;
+//!   CALIBRATION; ERROR) until [`DuneSession::release_control`] puts it back in SERVICE.
 
 use frontseat_sim::emulator::Session;
 use frontseat_sim::vehicle::{Limits, Setpoint, Vehicle, wrap_heading};
@@ -100,6 +109,12 @@ pub struct DuneSession {
     next_pcs: f64,
     next_hb: f64,
     next_announce: f64,
+    /// Fault hook: refuse every plan START while set.
+    refusing: bool,
+    /// Fault hook: the op_mode to go to on its own at the next step (None: stay).
+    take_over: Option<u8>,
+    /// Fault hook: the running maneuver fails at the next step.
+    fail_maneuver: bool,
     pub stats: DuneStats,
 }
 
@@ -128,6 +143,9 @@ impl DuneSession {
             next_pcs: 0.0,
             next_hb: 0.0,
             next_announce: 0.0,
+            refusing: false,
+            take_over: None,
+            fail_maneuver: false,
             stats: DuneStats::default(),
             opts,
         }
@@ -148,6 +166,25 @@ impl DuneSession {
 
     pub fn maneuver_running(&self) -> bool {
         self.maneuver.is_some()
+    }
+
+    /// Fault hook: while `refuse`, the running maneuver fails (at the next step) and every plan
+    /// START is refused; lifting it lets the next START in.
+    pub fn refuse_plans(&mut self, refuse: bool) {
+        self.refusing = refuse;
+        self.fail_maneuver |= refuse;
+    }
+
+    /// Fault hook: at the next step the vehicle leaves any maneuver and goes to `op_mode` on its
+    /// own (EXTERNAL, CALIBRATION or ERROR), where it stays until [`Self::release_control`].
+    pub fn take_control(&mut self, op_mode: u8) {
+        self.take_over = Some(op_mode);
+        self.fail_maneuver = true;
+    }
+
+    /// Fault hook: the vehicle is back in SERVICE, ready for a plan.
+    pub fn release_control(&mut self) {
+        self.take_over = Some(consts::op_mode::SERVICE);
     }
 
     fn header(&self, dst: u16) -> Header {
@@ -378,6 +415,10 @@ impl DuneSession {
                         out,
                     );
                 };
+                if self.refusing {
+                    self.stats.plans_refused += 1;
+                    return self.reply(src, pc, FAILURE, "plan refused by the vehicle", out);
+                }
                 if self.op_mode != consts::op_mode::SERVICE || self.maneuver.is_some() {
                     self.stats.plans_refused += 1;
                     return self.reply(src, pc, FAILURE, "vehicle not in SERVICE", out);
@@ -570,6 +611,31 @@ impl Session for DuneSession {
 
     fn step(&mut self, dt: f64, out: &mut Vec<u8>) {
         self.t += dt;
+        if std::mem::take(&mut self.fail_maneuver)
+            && let Some(m) = self.maneuver.clone()
+        {
+            self.emit(
+                m.src,
+                imc::PlanControl {
+                    kind: consts::plan_control::FAILURE,
+                    op: consts::plan_control::START,
+                    request_id: m.request_id,
+                    plan_id: self.plan_id.clone(),
+                    flags: 0,
+                    arg: None,
+                    info: "plan refused by the vehicle".into(),
+                }
+                .into(),
+                out,
+            );
+            self.end_maneuver(consts::plan_control::FAILURE, out);
+        }
+        if let Some(mode) = self.take_over.take()
+            && self.op_mode != consts::op_mode::BOOT
+        {
+            self.op_mode = mode;
+            self.vehicle_state(out);
+        }
         if self.op_mode == consts::op_mode::BOOT && self.t >= self.opts.boot_s {
             self.op_mode = consts::op_mode::SERVICE;
             self.vehicle_state(out);

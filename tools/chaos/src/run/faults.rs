@@ -16,9 +16,11 @@ use frontseat_moos::Broker;
 use tokio::time::Instant;
 
 use super::system::Run;
+use super::tally::Tally;
 use crate::plan::{FaultKind, PlannedFault};
 use crate::world::rebind::rebind;
 use crate::world::web::{WEB_FLOODERS, web_exchange, web_flood_request};
+use frontseat_actors::ports::ChaosMonkeyPorts;
 
 /// systemd's RestartSec in the service-manager model.
 const SERVICE_RESTART_SEC: Duration = Duration::from_millis(100);
@@ -141,38 +143,34 @@ impl Run {
                 self.gobyd_gone(i, f).await;
                 Instant::now()
             }
+            // The vehicle families' faults: never planned for the basic simulator (`Planner::new`
+            // draws from `FaultKind::ALL` only).
+            FaultKind::LinkDrop
+            | FaultKind::LinkGarbage
+            | FaultKind::TruncatedFrame
+            | FaultKind::SilentVehicle
+            | FaultKind::SlowLink
+            | FaultKind::VehicleRefuses
+            | FaultKind::VehicleModeChange => {
+                self.tally.notes.push(format!(
+                    "fault #{i}: {} needs --vehicle <family>; skipped",
+                    f.kind.name()
+                ));
+                Instant::now()
+            }
         }
     }
 
     async fn driver_crash(&mut self, i: u32, kind: FaultKind) {
-        let expected =
-            (self.tally.injected_panics + self.tally.injected_kills - self.tally.crash_base) as u32;
-        if !self.driver_up(expected).await {
-            self.tally.violations.push(format!(
-                "fault #{i} ({}): driver not up with {expected} restarts within {:?} before injecting",
-                kind.name(),
-                self.opts.recovery_bound
-            ));
-            return;
-        }
-        let fault = if kind == FaultKind::DriverPanic {
-            self.tally.injected_panics += 1;
-            chaos_fault::Fault::DriverPanic(true)
-        } else {
-            self.tally.injected_kills += 1;
-            chaos_fault::Fault::KillDriver(true)
-        };
-        let t0 = Instant::now();
-        self.monkey.publish_fault(ChaosFault { fault: Some(fault) });
-        if self.driver_up(expected + 1).await {
-            self.tally.restart_waits.push(t0.elapsed());
-        } else {
-            self.tally.violations.push(format!(
-                "fault #{i} ({}): driver not restarted within {:?}",
-                kind.name(),
-                self.opts.recovery_bound
-            ));
-        }
+        driver_crash(
+            &self.service,
+            &self.monkey,
+            &mut self.tally,
+            self.opts.recovery_bound,
+            i,
+            kind,
+        )
+        .await;
     }
 
     /// gobyd goes away for `amount` simulated seconds (every socket closed, nothing answering on
@@ -392,42 +390,16 @@ impl Run {
         ended
     }
 
-    /// A subscriber to raw_in and node_status that never reads. The publishers (driver,
-    /// interface) must not block: node_status keeps reaching the monitor, and the stalled
-    /// queue's overflow is dropped and counted.
     async fn stall(&mut self, i: u32, hold: Duration) {
-        if self
-            .monitor
-            .until_command(self.opts.recovery_bound)
-            .await
-            .is_none()
-        {
-            self.tally.violations.push(format!(
-                "fault #{i} (stalled subscriber): not in COMMAND within {:?} before the stall",
-                self.opts.recovery_bound
-            ));
-        }
-        // Never read: every delivery keeps its slot until the stall ends.
-        let (tx, rx) = tokio::sync::mpsc::unbounded_channel();
-        let stalled = ChaosStalledInbox::subscribe_all(&self.bus, "chaos-stalled", 8, move |m| {
-            tx.send(m).map_err(|_| Undeliverable)
-        });
-        let before_drops = self.bus.total_dropped();
-        let before = self.monitor.node_status.load(Ordering::Relaxed);
-        tokio::time::sleep(hold).await;
-        let delivered = self.monitor.node_status.load(Ordering::Relaxed) - before;
-        let dropped = self.bus.total_dropped() - before_drops;
-        for s in stalled {
-            s.cancel();
-        }
-        drop(rx);
-        self.tally.stall_deliveries.push(delivered);
-        self.tally.stall_drops += dropped;
-        if delivered == 0 {
-            self.tally.violations.push(format!(
-                "fault #{i} (stalled subscriber): no node_status reached other subscribers during a {hold:?} stall"
-            ));
-        }
+        stall(
+            &self.bus,
+            &self.monitor,
+            &mut self.tally,
+            self.opts.recovery_bound,
+            i,
+            hold,
+        )
+        .await;
     }
 
     /// The translation panics on its data path: its supervisor must restart it, and the new one
@@ -529,5 +501,96 @@ impl Run {
             }
             tokio::time::sleep(Duration::from_millis(5)).await;
         }
+    }
+}
+
+/// Crashes the driver (a panic in its handler, or the actor killed) once it is up with the
+/// restarts injected so far, and waits for its restart: the basic simulator's run and the vehicle
+/// families' share it.
+pub(super) async fn driver_crash(
+    service: &InterfaceService,
+    monkey: &ChaosMonkeyPorts,
+    tally: &mut Tally,
+    bound: Duration,
+    i: u32,
+    kind: FaultKind,
+) {
+    let expected = (tally.injected_panics + tally.injected_kills - tally.crash_base) as u32;
+    if !driver_up(service, bound, expected).await {
+        tally.violations.push(format!(
+            "fault #{i} ({}): driver not up with {expected} restarts within {bound:?} before injecting",
+            kind.name(),
+        ));
+        return;
+    }
+    let fault = if kind == FaultKind::DriverPanic {
+        tally.injected_panics += 1;
+        chaos_fault::Fault::DriverPanic(true)
+    } else {
+        tally.injected_kills += 1;
+        chaos_fault::Fault::KillDriver(true)
+    };
+    let t0 = Instant::now();
+    monkey.publish_fault(ChaosFault { fault: Some(fault) });
+    if driver_up(service, bound, expected + 1).await {
+        tally.restart_waits.push(t0.elapsed());
+    } else {
+        tally.violations.push(format!(
+            "fault #{i} ({}): driver not restarted within {bound:?}",
+            kind.name(),
+        ));
+    }
+}
+
+/// Waits until the driver actor is up with `restarts` restarts behind it.
+pub(super) async fn driver_up(service: &InterfaceService, bound: Duration, restarts: u32) -> bool {
+    let deadline = Instant::now() + bound;
+    while Instant::now() < deadline {
+        match service.snapshot(Duration::from_secs(2)).await {
+            Some(s) if s.driver_up && s.driver_restarts >= restarts => return true,
+            Some(_) => tokio::time::sleep(Duration::from_millis(2)).await,
+            None => return false,
+        }
+    }
+    false
+}
+
+/// A subscriber to raw_in and node_status that never reads. The publishers (driver,
+/// interface) must not block: node_status keeps reaching the monitor, and the stalled
+/// queue's overflow is dropped and counted.
+pub(super) async fn stall(
+    bus: &frontseat_actors::bus::Bus,
+    monitor: &crate::monitor::Monitor,
+    tally: &mut Tally,
+    bound: Duration,
+    i: u32,
+    hold: Duration,
+) {
+    if monitor.until_command(bound).await.is_none() {
+        tally.violations.push(format!(
+            "fault #{i} (stalled subscriber): not in COMMAND within {:?} before the stall",
+            bound
+        ));
+    }
+    // Never read: every delivery keeps its slot until the stall ends.
+    let (tx, rx) = tokio::sync::mpsc::unbounded_channel();
+    let stalled = ChaosStalledInbox::subscribe_all(bus, "chaos-stalled", 8, move |m| {
+        tx.send(m).map_err(|_| Undeliverable)
+    });
+    let before_drops = bus.total_dropped();
+    let before = monitor.node_status.load(Ordering::Relaxed);
+    tokio::time::sleep(hold).await;
+    let delivered = monitor.node_status.load(Ordering::Relaxed) - before;
+    let dropped = bus.total_dropped() - before_drops;
+    for s in stalled {
+        s.cancel();
+    }
+    drop(rx);
+    tally.stall_deliveries.push(delivered);
+    tally.stall_drops += dropped;
+    if delivered == 0 {
+        tally.violations.push(format!(
+            "fault #{i} (stalled subscriber): no node_status reached other subscribers during a {hold:?} stall"
+        ));
     }
 }

@@ -39,10 +39,36 @@ pub(super) fn table(
     notes: &mut Vec<String>,
 ) -> Vec<Invariant> {
     let bound = opts.recovery_bound;
+    let mut inv = common(t, monitor, opts, end, notes);
+    inv.extend(stalls(t));
+    if opts.moos {
+        inv.push(moos_reconnects(t, bound));
+        inv.push(translation_restarts(t, bound));
+    }
+    inv.push(process_restarts(t, bound));
+    inv.push(vehicle_link(t));
+    inv.extend(web_floods(t));
+    inv.extend(gobyd_returns(t, bound));
+    if opts.soak.is_some() {
+        inv.push(soak_invariant(end.samples, opts.rss_growth_limit_kib));
+    }
+    inv
+}
+
+/// The rows every run has, the basic simulator's and a vehicle family's.
+pub(super) fn common(
+    t: &Tally,
+    monitor: &Monitor,
+    opts: &ChaosOptions,
+    end: &End<'_>,
+    notes: &mut Vec<String>,
+) -> Vec<Invariant> {
+    let bound = opts.recovery_bound;
     let mut inv = vec![
         final_recovery(monitor, bound, end),
         each_recovery(t, bound),
         five_states(monitor),
+        nothing_absurd(monitor),
         one_response_each(t, monitor, end.sent),
     ];
     match end.rss_baseline {
@@ -57,19 +83,30 @@ pub(super) fn table(
         measured: format!("{:?}", end.exit),
         ok: end.exit == ServiceExit::Clean && end.snapshot.is_some(),
     });
-    inv.extend(stalls(t));
-    if opts.moos {
-        inv.push(moos_reconnects(t, bound));
-        inv.push(translation_restarts(t, bound));
-    }
-    inv.push(process_restarts(t, bound));
-    inv.push(vehicle_link(t));
-    inv.extend(web_floods(t));
-    inv.extend(gobyd_returns(t, bound));
-    if opts.soak.is_some() {
-        inv.push(soak_invariant(end.samples, opts.rss_growth_limit_kib));
-    }
     inv
+}
+
+fn nothing_absurd(monitor: &Monitor) -> Invariant {
+    let n = monitor.absurd_nav.load(Ordering::Relaxed);
+    let examples = monitor
+        .absurd_examples
+        .lock()
+        .map(|v| v.clone())
+        .unwrap_or_default();
+    Invariant {
+        name: "nothing absurd reaches a helm (every node_status on the globe, finite, inside [limits.navigation])",
+        bound: "0 absurd node_status".into(),
+        measured: format!(
+            "{} node_status, {n} absurd{}",
+            monitor.node_status.load(Ordering::Relaxed),
+            if examples.is_empty() {
+                String::new()
+            } else {
+                format!(" ({})", examples.join("; "))
+            }
+        ),
+        ok: n == 0,
+    }
 }
 
 fn final_recovery(monitor: &Monitor, bound: Duration, end: &End<'_>) -> Invariant {
@@ -246,7 +283,7 @@ fn driver_restarts(t: &Tally, end: &End<'_>) -> Invariant {
     }
 }
 
-fn stalls(t: &Tally) -> Option<Invariant> {
+pub(super) fn stalls(t: &Tally) -> Option<Invariant> {
     if t.stall_deliveries.is_empty() {
         return None;
     }

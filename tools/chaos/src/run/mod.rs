@@ -2,6 +2,7 @@
 //! planned faults one after another (each checked for its recovery and, on the helm side, for
 //! the vehicle link left alone), let the last one settle, shut everything down, and judge.
 
+pub(crate) mod family;
 mod faults;
 pub(crate) mod invariants;
 mod system;
@@ -43,7 +44,7 @@ pub async fn run(
     let panics = PanicWatch::install()?;
     let started = Instant::now();
     let bus = Bus::new();
-    let monitor = Monitor::new();
+    let monitor = Monitor::new(config.limits.navigation.clone());
     let monitor_subs = monitor.subscribe(&bus);
     let mut run = start(config, &opts, bus, monitor).await?;
     wait_for_command(&mut run).await?;
@@ -315,10 +316,33 @@ async fn check_recovery(
     cleared: Instant,
 ) {
     let bound = run.opts.recovery_bound;
-    let back = run.monitor.until_command(bound).await;
+    recovery(
+        &run.monitor,
+        &mut run.tally,
+        bound,
+        i,
+        f,
+        injected_at,
+        cleared,
+    )
+    .await;
+}
+
+/// The recovery check itself, over the monitor and the tally (the vehicle families' run shares
+/// it).
+async fn recovery(
+    monitor: &Monitor,
+    tally: &mut Tally,
+    bound: Duration,
+    i: u32,
+    f: &PlannedFault,
+    injected_at: Instant,
+    cleared: Instant,
+) {
+    let back = monitor.until_command(bound).await;
     let now = Instant::now();
-    let outage = run.monitor.outage(injected_at, now);
-    let st = run.tally.by_kind.entry(f.kind).or_default();
+    let outage = monitor.outage(injected_at, now);
+    let st = tally.by_kind.entry(f.kind).or_default();
     match back {
         Some(_) => {
             // A fault that never took the interface out of COMMAND needed no recovery.
@@ -330,14 +354,14 @@ async fn check_recovery(
             st.recoveries.push(back);
             st.outages.push(outage);
             if f.kind == FaultKind::ProcessRestart {
-                run.tally.process_restarts.push(back);
+                tally.process_restarts.push(back);
             }
         }
-        None => run.tally.violations.push(format!(
+        None => tally.violations.push(format!(
             "fault #{i} ({}): not back in COMMAND within {:?} after it cleared (state {:?})",
             f.kind.name(),
             bound,
-            run.monitor.state()
+            monitor.state()
         )),
     }
 }
@@ -378,26 +402,39 @@ async fn check_vehicle_link(
 /// or None past the bound. Then the helm stops, and every outstanding request gets its time to
 /// be answered. Returns that recovery and how many requests the helm sent.
 async fn settle(run: &mut Run, last_cleared: Instant) -> (Option<Duration>, i32) {
+    settle_parts(
+        &run.monitor,
+        &run.helm,
+        run.opts.recovery_bound,
+        run.warp,
+        last_cleared,
+    )
+    .await
+}
+
+/// `settle` over the parts it needs (the vehicle families' run shares it).
+async fn settle_parts(
+    monitor: &Monitor,
+    helm: &Helm,
+    bound: Duration,
+    warp: f64,
+    last_cleared: Instant,
+) -> (Option<Duration>, i32) {
     let stable = Duration::from_millis(300);
     let called = Instant::now();
-    let final_recovery = run
-        .monitor
-        .until_stable_command(run.opts.recovery_bound, stable)
+    let final_recovery = monitor
+        .until_stable_command(bound, stable)
         .await
         .map(|reached| (called + reached).saturating_duration_since(last_cleared));
 
     // Stop commanding, then give every outstanding request its 5 s (sim) to be answered.
-    run.helm.commanding.store(false, Ordering::SeqCst);
-    let sent = run.helm.last_id.load(Ordering::SeqCst);
-    let answer_wait = Duration::from_secs_f64(5.0 / run.warp) + Duration::from_secs(3);
+    helm.commanding.store(false, Ordering::SeqCst);
+    let sent = helm.last_id.load(Ordering::SeqCst);
+    let answer_wait = Duration::from_secs_f64(5.0 / warp) + Duration::from_secs(3);
     let deadline = Instant::now() + answer_wait;
     loop {
         let answered = {
-            let r = run
-                .monitor
-                .responses
-                .lock()
-                .unwrap_or_else(|p| p.into_inner());
+            let r = monitor.responses.lock().unwrap_or_else(|p| p.into_inner());
             (1..=sent).all(|id| r.answered(id))
         };
         if answered || Instant::now() >= deadline {

@@ -88,17 +88,4 @@ impl Run {
             tokio::time::sleep(Duration::from_millis(2)).await;
         }
     }
-
-    /// Waits until the driver actor is up with `restarts` restarts behind it.
-    pub(super) async fn driver_up(&self, restarts: u32) -> bool {
-        let deadline = Instant::now() + self.opts.recovery_bound;
-        while Instant::now() < deadline {
-            match self.snapshot().await {
-                Some(s) if s.driver_up && s.driver_restarts >= restarts => return true,
-                Some(_) => tokio::time::sleep(Duration::from_millis(2)).await,
-                None => return false,
-            }
-        }
-        false
-    }
 }

@@ -41,7 +41,7 @@ impl fmt::Display for FieldError {
 /// Why a configuration could not be loaded.
 #[derive(Debug, thiserror::Error)]
 pub enum ConfigError {
-    /// The file could not be read (missing, permissions, larger than the size limit, not UTF-8).
+    /// The file could not be read (missing, permissions, larger than the size limit).
     #[error("{file}: {source}")]
     Io {
         /// The file name as given.
@@ -50,7 +50,8 @@ pub enum ConfigError {
         #[source]
         source: std::io::Error,
     },
-    /// Not valid TOML, a wrong type, a missing required key, or an unknown key.
+    /// Not valid TOML (or Goby3 text format), a byte that is not UTF-8, a wrong type, a missing
+    /// required key, or an unknown key.
     ///
     /// `line` and `column` are 1-based; 0 means the parser gave no position (then `Display`
     /// leaves them out).

@@ -168,8 +168,32 @@ fn read_text(path: &Path) -> Result<String, ConfigError> {
             format!("larger than {MAX_FILE_BYTES} bytes; not a config file"),
         )));
     }
-    String::from_utf8(bytes)
-        .map_err(|e| io(std::io::Error::new(std::io::ErrorKind::InvalidData, e)))
+    String::from_utf8(bytes).map_err(|e| not_utf8(&file, e.as_bytes(), e.utf8_error()))
+}
+
+/// A byte that is not UTF-8 is a parse error like any other: its line and column (counted in
+/// the valid text before it), the byte, and for a .pb.cfg the same prefix as its other errors.
+fn not_utf8(file: &str, bytes: &[u8], e: std::str::Utf8Error) -> ConfigError {
+    let at = e.valid_up_to();
+    // Valid by construction: from_utf8 checked everything before `at`.
+    let before = std::str::from_utf8(&bytes[..at]).unwrap_or_default();
+    let (line, column) = line_column(before, before.len()).unwrap_or((0, 0));
+    let byte = bytes.get(at).copied().unwrap_or_default();
+    let what = match e.error_len() {
+        Some(_) => format!("byte 0x{byte:02X} is not UTF-8"),
+        None => format!("the file ends inside a UTF-8 character (byte 0x{byte:02X})"),
+    };
+    let prefix = if goby3_import::is_goby3_file(file) {
+        goby3_import::PARSE_ERROR_PREFIX
+    } else {
+        ""
+    };
+    ConfigError::Parse {
+        file: file.to_owned(),
+        line,
+        column,
+        message: format!("{prefix}{what}: a config file is UTF-8 text"),
+    }
 }
 
 /// Parse and validate TOML text; `file_name` only labels the errors.

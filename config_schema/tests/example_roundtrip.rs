@@ -198,11 +198,27 @@ fn load_reads_a_file_and_names_it_in_errors() {
     let err = load::<InterfaceConfig>(&huge).unwrap_err();
     assert!(matches!(err, ConfigError::Io { .. }), "{err}");
 
-    let not_utf8 = temp_file("binary.toml", &[0xff, 0xfe, 0x00]);
-    assert!(matches!(
-        load::<InterfaceConfig>(&not_utf8),
-        Err(ConfigError::Io { .. })
-    ));
+    // Not UTF-8: a parse error with its line and column, like any other.
+    let not_utf8 = temp_file("binary.toml", b"name = \"a\"\nx = \"\xff\xfe\"\n");
+    let err = load::<InterfaceConfig>(&not_utf8).unwrap_err();
+    assert!(
+        matches!(
+            err,
+            ConfigError::Parse {
+                line: 2,
+                column: 6,
+                ..
+            }
+        ),
+        "{err:?}"
+    );
+    assert_eq!(
+        err.to_string(),
+        format!(
+            "{}:2:6: byte 0xFF is not UTF-8: a config file is UTF-8 text",
+            not_utf8.display()
+        )
+    );
 
     for p in [good, bad, huge, not_utf8] {
         let _ = std::fs::remove_file(p);

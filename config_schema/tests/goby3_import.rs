@@ -1,7 +1,8 @@
 //! Goby3 .pb.cfg files as Goby3 users have them: each of Goby3's own example configs (fixtures/
-//! goby3/, printed by Goby3 itself) is read as printed (its blank required values are errors
-//! with their line) and with the blanks filled in (it imports to TOML that loads, on the driver
-//! its extension block names, with every field either a setting or a named note).
+//! goby3/, printed by Goby3 itself) is read as printed (the basic simulator's imports, its
+//! blanks filled in with warnings; a real vehicle's blank datum is an error with its line) and
+//! with the blanks filled in (it imports to TOML that loads, on the driver its extension block
+//! names, with every field either a setting or a named note).
 
 use std::path::{Path, PathBuf};
 
@@ -68,26 +69,184 @@ fn interface(name: &str) -> (InterfaceConfig, String, Vec<String>) {
     (cfg, imported.toml.clone(), imported.warnings())
 }
 
+/// The example file byte for byte, as Goby3 printed it (its banner line included).
+fn raw(name: &str) -> String {
+    let p = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/fixtures/goby3")
+        .join(name);
+    std::fs::read_to_string(&p).unwrap_or_else(|e| panic!("{}: {e}", p.display()))
+}
+
 #[test]
-fn goby3_examples_as_printed_name_the_blank_required_value_and_its_line() {
+fn real_vehicle_examples_as_printed_refuse_their_blank_datum_at_its_line() {
     for name in [
-        "goby_frontseat_interface_basic_simulator.example.pb.cfg",
         "goby_frontseat_interface_bluefin.example.pb.cfg",
         "goby_frontseat_interface_iver.example.pb.cfg",
         "goby_frontseat_interface_waveglider_sv2.example.pb.cfg",
     ] {
-        let text = fixture(name);
+        let text = raw(name);
         match import_interface(&text, name) {
-            Err(ConfigError::Parse { line, message, .. }) => {
+            Err(e @ ConfigError::Parse { line, column, .. }) => {
                 let at = text.lines().nth(line - 1).unwrap_or_default();
-                assert!(
-                    at.contains(':') && at.contains("(required)"),
-                    "{name}: line {line} is {at:?} ({message})"
+                assert_eq!((line, column), (66, 5), "{name}: {e}");
+                assert_eq!(at.trim_start(), "lat:   #  (required)", "{name}");
+                assert_eq!(
+                    e.to_string(),
+                    format!(
+                        "{name}:66:5: Goby3 config (protobuf text format): \
+                         frontseat_cfg.origin.lat has no value (Goby3's -e placeholder for a \
+                         value you give): a real vehicle's datum cannot be guessed: every local \
+                         x/y a helm steers by is measured from it (give it here or in app.geodesy)"
+                    )
                 );
             }
             other => panic!("{name}: {other:?}"),
         }
     }
+}
+
+#[test]
+fn basic_simulator_example_as_goby3_prints_it_imports_with_every_fill_in_named() {
+    let name = "goby_frontseat_interface_basic_simulator.example.pb.cfg";
+    let imported = import_interface(&raw(name), name).unwrap_or_else(|e| panic!("{e}"));
+    let cfg = frontseat_config::parse::<InterfaceConfig>(&imported.toml, name)
+        .unwrap_or_else(|e| panic!("{e}\n{}", imported.toml));
+    assert_eq!(cfg.driver.name, "basic_simulator");
+    let bs = &cfg.driver.basic_simulator;
+    // The blanks: frontseat's default datum, the simulated vehicle starting there, on loopback.
+    let datum = (
+        frontseat_config::DEFAULT_ORIGIN_LAT,
+        frontseat_config::DEFAULT_ORIGIN_LON,
+    );
+    assert_eq!((cfg.origin.lat, cfg.origin.lon), datum);
+    assert_eq!((bs.start.lat, bs.start.lon), datum);
+    assert_eq!((bs.tcp_address.as_str(), bs.tcp_port), ("127.0.0.1", 54321));
+    // What Goby3 printed with a value is kept.
+    assert_eq!(bs.start.control_freq, 10.0);
+    assert_eq!(cfg.origin.altitude, None);
+    assert!(cfg.require_helm);
+    assert_eq!(cfg.moos.as_ref().map(|m| m.port), Some(9000));
+    // Every fill-in is a warning naming the Goby3 field; the banner line is named and skipped.
+    let warnings = imported.warnings().join("\n");
+    for field in [
+        "(line 1) = \"Loading frontseat driver library: libgoby_frontseat_basic_simulator.so.30\"",
+        "frontseat_cfg.origin.lat = (blank) ignored: no datum given",
+        "frontseat_cfg.origin.lon = (blank)",
+        "basic_simulator_config].start.lat = (blank) ignored: the simulated vehicle starts at the datum",
+        "basic_simulator_config].start.lon = (blank)",
+        "basic_simulator_config].tcp_address = \"\" ignored: empty (Goby3's -e placeholder): frontseat's default 127.0.0.1",
+    ] {
+        assert!(warnings.contains(field), "no {field:?} in:\n{warnings}");
+    }
+    // The TOML says where each filled value came from.
+    assert!(
+        imported
+            .toml
+            .contains("frontseat_cfg.origin.lat blank (Goby3's -e placeholder)"),
+        "{}",
+        imported.toml
+    );
+}
+
+#[test]
+fn a_blank_datum_takes_app_geodesy_and_other_blanks_are_refused_at_their_line() {
+    let text = "app { geodesy { lat_origin: 41.5 lon_origin: -70.5 } }\n\
+                frontseat_cfg {\n  origin {\n    lat:   #  (required)\n    lon:\n  }\n  \
+                [goby.middleware.frontseat.protobuf.bluefin_config] { huxley_tcp_address: \"h\" }\n}\n";
+    let imported = import_interface(text, "t.pb.cfg").unwrap_or_else(|e| panic!("{e}"));
+    let cfg = frontseat_config::parse::<InterfaceConfig>(&imported.toml, "t").unwrap();
+    assert_eq!((cfg.origin.lat, cfg.origin.lon), (41.5, -70.5));
+    assert_eq!(cfg.driver.name, "bluefin");
+    // A blank the importer has no safe value for: refused where it is.
+    let text = "frontseat_cfg {\n  origin { lat: 42 lon: -71 }\n  \
+                [goby.middleware.frontseat.protobuf.bluefin_config] {\n    \
+                huxley_tcp_address: \"h\"\n    rpm_table {\n      speed:   #  (required)\n      \
+                rpm: 900\n    }\n  }\n}\n";
+    match import_interface(text, "t.pb.cfg") {
+        Err(
+            e @ ConfigError::Parse {
+                line: 6, column: 7, ..
+            },
+        ) => assert!(
+            e.to_string().contains(
+                "frontseat_cfg.[goby.middleware.frontseat.protobuf.bluefin_config].rpm_table.speed \
+                 has no value"
+            ),
+            "{e}"
+        ),
+        other => panic!("{other:?}"),
+    }
+    // Goby3's banner anywhere but the first line is not skipped: not config, an error.
+    let text = "frontseat_cfg { origin { lat: 42 lon: -71 } }\n\
+                Loading frontseat driver library: libgoby_frontseat_bluefin.so.30\n";
+    assert!(matches!(
+        import_interface(text, "t.pb.cfg"),
+        Err(ConfigError::Parse { line: 2, .. })
+    ));
+}
+
+#[test]
+fn a_byte_that_is_not_utf8_is_refused_at_its_line_and_column_like_any_parse_error() {
+    let dir = std::env::temp_dir().join(format!("fs-goby3-utf8-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let cases: [(&str, &[u8], usize, usize, &str); 3] = [
+        // In a comment (Goby3's parser skips comments whole).
+        (
+            "comment.pb.cfg",
+            b"frontseat_cfg {\n  origin { lat: 42 lon: -71 }\n  # caf\xe9\n}\n",
+            3,
+            8,
+            "byte 0xE9 is not UTF-8",
+        ),
+        // In a string value, after a two-byte character that is UTF-8 (columns count characters).
+        (
+            "string.pb.cfg",
+            b"app { name: \"\xc3\xa9t\xff\" }\nfrontseat_cfg { origin { lat: 42 lon: -71 } }\n",
+            1,
+            16,
+            "byte 0xFF is not UTF-8",
+        ),
+        // Cut inside a character at the end.
+        (
+            "cut.pb.cfg",
+            b"frontseat_cfg { origin { lat: 42 lon: -71 } }\n# \xe2\x82",
+            2,
+            3,
+            "the file ends inside a UTF-8 character (byte 0xE2)",
+        ),
+    ];
+    for (name, bytes, line, column, what) in cases {
+        let path = dir.join(name);
+        std::fs::write(&path, bytes).unwrap();
+        let want = format!(
+            "{}:{line}:{column}: Goby3 config (protobuf text format): {what}: a config file is \
+             UTF-8 text",
+            path.display()
+        );
+        for err in [
+            frontseat_config::load_with_notes::<InterfaceConfig>(&path).unwrap_err(),
+            frontseat_config::import_goby3::<InterfaceConfig>(&path).unwrap_err(),
+            frontseat_config::load_with_notes::<GatewayConfig>(&path).unwrap_err(),
+        ] {
+            assert!(
+                matches!(err, ConfigError::Parse { line: l, column: c, .. } if (l, c) == (line, column)),
+                "{name}: {err:?}"
+            );
+            assert_eq!(err.to_string(), want, "{name}");
+        }
+    }
+    // The same shape as any other parse error of a .pb.cfg.
+    let path = dir.join("unknown.pb.cfg");
+    std::fs::write(&path, "frontseat_cfg {\n  requre_helm: true\n}\n").unwrap();
+    let err = frontseat_config::load_with_notes::<InterfaceConfig>(&path).unwrap_err();
+    assert!(
+        err.to_string().starts_with(&format!(
+            "{}:2:3: Goby3 config (protobuf text format): ",
+            path.display()
+        )),
+        "{err}"
+    );
+    std::fs::remove_dir_all(&dir).ok();
 }
 
 #[test]

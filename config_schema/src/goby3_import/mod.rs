@@ -13,13 +13,15 @@
 //! is exactly what runs.
 
 mod ledger;
+mod placeholder;
 mod text;
 
 use crate::{ConfigError, FieldError};
 use ledger::Import;
 pub use ledger::Note;
+pub use placeholder::BANNER;
 use prost_reflect::Value;
-pub use text::{GATEWAY_MESSAGE, INTERFACE_MESSAGE, parse_text};
+pub use text::{GATEWAY_MESSAGE, INTERFACE_MESSAGE, PARSE_ERROR_PREFIX, parse_text};
 
 /// A .pb.cfg turned into TOML: the text (it loads as the equivalent config) and the fields that
 /// have no setting of ours, named.
@@ -218,6 +220,19 @@ fn drop_empty_strings(imp: &mut Import, prefix: &str) {
     }
 }
 
+/// The basic simulator's `tcp_address: ""`, as Goby3's `-e` prints its required address: our
+/// default, 127.0.0.1 (where `frontseat sim` listens; loopback, so nothing else is reached).
+fn empty_sim_address(imp: &mut Import, ext_path: &str) {
+    let path = format!("{ext_path}.tcp_address");
+    if matches!(imp.left.get(&path), Some(Value::String(s)) if s.is_empty()) {
+        imp.ignore(
+            &path,
+            "empty (Goby3's -e placeholder): frontseat's default 127.0.0.1, where `frontseat sim` \
+             listens",
+        );
+    }
+}
+
 /// Whatever no rule placed: named, never dropped.
 fn finish_unplaced(imp: &mut Import) {
     let rest: Vec<String> = imp.left.keys().cloned().collect();
@@ -249,8 +264,10 @@ fn header(kind: &str, file: &str) -> String {
 
 /// A goby_frontseat_interface .pb.cfg → the TOML of `frontseat interface`.
 pub fn import_interface(text: &str, file: &str) -> Result<Imported, ConfigError> {
-    let msg = parse_text(INTERFACE_MESSAGE, text, file)?;
+    let scanned = placeholder::scan(text);
+    let msg = parse_text(INTERFACE_MESSAGE, &scanned.text, file)?;
     let mut imp = Import::new(&msg);
+    note_banner(&mut imp, scanned.banner.as_deref());
     let app_warp = import_app_and_interprocess(&mut imp);
 
     let fs = "frontseat_cfg";
@@ -360,6 +377,9 @@ pub fn import_interface(text: &str, file: &str) -> Result<Imported, ConfigError>
         if imp.take(&path).is_some() {
             named.push((path.clone(), name));
             drop_empty_strings(&mut imp, &path);
+            if ext == BASIC_EXT {
+                empty_sim_address(&mut imp, &path);
+            }
             imp.map_same_names(&path, &format!("driver.{name}"));
         }
     }
@@ -380,16 +400,163 @@ pub fn import_interface(text: &str, file: &str) -> Result<Imported, ConfigError>
             ));
         }
     }
+    let driver = match named.as_slice() {
+        [(path, name)] => Some((path.clone(), *name)),
+        _ => None,
+    };
+    fill_interface_blanks(&mut imp, &scanned.blanks, driver, file)?;
     import_moos(&mut imp, MOOS_HELM_EXT);
     finish_unplaced(&mut imp);
     result(imp, file, &header("interface", file))
 }
 
+/// Goby3's line as it loads the driver library, when the file starts with it (a `-e` output
+/// saved with stderr): named, skipped.
+fn note_banner(imp: &mut Import, banner: Option<&str>) {
+    if let Some(line) = banner {
+        imp.ignored.push(Note {
+            path: "(line 1)".into(),
+            value: format!("{line:?}"),
+            why: "what goby_frontseat_interface prints as it loads FRONTSEAT_DRIVER_LIBRARY, not \
+                  config: skipped (the driver is the one its extension block names, or \
+                  FRONTSEAT_DRIVER_LIBRARY's)"
+                .into(),
+        });
+    }
+}
+
+/// A blank value that cannot be filled in safely: refused at its line and column.
+fn blank_refused(file: &str, b: &placeholder::Blank, why: &str) -> ConfigError {
+    ConfigError::Parse {
+        file: file.to_owned(),
+        line: b.line,
+        column: b.column,
+        message: format!(
+            "{PARSE_ERROR_PREFIX}{} has no value (Goby3's -e placeholder for a value you give): \
+             {why}",
+            b.path
+        ),
+    }
+}
+
+/// Goby3's `-e` output leaves blank what the user must give. Only what frontseat can fill in
+/// without risk to a vehicle is filled, each with a warning naming it; any other blank is refused
+/// at its line and column, as Goby3 refuses the whole file:
+/// - the datum (`frontseat_cfg.origin.lat/lon`): app.geodesy's when the file gives it; else,
+///   for the basic simulator only, frontseat's default datum (the simulated world is placed
+///   there, no vehicle moves); for a real vehicle refused, since every local x/y a helm steers
+///   by is measured from it;
+/// - the basic simulator's `start.lat/lon`: the datum (the simulated vehicle starts there);
+/// - the basic simulator's `tcp_address: ""`: 127.0.0.1, where `frontseat sim` listens
+///   (done with the empty strings, [`drop_empty_strings`]).
+fn fill_interface_blanks(
+    imp: &mut Import,
+    blanks: &[placeholder::Blank],
+    driver: Option<(String, &'static str)>,
+    file: &str,
+) -> Result<(), ConfigError> {
+    let sim = driver
+        .as_ref()
+        .filter(|(_, name)| *name == crate::BASIC_SIMULATOR)
+        .map(|(path, _)| path.clone());
+    // app.geodesy has set the datum (it does when frontseat_cfg.origin gives none).
+    let geodesy = imp
+        .tables
+        .iter()
+        .any(|(t, s)| t == "origin" && s.iter().any(|s| s.from.starts_with("app.geodesy")));
+    let datum = |imp: &Import, key: &str| -> toml::Value {
+        imp.tables
+            .iter()
+            .find(|(t, _)| t == "origin")
+            .and_then(|(_, s)| s.iter().find(|s| s.key == key))
+            .map(|s| s.value.clone())
+            .unwrap_or(toml::Value::Float(if key == "lat" {
+                crate::DEFAULT_ORIGIN_LAT
+            } else {
+                crate::DEFAULT_ORIGIN_LON
+            }))
+    };
+    // The datum first: the simulator's start follows it.
+    let mut blanks: Vec<&placeholder::Blank> = blanks.iter().collect();
+    blanks.sort_by_key(|b| !b.path.starts_with("frontseat_cfg.origin."));
+    for b in blanks {
+        let key = b.path.rsplit('.').next().unwrap_or_default();
+        let origin = matches!(
+            b.path.as_str(),
+            "frontseat_cfg.origin.lat" | "frontseat_cfg.origin.lon"
+        );
+        let start = sim.as_ref().is_some_and(|p| {
+            b.path == format!("{p}.start.lat") || b.path == format!("{p}.start.lon")
+        });
+        if origin && geodesy {
+            imp.ignored.push(Note {
+                path: b.path.clone(),
+                value: "(blank)".into(),
+                why: "Goby3's -e placeholder; the datum is app.geodesy's".into(),
+            });
+        } else if origin && sim.is_some() {
+            let v = datum(imp, key);
+            imp.set(
+                "origin",
+                key,
+                v.clone(),
+                format!(
+                    "{} blank (Goby3's -e placeholder): frontseat's default datum, for the basic \
+                     simulator only",
+                    b.path
+                ),
+            );
+            imp.ignored.push(Note {
+                path: b.path.clone(),
+                value: "(blank)".into(),
+                why: format!(
+                    "no datum given: the basic simulator's world is placed at frontseat's default \
+                     datum ({key} = {v}); give frontseat_cfg.origin to place it elsewhere (a real \
+                     vehicle's blank datum is refused)"
+                ),
+            });
+        } else if origin {
+            return Err(blank_refused(
+                file,
+                b,
+                "a real vehicle's datum cannot be guessed: every local x/y a helm steers by is \
+                 measured from it (give it here or in app.geodesy)",
+            ));
+        } else if start {
+            let v = datum(imp, key);
+            let table = format!("driver.{}.start", crate::BASIC_SIMULATOR);
+            imp.set(
+                &table,
+                key,
+                v.clone(),
+                format!("{} blank (Goby3's -e placeholder): the datum", b.path),
+            );
+            imp.ignored.push(Note {
+                path: b.path.clone(),
+                value: "(blank)".into(),
+                why: format!("the simulated vehicle starts at the datum ({key} = {v})"),
+            });
+        } else {
+            return Err(blank_refused(
+                file,
+                b,
+                "frontseat does not choose it for you; fill it in",
+            ));
+        }
+    }
+    Ok(())
+}
+
 /// A goby_moos_gateway .pb.cfg → the TOML of `frontseat moos-gateway` (reaching the interface
 /// through gobyd, as Goby3's gateway does).
 pub fn import_gateway(text: &str, file: &str) -> Result<Imported, ConfigError> {
-    let msg = parse_text(GATEWAY_MESSAGE, text, file)?;
+    let scanned = placeholder::scan(text);
+    let msg = parse_text(GATEWAY_MESSAGE, &scanned.text, file)?;
+    if let Some(b) = scanned.blanks.first() {
+        return Err(blank_refused(file, b, "fill it in"));
+    }
     let mut imp = Import::new(&msg);
+    note_banner(&mut imp, scanned.banner.as_deref());
     let warp = import_app_and_interprocess(&mut imp);
     // The gateway reaches the interface through gobyd alone, as Goby3's does.
     imp.set(

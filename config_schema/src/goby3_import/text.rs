@@ -30,6 +30,9 @@ fn descriptor(name: &str) -> Result<MessageDescriptor, String> {
         .ok_or_else(|| format!("no descriptor for {name}"))
 }
 
+/// How every parse error of a .pb.cfg starts, after `file:line:column: `.
+pub const PARSE_ERROR_PREFIX: &str = "Goby3 config (protobuf text format): ";
+
 /// Parses Goby3 text format against `message` (Goby3's rules: unknown fields and enum names
 /// are errors); the error names the file, line and column.
 pub fn parse_text(message: &str, text: &str, file: &str) -> Result<DynamicMessage, ConfigError> {
@@ -52,7 +55,7 @@ pub fn parse_text(message: &str, text: &str, file: &str) -> Result<DynamicMessag
             file: file.to_owned(),
             line,
             column,
-            message: format!("Goby3 config (protobuf text format): {e}"),
+            message: format!("{PARSE_ERROR_PREFIX}{e}"),
         }
     })
 }

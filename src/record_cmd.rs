@@ -1,4 +1,4 @@
-//! The recording commands: `frontseat log info|export|plot|import` and `frontseat replay`. The
+//! The recording commands: `frontseat log info|export|plot|import|recover` and `frontseat replay`. The
 //! work is in `frontseat-record`; this is argument handling and exit codes. (A service's own
 //! recorder is started by its composition root: `compose::recording`.)
 
@@ -57,6 +57,24 @@ pub enum LogCommand {
         #[arg(long)]
         force: bool,
     },
+    /// Finishes a recording that a crash (SIGKILL, power loss) left without its summary, so that
+    /// every MCAP reader opens it (Foxglove, the Python and C++ readers' ordinary open): the
+    /// messages, channels, schemas and metadata up to the last whole chunk are written again with
+    /// the summary, indexes and footer into a new file beside FILE, which is synced, read back,
+    /// and renamed over FILE. What `mcap recover` does, for frontseat's recordings only.
+    ///
+    /// The recorder does this itself at start for the files it would have named; this is for a
+    /// file moved elsewhere, or one it could not finish (disk full). Refused (exit 2, nothing
+    /// written): a symlink (never followed), not a regular file, a file whose MCAP header does
+    /// not say frontseat's recorder wrote it, a file a running recorder is writing. A file that
+    /// already has its summary is left as it is (exit 0). Exit 1: not MCAP, or the copy failed
+    /// (the original is then left as it was).
+    Recover {
+        file: PathBuf,
+        /// Chunk compression of the finished file.
+        #[arg(long, value_enum, default_value_t = Compression::Zstd)]
+        compression: Compression,
+    },
     /// Writes DIR/track.svg (the recorded track on the local grid) and DIR/time.svg (speed,
     /// heading and depth against time, actual from node_status, commanded from desired_course).
     Plot {
@@ -67,6 +85,13 @@ pub enum LogCommand {
         #[arg(long)]
         force: bool,
     },
+}
+
+#[derive(Clone, Copy, Debug, ValueEnum)]
+pub enum Compression {
+    Zstd,
+    Lz4,
+    None,
 }
 
 #[derive(Clone, Copy, Debug, ValueEnum)]
@@ -82,6 +107,7 @@ pub fn log(args: LogArgs) -> ExitCode {
             output,
             force,
         } => import(&file, output, force),
+        LogCommand::Recover { file, compression } => recover(&file, compression),
         LogCommand::Plot { file, out, force } => {
             let s = match Recording::open(&file).and_then(frontseat_record::plot::series) {
                 Ok(s) => s,
@@ -170,6 +196,49 @@ fn import(file: &Path, output: Option<PathBuf>, force: bool) -> ExitCode {
         Ok((out, stats)) => {
             eprintln!("{}", stats.render());
             eprintln!("wrote {}", out.display());
+            ExitCode::SUCCESS
+        }
+        Err(e) => {
+            eprintln!("{e}");
+            ExitCode::from(if e.is_usage() { 2 } else { 1 })
+        }
+    }
+}
+
+fn recover(file: &Path, compression: Compression) -> ExitCode {
+    use frontseat_config::RecordCompression as C;
+    use frontseat_record::recover::{Outcome, RecoverOptions};
+    let opts = RecoverOptions::new(match compression {
+        Compression::Zstd => C::Zstd,
+        Compression::Lz4 => C::Lz4,
+        Compression::None => C::None,
+    });
+    let never = std::sync::atomic::AtomicBool::new(false);
+    match frontseat_record::recover::recover(file, &opts, &never) {
+        Ok(Outcome::AlreadyComplete) => {
+            eprintln!(
+                "{}: complete already (it has its summary); left as it is",
+                file.display()
+            );
+            ExitCode::SUCCESS
+        }
+        Ok(Outcome::Recovered(r)) => {
+            eprintln!(
+                "{}: finished: {} messages kept, every one up to the last whole chunk ({}); {} → {} bytes{}",
+                file.display(),
+                r.messages,
+                r.cut,
+                r.bytes_before,
+                r.bytes_after,
+                if r.unknown_channel > 0 {
+                    format!(
+                        "; {} messages of a channel the file never defined were not kept",
+                        r.unknown_channel
+                    )
+                } else {
+                    String::new()
+                }
+            );
             ExitCode::SUCCESS
         }
         Err(e) => {

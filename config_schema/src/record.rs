@@ -50,6 +50,7 @@ pub struct RecordConfig {
     pub min_free_mb: u64,
     /// The most a crash or power loss may lose: the open chunk is closed, written and synced at
     /// least this often. Unit: s, 0.05 to 60.
+    #[schemars(range(min = 0.05, max = 60.0))]
     pub flush_s: f64,
     /// Chunk compression.
     pub compression: RecordCompression,
@@ -305,6 +306,24 @@ mod tests {
             ..Default::default()
         };
         assert!(errors(&endless).join("\n").contains("needs rotation"));
+    }
+
+    /// How much a crash may lose is a bounded setting: the schema says the bounds the check
+    /// enforces.
+    #[test]
+    fn flush_s_is_bounded_in_the_schema_and_the_check() {
+        let schema = serde_json::to_value(schemars::schema_for!(RecordConfig)).unwrap();
+        let f = &schema["properties"]["flush_s"];
+        assert_eq!(f["minimum"], 0.05, "{f}");
+        assert_eq!(f["maximum"], 60.0, "{f}");
+        for bad in [0.01, 60.5, f64::NAN] {
+            let r = RecordConfig {
+                flush_s: bad,
+                ..Default::default()
+            };
+            assert!(errors(&r).join("\n").contains("record.flush_s"), "{bad}");
+        }
+        assert_eq!(RecordConfig::default().flush_s, 1.0);
     }
 
     #[test]

@@ -303,6 +303,27 @@ pub fn seeds() -> Vec<(&'static str, &'static str, Vec<u8>)> {
     ]
 }
 
+/// Messages readable in a recording and an order-free digest of them: the sum of the CRC-32 of
+/// each message's `topic`, NUL, sequence (u32 LE), log time (u64 LE) and bytes. The recovery
+/// tests compare it with what the Python `mcap` reader computes the same way
+/// (`tests/python/make_reader_digest.py`): the same messages, whatever the chunking.
+pub fn message_digest<R: std::io::Read>(
+    mut rec: crate::Recording<R>,
+) -> Result<(u64, u64), crate::ReadError> {
+    let (mut n, mut sum) = (0u64, 0u64);
+    while let Some(m) = rec.next_message_ref()? {
+        let mut h = crc32fast::Hasher::new();
+        h.update(m.channel.map(|c| c.topic.as_bytes()).unwrap_or_default());
+        h.update(&[0]);
+        h.update(&m.sequence.to_le_bytes());
+        h.update(&m.log_time.to_le_bytes());
+        h.update(m.data);
+        sum = sum.wrapping_add(u64::from(h.finalize()));
+        n += 1;
+    }
+    Ok((n, sum))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

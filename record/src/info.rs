@@ -9,7 +9,7 @@ use std::sync::Arc;
 
 use crate::reader::{ReadError, Recording};
 use crate::time::{iso_utc, secs};
-use crate::{META_IMPORT_SKIPPED, META_RECORDER, META_RUN};
+use crate::{META_IMPORT_SKIPPED, META_RECORDER, META_RECOVERED, META_RUN};
 
 /// A silence this many times the group's mean interval (and at least [`MIN_GAP_NS`]) is a gap.
 const GAP_FACTOR: u64 = 5;
@@ -55,6 +55,9 @@ pub struct Info {
     /// Entries `log import` could not convert, by `<SCHEME> <group>` (DCCL, CSTR, ...).
     pub not_imported: BTreeMap<String, u64>,
     pub truncated: Option<String>,
+    /// Set when the file was finished after a crash (`log recover`, the recorder at start): when,
+    /// and where the original ended.
+    pub recovered: Option<BTreeMap<String, String>>,
     /// Definitions the reader skipped for its limits, with the operator's line.
     pub skipped_definitions: u64,
     pub limits_note: Option<String>,
@@ -164,6 +167,7 @@ pub fn info<R: Read>(mut rec: Recording<R>) -> Result<Info, ReadError> {
                 let n = |k: &str| m.get(k).and_then(|v| v.parse::<u64>().ok()).unwrap_or(0);
                 out.dropped = Some(n("dropped_queue") + n("dropped_unwritable"));
             }
+            META_RECOVERED => out.recovered = Some(m.clone()),
             META_IMPORT_SKIPPED => {
                 out.not_imported = m
                     .iter()
@@ -199,6 +203,7 @@ impl Info {
             "start_ns": self.start, "end_ns": self.end,
             "duration_s": self.end.saturating_sub(self.start) as f64 / 1e9,
             "run": self.run, "dropped": self.dropped, "truncated": self.truncated,
+            "recovered": self.recovered,
             "skipped_definitions": self.skipped_definitions,
             "groups": groups,
         })
@@ -245,6 +250,15 @@ impl Info {
         }
         if let Some(n) = &self.limits_note {
             let _ = writeln!(s, "not read: {n}");
+        }
+        if let Some(r) = &self.recovered {
+            let get = |k: &str| r.get(k).map(String::as_str).unwrap_or("?");
+            let _ = writeln!(
+                s,
+                "recovered: {} after a crash — the original ended: {}",
+                get("recovered_utc"),
+                get("cut")
+            );
         }
         match &self.truncated {
             Some(t) => {

@@ -5,6 +5,7 @@
 //!
 //! - [`recorder`]: the bus → MCAP writer (bounded queue, rotation, disk budget, crash-safe flushes).
 //! - [`reader`]: a streaming, bounded reader of possibly truncated files (after a crash).
+//! - [`recover`]: a file a crash left without its summary finished in place (`log recover`).
 //! - [`info`], [`export`]: the summaries and flattened exports of `frontseat log`.
 //! - [`goby_log`], [`import`]: goby_logger `.goby` files read and converted to MCAP.
 //! - [`foxglove`]: the same groups served live over the Foxglove WebSocket protocol (read-only).
@@ -23,6 +24,7 @@ pub mod output;
 pub mod plot;
 pub mod reader;
 pub mod recorder;
+pub mod recover;
 pub mod replay;
 pub mod schema;
 pub mod service;
@@ -37,6 +39,9 @@ pub const PROFILE: &str = "frontseat";
 pub const META_RUN: &str = "frontseat.run";
 /// Name of the metadata record written when a file is closed: what the recorder counted.
 pub const META_RECORDER: &str = "frontseat.recorder";
+/// Name of the metadata record a finished crash's file carries (`log recover`, the recorder at
+/// start): when, how many messages were kept, and why the original ended where it did.
+pub const META_RECOVERED: &str = "frontseat.recovered";
 /// Name of the metadata record `log import` writes listing the entries it could not convert:
 /// key `<SCHEME> <group>` (e.g. `DCCL goby::acomms::...`), value the count.
 pub const META_IMPORT_SKIPPED: &str = "frontseat.import.skipped";

@@ -11,6 +11,9 @@
 //! - Disk: files rotate by size and age, the oldest of ours in the directory are removed past the
 //!   budget, and below the free-space floor the recorder stops writing (counted, logged) rather
 //!   than fill the disk under the vehicle.
+//! - A crash's file is finished at the next start: the files this recorder would have named
+//!   that have no summary (and are not locked by a live recorder) get their summary, indexes and
+//!   footer on a thread of their own ([`crate::recover`]), so every MCAP reader opens them.
 //! - Failures stay here: an I/O error closes the file, counts, logs (rate-limited) and retries a
 //!   new file later; the thread never takes the process with it.
 
@@ -101,6 +104,8 @@ pub struct Recorder {
     counters: Arc<Counters>,
     groups: Vec<&'static str>,
     current: Arc<Mutex<Option<PathBuf>>>,
+    /// Finishing the files a crash left (at start); joined at stop.
+    recovery: Option<std::thread::JoinHandle<()>>,
 }
 
 impl std::fmt::Debug for Recorder {
@@ -207,10 +212,32 @@ impl Recorder {
         let pool = crate::schema::compiled_pool().ok_or(RecorderError::NoDescriptors)?;
         let counters = Arc::new(Counters::default());
         let current = Arc::new(Mutex::new(None));
+        // Listed before this run's first file exists.
+        let earlier = sink::earlier_files(opts);
         let sink = Sink::open(opts, meta.to_map(), pool, counters.clone(), current.clone());
 
         let (tx, rx) = sync_channel::<Item>(opts.queue);
         let stop = Arc::new(AtomicBool::new(false));
+        let recovery = if earlier.is_empty() {
+            None
+        } else {
+            let ropts = crate::recover::RecoverOptions {
+                min_free_bytes: opts.min_free_bytes,
+                ..crate::recover::RecoverOptions::new(opts.compression)
+            };
+            let (stop, counters) = (stop.clone(), counters.clone());
+            // Its own thread: the recording starts at once, however long the copy takes.
+            match std::thread::Builder::new()
+                .name("recorder-recover".into())
+                .spawn(move || finish_earlier(earlier, &ropts, &stop, &counters))
+            {
+                Ok(t) => Some(t),
+                Err(e) => {
+                    tracing::warn!(target: LOG_TARGET, error = %e, "recorder: cannot start the recovery of earlier files; `frontseat log recover FILE` does it by hand");
+                    None
+                }
+            }
+        };
         let thread_stop = stop.clone();
         let thread = std::thread::Builder::new()
             .name("recorder".into())
@@ -225,6 +252,7 @@ impl Recorder {
                 counters,
                 groups: Vec::new(),
                 current,
+                recovery,
             },
             tx,
         ))
@@ -273,6 +301,22 @@ impl Recorder {
         })
     }
 
+    /// Waits until the files of earlier runs are finished (or found complete, or left as they
+    /// were); `false` if `timeout` passed first. The recording does not wait for this.
+    pub fn wait_recovery(&self, timeout: Duration) -> bool {
+        let until = Instant::now() + timeout;
+        loop {
+            match &self.recovery {
+                Some(t) if !t.is_finished() => {}
+                _ => return true,
+            }
+            if Instant::now() >= until {
+                return false;
+            }
+            std::thread::sleep(Duration::from_millis(10));
+        }
+    }
+
     /// The groups subscribed.
     pub fn groups(&self) -> &[&'static str] {
         &self.groups
@@ -295,6 +339,11 @@ impl Recorder {
             s.cancel();
         }
         self.stop.store(true, Ordering::Release);
+        if let Some(t) = self.recovery.take()
+            && t.join().is_err()
+        {
+            tracing::error!(target: LOG_TARGET, "the recorder's recovery thread panicked");
+        }
         if let Some(t) = self.thread.take() {
             frontseat_telemetry::metrics::recorder_running(false);
             if t.join().is_err() {
@@ -307,5 +356,54 @@ impl Recorder {
 impl Drop for Recorder {
     fn drop(&mut self) {
         self.shutdown();
+    }
+}
+
+/// The start-up recovery: each earlier file that is ours, unfinished and not being written gets
+/// its summary; the rest are left as they are. Every outcome is logged and counted.
+fn finish_earlier(
+    files: Vec<PathBuf>,
+    opts: &crate::recover::RecoverOptions,
+    stop: &AtomicBool,
+    counters: &Counters,
+) {
+    use crate::recover::{Outcome, RecoverError, recover};
+    for path in files {
+        if stop.load(Ordering::Acquire) {
+            break;
+        }
+        match recover(&path, opts, stop) {
+            Ok(Outcome::AlreadyComplete) => {}
+            Ok(Outcome::Recovered(r)) => {
+                queue::bump(&counters.files_recovered);
+                tracing::info!(
+                    target: LOG_TARGET,
+                    file = %path.display(),
+                    messages = r.messages,
+                    bytes_before = r.bytes_before,
+                    bytes_after = r.bytes_after,
+                    cut = %r.cut,
+                    "recorder: finished a crash's recording (summary, indexes, footer): every MCAP reader opens it now"
+                );
+            }
+            Err(RecoverError::Stopped) => {
+                tracing::info!(target: LOG_TARGET, file = %path.display(), "recorder: stopped while finishing a crash's recording; left as it was (`frontseat log recover FILE` finishes it)");
+                break;
+            }
+            // Our name but not our file, or a live recorder's: never touched.
+            Err(
+                e @ (RecoverError::InUse(_)
+                | RecoverError::NotOurs { .. }
+                | RecoverError::NotMcap { .. }
+                | RecoverError::Symlink(_)
+                | RecoverError::NotFile(_)),
+            ) => {
+                tracing::debug!(target: LOG_TARGET, error = %e, "recorder: an earlier file left as it is");
+            }
+            Err(e) => {
+                queue::bump(&counters.recover_failed);
+                tracing::warn!(target: LOG_TARGET, error = %e, "recorder: cannot finish a crash's recording; it still reads up to its last whole chunk (`frontseat log info`), and `frontseat log recover FILE` tries again");
+            }
+        }
     }
 }

@@ -23,6 +23,10 @@ pub struct RecorderStats {
     pub files_removed: u64,
     /// Times the disk had less free than `min_free_mb`.
     pub disk_low: u64,
+    /// Files of earlier runs that a crash left without a summary, finished at start.
+    pub files_recovered: u64,
+    /// Such files that could not be finished (left as they were; logged).
+    pub recover_failed: u64,
 }
 
 impl RecorderStats {
@@ -41,6 +45,8 @@ pub(super) struct Counters {
     pub(super) files_opened: AtomicU64,
     pub(super) files_removed: AtomicU64,
     pub(super) disk_low: AtomicU64,
+    pub(super) files_recovered: AtomicU64,
+    pub(super) recover_failed: AtomicU64,
 }
 
 impl Counters {
@@ -55,6 +61,8 @@ impl Counters {
             files_opened: g(&self.files_opened),
             files_removed: g(&self.files_removed),
             disk_low: g(&self.disk_low),
+            files_recovered: g(&self.files_recovered),
+            recover_failed: g(&self.recover_failed),
         }
     }
 }

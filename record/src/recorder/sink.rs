@@ -15,7 +15,6 @@ use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant, SystemTime};
 
 use frontseat_actors::bus::Origin;
-use frontseat_config::RecordCompression;
 
 use super::options::{RecorderError, RecorderOptions, Target};
 use super::queue::{Counters, Item, RecorderStats, bump, worth_logging};
@@ -299,11 +298,14 @@ impl Sink {
             });
         }
         let (path, file, commit_to) = self.create_next()?;
-        let compression = match self.opts.compression {
-            RecordCompression::Zstd => Some(mcap::Compression::Zstd),
-            RecordCompression::Lz4 => Some(mcap::Compression::Lz4),
-            RecordCompression::None => None,
-        };
+        // Held while the file is written (released by the kernel when the process dies): the
+        // recovery of crashed files, in this process or another, never takes a live one.
+        if let Err(e) =
+            rustix::fs::flock(&file, rustix::fs::FlockOperation::NonBlockingLockExclusive)
+        {
+            tracing::debug!(target: super::LOG_TARGET, file = %path.display(), error = %e, "recorder: no advisory lock on the file");
+        }
+        let compression = crate::recover::RecoverOptions::new(self.opts.compression).compression;
         let mcap_err = |e: mcap::McapError| RecorderError::Mcap {
             path: path.display().to_string(),
             reason: e.to_string(),
@@ -513,6 +515,30 @@ fn write_item(
         },
         &item.bytes,
     )
+}
+
+/// The files of earlier runs this recorder's options would have named, newest first: what the
+/// start-up recovery looks at (each is then checked by its header, footer and lock). Listed
+/// before this run creates its first file.
+pub(super) fn earlier_files(opts: &RecorderOptions) -> Vec<PathBuf> {
+    match &opts.target {
+        // `--force`: the file is to be replaced by this run.
+        Target::File(_) if opts.replace => Vec::new(),
+        Target::File(p) => {
+            let mut v: Vec<PathBuf> = (0..=MAX_ALTERNATIVES)
+                .map(|n| if n == 0 { p.clone() } else { numbered(p, n) })
+                .filter(|p| std::fs::symlink_metadata(p).is_ok_and(|m| m.file_type().is_file()))
+                .collect();
+            v.reverse();
+            v
+        }
+        Target::Dir { dir, prefix } => {
+            let mut v: Vec<PathBuf> = our_files(dir, prefix).into_iter().map(|(p, _)| p).collect();
+            // Names sort by start time.
+            v.sort_unstable_by(|a, b| b.cmp(a));
+            v
+        }
+    }
 }
 
 /// `(path, size)` of the files this recorder named in `dir`: exactly

@@ -275,3 +275,64 @@ fn import_goby3_prints_toml_that_checks() {
     assert!(String::from_utf8_lossy(&out.stderr).contains("no Goby3 counterpart"));
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// Goby3's basic-simulator example exactly as `goby_frontseat_interface -e` prints it (banner
+/// line and blank values included) imports and checks through the binary, every fill-in a
+/// warning; the real vehicles' examples are refused at their blank datum's line and column; a
+/// byte that is not UTF-8 is refused at its line and column like any parse error (exit 2).
+#[test]
+fn goby3s_printed_example_imports_and_a_non_utf8_byte_is_a_located_error() {
+    let dir = scratch("goby3swap", "printed");
+    let fixtures = Path::new(env!("CARGO_MANIFEST_DIR")).join("config_schema/tests/fixtures/goby3");
+    let run = |args: &[&str]| {
+        let out = Command::new(BIN).args(args).output().unwrap();
+        (
+            out.status.code(),
+            String::from_utf8_lossy(&out.stdout).into_owned(),
+            String::from_utf8_lossy(&out.stderr).into_owned(),
+        )
+    };
+    let basic = fixtures.join("goby_frontseat_interface_basic_simulator.example.pb.cfg");
+    let (code, toml, err) = run(&["interface", "--import-goby3", basic.to_str().unwrap()]);
+    assert_eq!(code, Some(0), "{err}");
+    assert!(toml.contains("name = \"basic_simulator\""), "{toml}");
+    let (code, out, err) = run(&["interface", "--check", "-c", basic.to_str().unwrap()]);
+    assert_eq!(code, Some(0), "{err}");
+    assert!(out.contains("ok (interface config)"), "{out}");
+    assert!(
+        err.contains("frontseat_cfg.origin.lat = (blank) ignored: no datum given"),
+        "{err}"
+    );
+    for vehicle in ["bluefin", "iver", "waveglider_sv2"] {
+        let f = fixtures.join(format!("goby_frontseat_interface_{vehicle}.example.pb.cfg"));
+        let (code, _, err) = run(&["interface", "--check", "-c", f.to_str().unwrap()]);
+        assert_eq!(code, Some(2), "{vehicle}: {err}");
+        assert!(
+            err.starts_with(&format!(
+                "{}:66:5: Goby3 config (protobuf text format): frontseat_cfg.origin.lat has no value",
+                f.display()
+            )),
+            "{vehicle}: {err}"
+        );
+    }
+    let bad = dir.join("latin1.pb.cfg");
+    std::fs::write(
+        &bad,
+        b"frontseat_cfg {\n  origin { lat: 42 lon: -71 }\n  # caf\xe9\n}\n",
+    )
+    .unwrap();
+    let want = format!(
+        "{}:3:8: Goby3 config (protobuf text format): byte 0xE9 is not UTF-8: a config file is UTF-8 text\n",
+        bad.display()
+    );
+    for args in [
+        ["interface", "--import-goby3", bad.to_str().unwrap()].as_slice(),
+        ["interface", "--check", "-c", bad.to_str().unwrap()].as_slice(),
+        ["interface", bad.to_str().unwrap()].as_slice(),
+    ] {
+        let (code, _, err) = run(args);
+        assert_eq!(code, Some(2), "{args:?}: {err}");
+        assert_eq!(err, want, "{args:?}");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}

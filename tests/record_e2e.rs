@@ -384,8 +384,9 @@ exclude = ["^frontseat::chaos"]
 }
 
 /// Issue 37: an interface recording to a fixed `[record] path` is killed (SIGKILL) mid-run and
-/// started again with the same config. The first file — the record of the crash — is kept byte
-/// for byte and still reads; the second run records to `run.1.mcap` and says so in its log.
+/// started again with the same config. The first file — the record of the crash — keeps every
+/// message it held (issue 46: the restart finishes it in place with its summary, so every MCAP
+/// reader opens it); the second run records to `run.1.mcap` and says both in its log.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn an_interface_killed_and_restarted_keeps_its_first_recording_intact() {
     let dir = scratch("record", "restart");
@@ -452,25 +453,39 @@ min_free_mb = 0
     wait_node_status(&first);
     a.0.kill().unwrap();
     a.0.wait().unwrap();
-    let kept = std::fs::read(&first).unwrap();
+    let kept = frontseat_record::crafted::message_digest(Recording::open(&first).unwrap()).unwrap();
     let before = info::info(Recording::open(&first).unwrap()).unwrap();
     assert!(before.truncated.is_some(), "killed: no summary");
 
     let mut b = start("second.log");
     wait_node_status(&second);
+    // The first file is finished on a thread of its own: wait, bounded, for its log line.
+    let deadline = Instant::now() + Duration::from_secs(60);
+    let log = loop {
+        let log = std::fs::read_to_string(dir.join("second.log")).unwrap();
+        if log.contains("finished a crash's recording") {
+            break log;
+        }
+        assert!(
+            Instant::now() < deadline,
+            "the first file not finished in 60 s: {log}"
+        );
+        std::thread::sleep(Duration::from_millis(100));
+    };
     b.0.kill().unwrap();
     b.0.wait().unwrap();
     assert_eq!(
-        std::fs::read(&first).unwrap(),
+        frontseat_record::crafted::message_digest(Recording::open(&first).unwrap()).unwrap(),
         kept,
-        "the restart left the first recording byte for byte"
+        "the restart kept every message of the first recording, byte for byte"
     );
     let again = info::info(Recording::open(&first).unwrap()).unwrap();
     assert_eq!(again.messages, before.messages);
+    assert_eq!(again.truncated, None, "finished: it reads to its footer");
+    assert!(again.recovered.is_some());
     assert!(readable(&second).1 >= 5);
-    let log = std::fs::read_to_string(dir.join("second.log")).unwrap();
     assert!(
-        log.contains("run.1.mcap") && log.contains("kept untouched"),
+        log.contains("run.1.mcap") && log.contains("kept, its messages untouched"),
         "the restart says where it records and that the old file is kept: {log}"
     );
 }

@@ -225,7 +225,9 @@ pub fn recover(
         }
     }
     file.seek(SeekFrom::Start(0)).map_err(io("read"))?;
-
+    if stop.load(Ordering::Acquire) {
+        return Err(RecoverError::Stopped);
+    }
     let (temp, out) = crate::output::create_temp_beside(path).map_err(|e| RecoverError::Write {
         path: path.to_path_buf(),
         why: e.to_string(),

@@ -256,7 +256,7 @@ impl Sink {
                                     target: super::LOG_TARGET,
                                     kept = %p.display(),
                                     recording_to = %path.display(),
-                                    "recorder: record.path exists (a previous run's recording?): kept untouched; this run records to a new name"
+                                    "recorder: record.path exists (a previous run's recording?): kept, its messages untouched (finished in place if a crash left it without a summary); this run records to a new name"
                                 );
                             }
                             return Ok((path, f, None));

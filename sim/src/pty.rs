@@ -27,7 +27,10 @@ pub struct PtyMaster {
 impl PtyMaster {
     /// Opens a new pseudo-terminal pair; needs a tokio runtime.
     pub fn open() -> io::Result<Self> {
-        let fd = rustix::pty::openpt(OpenptFlags::RDWR | OpenptFlags::NOCTTY)?;
+        // CLOEXEC: a child process this one spawns (a test's `frontseat interface`) must not
+        // inherit the master, or closing it here would not make the device vanish.
+        let fd =
+            rustix::pty::openpt(OpenptFlags::RDWR | OpenptFlags::NOCTTY | OpenptFlags::CLOEXEC)?;
         rustix::pty::grantpt(&fd)?;
         rustix::pty::unlockpt(&fd)?;
         let name = rustix::pty::ptsname(&fd, Vec::new())?;

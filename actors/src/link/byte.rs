@@ -88,19 +88,25 @@ pub fn spawn(
     tokio::spawn(async move {
         let mut delay = cfg.backoff_initial;
         let what = cfg.transport.describe();
-        let mut failures = OpenFailures::new(cfg.backoff_max);
+        let mut failures = OpenFailures::new();
         loop {
             let reason = match &cfg.transport {
                 Transport::Serial(s) => match s.open() {
                     Ok(port) => {
                         delay = cfg.backoff_initial;
-                        failures.opened(s);
+                        if let Some((n, away)) = failures.opened(tokio::time::Instant::now()) {
+                            tracing::info!(
+                                "serial port {} open again after {n} failed opens in {away:.1?}",
+                                s.path
+                            );
+                        }
                         add(&stats.opens, 1);
                         Some(run(port, &cfg, &io, &stats).await)
                     }
                     Err(e) => {
                         add(&stats.open_failures, 1);
-                        failures.failed(s, &e, delay);
+                        let report = failures.failed(e.kind(), tokio::time::Instant::now());
+                        log_open_failure(s, &e, report, cfg.backoff_max, delay);
                         None
                     }
                 },
@@ -147,83 +153,97 @@ pub fn spawn(
     })
 }
 
-/// Open failures of one serial port since it was last open, and what of them was logged. A
-/// USB adapter that is unplugged fails to open for as long as it is out (every backoff step, for
+/// Open failures of one serial port since it was last open, and what of them to log. A USB
+/// adapter that is unplugged fails to open for as long as it is out (every backoff step, for
 /// hours): the first failure of an outage is logged at WARN with the configured path and the
-/// error (for a permission error, what to do about it), so is the first of another kind (the
+/// error (for a permission error, what to do about it), so is the first of each other kind (the
 /// device back, but not yet ours: missing → permission denied), and further ones at most once a
-/// minute with how many were not logged (the counter is [`LinkStats::open_failures`]); the reopen
-/// says how long it was away.
+/// minute with how many failed so far (the counter is [`LinkStats::open_failures`]); the reopen
+/// says how many failed and for how long.
 struct OpenFailures {
     limiter: RateLimitedLog,
-    backoff_max: Duration,
     /// Failed opens since the port was last open (or since the link started).
     count: u64,
     since: Option<tokio::time::Instant>,
-    /// The kinds of error this outage has logged at once (few: the kinds are a small enum).
+    /// The kinds of error this outage has said at once (few: the kinds are a small enum).
     kinds: Vec<std::io::ErrorKind>,
 }
 
 /// At most one line per this long while a port stays unopenable.
 const OPEN_FAILURE_LOG_EVERY: Duration = Duration::from_secs(60);
 
+/// What to log about one failed open.
+#[derive(Debug, PartialEq, Eq)]
+enum OpenReport {
+    /// The first of its kind in this outage: say what and why, and how it is retried.
+    First,
+    /// The once-a-minute reminder: `count` failed opens over `away`.
+    Still { count: u64, away: Duration },
+    /// Counted only.
+    Quiet,
+}
+
 impl OpenFailures {
-    fn new(backoff_max: Duration) -> Self {
+    fn new() -> Self {
         Self {
             limiter: RateLimitedLog::new(1, OPEN_FAILURE_LOG_EVERY),
-            backoff_max,
             count: 0,
             since: None,
             kinds: Vec::new(),
         }
     }
 
-    fn failed(&mut self, s: &SerialSettings, e: &std::io::Error, retry_in: Duration) {
-        let now = tokio::time::Instant::now();
+    fn failed(&mut self, kind: std::io::ErrorKind, now: tokio::time::Instant) -> OpenReport {
         self.count += 1;
         let since = *self.since.get_or_insert(now);
-        let path = s.path.as_str();
-        let kind = e.kind();
         if !self.kinds.contains(&kind) {
-            // A new outage, or a new reason: said at once, and the limiter's window starts here.
+            // A new outage, or a new reason: said at once, and the reminder's minute starts here.
             self.kinds.push(kind);
             self.limiter = RateLimitedLog::new(1, OPEN_FAILURE_LOG_EVERY);
             self.limiter.decide(now);
+            return OpenReport::First;
+        }
+        match self.limiter.decide(now) {
+            LogDecision::Log { .. } => OpenReport::Still {
+                count: self.count,
+                away: now.saturating_duration_since(since),
+            },
+            LogDecision::Suppress => OpenReport::Quiet,
+        }
+    }
+
+    /// Open again: how many opens failed before, over how long (None when none failed).
+    fn opened(&mut self, now: tokio::time::Instant) -> Option<(u64, Duration)> {
+        let since = self.since.take()?;
+        let count = self.count;
+        *self = Self::new();
+        Some((count, now.saturating_duration_since(since)))
+    }
+}
+
+fn log_open_failure(
+    s: &SerialSettings,
+    e: &std::io::Error,
+    report: OpenReport,
+    backoff_max: Duration,
+    retry_in: Duration,
+) {
+    let path = s.path.as_str();
+    match report {
+        OpenReport::First => {
             let what = s
                 .open_hint(e)
                 .unwrap_or_else(|| format!("cannot open serial port {path}: {e}"));
             tracing::warn!(
-                path,
-                "{what}; retrying with backoff up to {:?}, logged again at most once a minute",
-                self.backoff_max
-            );
-            return;
-        }
-        match self.limiter.decide(now) {
-            LogDecision::Log { suppressed_before } => tracing::warn!(
-                path,
-                "still cannot open serial port {path}: {e} ({} failed opens in {:.0?}{}); retrying",
-                self.count,
-                now.saturating_duration_since(since),
-                crate::ratelog::more(suppressed_before, "failed opens", OPEN_FAILURE_LOG_EVERY),
-            ),
-            LogDecision::Suppress => {
-                tracing::debug!(path, error = %e, "cannot open the serial port; retrying in {retry_in:?}")
-            }
-        }
-    }
-
-    fn opened(&mut self, s: &SerialSettings) {
-        if let Some(since) = self.since.take() {
-            tracing::info!(
-                path = s.path.as_str(),
-                "serial port {} open again after {} failed opens in {:.1?}",
-                s.path,
-                self.count,
-                since.elapsed()
+                "{what}; retrying with backoff up to {backoff_max:?}, logged again at most once a minute"
             );
         }
-        *self = Self::new(self.backoff_max);
+        OpenReport::Still { count, away } => tracing::warn!(
+            "still cannot open serial port {path}: {e}; {count} failed opens in {away:.0?}, retrying"
+        ),
+        OpenReport::Quiet => {
+            tracing::debug!("cannot open serial port {path}: {e}; retrying in {retry_in:?}")
+        }
     }
 }
 
@@ -353,5 +373,60 @@ async fn run_udp(
                 None => return "closed by driver".to_string(),
             },
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::io::ErrorKind::{NotFound, PermissionDenied};
+
+    /// An adapter out for ten minutes, retried every 5 s: one line at once, then one a minute;
+    /// the device back but root's: one more at once; the reopen counts them all.
+    #[tokio::test(start_paused = true)]
+    async fn an_unopenable_port_is_said_once_then_once_a_minute() {
+        let mut f = OpenFailures::new();
+        let t0 = tokio::time::Instant::now();
+        let mut reports = Vec::new();
+        for i in 0..120u64 {
+            reports.push(f.failed(NotFound, t0 + Duration::from_secs(5 * i)));
+        }
+        assert_eq!(reports[0], OpenReport::First);
+        let still: Vec<_> = reports
+            .iter()
+            .filter_map(|r| match r {
+                OpenReport::Still { count, away } => Some((*count, away.as_secs())),
+                _ => None,
+            })
+            .collect();
+        assert_eq!(
+            still,
+            (1..10).map(|m| (12 * m + 1, 60 * m)).collect::<Vec<_>>(),
+            "once a minute, with the count so far"
+        );
+        let quiet = reports.iter().filter(|r| **r == OpenReport::Quiet).count();
+        assert_eq!(quiet, 120 - 1 - 9);
+
+        let t1 = t0 + Duration::from_secs(600);
+        assert_eq!(f.failed(PermissionDenied, t1), OpenReport::First);
+        assert_eq!(
+            f.failed(PermissionDenied, t1 + Duration::from_secs(5)),
+            OpenReport::Quiet
+        );
+        assert_eq!(
+            f.failed(NotFound, t1 + Duration::from_secs(10)),
+            OpenReport::Quiet,
+            "a kind already said in this outage is not said again at once"
+        );
+        assert_eq!(
+            f.opened(t1 + Duration::from_secs(12)),
+            Some((123, Duration::from_secs(612)))
+        );
+        // The next outage starts afresh.
+        assert_eq!(f.opened(t1 + Duration::from_secs(20)), None);
+        assert_eq!(
+            f.failed(NotFound, t1 + Duration::from_secs(30)),
+            OpenReport::First
+        );
     }
 }

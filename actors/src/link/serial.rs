@@ -56,7 +56,7 @@ impl SerialSettings {
                 "cannot open serial port {}: permission denied. Serial ports belong to the \
                  `dialout` group: add the user that runs frontseat to it \
                  (`sudo usermod -aG dialout $USER`, then log in again; the packaged `frontseat` \
-                 service user already is), or check the device's owner with `ls -l {}`",
+                 service user already is), or check the device's owner and mode with `ls -lL {}`",
                 self.path, self.path
             )
         })

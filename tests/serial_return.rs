@@ -1,0 +1,642 @@
+//! Serial ports that vanish come back (issue 46, item 3), for the Iver3, the Wave Glider SV2 and
+//! the ArduPilot serial link: the real `frontseat interface` binary, run as an unprivileged user,
+//! is configured with a stable udev-style name (`…/serial/by-id/usb-…-if00-port0`, a symlink)
+//! to a real pseudo-terminal whose far end is the vehicle's emulator. The cable is knocked: the
+//! pty is closed (its `/dev/pts/N` disappears) and the symlink removed, as udev does. The vehicle
+//! (its emulator session) keeps running; the adapter comes back as a different tty behind the same
+//! name, and the interface climbs back to `running:command` by itself. Then it comes back owned by
+//! root with mode 0600 (udev has not given it to the `dialout` group yet): the open fails with
+//! EACCES until the mode is fixed, and the interface climbs back again.
+//!
+//! Each open error is logged once per outage and kind of error, with the configured path (the
+//! permission one with what to do), and the reopen line says how many opens failed in between:
+//! the rate limit and the counter, read from the child's own log.
+//!
+//! Why a child under `setpriv`: tests and CI run as root, and root opens any device whatever its
+//! mode (CAP_DAC_OVERRIDE), so an in-process interface would never see EACCES. `setpriv
+//! --reuid=65534 --regid=65534 --clear-groups --inh-caps=-all` (util-linux, in every Debian base
+//! system) execs the interface as `nobody` with no groups; a change of every uid away from 0 clears
+//! its effective and permitted capabilities, and `--inh-caps=-all` the inheritable ones, so the
+//! kernel applies the device's mode bits to it exactly as to a service user. A user namespace
+//! without mapped ids would also do, but the pty's owner would then show as the overflow uid and
+//! `chmod` from the test could not be the "udev fixed it" step. The set-up is checked first (a
+//! root-only file must not open); the test fails, never skips, when it cannot be made.
+//!
+//! Each test prints the wall time from the device's return (the symlink swapped to a tty we can
+//! open) to the child's `to="running:command"` line, and from the mode fix to the same. That is
+//! a figure, not an assertion. `measure_return_with_default_backoff` (ignored: it takes minutes)
+//! measures the same with the default backoff (100 ms doubling to 5 s) after a 10 s absence:
+//! `cargo test --test serial_return -- --ignored --nocapture measure`.
+
+mod common;
+
+use std::io::{BufRead, BufReader};
+use std::os::unix::fs::PermissionsExt;
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+
+use frontseat_ardupilot::dialect::{COMMAND_LONG_DATA, MavCmd, MavMessage};
+use frontseat_ardupilot::emulator::{RoverOptions, RoverSession};
+use frontseat_iver3::{IverOptions, IverSession};
+use frontseat_sim::emulator::{Emulator, Endpoint, Session};
+use frontseat_sim::pty::PtyMaster;
+use frontseat_waveglider_sv2::{Sv2Options, Sv2Session};
+use tokio::sync::mpsc::{UnboundedReceiver, unbounded_channel};
+
+/// Bound of every wait for the child (a debug build on a loaded 2-core machine).
+const LONG: Duration = Duration::from_secs(60);
+const WARP: f64 = 10.0;
+/// `nobody` on Debian.
+const NOBODY: &str = "65534";
+
+/// One emulator session shared by successive emulators: the vehicle keeps running while its
+/// USB adapter is unplugged and plugged back; only the tty changes.
+struct Shared<S>(Arc<Mutex<S>>);
+
+impl<S: Session> Session for Shared<S> {
+    fn on_bytes(&mut self, bytes: &[u8], out: &mut Vec<u8>) {
+        lock(&self.0).on_bytes(bytes, out);
+    }
+    fn step(&mut self, dt: f64, out: &mut Vec<u8>) {
+        lock(&self.0).step(dt, out);
+    }
+    fn reset_input(&mut self) {
+        lock(&self.0).reset_input();
+    }
+}
+
+fn lock<S>(m: &Mutex<S>) -> std::sync::MutexGuard<'_, S> {
+    m.lock().unwrap_or_else(|p| p.into_inner())
+}
+
+/// The vehicle's end of the cable and the udev name of the backseat's end.
+struct Cable<S: Session> {
+    session: Arc<Mutex<S>>,
+    emu: Option<Emulator<Shared<S>>>,
+    /// Holds the tty number the last device had, so the next one is a different tty.
+    squatter: Option<PtyMaster>,
+    /// `…/serial/by-id/usb-…`: what the interface is configured with.
+    by_id: PathBuf,
+}
+
+impl<S: Session> Cable<S> {
+    fn new(session: S, dir: &Path) -> Self {
+        let by_id_dir = dir.join("serial/by-id");
+        std::fs::create_dir_all(&by_id_dir).unwrap();
+        for d in [dir, &dir.join("serial"), &by_id_dir] {
+            std::fs::set_permissions(d, std::fs::Permissions::from_mode(0o755)).unwrap();
+        }
+        Self {
+            session: Arc::new(Mutex::new(session)),
+            emu: None,
+            squatter: None,
+            by_id: by_id_dir.join("usb-FTDI_FT232R_USB_UART_A50285BI-if00-port0"),
+        }
+    }
+
+    /// Plugged in: a new tty, `mode` on its node, the stable name swapped to it (a new symlink
+    /// renamed over the old name, as udev does). Returns the tty's path.
+    async fn plug(&mut self, mode: u32) -> PathBuf {
+        lock(&self.session).reset_input();
+        let emu = Emulator::start(Shared(self.session.clone()), Endpoint::Pty, WARP)
+            .await
+            .expect("a pseudo-terminal for the emulator");
+        let tty = emu.pty_path().expect("a pty emulator").to_path_buf();
+        std::fs::set_permissions(&tty, std::fs::Permissions::from_mode(mode)).unwrap();
+        let tmp = self.by_id.with_extension("new");
+        let _ = std::fs::remove_file(&tmp);
+        std::os::unix::fs::symlink(&tty, &tmp).unwrap();
+        std::fs::rename(&tmp, &self.by_id).unwrap();
+        self.emu = Some(emu);
+        tty
+    }
+
+    /// Unplugged: the tty goes away (its node with it) and udev removes the stable name.
+    async fn unplug(&mut self) -> PathBuf {
+        let emu = self.emu.take().expect("plugged in");
+        let tty = emu.pty_path().expect("a pty emulator").to_path_buf();
+        // The name first, so a reopen between the two finds nothing rather than a dying tty.
+        std::fs::remove_file(&self.by_id).unwrap();
+        drop(emu);
+        // The emulator's task closes the master when the runtime drops it: wait for the node.
+        let deadline = tokio::time::Instant::now() + LONG;
+        while tty.exists() {
+            assert!(
+                tokio::time::Instant::now() < deadline,
+                "{} still there after its master closed",
+                tty.display()
+            );
+            tokio::time::sleep(Duration::from_millis(10)).await;
+        }
+        // The kernel hands out the lowest free number: keep this one taken so the adapter comes
+        // back as another tty, as a USB adapter often does (ttyUSB0 → ttyUSB1).
+        self.squatter = Some(PtyMaster::open().expect("a placeholder pty"));
+        tty
+    }
+}
+
+/// Makes `path` openable by the interface (udev's `GROUP="dialout"`/`MODE`, done late).
+fn allow(path: &Path) {
+    std::fs::set_permissions(path, std::fs::Permissions::from_mode(0o666)).unwrap();
+}
+
+/// The `frontseat` binary the unprivileged child runs, after checking that `setpriv` really
+/// drops every privilege here. Panics (the test fails) when it cannot.
+fn unprivileged_prefix(scratch: &Path) -> Vec<String> {
+    let setpriv = ["/usr/bin/setpriv", "/bin/setpriv"]
+        .into_iter()
+        .find(|p| Path::new(p).exists())
+        .expect(
+            "setpriv (util-linux) is needed to run the interface as an unprivileged user; \
+             install util-linux",
+        );
+    let prefix: Vec<String> = [
+        setpriv,
+        "--reuid",
+        NOBODY,
+        "--regid",
+        NOBODY,
+        "--clear-groups",
+        "--inh-caps=-all",
+        "--",
+    ]
+    .into_iter()
+    .map(String::from)
+    .collect();
+    // A root-only file must not open for the child, or EACCES cannot be tested.
+    let secret = scratch.join("root-only");
+    std::fs::write(&secret, b"x").unwrap();
+    std::fs::set_permissions(&secret, std::fs::Permissions::from_mode(0o600)).unwrap();
+    let probe = Command::new(&prefix[0])
+        .args(&prefix[1..])
+        .args(["/bin/sh", "-c", "exec 3< \"$0\"", &secret.to_string_lossy()])
+        .output()
+        .expect("running setpriv");
+    assert!(
+        !probe.status.success(),
+        "setpriv --reuid={NOBODY} still opened a root-only 0600 file: the child would not see EACCES"
+    );
+    let stderr = String::from_utf8_lossy(&probe.stderr);
+    assert!(
+        stderr.contains("ermission denied"),
+        "the unprivileged probe failed for another reason: {stderr}"
+    );
+    let version = Command::new(&prefix[0])
+        .args(&prefix[1..])
+        .arg(env!("CARGO_BIN_EXE_frontseat"))
+        .arg("--version")
+        .output()
+        .expect("running setpriv");
+    assert!(
+        version.status.success(),
+        "user {NOBODY} cannot run {}: {}",
+        env!("CARGO_BIN_EXE_frontseat"),
+        String::from_utf8_lossy(&version.stderr)
+    );
+    prefix
+}
+
+/// The interface child and every line it logged, with the instant it was read.
+struct Interface {
+    child: Child,
+    rx: UnboundedReceiver<(Instant, String)>,
+    log: Vec<String>,
+}
+
+impl Interface {
+    fn spawn(prefix: &[String], config: &Path, home: &Path) -> Self {
+        let mut child = Command::new(&prefix[0])
+            .args(&prefix[1..])
+            .arg(env!("CARGO_BIN_EXE_frontseat"))
+            .args(["interface", "-c"])
+            .arg(config)
+            .env("RUST_LOG", "info")
+            .env("HOME", home)
+            .env("NO_COLOR", "1")
+            .env_remove("OTEL_EXPORTER_OTLP_ENDPOINT")
+            .env_remove("OTEL_EXPORTER_OTLP_TRACES_ENDPOINT")
+            .stdin(Stdio::null())
+            .stdout(Stdio::null())
+            .stderr(Stdio::piped())
+            .spawn()
+            .expect("spawning the interface under setpriv");
+        let (tx, rx) = unbounded_channel();
+        let stderr = child.stderr.take().expect("piped stderr");
+        std::thread::spawn(move || {
+            let mut rd = BufReader::new(stderr);
+            let mut line = String::new();
+            loop {
+                line.clear();
+                match rd.read_line(&mut line) {
+                    Ok(0) | Err(_) => return,
+                    Ok(_) => {
+                        let _ = tx.send((Instant::now(), line.trim_end().to_string()));
+                    }
+                }
+            }
+        });
+        Self {
+            child,
+            rx,
+            log: Vec::new(),
+        }
+    }
+
+    /// The instant the child logged a line for which `pred` holds (lines read since the last
+    /// wait only).
+    async fn wait_for(&mut self, what: &str, pred: impl Fn(&str) -> bool) -> Instant {
+        let deadline = tokio::time::Instant::now() + LONG;
+        loop {
+            match tokio::time::timeout_at(deadline, self.rx.recv()).await {
+                Ok(Some((t, line))) => {
+                    let hit = pred(&line);
+                    self.log.push(line);
+                    if hit {
+                        return t;
+                    }
+                }
+                Ok(None) => panic!(
+                    "the interface exited before {what}: {:?}\n{}",
+                    self.child.try_wait(),
+                    self.tail()
+                ),
+                Err(_) => panic!("no {what} within {LONG:?}:\n{}", self.tail()),
+            }
+        }
+    }
+
+    async fn until_command(&mut self) -> Instant {
+        self.wait_for("to=\"running:command\"", |l| {
+            l.contains("to=\"running:command\"")
+        })
+        .await
+    }
+
+    async fn until_out_of_command(&mut self) -> Instant {
+        self.wait_for("from=\"running:command\"", |l| {
+            l.contains("from=\"running:command\"")
+        })
+        .await
+    }
+
+    /// Lines logged so far that contain every one of `needles`.
+    fn count(&mut self, needles: &[&str]) -> usize {
+        while let Ok((_, l)) = self.rx.try_recv() {
+            self.log.push(l);
+        }
+        self.log
+            .iter()
+            .filter(|l| needles.iter().all(|n| l.contains(n)))
+            .count()
+    }
+
+    fn tail(&self) -> String {
+        let n = self.log.len().saturating_sub(40);
+        self.log[n..].join("\n")
+    }
+}
+
+impl Drop for Interface {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+/// "… open again after N failed opens …" → N.
+fn failed_opens(line: &str) -> Option<u64> {
+    line.split("open again after ")
+        .nth(1)?
+        .split_whitespace()
+        .next()?
+        .parse()
+        .ok()
+}
+
+/// The driver's part of the child's config, for the stable name `by_id`.
+type DriverToml = fn(by_id: &Path, initial_ms: u64, max_ms: u64) -> String;
+
+fn iver3_toml(by_id: &Path, initial_ms: u64, max_ms: u64) -> String {
+    format!(
+        "[driver]\nname = \"iver3\"\n\n[driver.iver3]\nserial_port = \"{}\"\n\
+         remote_helm_version_major = 5\n\n[driver.iver3.link]\n\
+         reconnect_initial_ms = {initial_ms}\nreconnect_max_ms = {max_ms}\n",
+        by_id.display()
+    )
+}
+
+fn sv2_toml(by_id: &Path, initial_ms: u64, max_ms: u64) -> String {
+    format!(
+        "[driver]\nname = \"waveglider_sv2\"\n\n[driver.waveglider_sv2]\npm_serial_port = \"{}\"\n\n\
+         [driver.waveglider_sv2.link]\nreconnect_initial_ms = {initial_ms}\nreconnect_max_ms = {max_ms}\n",
+        by_id.display()
+    )
+}
+
+fn ardupilot_toml(by_id: &Path, initial_ms: u64, max_ms: u64) -> String {
+    format!(
+        "[driver]\nname = \"ardupilot\"\n\n[driver.ardupilot]\naddress = \"serial:{}:57600\"\n\
+         reconnect_initial_ms = {initial_ms}\nreconnect_max_ms = {max_ms}\n",
+        by_id.display()
+    )
+}
+
+/// A Rover the pilot has armed in GUIDED from the ground station, as it is when its companion's
+/// USB cable is knocked mid-mission: a new session stepped past its boot and EKF start.
+fn rover_in_guided() -> RoverSession {
+    let mut s = RoverSession::new(RoverOptions::default());
+    let mut out = Vec::new();
+    for _ in 0..100 {
+        s.step(0.1, &mut out);
+    }
+    let gcs = |command, param1, param2| {
+        frontseat_ardupilot::codec::encode(
+            255,
+            190,
+            0,
+            &MavMessage::COMMAND_LONG(COMMAND_LONG_DATA {
+                command,
+                param1,
+                param2,
+                target_system: 1,
+                target_component: 1,
+                ..Default::default()
+            }),
+        )
+    };
+    s.on_bytes(
+        &gcs(MavCmd::MAV_CMD_COMPONENT_ARM_DISARM, 1.0, 0.0),
+        &mut out,
+    );
+    s.on_bytes(
+        &gcs(
+            MavCmd::MAV_CMD_DO_SET_MODE,
+            1.0,
+            frontseat_ardupilot::modes::rover::GUIDED as f32,
+        ),
+        &mut out,
+    );
+    assert!(s.armed(), "the emulated Rover arms after boot");
+    assert_eq!(s.mode(), frontseat_ardupilot::modes::rover::GUIDED);
+    s
+}
+
+struct Scratch(PathBuf);
+
+impl Drop for Scratch {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.0);
+    }
+}
+
+fn scratch(name: &str) -> Scratch {
+    let d = std::env::temp_dir().join(format!(
+        "frontseat-serial-return-{}-{name}",
+        std::process::id()
+    ));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    Scratch(d)
+}
+
+fn write_config(dir: &Path, name: &str, driver: String) -> PathBuf {
+    let path = dir.join("interface.toml");
+    std::fs::write(
+        &path,
+        format!(
+            "# written by tests/serial_return.rs\nname = \"{name}\"\n\
+             # no helm process here: COMMAND needs only the frontseat\nrequire_helm = false\n\
+             sim_warp_factor = {WARP}\n\n{driver}"
+        ),
+    )
+    .unwrap();
+    std::fs::set_permissions(&path, std::fs::Permissions::from_mode(0o644)).unwrap();
+    path
+}
+
+/// The whole story for one vehicle; returns (device back → COMMAND, mode fixed → COMMAND).
+async fn comes_back<S: Session>(
+    vehicle: &str,
+    session: S,
+    driver: DriverToml,
+) -> (Duration, Duration) {
+    let dir = scratch(vehicle);
+    let prefix = unprivileged_prefix(&dir.0);
+    let mut cable = Cable::new(session, &dir.0);
+    let by_id = cable.by_id.clone();
+    let by_id_s = by_id.to_string_lossy().into_owned();
+    let config = write_config(&dir.0, vehicle, driver(&by_id, 20, 200));
+
+    let first = cable.plug(0o666).await;
+    let mut iface = Interface::spawn(&prefix, &config, &dir.0);
+    iface.until_command().await;
+
+    // Knocked out: gone, logged once with the configured name, retried.
+    let gone = cable.unplug().await;
+    assert!(!by_id.exists());
+    iface.until_out_of_command().await;
+    iface
+        .wait_for("the open error with the path", |l| {
+            l.contains(" WARN ") && l.contains(&format!("cannot open serial port {by_id_s}:"))
+        })
+        .await;
+    // Away long enough for several reopen attempts at the 200 ms cap.
+    tokio::time::sleep(Duration::from_millis(1500)).await;
+    let second = cable.plug(0o666).await;
+    assert_ne!(second, first, "the adapter comes back as another tty");
+    let back = Instant::now();
+    let reopened = iface
+        .wait_for("the reopen line", |l| {
+            l.contains(&format!("serial port {by_id_s} open again after"))
+        })
+        .await;
+    let n = iface
+        .log
+        .last()
+        .and_then(|l| failed_opens(l))
+        .expect("the reopen line says how many opens failed");
+    let at_command = iface.until_command().await;
+    assert!(at_command >= reopened);
+    assert!(n >= 2, "{n} failed opens while away for 1.5 s");
+    assert_eq!(
+        iface.count(&[" WARN ", &format!("serial port {by_id_s}")]),
+        1,
+        "{n} failed opens logged once:\n{}",
+        iface.tail()
+    );
+    let back_to_command = at_command.saturating_duration_since(back);
+    eprintln!("{vehicle}: {gone:?} gone, back as {second:?}");
+
+    // Knocked out again; back as a tty of root's alone: EACCES, logged once with the hint, until
+    // the mode is fixed.
+    cable.unplug().await;
+    iface.until_out_of_command().await;
+    iface
+        .wait_for("the open error of the second outage", |l| {
+            l.contains(" WARN ")
+                && l.contains(&format!("cannot open serial port {by_id_s}:"))
+                && !l.contains("permission denied")
+        })
+        .await;
+    let third = cable.plug(0o600).await;
+    assert_ne!(third, second, "the adapter comes back as another tty");
+    iface
+        .wait_for("the permission error with the path and the hint", |l| {
+            l.contains(" WARN ")
+                && l.contains(&format!(
+                    "cannot open serial port {by_id_s}: permission denied"
+                ))
+                && l.contains("dialout")
+        })
+        .await;
+    tokio::time::sleep(Duration::from_millis(1500)).await;
+    let before_fix = iface.count(&["to=\"running:command\""]);
+    allow(&third);
+    let fixed = Instant::now();
+    let reopened = iface
+        .wait_for("the reopen line", |l| {
+            l.contains(&format!("serial port {by_id_s} open again after"))
+        })
+        .await;
+    let n = iface
+        .log
+        .last()
+        .and_then(|l| failed_opens(l))
+        .expect("the reopen line says how many opens failed");
+    let at_command = iface.until_command().await;
+    assert!(at_command >= reopened);
+    assert_eq!(before_fix, 2, "no COMMAND while the port was root's alone");
+    assert!(n >= 2, "{n} failed opens while denied for 1.5 s");
+    // Over the whole run: one WARN per outage for the missing device, one for the denial.
+    assert_eq!(
+        iface.count(&[" WARN ", &format!("serial port {by_id_s}")]),
+        3,
+        "each kind of open error logged once per outage:\n{}",
+        iface.tail()
+    );
+    assert_eq!(
+        iface.count(&[" WARN ", "permission denied", &by_id_s]),
+        1,
+        "{}",
+        iface.tail()
+    );
+    let fix_to_command = at_command.saturating_duration_since(fixed);
+    // What an operator reads about the port in the journal, for the test's output.
+    for l in iface.log.iter().filter(|l| l.contains(&by_id_s)) {
+        eprintln!("{vehicle} child: {l}");
+    }
+    eprintln!(
+        "serial_return: {vehicle}: device back → running:command {:.0} ms; permission back → \
+         running:command {:.0} ms (reconnect 20 ms doubling to 200 ms, warp {WARP})",
+        back_to_command.as_secs_f64() * 1e3,
+        fix_to_command.as_secs_f64() * 1e3
+    );
+    (back_to_command, fix_to_command)
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn iver3_comes_back_behind_its_stable_name() {
+    let session = IverSession::new(IverOptions {
+        remote_helm_version_major: 5,
+        ..Default::default()
+    });
+    comes_back("iver3", session, iver3_toml).await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn waveglider_sv2_comes_back_behind_its_stable_name() {
+    comes_back(
+        "waveglider_sv2",
+        Sv2Session::new(Sv2Options::default()),
+        sv2_toml,
+    )
+    .await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn ardupilot_serial_link_comes_back_behind_its_stable_name() {
+    comes_back("ardupilot", rover_in_guided(), ardupilot_toml).await;
+}
+
+/// The figure for BENCHMARKS.md: the default backoff (100 ms doubling to 5 s), a 10 s absence,
+/// five returns per vehicle.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+#[ignore = "a measurement (minutes of wall time), not a test: run with --ignored"]
+async fn measure_return_with_default_backoff() {
+    const RUNS: usize = 5;
+    const AWAY: Duration = Duration::from_secs(10);
+    let vehicles: [(&str, DriverToml); 3] = [
+        ("iver3", iver3_toml),
+        ("waveglider_sv2", sv2_toml),
+        ("ardupilot", ardupilot_toml),
+    ];
+    for (vehicle, driver) in vehicles {
+        let name = format!("measure-{vehicle}");
+        let dir = scratch(&name);
+        let prefix = unprivileged_prefix(&dir.0);
+        let mut times = Vec::new();
+        match vehicle {
+            "iver3" => {
+                let s = IverSession::new(IverOptions {
+                    remote_helm_version_major: 5,
+                    ..Default::default()
+                });
+                measure(&dir.0, &prefix, s, driver, RUNS, AWAY, &mut times).await
+            }
+            "waveglider_sv2" => {
+                let s = Sv2Session::new(Sv2Options::default());
+                measure(&dir.0, &prefix, s, driver, RUNS, AWAY, &mut times).await
+            }
+            _ => {
+                measure(
+                    &dir.0,
+                    &prefix,
+                    rover_in_guided(),
+                    driver,
+                    RUNS,
+                    AWAY,
+                    &mut times,
+                )
+                .await
+            }
+        }
+        times.sort();
+        let ms: Vec<String> = times
+            .iter()
+            .map(|t| format!("{:.0}", t.as_secs_f64() * 1e3))
+            .collect();
+        println!(
+            "serial_return default backoff: {vehicle}: away {AWAY:?}, device back → running:command \
+             (ms, sorted): {}; median {:.0} ms",
+            ms.join(", "),
+            times[times.len() / 2].as_secs_f64() * 1e3
+        );
+    }
+}
+
+async fn measure<S: Session>(
+    dir: &Path,
+    prefix: &[String],
+    session: S,
+    driver: DriverToml,
+    runs: usize,
+    away: Duration,
+    times: &mut Vec<Duration>,
+) {
+    let mut cable = Cable::new(session, dir);
+    let config = write_config(dir, "measure", driver(&cable.by_id, 100, 5000));
+    cable.plug(0o666).await;
+    let mut iface = Interface::spawn(prefix, &config, dir);
+    iface.until_command().await;
+    for _ in 0..runs {
+        cable.unplug().await;
+        iface.until_out_of_command().await;
+        tokio::time::sleep(away).await;
+        cable.plug(0o666).await;
+        let back = Instant::now();
+        let at = iface.until_command().await;
+        times.push(at.saturating_duration_since(back));
+    }
+}

@@ -336,3 +336,39 @@ fn check_refuses_a_bad_vehicle_value_naming_it() {
         "{err}"
     );
 }
+
+/// Two vehicles given one port: `--check` names both and the port (exit 2), and the launch
+/// itself refuses before starting anything (it started the first interface and failed on the
+/// second's bind, exit 11).
+#[test]
+fn two_vehicles_on_one_port_are_refused_by_check_and_before_the_run() {
+    let dir = Dir::new("ports");
+    let file = dir.0.join("fleet.toml");
+    let port = {
+        let l = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
+        l.local_addr().unwrap().port()
+    };
+    std::fs::write(
+        &file,
+        format!(
+            "[[vehicle]]\nname = \"auv1\"\nzenoh_listen = [\"tcp/127.0.0.1:{port}\"]\n\
+             [[vehicle]]\nname = \"auv2\"\nzenoh_listen = [\"tcp/127.0.0.1:{port}\"]\n"
+        ),
+    )
+    .unwrap();
+    let want = format!(
+        "port {port} (TCP) is bound by both vehicle auv1 (interprocess.listen \
+         \"tcp/127.0.0.1:{port}\") and vehicle auv2 (interprocess.listen \
+         \"tcp/127.0.0.1:{port}\"): give each its own port"
+    );
+    for args in [
+        ["launch", "--check", "-c"].as_slice(),
+        ["launch", "-c"].as_slice(),
+    ] {
+        let out = Command::new(BIN).args(args).arg(&file).output().unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{args:?}: {err}");
+        assert!(err.contains(&want), "{args:?}: {err}");
+        assert!(!err.contains("[interface-auv1]"), "nothing started: {err}");
+    }
+}

@@ -10,6 +10,7 @@
 
 pub mod config;
 pub mod plan;
+pub mod ports;
 pub mod process;
 
 use std::future::Future;

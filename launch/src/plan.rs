@@ -10,6 +10,7 @@ use std::path::{Path, PathBuf};
 use frontseat_config::{InterfaceConfig, RecordConfig, RestartConfig};
 
 use crate::config::{LaunchConfig, ProcessEntry, ReadyConfig, Stage, VehicleEntry};
+use crate::ports::{self, Binding};
 
 /// One process to start.
 #[derive(Debug, Clone, PartialEq)]
@@ -42,6 +43,8 @@ pub struct Plan {
     pub records: Vec<(String, String)>,
     /// What the user should know (a vehicle's own `[record]` winning over the launch file's).
     pub warnings: Vec<String>,
+    /// Every address the processes will bind, in start order ([`crate::ports`]).
+    pub bindings: Vec<Binding>,
 }
 
 #[derive(Debug, thiserror::Error)]
@@ -60,6 +63,17 @@ pub enum PlanError {
     },
     #[error("template {file}: {why}")]
     Template { file: String, why: String },
+    /// Two processes would bind one port: the second would fail at run time.
+    #[error(
+        "port {port} ({proto}) is bound by both {} ({}) and {} ({}): give each its own port",
+        first.owner, first.what, second.owner, second.what
+    )]
+    PortClash {
+        port: u16,
+        proto: crate::ports::Proto,
+        first: Box<Binding>,
+        second: Box<Binding>,
+    },
 }
 
 fn resolve(base: &Path, p: &str) -> PathBuf {
@@ -297,6 +311,9 @@ pub fn plan(
             },
             restart: p.restart.clone(),
         });
+        if let Some(spec) = out.processes.last() {
+            ports::of_process(spec, frontseat, &mut out.bindings);
+        }
     };
     for p in cfg
         .process
@@ -358,6 +375,7 @@ pub fn plan(
             out.records
                 .push((v.name.clone(), record_target(&ic.record, &v.name)));
         }
+        ports::of_interface(&ic, &format!("vehicle {}", v.name), &mut out.bindings);
         out.processes.push(ProcSpec {
             index: out.processes.len(),
             name: format!("interface-{}", v.name),
@@ -382,6 +400,14 @@ pub fn plan(
         .filter(|p| p.stage == Stage::AfterVehicles)
     {
         push_process(&mut out, p, None);
+    }
+    if let Some((first, second)) = ports::first_clash(&out.bindings) {
+        return Err(PlanError::PortClash {
+            port: second.port,
+            proto: second.proto,
+            first: Box::new(first.clone()),
+            second: Box::new(second.clone()),
+        });
     }
     Ok(out)
 }
@@ -421,8 +447,10 @@ mod tests {
             command = ["frontseat", "sim"]
             [[vehicle]]
             name = "a"
+            zenoh_listen = ["tcp/127.0.0.1:7448"]
             [[vehicle]]
             name = "b"
+            zenoh_listen = ["tcp/127.0.0.1:7449"]
             "#,
         );
         let p = plan(
@@ -525,10 +553,13 @@ mod tests {
             flush_s = 0.2
             [[vehicle]]
             name = "a"
+            zenoh_listen = ["tcp/127.0.0.1:7448"]
             [[vehicle]]
             name = "b.1"
+            zenoh_listen = ["tcp/127.0.0.1:7449"]
             [[vehicle]]
             name = "own"
+            zenoh_listen = ["tcp/127.0.0.1:7450"]
             set = { "record.enabled" = true, "record.path" = "/x/own.mcap" }
             "#,
         );
@@ -635,5 +666,133 @@ mod tests {
             assert!(e.contains("vehicle[0].name"), "{bad:?}: {e}");
             assert!(e.contains("process[0].name"), "{bad:?}: {e}");
         }
+    }
+    fn clash(text: &str) -> Option<String> {
+        let dir = std::env::temp_dir().join(format!("fs-launch-ports-{}", std::process::id()));
+        let _ = std::fs::create_dir_all(&dir);
+        std::fs::write(
+            dir.join("alpha.moos"),
+            "ServerHost = localhost\nServerPort = 9001\n",
+        )
+        .ok();
+        std::fs::write(dir.join("sim.toml"), "port = 7000\n").ok();
+        let r = plan(
+            &parse(text),
+            &dir,
+            Path::new("/run"),
+            Path::new("/f"),
+            |_| true,
+        );
+        match r {
+            Ok(_) => None,
+            Err(e @ PlanError::PortClash { .. }) => Some(e.to_string()),
+            Err(other) => panic!("{other}"),
+        }
+    }
+
+    #[test]
+    fn two_vehicles_given_one_port_are_refused_naming_both_and_the_port() {
+        // The template's default Zenoh listen (tcp/127.0.0.1:7447) for both.
+        let e = clash("[[vehicle]]\nname = \"auv1\"\n[[vehicle]]\nname = \"auv2\"\n").unwrap();
+        assert_eq!(
+            e,
+            "port 7447 (TCP) is bound by both vehicle auv1 (interprocess.listen \
+             \"tcp/127.0.0.1:7447\") and vehicle auv2 (interprocess.listen \
+             \"tcp/127.0.0.1:7447\"): give each its own port"
+        );
+        // Web pages, one on every address.
+        let e = clash(
+            "[[vehicle]]\nname = \"a\"\nzenoh_listen = [\"tcp/127.0.0.1:7448\"]\n\
+             web_listen = \"0.0.0.0:50002\"\n\
+             [[vehicle]]\nname = \"b\"\nzenoh_listen = [\"tcp/127.0.0.1:7449\"]\n\
+             web_listen = \"127.0.0.1:50002\"\n",
+        )
+        .unwrap();
+        assert!(
+            e.contains("port 50002 (TCP)")
+                && e.contains("vehicle a (web.listen \"0.0.0.0:50002\")"),
+            "{e}"
+        );
+        assert!(
+            e.contains("vehicle b (web.listen \"127.0.0.1:50002\")"),
+            "{e}"
+        );
+        // A vehicle's Foxglove server on another's Zenoh port, through `set`.
+        let e = clash(
+            "[[vehicle]]\nname = \"a\"\nzenoh_listen = [\"tcp/127.0.0.1:7448\"]\n\
+             [[vehicle]]\nname = \"b\"\nzenoh_listen = [\"tcp/127.0.0.1:7449\"]\n\
+             set = { \"record.enabled\" = true, \"record.foxglove.enabled\" = true, \
+             \"record.foxglove.bind\" = \"127.0.0.1:7448\" }\n",
+        )
+        .unwrap();
+        assert!(
+            e.contains("vehicle a (interprocess.listen")
+                && e.contains("vehicle b (record.foxglove.bind"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn processes_clash_with_vehicles_and_with_each_other_per_vehicle() {
+        // A per-vehicle simulator without {index}: both vehicles' simulators on one port.
+        let e = clash(
+            "[[process]]\nname = \"sim\"\nstage = \"per_vehicle\"\n\
+             command = [\"frontseat\", \"sim\", \"--port\", \"6000\"]\n\
+             [[vehicle]]\nname = \"a\"\nsim_port = 6000\nzenoh_listen = [\"tcp/127.0.0.1:7448\"]\n\
+             [[vehicle]]\nname = \"b\"\nsim_port = 6000\nzenoh_listen = [\"tcp/127.0.0.1:7449\"]\n",
+        )
+        .unwrap();
+        assert!(e.contains("port 6000 (TCP) is bound by both process sim-a (--port 6000) and process sim-b (--port 6000)"), "{e}");
+        // ... and with {index} in the port, each its own: fine; so is one simulator shared.
+        assert_eq!(
+            clash(
+                "[[process]]\nname = \"sim\"\nstage = \"per_vehicle\"\n\
+                 command = [\"frontseat\", \"sim\", \"--port\", \"600{index}\"]\n\
+                 [[vehicle]]\nname = \"a\"\nsim_port = 6000\nzenoh_listen = [\"tcp/127.0.0.1:7448\"]\n\
+                 [[vehicle]]\nname = \"b\"\nsim_port = 6001\nzenoh_listen = [\"udp/127.0.0.1:7448\"]\n"
+            ),
+            None
+        );
+        // A simulator's config file port; a topside's web page; a MOOSDB's mission file.
+        let e = clash(
+            "[[process]]\nname = \"sim\"\ncommand = [\"frontseat\", \"sim\", \"-c\", \"sim.toml\"]\n\
+             [[vehicle]]\nname = \"a\"\nzenoh_listen = [\"tcp/127.0.0.1:7000\"]\n",
+        )
+        .unwrap();
+        assert!(
+            e.contains("process sim (port (its config))") && e.contains("vehicle a"),
+            "{e}"
+        );
+        let e = clash(
+            "[[process]]\nname = \"top\"\nstage = \"after_vehicles\"\ncommand = [\"frontseat\", \"topside\"]\n\
+             [[vehicle]]\nname = \"a\"\nweb_listen = \"127.0.0.1:50080\"\n",
+        )
+        .unwrap();
+        assert!(
+            e.contains("vehicle a (web.listen")
+                && e.contains("process top (web.listen \"127.0.0.1:50080\")"),
+            "{e}"
+        );
+        let e = clash(
+            "[[process]]\nname = \"moos\"\ncommand = [\"pAntler\", \"alpha.moos\"]\n\
+             [[process]]\nname = \"db2\"\ncommand = [\"MOOSDB\", \"--moos_port=9001\"]\n",
+        )
+        .unwrap();
+        assert!(
+            e.contains("port 9001 (TCP)")
+                && e.contains("process moos (ServerPort = 9001 (alpha.moos))")
+                && e.contains("process db2 (--moos_port=9001)"),
+            "{e}"
+        );
+        // A process waited for on a TCP address binds it.
+        let e = clash(
+            "[[process]]\nname = \"x\"\ncommand = [\"x\"]\nready = { kind = \"tcp\", address = \"127.0.0.1:7448\" }\n\
+             [[vehicle]]\nname = \"a\"\nzenoh_listen = [\"tcp/127.0.0.1:7448\"]\n",
+        )
+        .unwrap();
+        assert!(
+            e.contains("process x (ready.address \"127.0.0.1:7448\")"),
+            "{e}"
+        );
     }
 }

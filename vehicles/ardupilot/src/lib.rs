@@ -3,9 +3,8 @@
 //! through the `mavlink` crate), [`modes`] (the autopilot's mode numbers), [`infer`] (what a
 //! backseat concludes from what the vehicle says, and what it sends for a course — pure
 //! functions), [`driver`] (the state, the I/O and the glue to the runtime's driver trait),
-//! [`emulator`] (what ArduPilot Rover answers, on the simulator's vehicle model), [`sub_emulator`]
-//! (what ArduSub answers, with depth dynamics), both on `session` (what every emulated firmware
-//! does alike on the link). See README.md.
+//! [`emulator`] (what the autopilot answers, on the simulator's vehicle model: one emulator with
+//! a firmware switch, Rover or Sub). See README.md.
 
 #![forbid(unsafe_code)]
 
@@ -14,8 +13,11 @@ pub mod driver;
 pub mod emulator;
 pub mod infer;
 pub mod modes;
-mod session;
-pub mod sub_emulator;
+
+/// The Sub's path of old: the one emulator's Sub firmware ([`emulator::SubSession`]).
+pub mod sub_emulator {
+    pub use crate::emulator::{SubOptions, SubSession, SubStats, heading_error};
+}
 
 pub use mavlink::dialects::ardupilotmega as dialect;
 

@@ -1,9 +1,7 @@
-//! What every emulated ArduPilot firmware does alike on the link, written once for the Rover
-//! (`emulator`) and the Sub (`sub_emulator`): the session's frames in and out (deframing, our
-//! sequence numbers, the sim clock since boot and the boot time), the streams a GCS asks for with
-//! SET_MESSAGE_INTERVAL and their schedule, COMMAND_LONG's arming and answer by COMMAND_ACK,
-//! STATUSTEXT, the HEARTBEAT's frame, and the stream messages' common layout. A firmware adds its
-//! modes, targets, dynamics and failsafes through [`Face`].
+//! The link side of the one ArduPilot emulator, alike on every firmware: the session's frames
+//! in and out (deframing, our sequence numbers), the sim clock since boot and the boot time, the
+//! streams a GCS asks for with SET_MESSAGE_INTERVAL and their schedule, the fault hooks' state,
+//! and the stream messages' common layout.
 
 use std::collections::BTreeMap;
 
@@ -11,25 +9,25 @@ use mavlink::MessageData;
 
 use frontseat_sim::vehicle::Vehicle;
 
-use crate::codec::{Deframer, MavMessage, Sender, decode};
+use crate::codec::{Deframer, MavMessage, Sender};
 use crate::dialect::*;
 
 /// Fastest stream a backseat may ask for: a flood of our own making helps nobody.
 const MIN_INTERVAL_S: f64 = 0.01;
 /// Statustexts kept for inspection.
-const MAX_TEXTS: usize = 64;
+pub(crate) const MAX_TEXTS: usize = 64;
 
 /// The shared part of an emulated firmware's session.
-pub(crate) struct Autopilot {
+pub struct Autopilot {
     system_id: u8,
     tx: Sender,
-    deframer: Deframer,
+    pub(crate) deframer: Deframer,
     /// Sim seconds since boot.
     pub(crate) t: f64,
     /// Sim seconds of boot (no arming, EKF uninitialised).
     init_s: f64,
-    /// Streamed messages the firmware can send, by id.
-    streamable: &'static [u32],
+    /// Streamed messages the firmware sends beside [`STREAMS`], by id.
+    extra_streams: &'static [u32],
     /// Seconds between sends, and when each was last sent.
     intervals: BTreeMap<u32, (f64, f64)>,
     /// The chaos harness's faults, set through the emulator's fault hooks.
@@ -60,93 +58,29 @@ pub struct FaultCounters {
     pub bytes_withheld: u64,
 }
 
+/// Streamed messages every firmware can send, by id.
+pub(crate) const STREAMS: [u32; 8] = [
+    HEARTBEAT_DATA::ID,
+    GLOBAL_POSITION_INT_DATA::ID,
+    ATTITUDE_DATA::ID,
+    VFR_HUD_DATA::ID,
+    SYS_STATUS_DATA::ID,
+    GPS_RAW_INT_DATA::ID,
+    EKF_STATUS_REPORT_DATA::ID,
+    STATUSTEXT_DATA::ID,
+];
+
+/// A firmware's stats, which count what the shared part sees (written by `shared_counters!`).
+pub trait Counters {
+    fn tally(&mut self) -> Tally<'_>;
+}
+
 /// Where a firmware's stats count what the shared part sees.
-pub(crate) struct Tally<'a> {
+pub struct Tally<'a> {
     pub(crate) frames_in: &'a mut u64,
     pub(crate) bad_input: &'a mut u64,
     pub(crate) commands: &'a mut u64,
     pub(crate) statustexts: &'a mut Vec<String>,
-}
-
-/// How the shared part reaches a firmware's session: written by [`shared_session!`].
-pub(crate) trait Shared {
-    fn autopilot(&mut self) -> &mut Autopilot;
-    fn tally(&mut self) -> Tally<'_>;
-}
-
-/// A firmware's session (a struct with the shared part in `ap` and its stats, which count
-/// `frames_in`, `bad_input`, `commands` and `statustexts`, in `stats`) made a simulator
-/// [`Session`](frontseat_sim::emulator::Session) whose frames in, steps and input resets go
-/// through the shared part.
-macro_rules! shared_session {
-    ($session:ty) => {
-        impl $crate::session::Shared for $session {
-            fn autopilot(&mut self) -> &mut $crate::session::Autopilot {
-                &mut self.ap
-            }
-
-            fn tally(&mut self) -> $crate::session::Tally<'_> {
-                let s = &mut self.stats;
-                $crate::session::Tally {
-                    frames_in: &mut s.frames_in,
-                    bad_input: &mut s.bad_input,
-                    commands: &mut s.commands,
-                    statustexts: &mut s.statustexts,
-                }
-            }
-        }
-
-        impl frontseat_sim::emulator::Session for $session {
-            fn on_bytes(&mut self, bytes: &[u8], out: &mut Vec<u8>) {
-                $crate::session::on_bytes(self, bytes, out);
-            }
-
-            fn step(&mut self, dt: f64, out: &mut Vec<u8>) {
-                $crate::session::step(self, dt, out);
-            }
-
-            fn reset_input(&mut self) {
-                self.ap.reset_input();
-            }
-        }
-    };
-}
-pub(crate) use shared_session;
-
-/// What a firmware adds to the shared part.
-pub(crate) trait Face: Shared {
-    /// A decoded message from system `sender`.
-    fn handle(&mut self, sender: u8, msg: MavMessage, out: &mut Vec<u8>);
-    /// The COMMAND_LONGs other than arming and message intervals, addressed to us.
-    fn command(&mut self, c: &COMMAND_LONG_DATA, out: &mut Vec<u8>) -> MavResult;
-    /// Arming accepted after boot (a no-op when armed already).
-    fn arm(&mut self, out: &mut Vec<u8>);
-    /// Disarming, saying `why` (a no-op when disarmed).
-    fn disarm(&mut self, why: &str, out: &mut Vec<u8>);
-    /// Boot is over.
-    fn booted(&mut self, out: &mut Vec<u8>);
-    /// The vehicle is put in `mode` (announced by a HEARTBEAT at once; a no-op when in it).
-    fn set_mode(&mut self, mode: u32, out: &mut Vec<u8>);
-    /// `dt` sim seconds of the firmware's control and dynamics.
-    fn drive(&mut self, dt: f64, out: &mut Vec<u8>);
-    /// The stream `id` is due.
-    fn stream(&mut self, id: u32, out: &mut Vec<u8>);
-
-    /// Sends a STATUSTEXT (cut to the 50 characters the message holds).
-    fn statustext(&mut self, severity: MavSeverity, text: &str, out: &mut Vec<u8>) {
-        let cut: String = text.chars().take(50).collect();
-        let texts = self.tally().statustexts;
-        if texts.len() < MAX_TEXTS {
-            texts.push(cut.clone());
-        }
-        self.autopilot().send(
-            MavMessage::STATUSTEXT(STATUSTEXT_DATA {
-                severity,
-                text: cut.as_str().into(),
-            }),
-            out,
-        );
-    }
 }
 
 impl Autopilot {
@@ -155,7 +89,7 @@ impl Autopilot {
         system_id: u8,
         component_id: u8,
         init_s: f64,
-        streamable: &'static [u32],
+        extra_streams: &'static [u32],
     ) -> Self {
         let mut intervals = BTreeMap::new();
         intervals.insert(HEARTBEAT_DATA::ID, (1.0, f64::NEG_INFINITY));
@@ -165,7 +99,7 @@ impl Autopilot {
             deframer: Deframer::new(),
             t: 0.0,
             init_s,
-            streamable,
+            extra_streams,
             intervals,
             faults: Faults::default(),
         }
@@ -219,13 +153,16 @@ impl Autopilot {
 
     /// MAV_CMD_SET_MESSAGE_INTERVAL: param1 the message id, param2 µs (0 the default 1 s, < 0
     /// stops it).
-    fn set_interval(&mut self, id: f32, us: f32) -> MavResult {
-        let known =
-            id.is_finite() && id >= 0.0 && self.streamable.contains(&(id as u32)) && us.is_finite();
+    pub(crate) fn set_interval(&mut self, id: f32, us: f32) -> MavResult {
+        let n = id as u32;
+        let known = id.is_finite()
+            && id >= 0.0
+            && (STREAMS.contains(&n) || self.extra_streams.contains(&n))
+            && us.is_finite();
         if !known {
             MavResult::MAV_RESULT_FAILED
         } else {
-            let id = id as u32;
+            let id = n;
             if us < 0.0 {
                 self.intervals.remove(&id);
             } else {
@@ -238,7 +175,7 @@ impl Autopilot {
     }
 
     /// The streams due now, marked sent.
-    fn due(&mut self) -> Vec<u32> {
+    pub(crate) fn due(&mut self) -> Vec<u32> {
         let due: Vec<u32> = self
             .intervals
             .iter()
@@ -282,126 +219,8 @@ impl Autopilot {
     }
 }
 
-/// Bytes from the backseat: each whole frame decoded and handed to the firmware; a silent
-/// vehicle sends nothing back.
-pub(crate) fn on_bytes<F: Face>(f: &mut F, bytes: &[u8], out: &mut Vec<u8>) {
-    let start = out.len();
-    receive(f, bytes, out);
-    withhold_if_silent(f.autopilot(), start, out);
-}
-
-fn receive<F: Face>(f: &mut F, bytes: &[u8], out: &mut Vec<u8>) {
-    let mut frames = Vec::new();
-    let mut bad = 0;
-    f.autopilot().deframer.feed(bytes, &mut |r| match r {
-        Ok(fr) => frames.push(fr),
-        Err(_) => bad += 1,
-    });
-    *f.tally().bad_input += bad;
-    for fr in frames {
-        match decode(&fr) {
-            Ok((h, msg)) => {
-                *f.tally().frames_in += 1;
-                match msg {
-                    // ArduPilot takes the old SET_MODE as DO_SET_MODE and acknowledges it so.
-                    #[allow(deprecated)]
-                    MavMessage::SET_MODE(m) => command(
-                        f,
-                        &COMMAND_LONG_DATA {
-                            command: MavCmd::MAV_CMD_DO_SET_MODE,
-                            param1: f32::from(m.base_mode.bits()),
-                            param2: m.custom_mode as f32,
-                            target_system: m.target_system,
-                            ..Default::default()
-                        },
-                        out,
-                    ),
-                    msg => f.handle(h.system_id, msg, out),
-                }
-            }
-            Err(_) => *f.tally().bad_input += 1,
-        }
-    }
-}
-
-/// `dt` sim seconds: the end of boot, a mode change of the vehicle's own, the firmware's
-/// dynamics, then the streams due; a silent vehicle sends nothing.
-pub(crate) fn step<F: Face>(f: &mut F, dt: f64, out: &mut Vec<u8>) {
-    let start = out.len();
-    let ap = f.autopilot();
-    let was_init = ap.initialising();
-    ap.t += dt;
-    if was_init && !ap.initialising() {
-        f.booted(out);
-    }
-    let ap = f.autopilot();
-    if !ap.initialising()
-        && let Some(mode) = ap.faults.own_mode.take()
-    {
-        ap.faults.counters.own_mode_changes += 1;
-        f.set_mode(mode, out);
-    }
-    f.drive(dt, out);
-    for id in f.autopilot().due() {
-        f.stream(id, out);
-    }
-    withhold_if_silent(f.autopilot(), start, out);
-}
-
-fn withhold_if_silent(ap: &mut Autopilot, start: usize, out: &mut Vec<u8>) {
-    if ap.faults.silent && out.len() > start {
-        ap.faults.counters.bytes_withheld += (out.len() - start) as u64;
-        out.truncate(start);
-    }
-}
-
-/// A COMMAND_LONG addressed to us, answered by COMMAND_ACK: arming and message intervals alike
-/// on every firmware, the rest the firmware's own.
-pub(crate) fn command<F: Face>(f: &mut F, c: &COMMAND_LONG_DATA, out: &mut Vec<u8>) {
-    if !f.autopilot().for_me(c.target_system) {
-        return;
-    }
-    *f.tally().commands += 1;
-    let result = if let Some(refusal) = f.autopilot().faults.refusal {
-        f.autopilot().faults.counters.commands_refused += 1;
-        refusal
-    } else {
-        match c.command {
-            MavCmd::MAV_CMD_COMPONENT_ARM_DISARM => {
-                if c.param1 == 1.0 {
-                    if f.autopilot().initialising() {
-                        f.statustext(
-                            MavSeverity::MAV_SEVERITY_CRITICAL,
-                            "PreArm: AHRS not healthy",
-                            out,
-                        );
-                        MavResult::MAV_RESULT_FAILED
-                    } else {
-                        f.arm(out);
-                        MavResult::MAV_RESULT_ACCEPTED
-                    }
-                } else if c.param1 == 0.0 {
-                    f.disarm("Disarming motors", out);
-                    MavResult::MAV_RESULT_ACCEPTED
-                } else {
-                    MavResult::MAV_RESULT_DENIED
-                }
-            }
-            MavCmd::MAV_CMD_SET_MESSAGE_INTERVAL => f.autopilot().set_interval(c.param1, c.param2),
-            _ => f.command(c, out),
-        }
-    };
-    f.autopilot().send(
-        MavMessage::COMMAND_ACK(COMMAND_ACK_DATA {
-            command: c.command,
-            result,
-        }),
-        out,
-    );
-}
-
 /// The vehicle model as the streams read it.
-pub(crate) struct Snapshot {
+pub struct Snapshot {
     pub(crate) boot_ms: u32,
     /// (0, 0) during boot.
     pub(crate) lat: f64,

@@ -1,27 +1,26 @@
-//! ArduSub (BlueROV2, `vectored` frame) as a backseat sees it over MAVLink, on the simulator's
+//! ArduSub's part of the one ArduPilot emulator (BlueROV2, `vectored` frame), on the simulator's
 //! vehicle model with depth dynamics (`frontseat sim --vehicle ardusub`), from
-//! `shared/protocol/ardupilot/ardusub.md`: HEARTBEAT type SUBMARINE booting in MANUAL 19, Sub's
-//! mode numbers (GUIDED and the other position modes refused "requires position" without an
-//! estimate), arming, the streams (depth = LOCAL_POSITION_NED.z, relative_alt re-zeroed at each
-//! arming, pressure), the targets GUIDED follows and the ones it drops or ignores (a non-ignored
-//! acceleration drops the message, GLOBAL_INT's yaw is ignored, position-only targets restart
-//! their trajectory), the 3 s velocity timeout, ALT_HOLD's depth / attitude / pilot-thrust path,
-//! and the GCS, pilot-input and leak failsafes.
-//! What it shares with the other firmware (frames, the stream schedule, arming, COMMAND_ACK,
-//! STATUSTEXT, the streamed messages' layout) is written once in `session`; this file is its own part.
+//! `shared/protocol/ardupilot/ardusub.md`: HEARTBEAT type SUBMARINE booting in MANUAL 19, GUIDED
+//! and the other position modes refused "requires position" without an estimate, the streams
+//! (depth = LOCAL_POSITION_NED.z, relative_alt re-zeroed at each arming, pressure), the targets
+//! GUIDED follows and the ones it drops or ignores (a non-ignored acceleration drops the message,
+//! GLOBAL_INT's yaw is ignored, position-only targets restart their trajectory), the 3 s velocity
+//! timeout, ALT_HOLD's depth / attitude / pilot-thrust path, and the GCS, pilot-input and leak
+//! failsafes. What every firmware does alike (frames, modes, arming, COMMAND_ACK, STATUSTEXT,
+//! the streams' schedule) is the emulator's (`super`).
 
 use mavlink::MessageData;
 
 use frontseat_sim::vehicle::{Limits, Setpoint, Vehicle, short_turn, wrap_heading};
 
+use super::link::{self, Autopilot, Snapshot};
+use super::{FirmwarePart, SubSession};
 use crate::codec::MavMessage;
 use crate::dialect::*;
 use crate::infer::{
     self, EKF_READY, SUB_ATTITUDE_TIMEOUT_S, SUB_TARGET_TIMEOUT_S, SubTarget, quaternion_heading,
 };
 use crate::modes::{Firmware, sub};
-pub use crate::session::FaultCounters;
-use crate::session::{self, Autopilot, Face};
 
 /// How the emulated Sub starts, and its parameters.
 #[derive(Debug, Clone, PartialEq)]
@@ -119,20 +118,13 @@ pub struct SubStats {
     pub statustexts: Vec<String>,
     pub last_target: Option<SubTarget>,
 }
+shared_counters!(SubStats);
 
-/// Streamed messages the emulator can send, by id.
-const STREAMABLE: [u32; 11] = [
-    HEARTBEAT_DATA::ID,
-    GLOBAL_POSITION_INT_DATA::ID,
+/// Streamed messages the Sub sends beside every firmware's, by id.
+const EXTRA_STREAMS: [u32; 3] = [
     LOCAL_POSITION_NED_DATA::ID,
-    ATTITUDE_DATA::ID,
-    VFR_HUD_DATA::ID,
-    SYS_STATUS_DATA::ID,
-    GPS_RAW_INT_DATA::ID,
-    EKF_STATUS_REPORT_DATA::ID,
     SCALED_PRESSURE_DATA::ID,
     SCALED_PRESSURE2_DATA::ID,
-    STATUSTEXT_DATA::ID,
 ];
 /// RC_OVERRIDE_TIME: a pilot input lasts this long.
 const RC_OVERRIDE_S: f64 = 3.0;
@@ -163,12 +155,9 @@ enum Guided {
     },
 }
 
-pub struct SubSession {
+/// ArduSub's own state.
+pub struct Sub {
     opts: SubOptions,
-    vehicle: Vehicle,
-    ap: Autopilot,
-    mode: u32,
-    armed: bool,
     /// Vertical speed, m/s down.
     w: f64,
     depth_target: f64,
@@ -186,156 +175,22 @@ pub struct SubSession {
     leak: Option<f64>,
     /// relative_alt's zero (home), re-set at each arming.
     home_depth: f64,
-    pub stats: SubStats,
 }
 
 impl SubSession {
-    pub fn new(opts: SubOptions) -> Self {
-        let limits = Limits {
-            accel: opts.accel,
-            hdg_rate: opts.hdg_rate,
-            // Depth is ours (below): the model's own depth stays where we put it.
-            z_rate: 0.0,
-        };
-        Self {
-            vehicle: Vehicle::new(opts.lat, opts.lon, limits, (0.0, 0.0)),
-            ap: Autopilot::new(opts.system_id, opts.component_id, opts.init_s, &STREAMABLE),
-            mode: sub::MANUAL,
-            armed: false,
-            w: 0.0,
-            depth_target: 0.0,
-            heading_hold: 0.0,
-            guided: None,
-            attitude: None,
-            manual: None,
-            gcs_seen: None,
-            gcs_failsafe: false,
-            pilot_seen: None,
-            armed_at: 0.0,
-            pilot_failsafe: false,
-            leak: None,
-            home_depth: 0.0,
-            stats: SubStats::default(),
-            opts,
-        }
-    }
-
-    pub fn mode(&self) -> u32 {
-        self.mode
-    }
-    pub fn armed(&self) -> bool {
-        self.armed
-    }
-    pub fn vehicle(&self) -> &Vehicle {
-        &self.vehicle
-    }
     pub fn depth(&self) -> f64 {
         self.vehicle.depth
     }
-    pub fn sim_time(&self) -> f64 {
-        self.ap.t
-    }
+
     /// Places the vehicle at a depth (tests start from one).
     pub fn set_depth(&mut self, d: f64) {
-        self.vehicle.depth = d.clamp(0.0, self.opts.bottom_m);
-        self.depth_target = self.vehicle.depth;
+        self.vehicle.depth = d.clamp(0.0, self.fw.opts.bottom_m);
+        self.fw.depth_target = self.vehicle.depth;
     }
 
     /// The EKF has a horizontal position (GUIDED, AUTO, POSHOLD, CIRCLE may be entered).
     pub fn position_ok(&self) -> bool {
-        self.opts.position_estimate && self.ap.t >= self.opts.ekf_ready_s
-    }
-
-    fn failsafe(&self) -> bool {
-        self.gcs_failsafe || self.pilot_failsafe || self.leak.is_some()
-    }
-
-    /// Sends a STATUSTEXT (cut to the 50 characters the message holds).
-    pub fn statustext(&mut self, severity: MavSeverity, text: &str, out: &mut Vec<u8>) {
-        Face::statustext(self, severity, text, out);
-    }
-
-    fn needs_position(mode: u32) -> bool {
-        matches!(mode, sub::GUIDED | sub::AUTO | sub::POSHOLD | sub::CIRCLE)
-    }
-
-    fn set_mode(&mut self, mode: u32, out: &mut Vec<u8>) {
-        if mode != self.mode {
-            self.mode = mode;
-            self.guided = None;
-            self.attitude = None;
-            // Every mode starts by holding what it finds.
-            self.depth_target = self.vehicle.depth;
-            self.heading_hold = self.vehicle.heading;
-            self.heartbeat(out);
-        }
-    }
-
-    fn heartbeat(&mut self, out: &mut Vec<u8>) {
-        // ardusub.md: 0x51 disarmed, 0x80 added when armed.
-        let mut base = MavModeFlag::MAV_MODE_FLAG_CUSTOM_MODE_ENABLED
-            | MavModeFlag::MAV_MODE_FLAG_STABILIZE_ENABLED
-            | MavModeFlag::MAV_MODE_FLAG_MANUAL_INPUT_ENABLED;
-        if self.armed {
-            base |= MavModeFlag::MAV_MODE_FLAG_SAFETY_ARMED;
-        }
-        let status = self
-            .ap
-            .system_status(MavState::MAV_STATE_BOOT, self.failsafe(), self.armed);
-        self.ap
-            .heartbeat(self.mode, MavType::MAV_TYPE_SUBMARINE, base, status, out);
-    }
-
-    /// ArduSub's own COMMAND_LONGs: mode by number (the position modes only with a position),
-    /// the WP speed, and a heading in GUIDED.
-    fn sub_command(&mut self, c: &COMMAND_LONG_DATA, out: &mut Vec<u8>) -> MavResult {
-        match c.command {
-            MavCmd::MAV_CMD_DO_SET_MODE => {
-                let m = c.param2;
-                let valid = (c.param1 as u32) & 1 == 1
-                    && m.is_finite()
-                    && m >= 0.0
-                    && m.fract() == 0.0
-                    && Firmware::Sub.mode_name(m as u32).is_some();
-                if !valid || self.ap.initialising() {
-                    MavResult::MAV_RESULT_FAILED
-                } else if Self::needs_position(m as u32) && !self.position_ok() {
-                    let name = Firmware::Sub.mode_name(m as u32).unwrap_or("mode");
-                    self.statustext(
-                        MavSeverity::MAV_SEVERITY_WARNING,
-                        &format!("Mode change failed: {name} requires position"),
-                        out,
-                    );
-                    MavResult::MAV_RESULT_FAILED
-                } else {
-                    self.set_mode(m as u32, out);
-                    MavResult::MAV_RESULT_ACCEPTED
-                }
-            }
-            // ardusub.md: param2 > 0 sets the WP speed only; 0 is DENIED.
-            MavCmd::MAV_CMD_DO_CHANGE_SPEED => {
-                if c.param2.is_finite() && c.param2 > 0.0 {
-                    self.opts.wp_speed = f64::from(c.param2).min(5.0);
-                    MavResult::MAV_RESULT_ACCEPTED
-                } else {
-                    MavResult::MAV_RESULT_DENIED
-                }
-            }
-            MavCmd::MAV_CMD_CONDITION_YAW if self.mode == sub::GUIDED => {
-                if c.param1.is_finite() {
-                    self.heading_hold = wrap_heading(f64::from(c.param1));
-                    if let Some(Guided::Velocity { yaw, .. } | Guided::Waypoint { yaw, .. }) =
-                        &mut self.guided
-                    {
-                        *yaw = Some(self.heading_hold);
-                    }
-                    MavResult::MAV_RESULT_ACCEPTED
-                } else {
-                    MavResult::MAV_RESULT_DENIED
-                }
-            }
-            _ => MavResult::MAV_RESULT_UNSUPPORTED,
-        }
+        self.fw.opts.position_estimate && self.ap.t >= self.fw.opts.ekf_ready_s
     }
 
     /// A target GUIDED accepted.
@@ -359,7 +214,7 @@ impl SubSession {
             SubTarget::Wp { pos, yaw } => {
                 self.stats.wp_restarts += 1;
                 // The trajectory starts again from rest at each arrival.
-                self.w = 0.0;
+                self.fw.w = 0.0;
                 Guided::Waypoint {
                     north: pos.0,
                     east: pos.1,
@@ -375,7 +230,7 @@ impl SubSession {
         };
         self.stats.targets_followed += 1;
         self.stats.last_target = Some(t);
-        self.guided = Some(g);
+        self.fw.guided = Some(g);
     }
 
     fn north_east_down(&mut self) -> (f64, f64, f64) {
@@ -427,7 +282,7 @@ impl SubSession {
         match self.mode {
             // ALT_HOLD: z alone sets the depth target (alt = −depth); frame and lat/lon ignored.
             sub::ALT_HOLD if mask & 0b100 == 0 && p.alt.is_finite() => {
-                self.depth_target = (-f64::from(p.alt)).clamp(0.0, self.opts.bottom_m);
+                self.fw.depth_target = (-f64::from(p.alt)).clamp(0.0, self.fw.opts.bottom_m);
                 self.stats.targets_followed += 1;
             }
             sub::GUIDED => {
@@ -462,15 +317,15 @@ impl SubSession {
         }
         if let Some(h) = quaternion_heading(a.q) {
             self.stats.attitude_targets += 1;
-            self.attitude = Some((h, self.ap.t));
+            self.fw.attitude = Some((h, self.ap.t));
         }
     }
 
     /// HEARTBEAT / MANUAL_CONTROL / RC override from MAV_GCS_SYSID: the GCS failsafe's food.
     fn gcs_alive(&mut self, out: &mut Vec<u8>) {
-        self.gcs_seen = Some(self.ap.t);
-        if self.gcs_failsafe {
-            self.gcs_failsafe = false;
+        self.fw.gcs_seen = Some(self.ap.t);
+        if self.fw.gcs_failsafe {
+            self.fw.gcs_failsafe = false;
             self.statustext(
                 MavSeverity::MAV_SEVERITY_CRITICAL,
                 "GCS Failsafe Cleared",
@@ -480,39 +335,16 @@ impl SubSession {
     }
 
     fn pilot_input(&mut self, x: i16, z: i16, out: &mut Vec<u8>) {
-        self.pilot_seen = Some(self.ap.t);
-        self.manual = Some((x.clamp(-1000, 1000), z.clamp(0, 1000), self.ap.t));
-        if self.pilot_failsafe {
-            self.pilot_failsafe = false;
+        self.fw.pilot_seen = Some(self.ap.t);
+        self.fw.manual = Some((x.clamp(-1000, 1000), z.clamp(0, 1000), self.ap.t));
+        if self.fw.pilot_failsafe {
+            self.fw.pilot_failsafe = false;
             self.statustext(
                 MavSeverity::MAV_SEVERITY_CRITICAL,
                 "Manual control regained",
                 out,
             );
         }
-    }
-
-    /// Fault hook: every COMMAND_LONG and SET_MODE addressed to the vehicle is answered with
-    /// `answer` (MAV_RESULT_DENIED, _FAILED, …) and not acted on; `None` ends it.
-    pub fn refuse_commands(&mut self, answer: Option<MavResult>) {
-        self.ap.faults.refusal = answer;
-    }
-
-    /// Fault hook: the vehicle switches to `mode` by itself at its next step (after boot), as a
-    /// pilot's RC switch or a failsafe would, announcing it by a HEARTBEAT.
-    pub fn change_mode(&mut self, mode: u32) {
-        self.ap.faults.own_mode = Some(mode);
-    }
-
-    /// Fault hook: the vehicle sends nothing (no HEARTBEAT, stream, ACK or STATUSTEXT) while
-    /// `silent`, and goes on hearing and acting on what it is sent.
-    pub fn go_silent(&mut self, silent: bool) {
-        self.ap.faults.silent = silent;
-    }
-
-    /// What the fault hooks made the vehicle do.
-    pub fn fault_counters(&self) -> FaultCounters {
-        self.ap.faults.counters.clone()
     }
 
     /// The pilot (a joystick button, QGroundControl) selects a mode.
@@ -522,32 +354,32 @@ impl SubSession {
 
     /// A leak detector trips (FS_LEAK_ENABLE 1 warns; with `leak_surfaces`, SURFACE if armed).
     pub fn inject_leak(&mut self, out: &mut Vec<u8>) {
-        self.leak = Some(self.ap.t);
+        self.fw.leak = Some(self.ap.t);
         self.statustext(MavSeverity::MAV_SEVERITY_CRITICAL, "Leak Detected", out);
-        if self.opts.leak_surfaces && self.armed {
+        if self.fw.opts.leak_surfaces && self.armed {
             self.set_mode(sub::SURFACE, out);
         }
         self.heartbeat(out);
     }
 
     fn failsafes(&mut self, out: &mut Vec<u8>) {
-        if let (Some(limit), Some(seen)) = (self.opts.gcs_failsafe_s, self.gcs_seen)
+        if let (Some(limit), Some(seen)) = (self.fw.opts.gcs_failsafe_s, self.fw.gcs_seen)
             && self.armed
-            && !self.gcs_failsafe
+            && !self.fw.gcs_failsafe
             && self.ap.t - seen > limit
         {
-            self.gcs_failsafe = true;
+            self.fw.gcs_failsafe = true;
             self.stats.gcs_failsafes += 1;
-            let text = format!("MYGCS: {}, heartbeat lost", self.opts.gcs_sysid);
+            let text = format!("MYGCS: {}, heartbeat lost", self.fw.opts.gcs_sysid);
             self.statustext(MavSeverity::MAV_SEVERITY_CRITICAL, &text, out);
             self.disarm("Disarming motors", out);
         }
-        if let Some(limit) = self.opts.pilot_failsafe_s
+        if let Some(limit) = self.fw.opts.pilot_failsafe_s
             && self.armed
-            && !self.pilot_failsafe
-            && self.ap.t - self.pilot_seen.unwrap_or(0.0).max(self.armed_at) > limit
+            && !self.fw.pilot_failsafe
+            && self.ap.t - self.fw.pilot_seen.unwrap_or(0.0).max(self.fw.armed_at) > limit
         {
-            self.pilot_failsafe = true;
+            self.fw.pilot_failsafe = true;
             self.stats.pilot_failsafes += 1;
             self.statustext(
                 MavSeverity::MAV_SEVERITY_CRITICAL,
@@ -556,19 +388,19 @@ impl SubSession {
             );
             self.disarm("Disarming motors", out);
         }
-        if let Some(since) = self.leak
+        if let Some(since) = self.fw.leak
             && self.ap.t - since >= LEAK_REPEAT_S
         {
-            self.leak = Some(self.ap.t);
+            self.fw.leak = Some(self.ap.t);
             self.statustext(MavSeverity::MAV_SEVERITY_CRITICAL, "Leak Detected", out);
         }
     }
 
     /// The pilot's forward input (m/s), while its override lasts.
     fn pilot_forward(&self) -> f64 {
-        match self.manual {
+        match self.fw.manual {
             Some((x, _, at)) if self.ap.t - at <= RC_OVERRIDE_S => {
-                f64::from(x) / 1000.0 * self.opts.thrust_full_mps
+                f64::from(x) / 1000.0 * self.fw.opts.thrust_full_mps
             }
             _ => 0.0,
         }
@@ -576,27 +408,33 @@ impl SubSession {
 
     /// Heading, horizontal speed, and the depth controller's (target, max down, max up).
     fn control(&mut self, out: &mut Vec<u8>) -> (f64, f64, f64, f64, f64) {
-        let (dn, up) = (self.opts.speed_dn, self.opts.speed_up);
+        let (dn, up) = (self.fw.opts.speed_dn, self.fw.opts.speed_up);
         let here = self.vehicle.heading;
         if !self.armed {
             // Positive buoyancy: a disarmed vehicle floats up.
-            return (here, 0.0, 0.0, -self.opts.float_up, self.opts.float_up);
+            return (
+                here,
+                0.0,
+                0.0,
+                -self.fw.opts.float_up,
+                self.fw.opts.float_up,
+            );
         }
         match self.mode {
             sub::GUIDED => {
-                let timed_out = match &self.guided {
+                let timed_out = match &self.fw.guided {
                     Some(Guided::Velocity { at, .. }) => self.ap.t - at >= SUB_TARGET_TIMEOUT_S,
                     _ => false,
                 };
                 if timed_out {
                     // Velocity zeroed; depth and heading held (no STATUSTEXT).
                     self.stats.target_timeouts += 1;
-                    if let Some(Guided::Velocity { depth, yaw, .. }) = self.guided.take() {
-                        self.depth_target = depth.unwrap_or(self.vehicle.depth);
-                        self.heading_hold = yaw.unwrap_or(here);
+                    if let Some(Guided::Velocity { depth, yaw, .. }) = self.fw.guided.take() {
+                        self.fw.depth_target = depth.unwrap_or(self.vehicle.depth);
+                        self.fw.heading_hold = yaw.unwrap_or(here);
                     }
                 }
-                match self.guided.clone() {
+                match self.fw.guided.clone() {
                     Some(Guided::Velocity {
                         vel,
                         depth,
@@ -605,15 +443,15 @@ impl SubSession {
                         ..
                     }) => {
                         if let Some(y) = yaw {
-                            self.heading_hold = y;
+                            self.fw.heading_hold = y;
                         }
                         let speed = vel.0.hypot(vel.1);
                         let target = match depth {
                             Some(d) => d,
                             None => self.vehicle.depth + vz,
                         };
-                        self.depth_target = target;
-                        (self.heading_hold, speed, target, dn, up)
+                        self.fw.depth_target = target;
+                        (self.fw.heading_hold, speed, target, dn, up)
                     }
                     Some(Guided::Waypoint {
                         north,
@@ -627,21 +465,25 @@ impl SubSession {
                         let dist = dn_.hypot(de);
                         let bearing = wrap_heading(de.atan2(dn_).to_degrees());
                         let heading = yaw.unwrap_or(if dist > 1.0 { bearing } else { here });
-                        let speed = if dist > 1.0 { self.opts.wp_speed } else { 0.0 };
+                        let speed = if dist > 1.0 {
+                            self.fw.opts.wp_speed
+                        } else {
+                            0.0
+                        };
                         // The restarted trajectory: vertical speed grows from rest.
-                        let ramp = self.opts.wp_accel_z * (self.ap.t - at);
-                        self.depth_target = depth;
+                        let ramp = self.fw.opts.wp_accel_z * (self.ap.t - at);
+                        self.fw.depth_target = depth;
                         (heading, speed, depth, ramp.min(dn), ramp.min(up))
                     }
-                    None => (self.heading_hold, 0.0, self.depth_target, dn, up),
+                    None => (self.fw.heading_hold, 0.0, self.fw.depth_target, dn, up),
                 }
             }
             sub::ALT_HOLD => {
-                let heading = match self.attitude {
+                let heading = match self.fw.attitude {
                     Some((h, at)) if self.ap.t - at <= SUB_ATTITUDE_TIMEOUT_S => h,
-                    _ => self.heading_hold,
+                    _ => self.fw.heading_hold,
                 };
-                (heading, self.pilot_forward(), self.depth_target, dn, up)
+                (heading, self.pilot_forward(), self.fw.depth_target, dn, up)
             }
             sub::SURFACE => {
                 if self.vehicle.depth <= 0.05 {
@@ -650,146 +492,229 @@ impl SubSession {
                 (here, 0.0, 0.0, dn, up)
             }
             // MANUAL, STABILIZE, ACRO: the pilot's thrust; depth holds (neutral buoyancy).
-            _ => (here, self.pilot_forward(), self.depth_target, dn, up),
+            _ => (here, self.pilot_forward(), self.fw.depth_target, dn, up),
         }
     }
 }
 
-impl Face for SubSession {
-    fn set_mode(&mut self, mode: u32, out: &mut Vec<u8>) {
-        SubSession::set_mode(self, mode, out);
+impl FirmwarePart for Sub {
+    type Options = SubOptions;
+    type Stats = SubStats;
+    const FIRMWARE: Firmware = Firmware::Sub;
+    const POWER_ON_MODE: u32 = sub::MANUAL;
+    const BOOTING: MavState = MavState::MAV_STATE_BOOT;
+    const DISARM_HEARTBEAT: bool = true;
+
+    fn start(opts: SubOptions) -> (Self, Vehicle, Autopilot) {
+        let limits = Limits {
+            accel: opts.accel,
+            hdg_rate: opts.hdg_rate,
+            // Depth is ours (below): the model's own depth stays where we put it.
+            z_rate: 0.0,
+        };
+        let vehicle = Vehicle::new(opts.lat, opts.lon, limits, (0.0, 0.0));
+        let ap = Autopilot::new(
+            opts.system_id,
+            opts.component_id,
+            opts.init_s,
+            &EXTRA_STREAMS,
+        );
+        let part = Sub {
+            opts,
+            w: 0.0,
+            depth_target: 0.0,
+            heading_hold: 0.0,
+            guided: None,
+            attitude: None,
+            manual: None,
+            gcs_seen: None,
+            gcs_failsafe: false,
+            pilot_seen: None,
+            armed_at: 0.0,
+            pilot_failsafe: false,
+            leak: None,
+            home_depth: 0.0,
+        };
+        (part, vehicle, ap)
     }
 
-    fn handle(&mut self, sender: u8, msg: MavMessage, out: &mut Vec<u8>) {
-        let gcs = sender == self.opts.gcs_sysid;
-        match msg {
-            MavMessage::HEARTBEAT(_) if gcs => {
-                self.stats.gcs_heartbeats += 1;
-                self.gcs_alive(out);
-            }
-            // Accepted only from MAV_GCS_SYSID with target = MAV_SYSID.
-            MavMessage::MANUAL_CONTROL(m) if gcs && m.target == self.opts.system_id => {
-                self.stats.manual_controls += 1;
-                self.gcs_alive(out);
-                self.pilot_input(m.x, m.z, out);
-                // Buttons fire BTNn_FUNCTION: BTN4 disarm, BTN6 arm (defaults).
-                if m.buttons & (1 << 4) != 0 {
-                    self.disarm("Disarming motors", out);
+    fn mav_type(&self) -> MavType {
+        MavType::MAV_TYPE_SUBMARINE
+    }
+
+    /// ardusub.md: 0x51 disarmed (0x80 added when armed), whatever the mode.
+    fn mode_flags(_: u32) -> MavModeFlag {
+        MavModeFlag::MAV_MODE_FLAG_STABILIZE_ENABLED
+            | MavModeFlag::MAV_MODE_FLAG_MANUAL_INPUT_ENABLED
+    }
+
+    fn failsafe(&self) -> bool {
+        self.gcs_failsafe || self.pilot_failsafe || self.leak.is_some()
+    }
+
+    /// GUIDED, AUTO, POSHOLD and CIRCLE need a position estimate.
+    fn refuses_mode(s: &mut SubSession, mode: u32, out: &mut Vec<u8>) -> bool {
+        let needs_position = matches!(mode, sub::GUIDED | sub::AUTO | sub::POSHOLD | sub::CIRCLE);
+        let refused = needs_position && !s.position_ok();
+        if refused {
+            let name = Firmware::Sub.mode_name(mode).unwrap_or("mode");
+            s.statustext(
+                MavSeverity::MAV_SEVERITY_WARNING,
+                &format!("Mode change failed: {name} requires position"),
+                out,
+            );
+        }
+        refused
+    }
+
+    fn entering(s: &mut SubSession, _: u32) {
+        s.fw.guided = None;
+        s.fw.attitude = None;
+        // Every mode starts by holding what it finds.
+        s.fw.depth_target = s.vehicle.depth;
+        s.fw.heading_hold = s.vehicle.heading;
+    }
+
+    /// The WP speed, and a heading in GUIDED.
+    fn command(s: &mut SubSession, c: &COMMAND_LONG_DATA, _: &mut Vec<u8>) -> MavResult {
+        match c.command {
+            // ardusub.md: param2 > 0 sets the WP speed only; 0 is DENIED.
+            MavCmd::MAV_CMD_DO_CHANGE_SPEED => {
+                if c.param2.is_finite() && c.param2 > 0.0 {
+                    s.fw.opts.wp_speed = f64::from(c.param2).min(5.0);
+                    MavResult::MAV_RESULT_ACCEPTED
+                } else {
+                    MavResult::MAV_RESULT_DENIED
                 }
             }
-            MavMessage::RC_CHANNELS_OVERRIDE(r) if gcs && self.ap.for_me(r.target_system) => {
-                self.gcs_alive(out);
-                let x = (i32::from(r.chan5_raw) - 1500).clamp(-500, 500) * 2;
-                let z = (i32::from(r.chan3_raw) - 1000).clamp(0, 1000);
-                self.pilot_input(x as i16, z as i16, out);
+            MavCmd::MAV_CMD_CONDITION_YAW if s.mode == sub::GUIDED => {
+                if c.param1.is_finite() {
+                    s.fw.heading_hold = wrap_heading(f64::from(c.param1));
+                    if let Some(Guided::Velocity { yaw, .. } | Guided::Waypoint { yaw, .. }) =
+                        &mut s.fw.guided
+                    {
+                        *yaw = Some(s.fw.heading_hold);
+                    }
+                    MavResult::MAV_RESULT_ACCEPTED
+                } else {
+                    MavResult::MAV_RESULT_DENIED
+                }
             }
-            MavMessage::COMMAND_LONG(c) => session::command(self, &c, out),
-            MavMessage::SET_POSITION_TARGET_LOCAL_NED(p) => self.local_target(&p),
-            MavMessage::SET_POSITION_TARGET_GLOBAL_INT(p) => self.global_target(&p),
-            MavMessage::SET_ATTITUDE_TARGET(a) => self.attitude_target(&a),
-            _ => {}
+            _ => MavResult::MAV_RESULT_UNSUPPORTED,
         }
     }
 
-    fn command(&mut self, c: &COMMAND_LONG_DATA, out: &mut Vec<u8>) -> MavResult {
-        self.sub_command(c, out)
+    fn armed(s: &mut SubSession) {
+        s.fw.armed_at = s.ap.t;
+        // Home moves to here at every arming: relative_alt's zero moves.
+        s.fw.home_depth = s.vehicle.depth;
+        s.fw.depth_target = s.vehicle.depth;
+        s.fw.heading_hold = s.vehicle.heading;
     }
 
-    fn arm(&mut self, out: &mut Vec<u8>) {
-        if !self.armed {
-            self.armed = true;
-            self.armed_at = self.ap.t;
-            // Home moves to here at every arming: relative_alt's zero moves.
-            self.home_depth = self.vehicle.depth;
-            self.depth_target = self.vehicle.depth;
-            self.heading_hold = self.vehicle.heading;
-            self.statustext(MavSeverity::MAV_SEVERITY_INFO, "Arming motors", out);
-        }
-    }
-
-    fn disarm(&mut self, why: &str, out: &mut Vec<u8>) {
-        if self.armed {
-            self.armed = false;
-            self.statustext(MavSeverity::MAV_SEVERITY_INFO, why, out);
-            self.heartbeat(out);
-        }
-    }
-
-    fn booted(&mut self, out: &mut Vec<u8>) {
-        self.statustext(
+    fn booted(s: &mut SubSession, out: &mut Vec<u8>) {
+        s.statustext(
             MavSeverity::MAV_SEVERITY_INFO,
             "ArduSub V4.7.0-dev (emulated)",
             out,
         );
     }
 
-    fn drive(&mut self, dt: f64, out: &mut Vec<u8>) {
-        self.failsafes(out);
-        let (heading, speed, target, max_dn, max_up) = self.control(out);
-        let target = target.clamp(0.0, self.opts.bottom_m);
-        let want_w = if self.armed {
-            (self.opts.depth_gain * (target - self.vehicle.depth)).clamp(-max_up, max_dn)
+    fn handle(s: &mut SubSession, sender: u8, msg: MavMessage, out: &mut Vec<u8>) {
+        let gcs = sender == s.fw.opts.gcs_sysid;
+        match msg {
+            MavMessage::HEARTBEAT(_) if gcs => {
+                s.stats.gcs_heartbeats += 1;
+                s.gcs_alive(out);
+            }
+            // Accepted only from MAV_GCS_SYSID with target = MAV_SYSID.
+            MavMessage::MANUAL_CONTROL(m) if gcs && m.target == s.fw.opts.system_id => {
+                s.stats.manual_controls += 1;
+                s.gcs_alive(out);
+                s.pilot_input(m.x, m.z, out);
+                // Buttons fire BTNn_FUNCTION: BTN4 disarm, BTN6 arm (defaults).
+                if m.buttons & (1 << 4) != 0 {
+                    s.disarm("Disarming motors", out);
+                }
+            }
+            MavMessage::RC_CHANNELS_OVERRIDE(r) if gcs && s.ap.for_me(r.target_system) => {
+                s.gcs_alive(out);
+                let x = (i32::from(r.chan5_raw) - 1500).clamp(-500, 500) * 2;
+                let z = (i32::from(r.chan3_raw) - 1000).clamp(0, 1000);
+                s.pilot_input(x as i16, z as i16, out);
+            }
+            MavMessage::SET_POSITION_TARGET_LOCAL_NED(p) => s.local_target(&p),
+            MavMessage::SET_POSITION_TARGET_GLOBAL_INT(p) => s.global_target(&p),
+            MavMessage::SET_ATTITUDE_TARGET(a) => s.attitude_target(&a),
+            _ => {}
+        }
+    }
+
+    fn drive(s: &mut SubSession, dt: f64, out: &mut Vec<u8>) {
+        s.failsafes(out);
+        let (heading, speed, target, max_dn, max_up) = s.control(out);
+        let target = target.clamp(0.0, s.fw.opts.bottom_m);
+        let want_w = if s.armed {
+            (s.fw.opts.depth_gain * (target - s.vehicle.depth)).clamp(-max_up, max_dn)
         } else {
-            -self.opts.float_up
+            -s.fw.opts.float_up
         };
-        let dw = (want_w - self.w).clamp(-self.opts.accel_z * dt, self.opts.accel_z * dt);
-        self.w += dw;
-        let mut d = self.vehicle.depth + self.w * dt;
+        let dw = (want_w - s.fw.w).clamp(-s.fw.opts.accel_z * dt, s.fw.opts.accel_z * dt);
+        s.fw.w += dw;
+        let mut d = s.vehicle.depth + s.fw.w * dt;
         if d <= 0.0 {
             d = 0.0;
-            self.w = self.w.max(0.0);
-        } else if d >= self.opts.bottom_m {
-            d = self.opts.bottom_m;
-            self.w = self.w.min(0.0);
+            s.fw.w = s.fw.w.max(0.0);
+        } else if d >= s.fw.opts.bottom_m {
+            d = s.fw.opts.bottom_m;
+            s.fw.w = s.fw.w.min(0.0);
         }
-        self.vehicle.depth = d;
-        self.vehicle.set_setpoint(Setpoint {
+        s.vehicle.depth = d;
+        s.vehicle.set_setpoint(Setpoint {
             heading,
             speed,
             depth: d,
         });
-        self.vehicle.step(dt);
+        s.vehicle.step(dt);
     }
 
-    fn stream(&mut self, id: u32, out: &mut Vec<u8>) {
-        let (n, e, depth) = self.north_east_down();
-        let pos = self.position_ok();
-        let s = self.ap.snapshot(&mut self.vehicle);
-        let w = self.w;
-        let msg = match id {
-            HEARTBEAT_DATA::ID => return self.heartbeat(out),
-            GLOBAL_POSITION_INT_DATA::ID => session::global_position(
-                &s,
+    fn stream(s: &mut SubSession, id: u32, snap: &Snapshot) -> Option<MavMessage> {
+        let (n, e, depth) = s.north_east_down();
+        let pos = s.position_ok();
+        let w = s.fw.w;
+        Some(match id {
+            GLOBAL_POSITION_INT_DATA::ID => link::global_position(
+                snap,
                 (-depth * 1000.0) as i32,
                 // Home (its zero) was re-set at arming.
-                (-(depth - self.home_depth) * 1000.0) as i32,
+                (-(depth - s.fw.home_depth) * 1000.0) as i32,
                 (w * 100.0).round() as i16,
             ),
             LOCAL_POSITION_NED_DATA::ID => {
                 MavMessage::LOCAL_POSITION_NED(LOCAL_POSITION_NED_DATA {
-                    time_boot_ms: s.boot_ms,
+                    time_boot_ms: snap.boot_ms,
                     x: n as f32,
                     y: e as f32,
                     z: depth as f32,
-                    vx: s.vn as f32,
-                    vy: s.ve as f32,
+                    vx: snap.vn as f32,
+                    vy: snap.ve as f32,
                     vz: w as f32,
                 })
             }
             // A vectored frame dives level; a little nose-down while descending.
-            ATTITUDE_DATA::ID => session::attitude(&s, (-0.05 * w) as f32),
-            VFR_HUD_DATA::ID => session::vfr_hud(&s, -depth as f32, -w as f32, 0),
+            ATTITUDE_DATA::ID => link::attitude(snap, (-0.05 * w) as f32),
+            VFR_HUD_DATA::ID => link::vfr_hud(snap, -depth as f32, -w as f32, 0),
             SYS_STATUS_DATA::ID => {
                 let depth_sensor = MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_ABSOLUTE_PRESSURE;
                 let present = MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_3D_GYRO
                     | MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_3D_ACCEL
                     | MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_3D_MAG
                     | depth_sensor;
-                session::sys_status(present, present, 16_000, 300)
+                link::sys_status(present, present, 16_000, 300)
             }
-            GPS_RAW_INT_DATA::ID => session::gps_raw(
-                &s,
-                self.ap.t,
+            GPS_RAW_INT_DATA::ID => link::gps_raw(
+                snap,
+                s.ap.t,
                 if pos {
                     GpsFixType::GPS_FIX_TYPE_RTK_FIXED
                 } else {
@@ -799,7 +724,7 @@ impl Face for SubSession {
                 0,
                 0,
             ),
-            EKF_STATUS_REPORT_DATA::ID => session::ekf_report(if self.ap.initialising() {
+            EKF_STATUS_REPORT_DATA::ID => link::ekf_report(if s.ap.initialising() {
                 EkfStatusFlags::EKF_UNINITIALIZED.bits()
             } else if pos {
                 EKF_READY
@@ -812,26 +737,24 @@ impl Face for SubSession {
                 let p = (SURFACE_HPA + HPA_PER_M * depth) as f32;
                 if id == SCALED_PRESSURE_DATA::ID {
                     MavMessage::SCALED_PRESSURE(SCALED_PRESSURE_DATA {
-                        time_boot_ms: s.boot_ms,
+                        time_boot_ms: snap.boot_ms,
                         press_abs: p,
                         temperature: 1500,
                         ..Default::default()
                     })
                 } else {
                     MavMessage::SCALED_PRESSURE2(SCALED_PRESSURE2_DATA {
-                        time_boot_ms: s.boot_ms,
+                        time_boot_ms: snap.boot_ms,
                         press_abs: p,
                         press_diff: 0.0,
                         temperature: 1500,
                     })
                 }
             }
-            _ => return,
-        };
-        self.ap.send(msg, out);
+            _ => return None,
+        })
     }
 }
-session::shared_session!(SubSession);
 
 /// The signed heading error from `from` to `to`, degrees (for tests and the demo's figures).
 pub fn heading_error(from: f64, to: f64) -> f64 {

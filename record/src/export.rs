@@ -6,7 +6,7 @@
 use std::collections::HashMap;
 use std::io::{Read, Write};
 
-use prost_reflect::{DescriptorPool, DynamicMessage, Kind, MessageDescriptor, SerializeOptions};
+use prost_reflect::{DynamicMessage, Kind, MessageDescriptor, SerializeOptions};
 use serde_json::Value;
 
 use crate::reader::{ReadError, Recording};
@@ -128,7 +128,7 @@ pub fn export<R: Read, W: Write>(
             .entry(schema_id)
             .or_insert_with(|| {
                 let s = rec.schema(schema_id)?;
-                let pool = DescriptorPool::decode(&*s.data).ok()?;
+                let pool = crate::schema::decode_untrusted_pool(&s.data)?;
                 pool.get_message_by_name(&s.name)
             })
             .clone();

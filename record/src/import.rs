@@ -403,6 +403,11 @@ fn add_descriptor(pool: &mut DescriptorPool, data: &[u8], stats: &mut ImportStat
         stats.bad_descriptors += 1;
         return false;
     }
+    // prost-reflect would panic on it (see `schema::known_syntax`).
+    if !crate::schema::known_syntax(&fdp) {
+        stats.bad_descriptors += 1;
+        return false;
+    }
     match pool.add_file_descriptor_proto(fdp) {
         Ok(()) => {
             stats.descriptor_files += 1;

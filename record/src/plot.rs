@@ -10,7 +10,7 @@ use std::io::Write as _;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
-use prost_reflect::{DescriptorPool, DynamicMessage, MessageDescriptor, ReflectMessage, Value};
+use prost_reflect::{DynamicMessage, MessageDescriptor, ReflectMessage, Value};
 
 use crate::reader::{ReadError, Recording};
 
@@ -150,9 +150,7 @@ pub fn series<R: Read>(mut rec: Recording<R>) -> Result<Series, ReadError> {
             .entry(schema_id)
             .or_insert_with(|| {
                 let s = rec.schema(schema_id)?;
-                DescriptorPool::decode(&*s.data)
-                    .ok()?
-                    .get_message_by_name(&s.name)
+                crate::schema::decode_untrusted_pool(&s.data)?.get_message_by_name(&s.name)
             })
             .clone()
         else {

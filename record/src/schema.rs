@@ -28,6 +28,23 @@ pub fn descriptor_set(pool: &DescriptorPool, type_name: &str) -> Option<Vec<u8>>
     Some(FileDescriptorSet { file: files }.encode_to_vec())
 }
 
+/// Whether prost-reflect can be handed this file: 0.16 panics (an index out of bounds in
+/// `Label::new`, while reporting the error) on a `syntax` other than proto2 or proto3, because it
+/// labels the error with a file it has not stored yet. Found by the `mcap_reader` fuzz target.
+pub fn known_syntax(f: &prost_reflect::prost_types::FileDescriptorProto) -> bool {
+    matches!(f.syntax.as_deref(), None | Some("proto2" | "proto3"))
+}
+
+/// `DescriptorPool::decode` for a set read from a file (an MCAP schema, untrusted): `None` when it
+/// does not decode, or holds a file prost-reflect would panic on ([`known_syntax`]).
+pub fn decode_untrusted_pool(bytes: &[u8]) -> Option<DescriptorPool> {
+    let set = FileDescriptorSet::decode(bytes).ok()?;
+    if !set.file.iter().all(known_syntax) {
+        return None;
+    }
+    DescriptorPool::decode(bytes).ok()
+}
+
 fn push_with_deps(
     f: FileDescriptor,
     seen: &mut HashSet<String>,
@@ -45,6 +62,33 @@ fn push_with_deps(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The `mcap_reader` fuzz finding (fuzz/corpus/mcap_reader/found_unknown_syntax.mcap): a
+    /// schema whose file says `syntax = "prott2"` made prost-reflect panic; it is refused instead.
+    #[test]
+    fn unknown_syntax_is_refused_not_a_panic() {
+        use prost_reflect::prost_types::FileDescriptorProto;
+        for syntax in ["prott2", "", "editions"] {
+            let set = FileDescriptorSet {
+                file: vec![FileDescriptorProto {
+                    name: Some("t.proto".into()),
+                    syntax: Some(syntax.into()),
+                    ..Default::default()
+                }],
+            }
+            .encode_to_vec();
+            assert!(decode_untrusted_pool(&set).is_none(), "{syntax:?}");
+        }
+        let ok = FileDescriptorSet {
+            file: vec![FileDescriptorProto {
+                name: Some("t.proto".into()),
+                syntax: Some("proto3".into()),
+                ..Default::default()
+            }],
+        }
+        .encode_to_vec();
+        assert!(decode_untrusted_pool(&ok).is_some());
+    }
 
     #[test]
     fn node_status_schema_stands_alone() {

@@ -176,6 +176,19 @@ fn a_blank_datum_takes_app_geodesy_and_other_blanks_are_refused_at_their_line() 
         ),
         other => panic!("{other:?}"),
     }
+    // Half a datum is not completed from the default, even for the simulator.
+    let text = "frontseat_cfg {\n  origin {\n    lat:   #  (required)\n    lon: -70\n  }\n  \
+                [goby.middleware.frontseat.protobuf.basic_simulator_config] { }\n}\n";
+    match import_interface(text, "t.pb.cfg") {
+        Err(
+            e @ ConfigError::Parse {
+                line: 3, column: 5, ..
+            },
+        ) => {
+            assert!(e.to_string().contains("half a datum"), "{e}")
+        }
+        other => panic!("{other:?}"),
+    }
     // Goby3's banner anywhere but the first line is not skipped: not config, an error.
     let text = "frontseat_cfg { origin { lat: 42 lon: -71 } }\n\
                 Loading frontseat driver library: libgoby_frontseat_bluefin.so.30\n";

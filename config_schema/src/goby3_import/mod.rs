@@ -425,6 +425,16 @@ fn note_banner(imp: &mut Import, banner: Option<&str>) {
     }
 }
 
+/// Whether the file gives the datum's other coordinate than `key` (lat or lon).
+fn half_datum(imp: &Import, key: &str) -> bool {
+    let other = if key == "lat" { "lon" } else { "lat" };
+    imp.tables.iter().any(|(t, s)| {
+        t == "origin"
+            && s.iter()
+                .any(|s| s.key == other && s.from == format!("frontseat_cfg.origin.{other}"))
+    })
+}
+
 /// A blank value that cannot be filled in safely: refused at its line and column.
 fn blank_refused(file: &str, b: &placeholder::Blank, why: &str) -> ConfigError {
     ConfigError::Parse {
@@ -494,6 +504,13 @@ fn fill_interface_blanks(
                 value: "(blank)".into(),
                 why: "Goby3's -e placeholder; the datum is app.geodesy's".into(),
             });
+        } else if origin && half_datum(imp, key) {
+            return Err(blank_refused(
+                file,
+                b,
+                "the other coordinate of frontseat_cfg.origin is given: half a datum is not filled \
+                 in from frontseat's default",
+            ));
         } else if origin && sim.is_some() {
             let v = datum(imp, key);
             imp.set(

@@ -34,29 +34,26 @@ impl<S: Session> Gcs<S> {
         }
     }
 
-    fn take(&mut self, out: Vec<u8>) {
+    /// Runs `f` on the session and hears what it sends.
+    fn on(&mut self, f: impl FnOnce(&mut S, &mut Vec<u8>)) {
+        let mut out = Vec::new();
+        f(&mut self.s, &mut out);
         self.bytes_heard += out.len();
         let mut frames = Vec::new();
-        self.rx.feed(&out, &mut |r| {
-            frames.push(r.expect("the emulator sends good frames"))
-        });
-        for f in frames {
-            self.heard.push(decode(&f).expect("decodes").1);
-        }
+        self.rx
+            .feed(&out, &mut |r| frames.push(r.expect("good frames")));
+        let decoded = frames.iter().map(|f| decode(f).expect("decodes").1);
+        self.heard.extend(decoded);
     }
 
     fn send(&mut self, msg: MavMessage) {
-        let mut out = Vec::new();
-        let f = self.tx.frame(&msg);
-        self.s.on_bytes(&f, &mut out);
-        self.take(out);
+        let frame = self.tx.frame(&msg);
+        self.on(|s, out| s.on_bytes(&frame, out));
     }
 
     fn run(&mut self, seconds: f64) {
         for _ in 0..(seconds / 0.1).round() as usize {
-            let mut out = Vec::new();
-            self.s.step(0.1, &mut out);
-            self.take(out);
+            self.on(|s, out| s.step(0.1, out));
         }
     }
 

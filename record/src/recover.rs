@@ -233,6 +233,17 @@ pub fn recover(
         why: e.to_string(),
     })?;
     let temp = TempFile(temp);
+    // The finished file keeps the original's mode and, where allowed (root running `log
+    // recover`), its owner: the service that wrote it can still read and trim it.
+    let _ = rustix::fs::fchmod(&out, rustix::fs::Mode::from_raw_mode(meta.mode() & 0o777));
+    // (-1 is "no change" to the kernel and no id: never passed on.)
+    if meta.uid() != u32::MAX && meta.gid() != u32::MAX {
+        let _ = rustix::fs::fchown(
+            &out,
+            Some(rustix::fs::Uid::from_raw(meta.uid())),
+            Some(rustix::fs::Gid::from_raw(meta.gid())),
+        );
+    }
     let copied = copy(&file, out, &header, opts, len, stop, &temp.0)?;
     // Read back what was written before anything is replaced.
     let back = count_back(&temp.0).map_err(|why| RecoverError::Write {

@@ -508,3 +508,22 @@ fn goby3_driver_libraries_name_our_drivers() {
     );
     assert_eq!(goby3_driver_for_library("libfrontseat_mine.so"), None);
 }
+
+#[test]
+fn every_prefix_of_a_printed_example_imports_or_is_a_typed_error() {
+    for name in [
+        "goby_frontseat_interface_basic_simulator.example.pb.cfg",
+        "goby_frontseat_interface_bluefin.example.pb.cfg",
+    ] {
+        let text = raw(name);
+        let mut errors = 0;
+        for (i, _) in text.char_indices().step_by(3) {
+            match import_interface(&text[..i], name) {
+                Ok(_) => {}
+                Err(ConfigError::Parse { .. } | ConfigError::Invalid { .. }) => errors += 1,
+                Err(e) => panic!("{name}[..{i}]: {e}"),
+            }
+        }
+        assert!(errors > 0, "{name}: some prefixes cut a block in half");
+    }
+}

@@ -118,6 +118,9 @@ _frontseat() {
             frontseat__subcmd__help__subcmd__log,plot)
                 cmd="frontseat__subcmd__help__subcmd__log__subcmd__plot"
                 ;;
+            frontseat__subcmd__help__subcmd__log,recover)
+                cmd="frontseat__subcmd__help__subcmd__log__subcmd__recover"
+                ;;
             frontseat__subcmd__log,export)
                 cmd="frontseat__subcmd__log__subcmd__export"
                 ;;
@@ -133,6 +136,9 @@ _frontseat() {
             frontseat__subcmd__log,plot)
                 cmd="frontseat__subcmd__log__subcmd__plot"
                 ;;
+            frontseat__subcmd__log,recover)
+                cmd="frontseat__subcmd__log__subcmd__recover"
+                ;;
             frontseat__subcmd__log__subcmd__help,export)
                 cmd="frontseat__subcmd__log__subcmd__help__subcmd__export"
                 ;;
@@ -147,6 +153,9 @@ _frontseat() {
                 ;;
             frontseat__subcmd__log__subcmd__help,plot)
                 cmd="frontseat__subcmd__log__subcmd__help__subcmd__plot"
+                ;;
+            frontseat__subcmd__log__subcmd__help,recover)
+                cmd="frontseat__subcmd__log__subcmd__help__subcmd__recover"
                 ;;
             *)
                 ;;
@@ -479,7 +488,7 @@ _frontseat() {
             return 0
             ;;
         frontseat__subcmd__help__subcmd__log)
-            opts="info export import plot"
+            opts="info export import recover plot"
             if [[ ${cur} == -* || ${COMP_CWORD} -eq 3 ]] ; then
                 COMPREPLY=( $(compgen -W "${opts}" -- "${cur}") )
                 return 0
@@ -535,6 +544,20 @@ _frontseat() {
             return 0
             ;;
         frontseat__subcmd__help__subcmd__log__subcmd__plot)
+            opts=""
+            if [[ ${cur} == -* || ${COMP_CWORD} -eq 4 ]] ; then
+                COMPREPLY=( $(compgen -W "${opts}" -- "${cur}") )
+                return 0
+            fi
+            case "${prev}" in
+                *)
+                    COMPREPLY=()
+                    ;;
+            esac
+            COMPREPLY=( $(compgen -W "${opts}" -- "${cur}") )
+            return 0
+            ;;
+        frontseat__subcmd__help__subcmd__log__subcmd__recover)
             opts=""
             if [[ ${cur} == -* || ${COMP_CWORD} -eq 4 ]] ; then
                 COMPREPLY=( $(compgen -W "${opts}" -- "${cur}") )
@@ -685,7 +708,7 @@ _frontseat() {
             return 0
             ;;
         frontseat__subcmd__log)
-            opts="-h --help info export import plot help"
+            opts="-h --help info export import recover plot help"
             if [[ ${cur} == -* || ${COMP_CWORD} -eq 2 ]] ; then
                 COMPREPLY=( $(compgen -W "${opts}" -- "${cur}") )
                 return 0
@@ -729,7 +752,7 @@ _frontseat() {
             return 0
             ;;
         frontseat__subcmd__log__subcmd__help)
-            opts="info export import plot help"
+            opts="info export import recover plot help"
             if [[ ${cur} == -* || ${COMP_CWORD} -eq 3 ]] ; then
                 COMPREPLY=( $(compgen -W "${opts}" -- "${cur}") )
                 return 0
@@ -812,6 +835,20 @@ _frontseat() {
             COMPREPLY=( $(compgen -W "${opts}" -- "${cur}") )
             return 0
             ;;
+        frontseat__subcmd__log__subcmd__help__subcmd__recover)
+            opts=""
+            if [[ ${cur} == -* || ${COMP_CWORD} -eq 4 ]] ; then
+                COMPREPLY=( $(compgen -W "${opts}" -- "${cur}") )
+                return 0
+            fi
+            case "${prev}" in
+                *)
+                    COMPREPLY=()
+                    ;;
+            esac
+            COMPREPLY=( $(compgen -W "${opts}" -- "${cur}") )
+            return 0
+            ;;
         frontseat__subcmd__log__subcmd__import)
             opts="-o -h --output --force --help"
             if [[ ${cur} == -* || ${COMP_CWORD} -eq 3 ]] ; then
@@ -857,6 +894,24 @@ _frontseat() {
             case "${prev}" in
                 --out)
                     COMPREPLY=($(compgen -f "${cur}"))
+                    return 0
+                    ;;
+                *)
+                    COMPREPLY=()
+                    ;;
+            esac
+            COMPREPLY=( $(compgen -W "${opts}" -- "${cur}") )
+            return 0
+            ;;
+        frontseat__subcmd__log__subcmd__recover)
+            opts="-h --compression --help"
+            if [[ ${cur} == -* || ${COMP_CWORD} -eq 3 ]] ; then
+                COMPREPLY=( $(compgen -W "${opts}" -- "${cur}") )
+                return 0
+            fi
+            case "${prev}" in
+                --compression)
+                    COMPREPLY=($(compgen -W "zstd lz4 none" -- "${cur}"))
                     return 0
                     ;;
                 *)

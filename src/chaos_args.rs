@@ -44,9 +44,9 @@ pub struct ChaosArgs {
     #[arg(long, value_name = "KINDS", value_delimiter = ',')]
     pub only: Vec<String>,
     /// The vehicle to run: `basic` (the basic simulator, the default) or a vehicle family —
-    /// `bluefin`, `iver3`, `waveglider_sv2`, `dune` — whose emulator and real driver run behind
-    /// a chaos link that drops, silences, delays and corrupts the line in the vehicle's own
-    /// protocol. A family run takes no MOOS bridge and no --soak.
+    /// `bluefin`, `iver3`, `waveglider_sv2`, `ardupilot`, `ardusub`, `dune` — whose emulator and
+    /// real driver run behind a chaos link that drops, silences, delays and corrupts the line in
+    /// the vehicle's own protocol. A family run takes no MOOS bridge and no --soak.
     #[arg(long, value_name = "FAMILY", default_value = "basic")]
     pub vehicle: String,
     /// Print the embedded default config and exit.

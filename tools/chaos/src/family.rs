@@ -7,6 +7,9 @@
 
 use std::net::SocketAddr;
 
+use frontseat_ardupilot::dialect::MavResult;
+use frontseat_ardupilot::emulator::{RoverOptions, RoverSession, SubOptions, SubSession};
+use frontseat_ardupilot::modes;
 use frontseat_bluefin::{HuxleyHandle, HuxleyServer};
 use frontseat_config::InterfaceConfig;
 use frontseat_dune::emulator::{DuneOptions, DuneSession};
@@ -23,14 +26,20 @@ pub enum Family {
     Bluefin,
     Iver3,
     WavegliderSv2,
+    /// ArduPilot Rover (motorboat frame) over MAVLink 2.
+    Ardupilot,
+    /// ArduSub (BlueROV2) over MAVLink 2.
+    Ardusub,
     Dune,
 }
 
 impl Family {
-    pub const ALL: [Family; 4] = [
+    pub const ALL: [Family; 6] = [
         Family::Bluefin,
         Family::Iver3,
         Family::WavegliderSv2,
+        Family::Ardupilot,
+        Family::Ardusub,
         Family::Dune,
     ];
 
@@ -40,6 +49,8 @@ impl Family {
             Family::Bluefin => "bluefin",
             Family::Iver3 => "iver3",
             Family::WavegliderSv2 => "waveglider_sv2",
+            Family::Ardupilot => "ardupilot",
+            Family::Ardusub => "ardusub",
             Family::Dune => "dune",
         }
     }
@@ -62,7 +73,7 @@ impl Family {
             FaultKind::HelmPark,
             FaultKind::StalledSubscriber,
         ];
-        if self == Family::Dune {
+        if matches!(self, Family::Dune | Family::Ardupilot | Family::Ardusub) {
             k.extend([FaultKind::VehicleRefuses, FaultKind::VehicleModeChange]);
         }
         k
@@ -106,6 +117,21 @@ impl Family {
                 (l.tcp_address, l.tcp_port) = (host, port);
                 (l.reconnect_initial_ms, l.reconnect_max_ms) = (10, 100);
             }
+            Family::Ardupilot | Family::Ardusub => {
+                d.name = frontseat_config::ARDUPILOT.into();
+                let a = &mut d.ardupilot;
+                a.address = format!("tcpout:{host}:{port}");
+                // The harness's pilot arms and selects GUIDED through the extension, as the
+                // person at the ground station does (the driver never does either by itself).
+                a.allow_mode_commands = true;
+                (a.reconnect_initial_ms, a.reconnect_max_ms) = (10, 100);
+                if self == Family::Ardusub {
+                    a.vehicle = frontseat_config::ArdupilotVehicle::Sub;
+                    // No RC: the Sub's pilot-input failsafe disarms it 3 s after the last
+                    // MANUAL_CONTROL unless we feed it (as the demo does).
+                    a.pilot_input_keepalive = true;
+                }
+            }
             Family::Dune => {
                 d.name = frontseat_config::DUNE.into();
                 d.dune.address = host;
@@ -124,8 +150,14 @@ impl Family {
             Family::Bluefin => f64::from(d.bluefin.allow_missing_nav_interval),
             Family::Iver3 => d.iver3.providing_data_timeout,
             Family::WavegliderSv2 => d.waveglider_sv2.providing_data_timeout,
+            Family::Ardupilot | Family::Ardusub => d.ardupilot.heartbeat_timeout,
             Family::Dune => d.dune.vehicle_state_timeout.max(d.dune.navigation_timeout),
         }
+    }
+
+    /// Whether a pilot must arm the vehicle and select GUIDED before the backseat commands it.
+    pub(crate) fn needs_pilot(self) -> bool {
+        matches!(self, Family::Ardupilot | Family::Ardusub)
     }
 }
 
@@ -134,6 +166,8 @@ pub(crate) enum Vehicle {
     Bluefin(HuxleyHandle),
     Iver3(Emulator<IverSession>),
     WavegliderSv2(Emulator<Sv2Session>),
+    Rover(Emulator<RoverSession>),
+    Sub(Emulator<SubSession>),
     Dune(Emulator<DuneSession>),
 }
 
@@ -186,6 +220,30 @@ impl Vehicle {
                         .map_err(io)?,
                 )
             }
+            Family::Ardupilot => {
+                let o = RoverOptions {
+                    lat,
+                    lon,
+                    ..Default::default()
+                };
+                Vehicle::Rover(
+                    Emulator::start(RoverSession::new(o), tcp, warp)
+                        .await
+                        .map_err(io)?,
+                )
+            }
+            Family::Ardusub => {
+                let o = SubOptions {
+                    lat,
+                    lon,
+                    ..Default::default()
+                };
+                Vehicle::Sub(
+                    Emulator::start(SubSession::new(o), tcp, warp)
+                        .await
+                        .map_err(io)?,
+                )
+            }
             Family::Dune => {
                 let o = DuneOptions {
                     lat,
@@ -208,6 +266,8 @@ impl Vehicle {
             Vehicle::Bluefin(h) => h.local_addr(),
             Vehicle::Iver3(e) => e.tcp_addr().unwrap_or(unbound),
             Vehicle::WavegliderSv2(e) => e.tcp_addr().unwrap_or(unbound),
+            Vehicle::Rover(e) => e.tcp_addr().unwrap_or(unbound),
+            Vehicle::Sub(e) => e.tcp_addr().unwrap_or(unbound),
             Vehicle::Dune(e) => e.tcp_addr().unwrap_or(unbound),
         }
     }
@@ -219,6 +279,16 @@ impl Vehicle {
             Vehicle::Bluefin(_) => None,
             Vehicle::Iver3(e) => Some(e.session().stats.oms),
             Vehicle::WavegliderSv2(e) => Some(e.session().stats.commands),
+            // Every target frame, followed or not (one outside GUIDED is dropped by the vehicle,
+            // but it reached it).
+            Vehicle::Rover(e) => {
+                let s = &e.session().stats;
+                Some(s.targets_followed + s.targets_ignored + s.targets_refused)
+            }
+            Vehicle::Sub(e) => {
+                let s = &e.session().stats;
+                Some(s.targets_followed + s.targets_dropped + s.attitude_targets)
+            }
             Vehicle::Dune(e) => {
                 let s = &e.session().stats;
                 // A MANDONE Reference ends our maneuver: not a command to move.
@@ -231,27 +301,69 @@ impl Vehicle {
     pub(crate) fn refused(&self) -> Option<u64> {
         match self {
             Vehicle::Dune(e) => Some(e.session().stats.plans_refused),
+            Vehicle::Rover(e) => Some(e.session().fault_counters().commands_refused),
+            Vehicle::Sub(e) => Some(e.session().fault_counters().commands_refused),
+            _ => None,
+        }
+    }
+
+    /// An ArduPilot's (armed, in GUIDED); None for the other families.
+    pub(crate) fn armed_guided(&self) -> Option<(bool, bool)> {
+        match self {
+            Vehicle::Rover(e) => {
+                let s = e.session();
+                Some((s.armed(), s.mode() == s.firmware().guided()))
+            }
+            Vehicle::Sub(e) => {
+                let s = e.session();
+                Some((s.armed(), s.mode() == s.firmware().guided()))
+            }
             _ => None,
         }
     }
 
     /// The vehicle refuses commands (true) or takes them again (false).
+    /// An ArduPilot also leaves GUIDED for HOLD as the refusal starts, so the pilot's and the
+    /// driver's commands meet it (each answered DENIED).
     pub(crate) fn refuse(&self, on: bool) {
-        if let Vehicle::Dune(e) = self {
-            e.session().refuse_plans(on);
+        let denied = on.then_some(MavResult::MAV_RESULT_DENIED);
+        match self {
+            Vehicle::Dune(e) => e.session().refuse_plans(on),
+            Vehicle::Rover(e) => {
+                let mut s = e.session();
+                s.refuse_commands(denied);
+                if on {
+                    s.change_mode(modes::rover::HOLD);
+                }
+            }
+            Vehicle::Sub(e) => {
+                let mut s = e.session();
+                s.refuse_commands(denied);
+                if on {
+                    s.change_mode(modes::sub::POSHOLD);
+                }
+            }
+            _ => {}
         }
     }
 
     /// The vehicle changes mode on its own (true: out of the backseat's control), or is given
     /// back (false).
+    /// An ArduPilot switches to MANUAL (a pilot's RC switch); it is given back by the
+    /// harness's pilot selecting GUIDED again.
     pub(crate) fn take_control(&self, on: bool) {
-        if let Vehicle::Dune(e) = self {
-            let mut s = e.session();
-            if on {
-                s.take_control(frontseat_dune::imc::consts::op_mode::EXTERNAL);
-            } else {
-                s.release_control();
+        match self {
+            Vehicle::Dune(e) => {
+                let mut s = e.session();
+                if on {
+                    s.take_control(frontseat_dune::imc::consts::op_mode::EXTERNAL);
+                } else {
+                    s.release_control();
+                }
             }
+            Vehicle::Rover(e) if on => e.session().change_mode(modes::rover::MANUAL),
+            Vehicle::Sub(e) if on => e.session().change_mode(modes::sub::MANUAL),
+            _ => {}
         }
     }
 

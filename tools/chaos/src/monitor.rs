@@ -32,6 +32,10 @@ pub(crate) struct Answer {
     pub(crate) interface_first: bool,
 }
 
+/// Request ids from here up are the harness's pilot's (arming an ArduPilot and selecting
+/// GUIDED, as the person at the ground station does): not the helm's, not counted.
+pub(crate) const PILOT_IDS: i32 = 1 << 30;
+
 /// Our helm's request ids run 1, 2, 3…: an id this far past the highest seen is not ours.
 const FAR_ID: usize = 1 << 16;
 
@@ -223,6 +227,9 @@ impl Monitor {
                     }
                 }
                 ChaosMonitorInbox::CommandResponse(env) => {
+                    if env.msg.request_id.is_some_and(|id| id >= PILOT_IDS) {
+                        return Ok(());
+                    }
                     let mut r = m.responses.lock().unwrap_or_else(|p| p.into_inner());
                     match env.msg.request_id {
                         Some(id) => r.record(id, env.msg.error_code.unwrap_or(0)),

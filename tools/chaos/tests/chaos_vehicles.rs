@@ -1,8 +1,8 @@
 //! The chaos harness over every vehicle family, as a CI test: per family, the family's emulator
 //! behind the chaos link, its real driver, a helm, and a short seeded schedule of the family's
 //! faults (link drops, garbage and truncated frames of its protocol, a silent vehicle, a slow
-//! link, driver crashes, PARK and a stalled subscriber, and for DUNE the vehicle refusing plans
-//! and taking control on its own); every invariant must hold. Each family runs the fixed seed 9
+//! link, driver crashes, PARK and a stalled subscriber, and for ArduPilot Rover, ArduSub and DUNE
+//! the vehicle refusing commands and changing mode on its own); every invariant must hold. Each family runs the fixed seed 9
 //! and one seed drawn from the clock (printed), so CI keeps exploring; re-run a seed with
 //! `FRONTSEAT_CHAOS_SEEDS=1234 cargo test -p frontseat-chaos --test chaos_vehicles -- --nocapture`
 //! (and `FRONTSEAT_CHAOS_FAULTS=200` for a longer schedule).
@@ -118,6 +118,18 @@ async fn iver3() {
 async fn waveglider_sv2() {
     let _g = ONE_AT_A_TIME.lock().await;
     family_keeps_every_invariant(Family::WavegliderSv2).await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn ardupilot() {
+    let _g = ONE_AT_A_TIME.lock().await;
+    family_keeps_every_invariant(Family::Ardupilot).await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn ardusub() {
+    let _g = ONE_AT_A_TIME.lock().await;
+    family_keeps_every_invariant(Family::Ardusub).await;
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]

@@ -61,6 +61,9 @@ struct FamilyRun {
     /// Refusals the vehicle counted during the refusal faults.
     refusals_seen: u64,
     link_checked: u32,
+    /// The pilot of an ArduPilot (arms, selects GUIDED), paused while the vehicle is taken
+    /// from the backseat on purpose.
+    pilot: Option<Pilot>,
 }
 
 /// Commands the vehicle got so far: its emulator's count, or the link's.
@@ -96,8 +99,10 @@ pub async fn run_family(
             .map_err(|e| ChaosHarnessError::Vehicle(format!("chaos link: {e}")))?,
     );
     family.point_driver(&mut config, link.addr());
-    let helm = Helm::start(&bus);
     let service = InterfaceService::start(&config, &bus, frontseat_drivers::BUILT_IN).await?;
+    // After the interface: a request published before it subscribed would reach nobody and
+    // stay unanswered (request 1 did, at some seeds).
+    let helm = Helm::start(&bus);
     let warp = config.sim_warp_factor;
     let silence_s = family.silence_timeout(&config);
     let mut run = FamilyRun {
@@ -115,7 +120,11 @@ pub async fn run_family(
         flows: Vec::new(),
         refusals_seen: 0,
         link_checked: 0,
+        pilot: None,
     };
+    if family.needs_pilot() {
+        run.pilot = Some(Pilot::start(&run.bus, run.vehicle.clone()));
+    }
     let start_bound = Duration::from_secs(10).max(opts.recovery_bound);
     if run.monitor.until_command(start_bound).await.is_none() {
         progress(&format!(
@@ -134,9 +143,13 @@ pub async fn run_family(
     let mut last_cleared = Instant::now();
     let mut last_report = Instant::now();
     let mut count = 0;
+    // (fault, kind, burst, the helm's last request id when it was injected): to say which
+    // fault a request left unanswered came with.
+    let mut id_marks: Vec<(u32, FaultKind, bool, i32)> = Vec::new();
     for i in 1..=opts.faults {
         count = i;
         let f = planner.next_fault();
+        id_marks.push((i, f.kind, f.burst, run.helm.last_id.load(Ordering::SeqCst)));
         let injected_at = Instant::now();
         let conns_before = f.kind.helm_side().then(|| run.link.stats().connections);
         let cmds_before = commands(&run.vehicle, &run.link);
@@ -145,6 +158,7 @@ pub async fn run_family(
         run.tally.by_kind.entry(f.kind).or_default().injected += 1;
         if !f.burst {
             let bound = run.opts.recovery_bound;
+            let violations_before = run.tally.violations.len();
             recovery(
                 &run.monitor,
                 &mut run.tally,
@@ -155,6 +169,17 @@ pub async fn run_family(
                 cleared,
             )
             .await;
+            if run.tally.violations.len() > violations_before {
+                // What the interface says of itself, for whoever reads the failure.
+                let snap = run.service.snapshot(Duration::from_secs(2)).await;
+                run.tally.notes.push(format!(
+                    "fault #{i}: not back; the interface's status {:?}, providing data {:?}, driver up {:?}; link {:?}",
+                    snap.as_ref().map(|s| &s.status),
+                    snap.as_ref().map(|s| s.providing_data),
+                    snap.as_ref().map(|s| s.driver_up),
+                    run.link.stats()
+                ));
+            }
             run.commands_flow(i, &f, cmds_before).await;
             if let Some(before) = conns_before {
                 run.link_checked += 1;
@@ -187,6 +212,24 @@ pub async fn run_family(
         last_cleared,
     )
     .await;
+    {
+        let r = run
+            .monitor
+            .responses
+            .lock()
+            .unwrap_or_else(|p| p.into_inner());
+        for id in (1..=sent).filter(|id| !r.answered(*id)).take(5) {
+            let during = id_marks.iter().rev().find(|m| m.3 < id);
+            notes.push(match during {
+                Some((i, k, burst, _)) => format!(
+                    "request {id} unanswered: sent during or after fault #{i} ({}{})",
+                    k.name(),
+                    if *burst { ", a burst" } else { "" }
+                ),
+                None => format!("request {id} unanswered: sent before the first fault"),
+            });
+        }
+    }
     let snapshot = run.service.snapshot(Duration::from_secs(2)).await;
     samples.push(Sample::take(started.elapsed(), count, &run.bus));
     rss_task.abort();
@@ -239,6 +282,19 @@ pub async fn run_family(
             ok: refusals >= u64::from(k.injected),
         });
     }
+    if let Some(k) = tally.by_kind.get(&FaultKind::VehicleModeChange) {
+        let left = k.outages.iter().filter(|d| !d.is_zero()).count();
+        inv.push(Invariant {
+            name: "a vehicle taking control on its own takes the interface out of COMMAND",
+            bound: "every non-burst mode change left COMMAND".into(),
+            measured: format!(
+                "{} mode changes, {} measured, {left} left COMMAND",
+                k.injected,
+                k.outages.len()
+            ),
+            ok: left == k.outages.len(),
+        });
+    }
     notes.push(format!(
         "chaos link: {} connections, {} drops, {} bytes injected, {} bytes discarded while silent",
         link_stats.connections,
@@ -261,6 +317,9 @@ pub async fn run_family(
 }
 
 async fn shut_down(run: FamilyRun) -> (ServiceExit, Tally) {
+    if let Some(p) = &run.pilot {
+        p.task.abort();
+    }
     let exit = run.service.shutdown(Duration::from_secs(3)).await;
     run.helm.task.abort();
     // The gate has stopped: these are the last holders.
@@ -291,6 +350,12 @@ fn flow_invariant(t: &Tally, flows: &[Duration], bound: Duration) -> Invariant {
 }
 
 impl FamilyRun {
+    fn pilot_on(&self, on: bool) {
+        if let Some(p) = &self.pilot {
+            p.enabled.store(on, Ordering::SeqCst);
+        }
+    }
+
     fn warped(&self, sim_s: f64) -> Duration {
         Duration::from_secs_f64((sim_s / self.warp).max(0.0))
     }
@@ -419,9 +484,11 @@ impl FamilyRun {
                 Instant::now()
             }
             FaultKind::VehicleModeChange => {
+                self.pilot_on(false);
                 self.vehicle.take_control(true);
                 tokio::time::sleep(f.hold).await;
                 self.vehicle.take_control(false);
+                self.pilot_on(true);
                 Instant::now()
             }
             FaultKind::HelmPark => {
@@ -444,6 +511,50 @@ impl FamilyRun {
                 Instant::now()
             }
         }
+    }
+}
+
+/// The person at an ArduPilot's ground station: whenever the vehicle is not armed in GUIDED,
+/// asks (every 50 ms) through the interface's ArduPilot CommandRequest extension to arm it,
+/// then to select GUIDED — what `frontseat demo --vehicle ardupilot` does once. Its request
+/// ids are the monitor's reserved ones.
+struct Pilot {
+    enabled: Arc<AtomicBool>,
+    task: tokio::task::JoinHandle<()>,
+}
+
+impl Pilot {
+    fn start(bus: &Bus, vehicle: Arc<Vehicle>) -> Self {
+        use frontseat_actors::ports::ArdupilotPilotPorts;
+        use frontseat_actors::proto::frontseat::protobuf::ardupilot::{
+            ArdupilotCommand, CommandRequest, ardupilot_command::Action,
+        };
+        let enabled = Arc::new(AtomicBool::new(true));
+        let on = enabled.clone();
+        let ports = ArdupilotPilotPorts::new(bus);
+        let task = tokio::spawn(async move {
+            let mut id = crate::monitor::PILOT_IDS;
+            loop {
+                tokio::time::sleep(Duration::from_millis(50)).await;
+                let Some((armed, guided)) = vehicle.armed_guided() else {
+                    return;
+                };
+                if !on.load(Ordering::SeqCst) || (armed && guided) {
+                    continue;
+                }
+                id = id.checked_add(1).unwrap_or(crate::monitor::PILOT_IDS);
+                let action = if armed { Action::Guided } else { Action::Arm };
+                ports.publish_ardupilot_command_request(CommandRequest {
+                    response_requested: Some(true),
+                    request_id: Some(id),
+                    ardupilot_command: Some(ArdupilotCommand {
+                        action: Some(action as i32),
+                    }),
+                    ..Default::default()
+                });
+            }
+        });
+        Self { enabled, task }
     }
 }
 

@@ -175,9 +175,10 @@ fn five_states(monitor: &Monitor) -> Invariant {
 
 fn one_response_each(t: &Tally, monitor: &Monitor, sent: i32) -> Invariant {
     let r = monitor.responses.lock().unwrap_or_else(|p| p.into_inner());
-    let missing = (1..=sent)
+    let missing_ids: Vec<i32> = (1..=sent)
         .filter(|id| !r.answered(*id) && !t.lost_to_restart.contains(id))
-        .count();
+        .collect();
+    let missing = missing_ids.len();
     let lost = (1..=sent)
         .filter(|id| !r.answered(*id) && t.lost_to_restart.contains(id))
         .count();
@@ -200,13 +201,18 @@ fn one_response_each(t: &Tally, monitor: &Monitor, sent: i32) -> Invariant {
         name: "one CommandResponse per request with response_requested (and the driver's late one after our timeout or driver-failed answer)",
         bound: "0 missing, 0 duplicated, 0 unknown".into(),
         measured: format!(
-            "{sent} sent: {} ok, {} not in COMMAND, {} timed out, {} driver failed, {} frontseat error, {} shutting down; {late} late after a timeout; {lost} unanswered across process restarts (in flight or sent while down); {missing} missing, {dup} duplicated, {unknown} unknown{}",
+            "{sent} sent: {} ok, {} not in COMMAND, {} timed out, {} driver failed, {} frontseat error, {} shutting down; {late} late after a timeout; {lost} unanswered across process restarts (in flight or sent while down); {missing} missing{}, {dup} duplicated, {unknown} unknown{}",
             r.ok,
             r.not_in_command,
             r.timeout,
             r.driver_failed,
             r.frontseat_refused,
             r.shutting_down,
+            if missing > 0 {
+                format!(" (ids {:?})", &missing_ids[..missing.min(10)])
+            } else {
+                String::new()
+            },
             if dup > 0 {
                 format!(" (request, first code, further code: {:?})", r.dup_examples)
             } else {

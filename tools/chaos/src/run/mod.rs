@@ -151,8 +151,10 @@ async fn start(
     };
 
     let goby = Some(Goby::start(&bus).await?);
-    let helm = Helm::start(&bus);
     let service = InterfaceService::start(&config, &bus, frontseat_drivers::BUILT_IN).await?;
+    // After the interface: a request published before it subscribed would reach nobody and
+    // stay unanswered (request 1 did, at some seeds).
+    let helm = Helm::start(&bus);
     let web = web::start_commander(&config, &bus).await?;
 
     let warp = config.sim_warp_factor;

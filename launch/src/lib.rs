@@ -4,8 +4,8 @@
 //! SIGTERM stops them all in reverse order, and the exit code names the process that failed
 //! (10 + its position in start order). goby_launch, pAntler and `ros2 launch` are the models.
 //!
-//! [`config`] is the file, [`plan`] turns it into processes (pure: `--check` runs it), and
-//! [`process`] runs one of them as a supervised service.
+//! [`config`] is the file, [`plan`] turns it into processes (pure: `--check` runs it; [`ports`]
+//! refuses two of them binding one port), and [`process`] runs one of them as a supervised service.
 #![forbid(unsafe_code)]
 
 pub mod config;

@@ -450,3 +450,48 @@ fn measure_sigkill_loss() {
         }
     }
 }
+
+/// What cannot be finished is left exactly as it was, with no temporary copy behind: too little
+/// free space over the floor, a stop asked for, a file locked by another process's recorder
+/// (here: a lock taken on another open file description, as a recorder holds it).
+#[test]
+fn what_cannot_be_finished_is_left_as_it_was() {
+    use frontseat_record::recover::{Outcome, RecoverError, RecoverOptions, recover};
+    use std::sync::atomic::AtomicBool;
+    let d = tempfile::tempdir().unwrap();
+    let file = cut_recording(d.path(), "load_20260101T000000Z_0001.mcap");
+    let bytes = std::fs::read(&file).unwrap();
+    let go = AtomicBool::new(false);
+    let floor = RecoverOptions {
+        min_free_bytes: u64::MAX / 2,
+        ..RecoverOptions::default()
+    };
+    assert!(matches!(
+        recover(&file, &floor, &go),
+        Err(RecoverError::NoSpace { .. })
+    ));
+    assert!(matches!(
+        recover(&file, &RecoverOptions::default(), &AtomicBool::new(true)),
+        Err(RecoverError::Stopped)
+    ));
+    let held = std::fs::File::open(&file).unwrap();
+    rustix::fs::flock(&held, rustix::fs::FlockOperation::NonBlockingLockExclusive).unwrap();
+    let e = recover(&file, &RecoverOptions::default(), &go).unwrap_err();
+    assert!(matches!(e, RecoverError::InUse(_)) && e.is_usage(), "{e}");
+    drop(held);
+    assert_eq!(std::fs::read(&file).unwrap(), bytes);
+    assert_eq!(
+        std::fs::read_dir(d.path()).unwrap().count(),
+        2,
+        "the file and `whole/`"
+    );
+    // Then, unhindered, it is finished; a second time there is nothing to do.
+    assert!(matches!(
+        recover(&file, &RecoverOptions::default(), &go),
+        Ok(Outcome::Recovered(_))
+    ));
+    assert_eq!(
+        recover(&file, &RecoverOptions::default(), &go).unwrap(),
+        Outcome::AlreadyComplete
+    );
+}

@@ -88,6 +88,20 @@ impl Family {
         }
     }
 
+    /// The bytes a frame of the vehicle's protocol starts with: the garbage and truncated frames
+    /// are single frames cut from the vehicle's stream at them (so no complete old frame is
+    /// replayed beside the broken one).
+    pub(crate) fn frame_start(self) -> &'static [u8] {
+        match self {
+            Family::Bluefin | Family::Iver3 => b"$",
+            Family::WavegliderSv2 => &[0x7E],
+            // MAVLink 2's STX.
+            Family::Ardupilot | Family::Ardusub => &[0xFD],
+            // IMC's sync number 0xFE54, little-endian as the emulator writes it.
+            Family::Dune => &[0x54, 0xFE],
+        }
+    }
+
     /// Points `config`'s driver at `addr` (the chaos link) with short reconnect delays.
     pub(crate) fn point_driver(self, config: &mut InterfaceConfig, addr: SocketAddr) {
         let host = addr.ip().to_string();

@@ -372,3 +372,37 @@ impl Monitor {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use frontseat_actors::proto::goby::middleware::protobuf::LatLonPoint;
+
+    #[test]
+    fn absurd_node_status_is_told_from_a_sane_one() {
+        let l = NavLimitsConfig::default();
+        let sane = NodeStatus {
+            time: 1.0,
+            global_fix: LatLonPoint {
+                lat: 41.0,
+                lon: -8.7,
+                depth: Some(3.0),
+                ..Default::default()
+            },
+            ..Default::default()
+        };
+        assert_eq!(absurd(&sane, &l), None);
+        let mut n = sane.clone();
+        n.global_fix.lat = f64::NAN;
+        assert!(absurd(&n, &l).is_some());
+        let mut n = sane.clone();
+        n.global_fix.depth = Some(l.max_depth + 1.0);
+        assert!(absurd(&n, &l).is_some());
+        let mut n = sane.clone();
+        n.speed.over_ground = 1e308;
+        assert!(absurd(&n, &l).is_some());
+        let mut n = sane;
+        n.pose.heading = Some(720.0);
+        assert!(absurd(&n, &l).is_some());
+    }
+}

@@ -391,21 +391,23 @@ impl FamilyRun {
         }
     }
 
-    /// Frames of the vehicle's protocol, broken: recent chunks of the vehicle's own stream, each
-    /// with one byte changed (its checksum or CRC no longer matches), or cut short (`truncate`).
+    /// Frames of the vehicle's protocol, broken: single frames cut from the vehicle's recent
+    /// stream (from one frame start to the next), each with one byte changed — its checksum or
+    /// CRC no longer matches — or cut short (`truncate`).
     fn broken_frames(&self, n: usize, truncate: bool, rng: &mut Rng) -> Vec<u8> {
         let recent = self.link.recent();
+        let start = self.family.frame_start();
         let mut out = Vec::new();
         for _ in 0..n {
-            let Some(src) = recent.get(rng.below(recent.len() as u64) as usize) else {
+            let frame = recent
+                .get(rng.below(recent.len() as u64) as usize)
+                .and_then(|chunk| one_frame(chunk, start, rng));
+            let Some(frame) = frame else {
                 // Nothing seen yet: noise.
                 out.extend((0..16).map(|_| rng.below(256) as u8));
                 continue;
             };
-            if src.is_empty() {
-                continue;
-            }
-            let mut f = src.clone();
+            let mut f = frame.to_vec();
             if truncate {
                 let cut = 1 + rng.below(f.len().max(2) as u64 - 1) as usize;
                 f.truncate(cut.min(f.len()));
@@ -512,6 +514,21 @@ impl FamilyRun {
             }
         }
     }
+}
+
+/// One frame of `chunk`, drawn at random: from an occurrence of `start` to the next (or the
+/// chunk's end); None when the chunk holds no frame start.
+fn one_frame<'a>(chunk: &'a [u8], start: &[u8], rng: &mut Rng) -> Option<&'a [u8]> {
+    let at: Vec<usize> = chunk
+        .windows(start.len())
+        .enumerate()
+        .filter(|(_, w)| *w == start)
+        .map(|(i, _)| i)
+        .collect();
+    let k = rng.below(at.len() as u64) as usize;
+    let from = *at.get(k)?;
+    let to = at.get(k + 1).copied().unwrap_or(chunk.len());
+    chunk.get(from..to)
 }
 
 /// The person at an ArduPilot's ground station: whenever the vehicle is not armed in GUIDED,
@@ -676,5 +693,21 @@ impl CommandCounter {
 
     fn read(&self) -> u64 {
         commands(&self.vehicle, &self.link)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn one_frame_is_one_frame() {
+        let chunk = b"junk$A,1*00\r\n$B,2*00\r\n";
+        let mut rng = Rng::new(3);
+        for _ in 0..50 {
+            let f = one_frame(chunk, b"$", &mut rng).unwrap();
+            assert!(f == b"$A,1*00\r\n" || f == b"$B,2*00\r\n", "{f:?}");
+        }
+        assert_eq!(one_frame(b"no start", b"$", &mut rng), None);
     }
 }

@@ -34,6 +34,7 @@ use std::io::{BufRead, BufReader};
 use std::os::unix::fs::PermissionsExt;
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
@@ -41,7 +42,6 @@ use frontseat_ardupilot::dialect::{COMMAND_LONG_DATA, MavCmd, MavMessage};
 use frontseat_ardupilot::emulator::{RoverOptions, RoverSession};
 use frontseat_iver3::{IverOptions, IverSession};
 use frontseat_sim::emulator::{Emulator, Endpoint, Session};
-use frontseat_sim::pty::PtyMaster;
 use frontseat_waveglider_sv2::{Sv2Options, Sv2Session};
 use tokio::sync::mpsc::{UnboundedReceiver, unbounded_channel};
 
@@ -52,18 +52,36 @@ const WARP: f64 = 10.0;
 const NOBODY: &str = "65534";
 
 /// One emulator session shared by successive emulators: the vehicle keeps running while its
-/// USB adapter is unplugged and plugged back; only the tty changes.
-struct Shared<S>(Arc<Mutex<S>>);
+/// USB adapter is unplugged and plugged back; only the tty changes. Only the emulator whose id is
+/// `live` drives the session: the next device's emulator exists (its tty allocated) before it is
+/// plugged in, and is inert until then.
+struct Shared<S> {
+    session: Arc<Mutex<S>>,
+    id: u64,
+    live: Arc<AtomicU64>,
+}
+
+impl<S: Session> Shared<S> {
+    fn is_live(&self) -> bool {
+        self.live.load(Ordering::Acquire) == self.id
+    }
+}
 
 impl<S: Session> Session for Shared<S> {
     fn on_bytes(&mut self, bytes: &[u8], out: &mut Vec<u8>) {
-        lock(&self.0).on_bytes(bytes, out);
+        if self.is_live() {
+            lock(&self.session).on_bytes(bytes, out);
+        }
     }
     fn step(&mut self, dt: f64, out: &mut Vec<u8>) {
-        lock(&self.0).step(dt, out);
+        if self.is_live() {
+            lock(&self.session).step(dt, out);
+        }
     }
     fn reset_input(&mut self) {
-        lock(&self.0).reset_input();
+        if self.is_live() {
+            lock(&self.session).reset_input();
+        }
     }
 }
 
@@ -74,9 +92,12 @@ fn lock<S>(m: &Mutex<S>) -> std::sync::MutexGuard<'_, S> {
 /// The vehicle's end of the cable and the udev name of the backseat's end.
 struct Cable<S: Session> {
     session: Arc<Mutex<S>>,
+    live: Arc<AtomicU64>,
+    ids: u64,
     emu: Option<Emulator<Shared<S>>>,
-    /// Holds the tty number the last device had, so the next one is a different tty.
-    squatter: Option<PtyMaster>,
+    /// The device that will appear at the next plug-in, made while the current one still held
+    /// its tty, so it is another tty (as a USB adapter often comes back: ttyUSB0 → ttyUSB1).
+    next: Option<Emulator<Shared<S>>>,
     /// `…/serial/by-id/usb-…`: what the interface is configured with.
     by_id: PathBuf,
 }
@@ -90,21 +111,38 @@ impl<S: Session> Cable<S> {
         }
         Self {
             session: Arc::new(Mutex::new(session)),
+            live: Arc::new(AtomicU64::new(0)),
+            ids: 0,
             emu: None,
-            squatter: None,
+            next: None,
             by_id: by_id_dir.join("usb-FTDI_FT232R_USB_UART_A50285BI-if00-port0"),
         }
     }
 
-    /// Plugged in: a new tty, `mode` on its node, the stable name swapped to it (a new symlink
-    /// renamed over the old name, as udev does). Returns the tty's path.
-    async fn plug(&mut self, mode: u32) -> PathBuf {
-        lock(&self.session).reset_input();
-        let emu = Emulator::start(Shared(self.session.clone()), Endpoint::Pty, WARP)
+    async fn make_next(&mut self) {
+        self.ids += 1;
+        let shared = Shared {
+            session: self.session.clone(),
+            id: self.ids,
+            live: self.live.clone(),
+        };
+        let emu = Emulator::start(shared, Endpoint::Pty, WARP)
             .await
             .expect("a pseudo-terminal for the emulator");
+        self.next = Some(emu);
+    }
+
+    /// Plugged in: the next tty, `mode` on its node, its emulator live, the stable name swapped
+    /// to it (a new symlink renamed over the name, as udev does). Returns the tty's path.
+    async fn plug(&mut self, mode: u32) -> PathBuf {
+        if self.next.is_none() {
+            self.make_next().await;
+        }
+        let emu = self.next.take().expect("made above");
         let tty = emu.pty_path().expect("a pty emulator").to_path_buf();
         std::fs::set_permissions(&tty, std::fs::Permissions::from_mode(mode)).unwrap();
+        lock(&self.session).reset_input();
+        self.live.store(self.ids, Ordering::Release);
         let tmp = self.by_id.with_extension("new");
         let _ = std::fs::remove_file(&tmp);
         std::os::unix::fs::symlink(&tty, &tmp).unwrap();
@@ -113,12 +151,14 @@ impl<S: Session> Cable<S> {
         tty
     }
 
-    /// Unplugged: the tty goes away (its node with it) and udev removes the stable name.
+    /// Unplugged: udev removes the stable name and the tty goes away (its node with it).
     async fn unplug(&mut self) -> PathBuf {
         let emu = self.emu.take().expect("plugged in");
         let tty = emu.pty_path().expect("a pty emulator").to_path_buf();
         // The name first, so a reopen between the two finds nothing rather than a dying tty.
         std::fs::remove_file(&self.by_id).unwrap();
+        self.live.store(0, Ordering::Release);
+        self.make_next().await;
         drop(emu);
         // The emulator's task closes the master when the runtime drops it: wait for the node.
         let deadline = tokio::time::Instant::now() + LONG;
@@ -130,9 +170,6 @@ impl<S: Session> Cable<S> {
             );
             tokio::time::sleep(Duration::from_millis(10)).await;
         }
-        // The kernel hands out the lowest free number: keep this one taken so the adapter comes
-        // back as another tty, as a USB adapter often does (ttyUSB0 → ttyUSB1).
-        self.squatter = Some(PtyMaster::open().expect("a placeholder pty"));
         tty
     }
 }
@@ -142,7 +179,8 @@ fn allow(path: &Path) {
     std::fs::set_permissions(path, std::fs::Permissions::from_mode(0o666)).unwrap();
 }
 
-/// The `frontseat` binary the unprivileged child runs, after checking that `setpriv` really
+/// How to run `frontseat` as `nobody`: setpriv, its arguments, then the binary (this build's, or a
+/// copy when `nobody` cannot reach the build directory), after checking that `setpriv` really
 /// drops every privilege here. Panics (the test fails) when it cannot.
 fn unprivileged_prefix(scratch: &Path) -> Vec<String> {
     let setpriv = ["/usr/bin/setpriv", "/bin/setpriv"]
@@ -183,18 +221,33 @@ fn unprivileged_prefix(scratch: &Path) -> Vec<String> {
         stderr.contains("ermission denied"),
         "the unprivileged probe failed for another reason: {stderr}"
     );
-    let version = Command::new(&prefix[0])
-        .args(&prefix[1..])
-        .arg(env!("CARGO_BIN_EXE_frontseat"))
-        .arg("--version")
-        .output()
-        .expect("running setpriv");
-    assert!(
-        version.status.success(),
-        "user {NOBODY} cannot run {}: {}",
-        env!("CARGO_BIN_EXE_frontseat"),
-        String::from_utf8_lossy(&version.stderr)
-    );
+    let runs = |exe: &Path| {
+        Command::new(&prefix[0])
+            .args(&prefix[1..])
+            .arg(exe)
+            .arg("--version")
+            .output()
+            .expect("running setpriv")
+    };
+    let built = PathBuf::from(env!("CARGO_BIN_EXE_frontseat"));
+    let exe = if runs(&built).status.success() {
+        built
+    } else {
+        // The build directory is out of its reach (a checkout under a 0700 home): a copy.
+        let copy = scratch.join("frontseat");
+        std::fs::copy(&built, &copy).expect("copying the binary for the unprivileged user");
+        std::fs::set_permissions(&copy, std::fs::Permissions::from_mode(0o755)).unwrap();
+        let out = runs(&copy);
+        assert!(
+            out.status.success(),
+            "user {NOBODY} cannot run {} nor a copy of it: {}",
+            built.display(),
+            String::from_utf8_lossy(&out.stderr)
+        );
+        copy
+    };
+    let mut prefix = prefix;
+    prefix.push(exe.to_string_lossy().into_owned());
     prefix
 }
 
@@ -209,7 +262,6 @@ impl Interface {
     fn spawn(prefix: &[String], config: &Path, home: &Path) -> Self {
         let mut child = Command::new(&prefix[0])
             .args(&prefix[1..])
-            .arg(env!("CARGO_BIN_EXE_frontseat"))
             .args(["interface", "-c"])
             .arg(config)
             .env("RUST_LOG", "info")
@@ -398,6 +450,8 @@ fn scratch(name: &str) -> Scratch {
     ));
     let _ = std::fs::remove_dir_all(&d);
     std::fs::create_dir_all(&d).unwrap();
+    // Whatever the umask: the unprivileged child reads its config here.
+    std::fs::set_permissions(&d, std::fs::Permissions::from_mode(0o755)).unwrap();
     Scratch(d)
 }
 

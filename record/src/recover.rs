@@ -233,6 +233,9 @@ pub fn recover(
         why: e.to_string(),
     })?;
     let temp = TempFile(temp);
+    // Locked while it is written: a start-up's sweep of copies an interrupted recovery left
+    // ([`remove_stale_copy`]) never removes one being written.
+    let _ = rustix::fs::flock(&out, rustix::fs::FlockOperation::NonBlockingLockExclusive);
     // The finished file keeps the original's mode and, where allowed (root running `log
     // recover`), its owner: the service that wrote it can still read and trim it.
     let _ = rustix::fs::fchmod(&out, rustix::fs::Mode::from_raw_mode(meta.mode() & 0o777));
@@ -283,6 +286,31 @@ pub fn recover(
         bytes_after,
         cut: copied.cut,
     }))
+}
+
+/// Removes `path` if it is the copy an interrupted recovery left (a process killed while it
+/// finished a file): a regular file (never a symlink) whose header is ours and that nobody holds
+/// locked. The caller gives only names of the copies' pattern (`<recording>.part`,
+/// `<recording>.<pid>.<n>.part`). `Ok(true)` when removed.
+pub fn remove_stale_copy(path: &Path) -> std::io::Result<bool> {
+    let mut f = std::fs::OpenOptions::new()
+        .read(true)
+        .custom_flags((rustix::fs::OFlags::NOFOLLOW | rustix::fs::OFlags::CLOEXEC).bits() as i32)
+        .open(path)?;
+    let m = f.metadata()?;
+    if !m.file_type().is_file() || !read_header(&mut f, m.len()).is_ok_and(|h| ours(&h)) {
+        return Ok(false);
+    }
+    if rustix::fs::flock(&f, rustix::fs::FlockOperation::NonBlockingLockExclusive).is_err() {
+        return Ok(false);
+    }
+    // The name still holds the file checked (not swapped for another since).
+    let now = std::fs::symlink_metadata(path)?;
+    if (now.dev(), now.ino()) != (m.dev(), m.ino()) {
+        return Ok(false);
+    }
+    std::fs::remove_file(path)?;
+    Ok(true)
 }
 
 /// Whether `path` is a regular file of ours without its footer: what the recorder finishes at

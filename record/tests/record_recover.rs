@@ -379,6 +379,13 @@ fn files_with_the_recorders_name_that_it_did_not_write_are_never_touched() {
     // An empty file under our name (a kill before the header reached the disk).
     let empty = dir.join("load_20260101T000002Z_0001.mcap");
     std::fs::write(&empty, b"").unwrap();
+    // The copy an interrupted recovery left (ours: removed at start), and `.part` names that are
+    // not such a copy: another writer's file, a symlink to our cut recording elsewhere (kept).
+    cut_recording(&dir, "load_20260101T000004Z_0001.mcap.4242.1.part");
+    let foreign_part = dir.join("load_20260101T000001Z_0001.mcap.part");
+    std::fs::write(&foreign_part, foreign_cut).unwrap();
+    let link_part = dir.join("load_20260101T000000Z_0001.mcap.part");
+    std::os::unix::fs::symlink(&target, &link_part).unwrap();
     // And one of ours, cut: the only one finished.
     let ours = cut_recording(&dir, "load_20260101T000003Z_0001.mcap");
     let before = message_digest(Recording::open(&ours).unwrap()).unwrap();
@@ -411,14 +418,29 @@ fn files_with_the_recorders_name_that_it_did_not_write_are_never_touched() {
             .truncated,
         None
     );
-    // No temporary copy left behind.
-    let left: Vec<_> = std::fs::read_dir(&dir)
+    assert_eq!(std::fs::read(&foreign_part).unwrap(), foreign_cut);
+    assert!(
+        std::fs::symlink_metadata(&link_part)
+            .unwrap()
+            .file_type()
+            .is_symlink()
+    );
+    assert_eq!(std::fs::read(&target).unwrap(), target_bytes);
+    // Our stale copy is gone, and no temporary copy of this start is left behind.
+    let mut left: Vec<_> = std::fs::read_dir(&dir)
         .unwrap()
         .filter_map(Result::ok)
         .map(|e| e.file_name().to_string_lossy().into_owned())
         .filter(|n| n.ends_with(".part"))
         .collect();
-    assert!(left.is_empty(), "{left:?}");
+    left.sort();
+    assert_eq!(
+        left,
+        [
+            "load_20260101T000000Z_0001.mcap.part",
+            "load_20260101T000001Z_0001.mcap.part"
+        ]
+    );
 }
 
 /// The figures of BENCHMARKS.md "Power cut and SIGKILL": at each rate and flush interval, five

@@ -214,11 +214,12 @@ impl Recorder {
         let current = Arc::new(Mutex::new(None));
         // Listed before this run's first file exists.
         let earlier = sink::earlier_files(opts);
+        let stale = sink::stale_copies(opts);
         let sink = Sink::open(opts, meta.to_map(), pool, counters.clone(), current.clone());
 
         let (tx, rx) = sync_channel::<Item>(opts.queue);
         let stop = Arc::new(AtomicBool::new(false));
-        let recovery = if earlier.is_empty() {
+        let recovery = if earlier.is_empty() && stale.is_empty() {
             None
         } else {
             let ropts = crate::recover::RecoverOptions {
@@ -229,8 +230,10 @@ impl Recorder {
             // Its own thread: the recording starts at once, however long the copy takes.
             match std::thread::Builder::new()
                 .name("recorder-recover".into())
-                .spawn(move || finish_earlier(earlier, &ropts, &stop, &counters))
-            {
+                .spawn(move || {
+                    remove_stale(&stale);
+                    finish_earlier(earlier, &ropts, &stop, &counters);
+                }) {
                 Ok(t) => Some(t),
                 Err(e) => {
                     tracing::warn!(target: LOG_TARGET, error = %e, "recorder: cannot start the recovery of earlier files; `frontseat log recover FILE` does it by hand");
@@ -356,6 +359,22 @@ impl Recorder {
 impl Drop for Recorder {
     fn drop(&mut self) {
         self.shutdown();
+    }
+}
+
+/// Removes the copies an interrupted recovery left (a crash loop must not fill the disk with
+/// them); anything else with such a name is left as it is.
+fn remove_stale(paths: &[PathBuf]) {
+    for p in paths {
+        match crate::recover::remove_stale_copy(p) {
+            Ok(true) => {
+                tracing::info!(target: LOG_TARGET, file = %p.display(), "recorder: removed the unfinished copy an interrupted recovery left");
+            }
+            Ok(false) => {}
+            Err(e) => {
+                tracing::debug!(target: LOG_TARGET, file = %p.display(), error = %e, "recorder: a .part file left as it is");
+            }
+        }
     }
 }
 

@@ -541,6 +541,35 @@ pub(super) fn earlier_files(opts: &RecorderOptions) -> Vec<PathBuf> {
     }
 }
 
+/// The copies an interrupted recovery may have left in a rotated directory: `<ours>.part` and
+/// `<ours>.<pid>.<n>.part` beside the recorder's own names ([`crate::output::create_temp_beside`]).
+/// A fixed `path` has none swept: its `.part` is the demo's `--force` recording, kept readable.
+pub(super) fn stale_copies(opts: &RecorderOptions) -> Vec<PathBuf> {
+    let Target::Dir { dir, prefix } = &opts.target else {
+        return Vec::new();
+    };
+    let Ok(rd) = std::fs::read_dir(dir) else {
+        return Vec::new();
+    };
+    rd.filter_map(Result::ok)
+        .filter(|e| {
+            e.file_name()
+                .to_str()
+                .and_then(|n| n.strip_suffix(".part"))
+                .is_some_and(|base| {
+                    let numbered = base.rsplitn(3, '.').collect::<Vec<_>>();
+                    let digits = |s: &str| !s.is_empty() && s.bytes().all(|b| b.is_ascii_digit());
+                    is_ours(base, prefix)
+                        || (numbered.len() == 3
+                            && digits(numbered[0])
+                            && digits(numbered[1])
+                            && is_ours(numbered[2], prefix))
+                })
+        })
+        .map(|e| e.path())
+        .collect()
+}
+
 /// `(path, size)` of the files this recorder named in `dir`: exactly
 /// `<prefix>_<YYYYMMDD>T<HHMMSS>Z_<seq>.mcap` (seq: 4 digits or more), regular files only (a
 /// symlink, a directory, `auv1_survey_final.mcap` are not ours and are never removed).

@@ -17,16 +17,19 @@
 //! --reuid=65534 --regid=65534 --clear-groups --inh-caps=-all` (util-linux, in every Debian base
 //! system) execs the interface as `nobody` with no groups; a change of every uid away from 0 clears
 //! its effective and permitted capabilities, and `--inh-caps=-all` the inheritable ones, so the
-//! kernel applies the device's mode bits to it exactly as to a service user. A user namespace
-//! without mapped ids would also do, but the pty's owner would then show as the overflow uid and
-//! `chmod` from the test could not be the "udev fixed it" step. The set-up is checked first (a
-//! root-only file must not open); the test fails, never skips, when it cannot be made.
+//! kernel applies the device's mode bits to it exactly as to a service user (systemd's `User=`):
+//! same namespaces, no capabilities, no groups. A user namespace without mapped ids would also
+//! deny the open (capabilities in it do not cover files of unmapped owners), but creating one is
+//! refused in many containers (Docker's default seccomp profile blocks `unshare(CLONE_NEWUSER)`
+//! without CAP_SYS_ADMIN; some kernels disable unprivileged user namespaces), and it models no
+//! deployment. The set-up is checked first (a root-only file must not open); the test fails,
+//! never skips, when it cannot be made.
 //!
 //! Each test prints the wall time from the device's return (the symlink swapped to a tty we can
 //! open) to the child's `to="running:command"` line, and from the mode fix to the same. That is
 //! a figure, not an assertion. `measure_return_with_default_backoff` (ignored: it takes minutes)
-//! measures the same with the default backoff (100 ms doubling to 5 s) after absences of 1.5 to 28 s:
-//! `cargo test --test serial_return -- --ignored --nocapture measure`.
+//! measures the same with the default backoff (100 ms doubling to 5 s) after absences of 1.5 to
+//! 28 s: `cargo test --test serial_return -- --ignored --nocapture measure`.
 
 mod common;
 

@@ -313,22 +313,6 @@ pub fn remove_stale_copy(path: &Path) -> std::io::Result<bool> {
     Ok(true)
 }
 
-/// Whether `path` is a regular file of ours without its footer: what the recorder finishes at
-/// start. Reads the header and the last bytes only; never follows a symlink.
-pub fn is_unfinished_recording(path: &Path) -> bool {
-    let Ok(mut f) = std::fs::OpenOptions::new()
-        .read(true)
-        .custom_flags((rustix::fs::OFlags::NOFOLLOW | rustix::fs::OFlags::CLOEXEC).bits() as i32)
-        .open(path)
-    else {
-        return false;
-    };
-    let Ok(m) = f.metadata() else { return false };
-    m.file_type().is_file()
-        && read_header(&mut f, m.len()).is_ok_and(|h| ours(&h))
-        && has_footer(&mut f, m.len()).is_ok_and(|done| !done)
-}
-
 /// The Header record after the magic (MCAP spec: opcode 0x01, u64 length, profile and library
 /// as u32-length strings), its lengths checked before anything is read into memory.
 fn read_header(f: &mut File, len: u64) -> Result<Header, String> {

@@ -8,8 +8,9 @@
 #
 # Under qemu-user (an arm64 BIN through binfmt_misc) the process is qemu: its RSS holds the
 # guest's pages (qemu maps guest memory 1:1 into its own) plus qemu's own — its binary, its heap
-# and the translated-code buffer (the only read-write-execute mappings). The guest estimate is
-# the RSS less those three; a native run's lines have none of them.
+# and the translated-code buffer (the only read-write-execute mappings), counted apart. What qemu
+# allocates by mmap (its page tables for the guest, translation metadata) cannot be told from the
+# guest's anonymous memory and stays in "the rest": under qemu that figure is an upper bound.
 set -euo pipefail
 bin="${1:?usage: footprint.sh BIN [SETTLE]}"
 settle="${2:-10}"
@@ -45,11 +46,20 @@ done
 [ -n "$ok" ] || { cat "$work/sim.log" "$work/iface.log" >&2; echo "footprint.sh: no running:command" >&2; exit 1; }
 sleep "$settle"
 report() { # NAME PID
-  awk -v name="$1" '
-    /^[0-9a-f]+-[0-9a-f]+ / { perms = $2; path = $6; own = (path ~ /qemu/ || path == "[heap]" || perms == "rwxp") }
-    /^Rss:/ { total += $2; if (own) mine += $2 }
-    END { printf "%s: RSS %.1f MiB; qemu own (binary, heap, code buffer) %.1f MiB; less that %.1f MiB\n",
-          name, total / 1024, mine / 1024, (total - mine) / 1024 }
+  local qemu=0
+  case "$(readlink "/proc/$2/exe")" in *qemu*) qemu=1 ;; esac
+  awk -v name="$1" -v qemu="$qemu" -v bin="$(basename "$bin")" '
+    /^[0-9a-f]+-[0-9a-f]+ / {
+      perms = $2; path = $6
+      own = qemu && (path ~ /qemu/ || path == "[heap]" || perms == "rwxp")
+      file = !own && path ~ ("/" bin "$")
+    }
+    /^Rss:/ { total += $2; if (own) mine += $2; else if (file) exe += $2; else rest += $2 }
+    END {
+      printf "%s: RSS %.1f MiB = the program file %.1f + the rest (heap, stacks, libraries) %.1f", name, total / 1024, exe / 1024, rest / 1024
+      if (qemu) printf " + qemu itself (its binary, heap, code buffer) %.1f", mine / 1024
+      printf " MiB\n"
+    }
   ' "/proc/$2/smaps"
 }
 report sim "$sim"

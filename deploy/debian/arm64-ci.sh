@@ -41,8 +41,8 @@ test_args=()
 for t in "${TESTS[@]}"; do test_args+=(--test "$t"); done
 
 step "start"
-arm64_binfmt
 arm64_chroot
+arm64_binfmt # the build root's qemu: after arm64_chroot
 arm64_fetch >/dev/null 2>&1 || arm64_fetch
 step "build root ready ($(chroot "$ARM64_CACHE/chroot" rustc --version))"
 

@@ -728,3 +728,76 @@ impl Session for DuneSession {
         self.deframer = Deframer::new();
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const US: u16 = 0x4001;
+
+    fn start() -> Vec<u8> {
+        let opts = DuneOptions::default();
+        imc::encode(
+            &Header::new(US, opts.imc_id, 0.0),
+            &imc::PlanControl {
+                kind: consts::plan_control::REQUEST,
+                op: consts::plan_control::START,
+                request_id: 1,
+                plan_id: "p".into(),
+                flags: 0,
+                arg: Some(Box::new(
+                    imc::FollowReference {
+                        control_src: US,
+                        control_ent: 0xFF,
+                        timeout: 10.0,
+                        ..Default::default()
+                    }
+                    .into(),
+                )),
+                info: String::new(),
+            }
+            .into(),
+            ByteOrder::Little,
+        )
+        .unwrap()
+    }
+
+    #[test]
+    fn refusing_plans_fails_the_running_one_and_refuses_starts_until_lifted() {
+        let mut emu = DuneSession::new(DuneOptions::default());
+        let mut out = Vec::new();
+        emu.step(2.0, &mut out);
+        emu.on_bytes(&start(), &mut out);
+        assert!(emu.maneuver_running());
+        emu.refuse_plans(true);
+        emu.step(0.1, &mut out);
+        assert!(!emu.maneuver_running());
+        assert_eq!(emu.op_mode(), consts::op_mode::SERVICE);
+        emu.on_bytes(&start(), &mut out);
+        assert!(!emu.maneuver_running());
+        assert_eq!(emu.stats.plans_refused, 1);
+        emu.refuse_plans(false);
+        emu.on_bytes(&start(), &mut out);
+        assert!(emu.maneuver_running());
+    }
+
+    #[test]
+    fn taking_control_leaves_the_maneuver_until_released() {
+        let mut emu = DuneSession::new(DuneOptions::default());
+        let mut out = Vec::new();
+        emu.step(2.0, &mut out);
+        emu.on_bytes(&start(), &mut out);
+        assert!(emu.maneuver_running());
+        emu.take_control(consts::op_mode::EXTERNAL);
+        emu.step(0.1, &mut out);
+        assert!(!emu.maneuver_running());
+        assert_eq!(emu.op_mode(), consts::op_mode::EXTERNAL);
+        emu.on_bytes(&start(), &mut out);
+        assert!(!emu.maneuver_running(), "a START taken while EXTERNAL");
+        emu.release_control();
+        emu.step(0.1, &mut out);
+        assert_eq!(emu.op_mode(), consts::op_mode::SERVICE);
+        emu.on_bytes(&start(), &mut out);
+        assert!(emu.maneuver_running());
+    }
+}

@@ -204,7 +204,7 @@ _frontseat() {
             return 0
             ;;
         frontseat__subcmd__chaos)
-            opts="-c -h --seed --faults --warp --config --recovery-bound --rss-growth-mib --no-moos --soak --sample-every --only --print-config --help"
+            opts="-c -h --seed --faults --warp --config --recovery-bound --rss-growth-mib --no-moos --soak --sample-every --only --vehicle --print-config --help"
             if [[ ${cur} == -* || ${COMP_CWORD} -eq 2 ]] ; then
                 COMPREPLY=( $(compgen -W "${opts}" -- "${cur}") )
                 return 0
@@ -247,6 +247,10 @@ _frontseat() {
                     return 0
                     ;;
                 --only)
+                    COMPREPLY=($(compgen -f "${cur}"))
+                    return 0
+                    ;;
+                --vehicle)
                     COMPREPLY=($(compgen -f "${cur}"))
                     return 0
                     ;;

@@ -87,6 +87,7 @@ complete -c frontseat -n "__fish_frontseat_using_subcommand chaos" -l rss-growth
 complete -c frontseat -n "__fish_frontseat_using_subcommand chaos" -l soak -d 'Soak: inject faults for this long (wall time, e.g. `20m`, `2h`) instead of `--faults`, reporting RSS, open fds, threads and tasks every `--sample-every`; the report adds a table of the samples and fails on a drift' -r
 complete -c frontseat -n "__fish_frontseat_using_subcommand chaos" -l sample-every -d 'How often a soak samples and prints the process\'s resources (e.g. `1m`, `30s`)' -r
 complete -c frontseat -n "__fish_frontseat_using_subcommand chaos" -l only -d 'Only these faults, comma-separated (e.g. `moos-crash-loop,web-flood`; `--only help` lists them): to find which fault a resource drift comes with' -r
+complete -c frontseat -n "__fish_frontseat_using_subcommand chaos" -l vehicle -d 'The vehicle to run: `basic` (the basic simulator, the default) or a vehicle family — `bluefin`, `iver3`, `waveglider_sv2`, `ardupilot`, `ardusub`, `dune` — whose emulator and real driver run behind a chaos link that drops, silences, delays and corrupts the line in the vehicle\'s own protocol. A family run takes no MOOS bridge and no --soak' -r
 complete -c frontseat -n "__fish_frontseat_using_subcommand chaos" -l no-moos -d 'Leave out the MOOS bridge and the broker-restart fault'
 complete -c frontseat -n "__fish_frontseat_using_subcommand chaos" -l print-config -d 'Print the embedded default config and exit'
 complete -c frontseat -n "__fish_frontseat_using_subcommand chaos" -s h -l help -d 'Print help'

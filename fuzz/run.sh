@@ -4,14 +4,14 @@
 #   fuzz/run.sh ci       [SECONDS]            every target, SECONDS each (default 15): CI's smoke run
 #   fuzz/run.sh campaign [SECONDS] [TARGET…]  every (or the named) target, one at a time, SECONDS
 #                                             each (default 600), new inputs kept in the work dir
-#   fuzz/run.sh merge    [TARGET…]            adds the campaign's new inputs that reach new coverage
-#                                             to the checked-in corpus (libFuzzer -merge=1, additive)
+#   fuzz/run.sh merge    [TARGET…]            adds the campaign's new inputs (≤ 8 KiB) that reach new
+#                                             edges to the checked-in corpus (set-cover merge, additive)
 #   fuzz/run.sh bound                         checks every checked-in corpus against the size bound
 #   fuzz/run.sh targets                       prints each target and its corpus directory
 #
 # Toolchain: the machine's stable Rust with RUSTC_BOOTSTRAP=1 (cargo-fuzz passes -Z flags); CI
 # machines have no other toolchain. FUZZ_TOOLCHAIN=nightly uses `cargo +nightly` instead.
-# Limits per run: -rss_limit_mb=512 (and malloc limit, the same), -timeout=10 s per input,
+# Limits per run: -rss_limit_mb=512 (and malloc limit, the same), -timeout=10 s per input (30 in ci),
 # -max_len=70000. The checked-in corpus is only read; new inputs, crash artifacts and logs go to
 # FUZZ_WORK (default /tmp/frontseat-fuzz), outside the repository.
 # Build dir: FUZZ_TARGET_DIR (default fuzz/target), separate from the workspace's target dir;
@@ -23,10 +23,16 @@ root="$(cd "$here/.." && pwd)"
 work="${FUZZ_WORK:-/tmp/frontseat-fuzz}"
 target_dir="${FUZZ_TARGET_DIR:-$here/target}"
 cargo_fuzz_version=0.13.2
+# A single input running longer than this is a hang. CI raises it to 30 s: the crafted
+# decompression-bomb seed (fuzz/corpus/mcap_reader/crafted_huge_definitions.mcap, 1.6 GiB of
+# zstd output by design) takes about 8 s under ASan on a loaded 2-core machine.
+timeout="${FUZZ_TIMEOUT:-10}"
 
 # The size bound of each checked-in corpus (also checked by `cargo test --test fuzz_corpus`).
 max_files=300
 max_bytes=$((2 * 1024 * 1024))
+# A campaign input larger than this is not merged into the checked-in corpus.
+merge_max_bytes="${FUZZ_MERGE_MAX_BYTES:-8192}"
 
 # target:corpus directory (relative to the repository root)
 targets=(
@@ -103,7 +109,7 @@ run_one() {
   # The binary `build` made, run directly: `cargo fuzz run` would rebuild first whenever a source
   # changed since, in the middle of a campaign.
   ASAN_OPTIONS="${ASAN_OPTIONS:-detect_odr_violation=0}" "$(binary "$t")" "$work/$t/new" "$corpus" \
-    -max_total_time="$secs" -rss_limit_mb=512 -malloc_limit_mb=512 -timeout=10 \
+    -max_total_time="$secs" -rss_limit_mb=512 -malloc_limit_mb=512 -timeout="$timeout" \
     -max_len=70000 -print_final_stats=1 -artifact_prefix="$work/$t/artifacts/" "$@" \
     >"$log" 2>&1 || rc=$?
   ln -sf "$log" "$work/$t/last.log"
@@ -113,7 +119,8 @@ run_one() {
   [ "$rc" = 0 ] && [ "$found" = 0 ]
 }
 
-# One table row from a run's log: target, runs, exec/s, edges (cov), features (ft), corpus, rss,
+# One table row from a run's log: target, runs, exec/s, edges (cov), features (ft), corpus, peak
+# RSS in MB (plain runs only),
 # and the findings (files in the artifacts dir: crash-, oom-, timeout-, slow-unit-).
 summary() {
   local t=$1 log=$2 rc=$3 found=$4
@@ -123,16 +130,21 @@ summary() {
   runs=$(sed -n 's/^stat::number_of_executed_units: *//p' "$log" | tail -1)
   [ -n "$runs" ] || runs=$(grep -oE '^#[0-9]+' "$log" | tail -1 | tr -d '#')
   eps=$(sed -n 's/^stat::average_exec_per_sec: *//p' "$log" | tail -1)
-  [ -n "$eps" ] || eps=$(grep -oE 'exec/s:? [0-9]+' "$log" | tail -1 | grep -oE '[0-9]+$')
+  if [ -z "$eps" ]; then
+    # fork mode's exec/s is the last job's: the average is runs over the run's time
+    local secs_run
+    secs_run=$(grep -oE 'time: [0-9]+s' "$log" | tail -1 | grep -oE '[0-9]+')
+    [ -z "$secs_run" ] || [ "$secs_run" = 0 ] || eps=$((runs / secs_run))
+  fi
   rss=$(sed -n 's/^stat::peak_rss_mb: *//p' "$log" | tail -1)
   [ -n "$rss" ] || rss=$(grep -oE 'rss: [0-9]+' "$log" | tail -1 | grep -oE '[0-9]+$')
   cov=$(grep -o 'cov: [0-9]*' "$log" | tail -1 | cut -d' ' -f2)
   ft=$(grep -o 'ft: [0-9]*' "$log" | tail -1 | cut -d' ' -f2)
-  corp=$(grep -o 'corp: [0-9]*/[0-9]*[a-zA-Z]*' "$log" | tail -1 | cut -d' ' -f2)
+  corp=$(grep -oE 'corp: [0-9]+(/[0-9]+[a-zA-Z]*)?' "$log" | tail -1 | cut -d' ' -f2)
   local verdict="ok, 0 findings"
   [ "$found" = 0 ] || verdict="$found findings in $work/$t/artifacts"
   [ "$rc" = 0 ] || verdict="FAILED (exit $rc): $(grep -m1 -E '^==[0-9]+==|panicked|ERROR: libFuzzer' "$log" || true)"
-  printf '| `%s` | %s | %s | %s | %s | %s | %s MB | %s |\n' \
+  printf '| `%s` | %s | %s | %s | %s | %s | %s | %s |\n' \
     "$t" "${runs:-?}" "${eps:-?}" "${cov:-?}" "${ft:-?}" "${corp:-?}" "${rss:-?}" "$verdict" \
     | tee -a "$work/summary.md"
 }
@@ -154,17 +166,23 @@ bound() {
 }
 
 merge() {
-  local t corpus
+  local t corpus small
   for t in "$@"; do
     corpus="$(corpus_of "$t")"
     [ -d "$work/$t/new" ] || { echo "fuzz: no campaign inputs for $t in $work/$t/new" >&2; continue; }
     local before
     before=$(find "$corpus" -maxdepth 1 -type f | wc -l)
-    # -merge=1 into the checked-in corpus keeps every file there and adds only inputs that reach
-    # features it does not; the named regression seeds are never removed.
-    ASAN_OPTIONS="${ASAN_OPTIONS:-detect_odr_violation=0}" "$(binary "$t")" "$corpus" "$work/$t/new" \
-      -merge=1 -rss_limit_mb=512 -malloc_limit_mb=512 -timeout=10 -max_len=70000 \
-      >"$work/$t/merge.log" 2>&1
+    # Only inputs of at most $merge_max_bytes are candidates (the bound is in bytes too), and
+    # only plain edge coverage counts (no hit counts, no compared values): a set-cover merge into
+    # the checked-in corpus keeps every file there and adds the fewest inputs that reach an edge
+    # it does not. The named regression seeds are never removed.
+    small="$work/$t/merge-candidates"
+    rm -rf "$small"
+    mkdir -p "$small"
+    find "$work/$t/new" -maxdepth 1 -type f -size -"$((merge_max_bytes + 1))"c -exec cp {} "$small/" \;
+    ASAN_OPTIONS="${ASAN_OPTIONS:-detect_odr_violation=0}" "$(binary "$t")" "$corpus" "$small" \
+      -set_cover_merge=1 -use_counters=0 -use_cmp=0 -rss_limit_mb=512 -malloc_limit_mb=512 \
+      -timeout="$timeout" -max_len=70000 >"$work/$t/merge.log" 2>&1
     echo "fuzz: $t: $before → $(find "$corpus" -maxdepth 1 -type f | wc -l) files"
   done
   bound
@@ -175,6 +193,7 @@ shift || true
 case "$mode" in
   ci)
     secs="${1:-15}"
+    timeout="${FUZZ_TIMEOUT:-30}"
     ensure_cargo_fuzz
     build
     failed=()

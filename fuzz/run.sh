@@ -108,7 +108,10 @@ run_one() {
   local rc=0
   # The binary `build` made, run directly: `cargo fuzz run` would rebuild first whenever a source
   # changed since, in the middle of a campaign.
-  ASAN_OPTIONS="${ASAN_OPTIONS:-detect_odr_violation=0}" "$(binary "$t")" "$work/$t/new" "$corpus" \
+  # No Rust backtrace: symbolizing one in this binary took more than the 512 MB limit, so a
+  # panic was reported as an OOM and its input not kept (FUZZ_RUST_BACKTRACE=1 to get one).
+  RUST_BACKTRACE="${FUZZ_RUST_BACKTRACE:-0}" \
+    ASAN_OPTIONS="${ASAN_OPTIONS:-detect_odr_violation=0}" "$(binary "$t")" "$work/$t/new" "$corpus" \
     -max_total_time="$secs" -rss_limit_mb=512 -malloc_limit_mb=512 -timeout="$timeout" \
     -max_len=70000 -print_final_stats=1 -artifact_prefix="$work/$t/artifacts/" "$@" \
     >"$log" 2>&1 || rc=$?

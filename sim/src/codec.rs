@@ -8,6 +8,11 @@ use std::fmt::{self, Write as _};
 
 /// Largest FREQ (Hz) we accept: beyond it a tick is shorter than the scheduler can keep.
 pub const MAX_FREQ: f64 = 1000.0;
+/// Smallest FREQ (Hz) and WARP we accept: the tick schedule turns `n / (FREQ·WARP)` into a
+/// `Duration`, which panics past 2^64 s (FREQ:1e-20 did), and a START with a FREQ that formats to
+/// 0 at our 12 decimals would not read back (both found by the `sim_codec` fuzz target).
+pub const MIN_FREQ: f64 = 0.001;
+pub const MIN_WARP: f64 = 0.001;
 /// Largest WARP we accept.
 pub const MAX_WARP: f64 = 10_000.0;
 /// Largest |SPEED| in a CMD, m/s.
@@ -206,8 +211,8 @@ fn parse_start(fields: &Fields) -> Result<StartParams, FieldError> {
     let freq = check(
         "FREQ",
         freq,
-        freq > 0.0 && freq <= MAX_FREQ,
-        "must be > 0 and <= 1000 Hz",
+        (MIN_FREQ..=MAX_FREQ).contains(&freq),
+        "must be >= 0.001 and <= 1000 Hz",
     )?;
     let accel = opt("ACCEL", d.accel)?;
     let accel = check("ACCEL", accel, accel >= 0.0, "must be >= 0 m/s^2")?;
@@ -219,8 +224,8 @@ fn parse_start(fields: &Fields) -> Result<StartParams, FieldError> {
     let warp = check(
         "WARP",
         warp,
-        warp > 0.0 && warp <= MAX_WARP,
-        "must be > 0 and <= 10000",
+        (MIN_WARP..=MAX_WARP).contains(&warp),
+        "must be >= 0.001 and <= 10000",
     )?;
     Ok(StartParams {
         lat,
@@ -527,6 +532,11 @@ mod tests {
             ("START,LAT:42,LON:1,FREQ:0", "FREQ", "out of range"),
             ("START,LAT:42,LON:1,FREQ:-10", "FREQ", "out of range"),
             ("START,LAT:42,LON:1,FREQ:1e9", "FREQ", "out of range"),
+            // Found by the sim_codec fuzz target: 1e-308 formatted to 0 and did not read back,
+            // and a rate this small overflowed the tick schedule's Duration.
+            ("START,LAT:42,LON:1,FREQ:1e-308", "FREQ", "out of range"),
+            ("START,LAT:42,LON:1,FREQ:0.0009", "FREQ", "out of range"),
+            ("START,LAT:42,LON:1,WARP:1e-20", "WARP", "out of range"),
             ("START,LAT:42,LON:1,WARP:0", "WARP", "out of range"),
             ("START,LAT:42,LON:1,WARP:20000", "WARP", "out of range"),
             ("START,LAT:42,LON:1,DURATION:-1", "DURATION", "out of range"),

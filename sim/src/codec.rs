@@ -8,9 +8,9 @@ use std::fmt::{self, Write as _};
 
 /// Largest FREQ (Hz) we accept: beyond it a tick is shorter than the scheduler can keep.
 pub const MAX_FREQ: f64 = 1000.0;
-/// Smallest FREQ (Hz) and WARP we accept: the tick schedule turns `n / (FREQ·WARP)` into a
-/// `Duration`, which panics past 2^64 s (FREQ:1e-20 did), and a START with a FREQ that formats to
-/// 0 at our 12 decimals would not read back (both found by the `sim_codec` fuzz target).
+/// Smallest FREQ (Hz) and WARP we accept. The `sim_codec` fuzz target found FREQ:1e-308
+/// accepted, formatted to 0 at our 12 decimals and refused when read back; and the tick schedule
+/// turns `n / (FREQ·WARP)` into a `Duration`, which panics past 2^64 s (a rate below about 5e-20).
 pub const MIN_FREQ: f64 = 0.001;
 pub const MIN_WARP: f64 = 0.001;
 /// Largest WARP we accept.
@@ -532,8 +532,8 @@ mod tests {
             ("START,LAT:42,LON:1,FREQ:0", "FREQ", "out of range"),
             ("START,LAT:42,LON:1,FREQ:-10", "FREQ", "out of range"),
             ("START,LAT:42,LON:1,FREQ:1e9", "FREQ", "out of range"),
-            // Found by the sim_codec fuzz target: 1e-308 formatted to 0 and did not read back,
-            // and a rate this small overflowed the tick schedule's Duration.
+            // Found by the sim_codec fuzz target: 1e-308 formatted to 0 and did not read back
+            // (and a rate this small would overflow the tick schedule's Duration).
             ("START,LAT:42,LON:1,FREQ:1e-308", "FREQ", "out of range"),
             ("START,LAT:42,LON:1,FREQ:0.0009", "FREQ", "out of range"),
             ("START,LAT:42,LON:1,WARP:1e-20", "WARP", "out of range"),

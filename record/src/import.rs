@@ -420,3 +420,30 @@ fn add_descriptor(pool: &mut DescriptorPool, data: &[u8], stats: &mut ImportStat
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use prost::Message as _;
+
+    /// A `.goby` descriptor entry whose syntax prost-reflect 0.16 panics on (the `mcap_reader`
+    /// fuzz finding, FUZZING.md) is counted as bad and skipped, not handed to the pool.
+    #[test]
+    fn a_descriptor_with_unknown_syntax_is_bad_not_a_panic() {
+        let fdp = FileDescriptorProto {
+            name: Some("t.proto".into()),
+            syntax: Some("prott2".into()),
+            ..Default::default()
+        };
+        let mut pool = DescriptorPool::new();
+        let mut stats = ImportStats::default();
+        assert!(!add_descriptor(&mut pool, &fdp.encode_to_vec(), &mut stats));
+        assert_eq!((stats.bad_descriptors, stats.descriptor_files), (1, 0));
+        let fdp = FileDescriptorProto {
+            syntax: Some("proto3".into()),
+            ..fdp
+        };
+        assert!(add_descriptor(&mut pool, &fdp.encode_to_vec(), &mut stats));
+        assert_eq!((stats.bad_descriptors, stats.descriptor_files), (1, 1));
+    }
+}

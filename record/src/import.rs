@@ -424,7 +424,6 @@ fn add_descriptor(pool: &mut DescriptorPool, data: &[u8], stats: &mut ImportStat
 #[cfg(test)]
 mod tests {
     use super::*;
-    use prost::Message as _;
 
     /// A `.goby` descriptor entry whose syntax prost-reflect 0.16 panics on (the `mcap_reader`
     /// fuzz finding, FUZZING.md) is counted as bad and skipped, not handed to the pool.

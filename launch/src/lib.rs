@@ -4,7 +4,7 @@
 //! SIGTERM stops them all in reverse order, and the exit code names the process that failed
 //! (10 + its position in start order). goby_launch, pAntler and `ros2 launch` are the models.
 //!
-//! [`config`] is the file, [`plan`] turns it into processes (pure: `--check` runs it; [`ports`]
+//! [`config`] is the file, [`plan`] turns it into processes ([`spec`]; pure: `--check` runs it; [`ports`]
 //! refuses two of them binding one port), and [`process`] runs one of them as a supervised service.
 #![forbid(unsafe_code)]
 
@@ -12,6 +12,7 @@ pub mod config;
 pub mod plan;
 pub mod ports;
 pub mod process;
+pub mod spec;
 
 use std::future::Future;
 use std::path::{Path, PathBuf};

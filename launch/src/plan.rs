@@ -7,24 +7,11 @@
 
 use std::path::{Path, PathBuf};
 
-use frontseat_config::{InterfaceConfig, RecordConfig, RestartConfig};
+use frontseat_config::{InterfaceConfig, RecordConfig};
 
 use crate::config::{LaunchConfig, ProcessEntry, ReadyConfig, Stage, VehicleEntry};
 use crate::ports::{self, Binding};
-
-/// One process to start.
-#[derive(Debug, Clone, PartialEq)]
-pub struct ProcSpec {
-    /// Position in start order, from 0; the exit code of a failed launch is 10 + this.
-    pub index: usize,
-    pub name: String,
-    pub program: PathBuf,
-    pub args: Vec<String>,
-    pub env: Vec<(String, String)>,
-    pub cwd: PathBuf,
-    pub ready: ReadyConfig,
-    pub restart: RestartConfig,
-}
+pub use crate::spec::ProcSpec;
 
 /// A generated interface config to write before the processes start.
 #[derive(Debug, Clone, PartialEq)]

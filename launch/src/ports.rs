@@ -14,7 +14,7 @@ use std::path::{Path, PathBuf};
 use frontseat_config::{GatewayConfig, InterfaceConfig, InterprocessConfig, InterprocessMode};
 
 use crate::config::ReadyKind;
-use crate::plan::ProcSpec;
+use crate::spec::ProcSpec;
 
 /// TCP and UDP ports are separate: `tcp/…:7447` and `udp/…:7447` do not clash.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

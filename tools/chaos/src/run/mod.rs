@@ -429,12 +429,15 @@ async fn settle_parts(
         .await
         .map(|reached| (called + reached).saturating_duration_since(last_cleared));
 
-    // Stop commanding, then give every outstanding request its 5 s (sim) to be answered.
+    // Stop commanding, then give every outstanding request its 5 s (sim) to be answered. The
+    // helm may be past its `commanding` check when it is cleared and publish one more request:
+    // so the last id is read again on every look and at the end, never from before the stop
+    // (a request sent in that gap was counted as an unknown answer, at seed 9 under load).
     helm.commanding.store(false, Ordering::SeqCst);
-    let sent = helm.last_id.load(Ordering::SeqCst);
     let answer_wait = Duration::from_secs_f64(5.0 / warp) + Duration::from_secs(3);
     let deadline = Instant::now() + answer_wait;
     loop {
+        let sent = helm.last_id.load(Ordering::SeqCst);
         let answered = {
             let r = monitor.responses.lock().unwrap_or_else(|p| p.into_inner());
             (1..=sent).all(|id| r.answered(id))
@@ -446,7 +449,7 @@ async fn settle_parts(
     }
     // Late duplicates would arrive now.
     tokio::time::sleep(Duration::from_millis(200)).await;
-    (final_recovery, sent)
+    (final_recovery, helm.last_id.load(Ordering::SeqCst))
 }
 
 /// Stops everything: the web commander, the MOOS bridge and broker, the Goby3 gateway and gobyd,

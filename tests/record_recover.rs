@@ -13,6 +13,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
+use common::mcap_python::{make_reader, python_reader};
 use common::procs::{Kill, free_port, scratch, wait_for_tcp};
 use frontseat_record::crafted::message_digest;
 use frontseat_record::{Recording, info};
@@ -29,49 +30,8 @@ fn recover(file: &Path) -> Output {
         .unwrap()
 }
 
-fn python_reader() -> bool {
-    let ok = Command::new("python3")
-        .args(["-c", "import mcap.reader"])
-        .stdout(Stdio::null())
-        .stderr(Stdio::null())
-        .status()
-        .is_ok_and(|s| s.success());
-    if !ok {
-        // `.ci/run` installs tests/python/requirements.txt and sets this: there a missing
-        // package fails the test, never skips its Python part.
-        assert!(
-            std::env::var_os("FRONTSEAT_REQUIRE_PYTHON_HELM").is_none(),
-            "FRONTSEAT_REQUIRE_PYTHON_HELM is set but python3 cannot import mcap"
-        );
-        println!("python3 cannot import mcap: the make_reader checks are not run here");
-    }
-    ok
-}
-
-/// make_reader on `file`: Ok((messages, digest)) or Err(its error).
-fn make_reader(file: &Path) -> Result<(u64, u64), String> {
-    let script =
-        PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/python/make_reader_digest.py");
-    let out = Command::new("python3")
-        .arg(script)
-        .arg(file)
-        .output()
-        .unwrap();
-    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap_or_else(|e| {
-        panic!(
-            "make_reader_digest.py: {e}: {}",
-            String::from_utf8_lossy(&out.stderr)
-        )
-    });
-    if v["ok"] == true {
-        Ok((
-            v["messages"].as_u64().unwrap(),
-            v["digest"].as_u64().unwrap(),
-        ))
-    } else {
-        assert_eq!(out.status.code(), Some(3), "{v}");
-        Err(v["error"].as_str().unwrap_or_default().to_string())
-    }
+fn repo() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
 }
 
 fn node_status_count(file: &Path) -> u64 {
@@ -168,7 +128,7 @@ min_free_mb = 0
     let before = message_digest(Recording::open(&file).unwrap()).unwrap();
     assert!(before.0 >= 10, "{before:?}");
     if python {
-        let e = make_reader(&file).expect_err("make_reader opens a file with no summary");
+        let e = make_reader(&repo(), &file).expect_err("make_reader opens a file with no summary");
         println!("make_reader on the killed file: {e}");
     }
 
@@ -186,7 +146,7 @@ min_free_mb = 0
     );
     if python {
         assert_eq!(
-            make_reader(&file).expect("make_reader opens the finished file"),
+            make_reader(&repo(), &file).expect("make_reader opens the finished file"),
             before,
             "make_reader reads every message the cut file held"
         );

@@ -14,6 +14,9 @@
 //! alone (the live file's lock), and files with the recorder's name that it did not write (a
 //! foreign MCAP, a symlink to a cut recording elsewhere) are never touched.
 
+#[path = "../../tests/common/mcap_python.rs"]
+mod mcap_python;
+
 use std::io::Write as _;
 use std::os::unix::fs::FileExt as _;
 use std::path::{Path, PathBuf};
@@ -27,6 +30,7 @@ use frontseat_actors::proto::goby::middleware::frontseat::protobuf::NodeStatus;
 use frontseat_record::crafted::message_digest;
 use frontseat_record::recorder::{RecordMeta, Recorder, RecorderOptions, Target};
 use frontseat_record::{Recording, info};
+use mcap_python::{make_reader, python_reader};
 use prost::Message as _;
 
 const CHILD_ENV: &str = "FRONTSEAT_RECOVER_CHILD";
@@ -157,50 +161,8 @@ fn numbers(file: &Path) -> Vec<u64> {
     v
 }
 
-fn python_reader() -> bool {
-    let ok = Command::new("python3")
-        .args(["-c", "import mcap.reader"])
-        .stdout(Stdio::null())
-        .stderr(Stdio::null())
-        .status()
-        .is_ok_and(|s| s.success());
-    if !ok {
-        // `.ci/run` installs tests/python/requirements.txt and sets this: there a missing
-        // package fails the test, never skips its Python part.
-        assert!(
-            std::env::var_os("FRONTSEAT_REQUIRE_PYTHON_HELM").is_none(),
-            "FRONTSEAT_REQUIRE_PYTHON_HELM is set but python3 cannot import mcap"
-        );
-        println!("python3 cannot import mcap: the make_reader checks are not run here");
-    }
-    ok
-}
-
-/// The Python `mcap` package's make_reader on `file`: Ok((messages, digest)) or Err(its error).
-fn make_reader(file: &Path) -> Result<(u64, u64), String> {
-    let script =
-        Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/python/make_reader_digest.py");
-    let out = Command::new("python3")
-        .arg(script)
-        .arg(file)
-        .output()
-        .unwrap();
-    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap_or_else(|e| {
-        panic!(
-            "make_reader_digest.py: {e}: {}",
-            String::from_utf8_lossy(&out.stderr)
-        )
-    });
-    if v["ok"] == true {
-        assert!(out.status.success());
-        Ok((
-            v["messages"].as_u64().unwrap(),
-            v["digest"].as_u64().unwrap(),
-        ))
-    } else {
-        assert_eq!(out.status.code(), Some(3), "{v}");
-        Err(v["error"].as_str().unwrap_or_default().to_string())
-    }
+fn repo() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..")
 }
 
 /// One run: record at `rate` for about `run_s`, then `phase` more, SIGKILL, finish at the next
@@ -261,7 +223,7 @@ fn kill_and_recover(
     assert!(cut.truncated.is_some(), "killed: no summary");
     let before = message_digest(Recording::open(&live).unwrap()).unwrap();
     if python {
-        let e = make_reader(&live).expect_err("make_reader opens a file with no summary");
+        let e = make_reader(&repo(), &live).expect_err("make_reader opens a file with no summary");
         println!("make_reader on the killed file: {e}");
     }
 
@@ -289,7 +251,7 @@ fn kill_and_recover(
     assert!(kept <= published, "{kept} kept of {published} published");
     if python {
         assert_eq!(
-            make_reader(&live).expect("make_reader opens the finished file"),
+            make_reader(&repo(), &live).expect("make_reader opens the finished file"),
             after,
             "make_reader reads every message the cut file held"
         );

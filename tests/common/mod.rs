@@ -4,6 +4,7 @@
 
 pub mod goby3;
 pub mod logcap;
+pub mod mcap_python;
 pub mod otlp;
 pub mod phelm;
 pub mod procs;

@@ -322,6 +322,24 @@ impl Interface {
         }
     }
 
+    /// Waits for the link's reopen line, then for COMMAND after it: (failed opens the line
+    /// counts, when COMMAND came).
+    async fn reopened_then_command(&mut self, by_id: &str) -> (u64, Instant) {
+        let reopened = self
+            .wait_for("the reopen line", |l| {
+                l.contains(&format!("serial port {by_id} open again after"))
+            })
+            .await;
+        let n = self
+            .log
+            .last()
+            .and_then(|l| failed_opens(l))
+            .expect("the reopen line says how many opens failed");
+        let at_command = self.until_command().await;
+        assert!(at_command >= reopened);
+        (n, at_command)
+    }
+
     async fn until_command(&mut self) -> Instant {
         self.wait_for("to=\"running:command\"", |l| {
             l.contains("to=\"running:command\"")
@@ -504,18 +522,7 @@ async fn comes_back<S: Session>(
     let second = cable.plug(0o666).await;
     assert_ne!(second, first, "the adapter comes back as another tty");
     let back = Instant::now();
-    let reopened = iface
-        .wait_for("the reopen line", |l| {
-            l.contains(&format!("serial port {by_id_s} open again after"))
-        })
-        .await;
-    let n = iface
-        .log
-        .last()
-        .and_then(|l| failed_opens(l))
-        .expect("the reopen line says how many opens failed");
-    let at_command = iface.until_command().await;
-    assert!(at_command >= reopened);
+    let (n, at_command) = iface.reopened_then_command(&by_id_s).await;
     assert!(n >= 2, "{n} failed opens while away for 1.5 s");
     assert_eq!(
         iface.count(&[" WARN ", &format!("serial port {by_id_s}")]),
@@ -552,18 +559,7 @@ async fn comes_back<S: Session>(
     let before_fix = iface.count(&["to=\"running:command\""]);
     allow(&third);
     let fixed = Instant::now();
-    let reopened = iface
-        .wait_for("the reopen line", |l| {
-            l.contains(&format!("serial port {by_id_s} open again after"))
-        })
-        .await;
-    let n = iface
-        .log
-        .last()
-        .and_then(|l| failed_opens(l))
-        .expect("the reopen line says how many opens failed");
-    let at_command = iface.until_command().await;
-    assert!(at_command >= reopened);
+    let (n, at_command) = iface.reopened_then_command(&by_id_s).await;
     assert_eq!(before_fix, 2, "no COMMAND while the port was root's alone");
     assert!(n >= 2, "{n} failed opens while denied for 1.5 s");
     // Over the whole run: one WARN per outage for the missing device, one for the denial.

@@ -313,6 +313,25 @@ impl DuneSession {
         );
     }
 
+    /// The PlanControl FAILURE answering `m`'s START: the vehicle aborted, refused or timed out
+    /// the plan (`info` says which).
+    fn plan_failed(&mut self, m: &Maneuver, info: &str, out: &mut Vec<u8>) {
+        self.emit(
+            m.src,
+            imc::PlanControl {
+                kind: consts::plan_control::FAILURE,
+                op: consts::plan_control::START,
+                request_id: m.request_id,
+                plan_id: self.plan_id.clone(),
+                flags: 0,
+                arg: None,
+                info: info.into(),
+            }
+            .into(),
+            out,
+        );
+    }
+
     /// The maneuver ends: loops off, SERVICE, the setpoint's thrust off (the LAUV coasts and,
     /// positively buoyant, rises).
     fn end_maneuver(&mut self, outcome: u8, out: &mut Vec<u8>) {
@@ -364,20 +383,7 @@ impl DuneSession {
                 }
                 self.stats.aborts += 1;
                 if let Some(m) = self.maneuver.clone() {
-                    self.emit(
-                        m.src,
-                        imc::PlanControl {
-                            kind: consts::plan_control::FAILURE,
-                            op: consts::plan_control::START,
-                            request_id: m.request_id,
-                            plan_id: self.plan_id.clone(),
-                            flags: 0,
-                            arg: None,
-                            info: "aborted".into(),
-                        }
-                        .into(),
-                        out,
-                    );
+                    self.plan_failed(&m, "aborted", out);
                 }
                 self.op_mode = consts::op_mode::ERROR;
                 self.last_error = "got abort request".into();
@@ -614,20 +620,7 @@ impl Session for DuneSession {
         if std::mem::take(&mut self.fail_maneuver)
             && let Some(m) = self.maneuver.clone()
         {
-            self.emit(
-                m.src,
-                imc::PlanControl {
-                    kind: consts::plan_control::FAILURE,
-                    op: consts::plan_control::START,
-                    request_id: m.request_id,
-                    plan_id: self.plan_id.clone(),
-                    flags: 0,
-                    arg: None,
-                    info: "plan refused by the vehicle".into(),
-                }
-                .into(),
-                out,
-            );
+            self.plan_failed(&m, "plan refused by the vehicle", out);
             self.end_maneuver(consts::plan_control::FAILURE, out);
         }
         if let Some(mode) = self.take_over.take()
@@ -656,20 +649,7 @@ impl Session for DuneSession {
                     .into(),
                     out,
                 );
-                self.emit(
-                    m.src,
-                    imc::PlanControl {
-                        kind: consts::plan_control::FAILURE,
-                        op: consts::plan_control::START,
-                        request_id: m.request_id,
-                        plan_id: self.plan_id.clone(),
-                        flags: 0,
-                        arg: None,
-                        info: TIMEOUT_TEXT.into(),
-                    }
-                    .into(),
-                    out,
-                );
+                self.plan_failed(&m, TIMEOUT_TEXT, out);
                 self.last_error = TIMEOUT_TEXT.into();
                 self.end_maneuver(consts::plan_control::FAILURE, out);
             } else {

@@ -151,7 +151,7 @@ pub fn load<T: ServiceConfig>(path: &Path) -> Result<T, ConfigError> {
 }
 
 /// A config file's text: bounded in size, UTF-8.
-fn read_text(path: &Path) -> Result<String, ConfigError> {
+pub fn read_text(path: &Path) -> Result<String, ConfigError> {
     let file = path.display().to_string();
     let io = |source| ConfigError::Io {
         file: file.clone(),

@@ -200,11 +200,8 @@ fn resolve(base: &Path, p: &str) -> PathBuf {
 /// A small text file, or nothing (a file that cannot be read is the process's own error, at run
 /// time; the check does not guess).
 fn read_small(path: &Path) -> Option<String> {
-    let meta = std::fs::metadata(path).ok()?;
-    if meta.len() > frontseat_config::MAX_FILE_BYTES {
-        return None;
-    }
-    std::fs::read_to_string(path).ok()
+    // Bounded as it reads (a FIFO or a device reports no size), like every config file.
+    frontseat_config::read_text(path).ok()
 }
 
 /// `ServerPort = N` of a MOOS mission file (MOOSDB's default is 9000).

@@ -59,18 +59,8 @@ pub fn run(a: &ConfigArgs) -> ExitCode {
     crate::runtime::run_traced(&Default::default(), "launch", "", async move {
         let outcome =
             frontseat_launch::run(cfg, &file, frontseat, crate::shutdown::shutdown_signal()).await;
-        match &outcome {
-            frontseat_launch::Outcome::Clean => {}
-            frontseat_launch::Outcome::Failed(f) => eprintln!(
-                "frontseat launch: process {} (#{}) failed: {}; exit {}",
-                f.name,
-                f.index + 1,
-                f.why,
-                outcome.exit_code()
-            ),
-            frontseat_launch::Outcome::BadConfig(e) | frontseat_launch::Outcome::Launcher(e) => {
-                eprintln!("frontseat launch: {e}")
-            }
+        if outcome != frontseat_launch::Outcome::Clean {
+            eprintln!("frontseat launch: {outcome}");
         }
         ExitCode::from(outcome.exit_code())
     })

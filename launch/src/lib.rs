@@ -121,6 +121,24 @@ impl Outcome {
     }
 }
 
+/// What the launcher says about how it ended (the `frontseat launch` and `demo --fleet` line).
+impl std::fmt::Display for Outcome {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Outcome::Clean => write!(f, "every process stopped cleanly"),
+            Outcome::Failed(p) => write!(
+                f,
+                "process {} (#{}) failed: {}; exit {}",
+                p.name,
+                p.index + 1,
+                p.why,
+                self.exit_code()
+            ),
+            Outcome::BadConfig(e) | Outcome::Launcher(e) => write!(f, "{e}"),
+        }
+    }
+}
+
 /// SIGTERM to every running process group, last started first, each waited for up to
 /// `grace` (then SIGKILL) before the next.
 async fn stop_all(shared: &Shared, grace: Duration) {

@@ -26,10 +26,16 @@ use launch_file::{launch_config, write_launch_file, write_topside};
 /// How long the interfaces may take to come up.
 const UP_BOUND: Duration = Duration::from_secs(60);
 
-fn free_port() -> std::io::Result<u16> {
-    Ok(std::net::TcpListener::bind("127.0.0.1:0")?
-        .local_addr()?
-        .port())
+/// `n` distinct free loopback ports. Every listener is held until all are taken: one dropped
+/// before the next bind lets the kernel hand the same port out twice (about 1 run in 2 000 for
+/// five ports here), which the launcher then refuses as a port clash.
+fn free_ports(n: usize) -> std::io::Result<Vec<u16>> {
+    let held = (0..n)
+        .map(|_| std::net::TcpListener::bind("127.0.0.1:0"))
+        .collect::<std::io::Result<Vec<_>>>()?;
+    held.iter()
+        .map(|l| l.local_addr().map(|a| a.port()))
+        .collect()
 }
 
 pub async fn run(args: DemoArgs) -> ExitCode {
@@ -64,8 +70,7 @@ pub async fn run(args: DemoArgs) -> ExitCode {
     if !args.fleet_connect.is_empty() {
         return helms_only(&args, n).await;
     }
-    let ports: std::io::Result<Vec<u16>> = (0..=n + 1).map(|_| free_port()).collect();
-    let Ok(ports) = ports else {
+    let Ok(ports) = free_ports(n + 2) else {
         eprintln!("cannot find free loopback ports");
         return ExitCode::from(1);
     };
@@ -120,12 +125,18 @@ pub async fn run(args: DemoArgs) -> ExitCode {
         _ = &mut launcher => false,
     };
     if !up {
-        eprintln!("the fleet did not come up; see the [sim] and [interface-…] lines above");
         let _ = stop_tx.send(());
-        return match tokio::time::timeout(Duration::from_secs(20), launcher).await {
-            Ok(Ok(o)) if o.exit_code() != 0 => ExitCode::from(o.exit_code()),
-            _ => ExitCode::from(1),
+        let why = match tokio::time::timeout(Duration::from_secs(20), launcher).await {
+            Ok(Ok(o)) if o.exit_code() != 0 => Some(o),
+            _ => None,
         };
+        match &why {
+            Some(o) => eprintln!("the fleet did not come up: {o}"),
+            None => {
+                eprintln!("the fleet did not come up; see the [sim] and [interface-…] lines above")
+            }
+        }
+        return ExitCode::from(why.map_or(1, |o| o.exit_code()));
     }
     let endpoints: Vec<String> = zenoh_ports
         .iter()
@@ -154,7 +165,7 @@ pub async fn run(args: DemoArgs) -> ExitCode {
     };
     let code = write_outputs(&args.out, &tracks);
     if outcome != frontseat_launch::Outcome::Clean {
-        eprintln!("frontseat demo --fleet: the launcher ended with {outcome:?}");
+        eprintln!("frontseat demo --fleet: the launcher ended: {outcome}");
         return ExitCode::from(outcome.exit_code().max(1));
     }
     code

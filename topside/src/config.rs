@@ -42,6 +42,8 @@ pub struct TopsideConfig {
     /// the recording), advertised when the vehicle is first heard. Loopback by default; any
     /// other address needs a token (`token` or FRONTSEAT_FOXGLOVE_TOKEN).
     pub foxglove: frontseat_config::FoxgloveConfig,
+    /// The chart under the map: offline files the topside serves to its page.
+    pub chart: ChartConfig,
 }
 
 impl Default for TopsideConfig {
@@ -55,6 +57,7 @@ impl Default for TopsideConfig {
             vehicle: Vec::new(),
             record: frontseat_config::RecordConfig::default(),
             foxglove: frontseat_config::FoxgloveConfig::default(),
+            chart: ChartConfig::default(),
         }
     }
 }
@@ -135,6 +138,84 @@ impl Default for TopsideWebConfig {
             header_timeout_s: 5,
             idle_timeout_s: 30,
         }
+    }
+}
+
+/// The chart under the topside map, from files carried to sea: nothing is fetched from the
+/// internet unless `tile_url` is set. See the guide's "The chart and the plots".
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields, default)]
+pub struct ChartConfig {
+    /// An MBTiles file of raster tiles (PNG, JPEG or WebP), opened read-only and served as
+    /// `/tiles/{z}/{x}/{y}`. None: no basemap (the fleet on a blank Web Mercator map).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub mbtiles: Option<std::path::PathBuf>,
+    /// GeoJSON files drawn over the basemap (a coastline, an operating area): each read once at
+    /// start, at most 16 MiB, at most 16 files.
+    pub geojson: Vec<std::path::PathBuf>,
+    /// For an operator with a connection: a tile URL template the page's browser fetches
+    /// itself, e.g. "https://tile.openstreetmap.org/{z}/{x}/{y}.png" (mind the server's usage
+    /// policy). None by default: the page fetches nothing beyond the topside.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub tile_url: Option<String>,
+}
+
+impl ChartConfig {
+    fn errors(&self) -> Vec<FieldError> {
+        let mut e = Vec::new();
+        let regular = |p: &std::path::Path| std::fs::metadata(p).map(|m| m.is_file());
+        if let Some(p) = &self.mbtiles {
+            match regular(p) {
+                Ok(true) => {}
+                Ok(false) => e.push(FieldError::new(
+                    "chart.mbtiles",
+                    p.display(),
+                    "not a regular file",
+                )),
+                Err(err) => e.push(FieldError::new(
+                    "chart.mbtiles",
+                    p.display(),
+                    err.to_string(),
+                )),
+            }
+        }
+        if self.geojson.len() > crate::chart::MAX_GEOJSON_FILES {
+            e.push(FieldError::new(
+                "chart.geojson",
+                self.geojson.len(),
+                format!("more than {} files", crate::chart::MAX_GEOJSON_FILES),
+            ));
+        }
+        for (i, p) in self.geojson.iter().enumerate() {
+            let at = format!("chart.geojson[{i}]");
+            match std::fs::metadata(p) {
+                Ok(m) if !m.is_file() => {
+                    e.push(FieldError::new(at, p.display(), "not a regular file"))
+                }
+                Ok(m) if m.len() > crate::chart::MAX_GEOJSON_BYTES => e.push(FieldError::new(
+                    at,
+                    p.display(),
+                    format!("larger than {} bytes", crate::chart::MAX_GEOJSON_BYTES),
+                )),
+                Ok(_) => {}
+                Err(err) => e.push(FieldError::new(at, p.display(), err.to_string())),
+            }
+        }
+        if let Some(t) = &self.tile_url {
+            let scheme = t.starts_with("https://") || t.starts_with("http://");
+            let holes = ["{z}", "{x}", "{y}"].iter().all(|h| t.contains(h));
+            let plain = t.len() <= 512
+                && t.chars()
+                    .all(|c| c.is_ascii_graphic() && !matches!(c, '"' | '\'' | '<' | '>' | '\\'));
+            if !(scheme && holes && plain) {
+                e.push(FieldError::new(
+                    "chart.tile_url",
+                    format!("{:?}", t.chars().take(80).collect::<String>()),
+                    "not an http(s) URL template with {z}, {x} and {y} (at most 512 plain characters)",
+                ));
+            }
+        }
+        e
     }
 }
 
@@ -240,6 +321,7 @@ impl ServiceConfig for TopsideConfig {
             ));
         }
         e.extend(self.foxglove.errors_at("foxglove"));
+        e.extend(self.chart.errors());
         for (i, v) in self.vehicle.iter().enumerate() {
             if frontseat_helm_side::plan::check_platform(&v.name).is_err() {
                 e.push(FieldError::new(

@@ -15,6 +15,7 @@
 //! bounded queue: the Zenoh callback never waits for the disk.
 #![forbid(unsafe_code)]
 
+pub mod chart;
 pub mod config;
 pub mod fleet;
 pub mod live;
@@ -75,6 +76,8 @@ pub enum TopsideError {
     Record(#[from] frontseat_record::RecorderError),
     #[error("foxglove: {0}")]
     Foxglove(#[from] frontseat_record::foxglove::FoxgloveError),
+    #[error("{0}")]
+    Chart(#[from] chart::ChartError),
 }
 
 /// What came in over Zenoh and what was refused; on the page and in the logs.
@@ -327,6 +330,8 @@ impl Topside {
         record: Option<RecordInput>,
     ) -> Result<Self, TopsideError> {
         let token = effective_token(cfg)?;
+        // Once at start, before anything is served: a few small reads.
+        let chart = chart::Chart::open(&cfg.chart)?;
         let listen: SocketAddr = cfg
             .web
             .listen
@@ -414,7 +419,11 @@ impl Topside {
                     .collect(),
             ),
         };
-        let app = router(state);
+        let chart_state = chart::ChartState {
+            chart: Arc::new(chart),
+            access: state.access.clone(),
+        };
+        let app = router(state).merge(chart::router(chart_state));
         let bounded = frontseat_web::conn::BoundedListener::new(
             listener,
             frontseat_web::conn::ConnLimits {
@@ -705,6 +714,11 @@ pub async fn run(cfg: TopsideConfig, stop: impl std::future::Future<Output = ()>
     use frontseat_actors::supervisor::SupervisorHandle;
     // Fail fast on what a restart cannot fix.
     if let Err(e) = effective_token(&cfg) {
+        tracing::error!("{e}");
+        return 2;
+    }
+    // A chart that cannot be opened is the operator's file to fix, not a restart's.
+    if let Err(e) = chart::Chart::open(&cfg.chart) {
         tracing::error!("{e}");
         return 2;
     }

@@ -8,7 +8,7 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Duration;
 
-use tokio::io::{AsyncRead, AsyncReadExt, AsyncWrite, AsyncWriteExt};
+use tokio::io::{AsyncRead, AsyncReadExt, AsyncWrite};
 use tokio::net::TcpStream;
 use tokio::sync::mpsc;
 
@@ -251,22 +251,16 @@ async fn run<S>(stream: S, cfg: &ByteLinkConfig, io: &IoSender, stats: &Arc<Link
 where
     S: AsyncRead + AsyncWrite + Send + 'static,
 {
-    let (mut rd, mut wr) = tokio::io::split(stream);
-    let (tx, mut rx) = mpsc::channel::<Vec<u8>>(WRITE_QUEUE);
-    if !io.send(DriverIoEvent::Connected(LineWriter::from_sender(tx))) {
+    let (mut rd, wr) = tokio::io::split(stream);
+    // A write goes to the device from the caller's thread when nothing is queued (the setpoint
+    // lane's way to a serial vehicle), else to the writer task, in order.
+    let wstats = stats.clone();
+    let (w, drain, _closed_with_this) =
+        super::direct_writer(wr, move |n| add(&wstats.bytes_out, n as u64));
+    if !io.send(DriverIoEvent::Connected(w)) {
         return "driver gone".into();
     }
-    let wstats = stats.clone();
-    let mut writer = tokio::spawn(async move {
-        while let Some(b) = rx.recv().await {
-            if let Err(e) = wr.write_all(&b).await {
-                return format!("write failed: {e}");
-            }
-            add(&wstats.bytes_out, b.len() as u64);
-        }
-        let _ = wr.shutdown().await;
-        "closed by driver".to_string()
-    });
+    let mut writer = tokio::spawn(drain);
     let mut deframer = Deframer::new(cfg.framing);
     let mut buf = vec![0u8; 4096];
     let reason = loop {

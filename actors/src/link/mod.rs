@@ -141,8 +141,8 @@ pub struct LinkConfig {
 /// On a TCP line link a write goes to the socket at once, from the caller's thread, when nothing
 /// is queued before it (one non-blocking `write(2)` under a short lock); what the socket does not
 /// take at once is queued for the connection's writer task, and every later write queues behind
-/// it, so bytes leave in the order they were handed over. Without a socket (the byte links, tests)
-/// every write is queued.
+/// it, so bytes leave in the order they were handed over. The byte links' serial ports and TCP
+/// streams write the same way ([`direct_writer`]); without one (UDP, tests) every write is queued.
 #[derive(Clone, Debug)]
 pub struct LineWriter {
     tx: mpsc::Sender<Vec<u8>>,
@@ -153,7 +153,89 @@ pub struct LineWriter {
 #[derive(Debug)]
 struct DirectSocket {
     state: std::sync::Mutex<DirectState>,
-    half: OwnedWriteHalf,
+    half: Half,
+    /// Bytes written, for the byte links' counters.
+    written: Option<Written>,
+}
+
+/// Counts the bytes a connection wrote (a byte link's `LinkStats::bytes_out`).
+struct Written(Box<dyn Fn(usize) + Send + Sync>);
+
+impl std::fmt::Debug for Written {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("Written")
+    }
+}
+
+/// A write half any thread can try at once: a TCP socket's own, or any other `AsyncWrite` (a
+/// serial port, a pseudo-terminal, a byte link's TCP stream) behind a lock held only for one
+/// poll.
+enum Half {
+    Tcp(OwnedWriteHalf),
+    Any(std::sync::Mutex<std::pin::Pin<Box<dyn tokio::io::AsyncWrite + Send>>>),
+}
+
+impl std::fmt::Debug for Half {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            Half::Tcp(_) => "Half::Tcp",
+            Half::Any(_) => "Half::Any",
+        })
+    }
+}
+
+impl Half {
+    /// One attempt that never waits (WouldBlock: the device takes nothing now). Only called
+    /// with nothing queued, so the writer task is not waiting on this half: the no-op waker an
+    /// `Any` half may leave registered is replaced by the writer task's at its next poll.
+    fn try_write(&self, b: &[u8]) -> std::io::Result<usize> {
+        match self {
+            Half::Tcp(h) => h.try_write(b),
+            Half::Any(m) => {
+                let mut w = m.lock().unwrap_or_else(|p| p.into_inner());
+                let mut cx = std::task::Context::from_waker(std::task::Waker::noop());
+                match w.as_mut().poll_write(&mut cx, b) {
+                    std::task::Poll::Ready(r) => r,
+                    std::task::Poll::Pending => Err(std::io::ErrorKind::WouldBlock.into()),
+                }
+            }
+        }
+    }
+
+    /// Writes some of `b`, waiting until the device takes any.
+    async fn write_some(&self, b: &[u8]) -> std::io::Result<usize> {
+        match self {
+            Half::Tcp(h) => loop {
+                h.writable().await?;
+                match h.try_write(b) {
+                    Err(e) if e.kind() == std::io::ErrorKind::WouldBlock => {}
+                    r => return r,
+                }
+            },
+            Half::Any(m) => {
+                std::future::poll_fn(|cx| {
+                    let mut w = m.lock().unwrap_or_else(|p| p.into_inner());
+                    w.as_mut().poll_write(cx, b)
+                })
+                .await
+            }
+        }
+    }
+
+    async fn shutdown(&self) {
+        match self {
+            Half::Tcp(h) => {
+                let _ = socket2::SockRef::from(h.as_ref()).shutdown(std::net::Shutdown::Write);
+            }
+            Half::Any(m) => {
+                let _ = std::future::poll_fn(|cx| {
+                    let mut w = m.lock().unwrap_or_else(|p| p.into_inner());
+                    w.as_mut().poll_shutdown(cx)
+                })
+                .await;
+            }
+        }
+    }
 }
 
 #[derive(Debug, Default)]
@@ -172,12 +254,17 @@ impl DirectSocket {
     fn close(&self) {
         self.lock().closed = true;
     }
+    fn wrote(&self, n: usize) {
+        if let Some(w) = &self.written {
+            (w.0)(n);
+        }
+    }
 }
 
 /// Marks the connection's write side closed when the connection's task ends, however it ends
 /// (its read side closed, or the link task aborted with its driver): a writer a driver kept
 /// then refuses instead of writing to a connection nobody reads.
-struct CloseOnDrop(std::sync::Arc<DirectSocket>);
+pub(crate) struct CloseOnDrop(std::sync::Arc<DirectSocket>);
 
 impl Drop for CloseOnDrop {
     fn drop(&mut self) {
@@ -219,8 +306,14 @@ impl LineWriter {
         }
         let rest = if st.backlog == 0 {
             match d.half.try_write(&bytes) {
-                Ok(n) if n >= bytes.len() => return Ok(()),
-                Ok(n) => bytes[n..].to_vec(),
+                Ok(n) if n >= bytes.len() => {
+                    d.wrote(n);
+                    return Ok(());
+                }
+                Ok(n) => {
+                    d.wrote(n);
+                    bytes[n..].to_vec()
+                }
                 Err(e) if e.kind() == std::io::ErrorKind::WouldBlock => bytes,
                 Err(e) => {
                     // The writer task would have ended the connection with this error; the
@@ -264,13 +357,15 @@ async fn drain_queue(d: &DirectSocket, rx: &mut mpsc::Receiver<Vec<u8>>) -> Stri
     while let Some(b) = rx.recv().await {
         let mut off = 0;
         while off < b.len() {
-            if let Err(e) = d.half.writable().await {
-                d.close();
-                return format!("write failed: {e}");
-            }
-            match d.half.try_write(&b[off..]) {
-                Ok(n) => off += n,
-                Err(e) if e.kind() == std::io::ErrorKind::WouldBlock => {}
+            match d.half.write_some(&b[off..]).await {
+                Ok(0) => {
+                    d.close();
+                    return "write failed: the device took no bytes".to_string();
+                }
+                Ok(n) => {
+                    d.wrote(n);
+                    off += n;
+                }
                 Err(e) => {
                     d.close();
                     return format!("write failed: {e}");
@@ -282,8 +377,35 @@ async fn drain_queue(d: &DirectSocket, rx: &mut mpsc::Receiver<Vec<u8>>) -> Stri
     }
     // Every writer is gone (the driver closed the link): end the connection cleanly, as the
     // driver's stop expects; the read side ends with the frontseat's answer to it.
-    let _ = socket2::SockRef::from(d.half.as_ref()).shutdown(std::net::Shutdown::Write);
+    d.half.shutdown().await;
     "closed by driver".to_string()
+}
+
+/// The write side of a byte link's connection (`byte`): a writer for the driver that writes at
+/// once from its caller's thread when nothing is queued, the task that writes what is queued
+/// (its result: why the connection's writing ended), and the guard that marks the writer
+/// closed when the connection ends. `written` counts the bytes written.
+pub(crate) fn direct_writer(
+    half: impl tokio::io::AsyncWrite + Send + 'static,
+    written: impl Fn(usize) + Send + Sync + 'static,
+) -> (
+    LineWriter,
+    impl std::future::Future<Output = String> + Send + 'static,
+    CloseOnDrop,
+) {
+    let (tx, mut rx) = mpsc::channel::<Vec<u8>>(WRITE_QUEUE);
+    let direct = std::sync::Arc::new(DirectSocket {
+        state: std::sync::Mutex::new(DirectState::default()),
+        half: Half::Any(std::sync::Mutex::new(Box::pin(half))),
+        written: Some(Written(Box::new(written))),
+    });
+    let guard = CloseOnDrop(direct.clone());
+    let writer = LineWriter {
+        tx,
+        direct: Some(direct.clone()),
+    };
+    let drain = async move { drain_queue(&direct, &mut rx).await };
+    (writer, drain, guard)
 }
 
 /// Runs until the driver actor is gone (or the task is aborted by the driver's drop).
@@ -317,7 +439,8 @@ async fn run_connection(stream: TcpStream, cfg: &LinkConfig, io: &IoSender) -> S
     let (tx, mut rx) = mpsc::channel::<Vec<u8>>(WRITE_QUEUE);
     let direct = std::sync::Arc::new(DirectSocket {
         state: std::sync::Mutex::new(DirectState::default()),
-        half: wr,
+        half: Half::Tcp(wr),
+        written: None,
     });
     let _closed_with_this = CloseOnDrop(direct.clone());
     let writer = LineWriter {

@@ -7,7 +7,7 @@
 /// operators filter and grep on it.
 const LOG_TARGET: &str = "frontseat_iver3::driver";
 
-use std::sync::Arc;
+use std::sync::{Arc, Mutex, MutexGuard};
 use std::time::Duration;
 
 use frontseat_config::{InterfaceConfig, IverModeAssignments};
@@ -15,7 +15,7 @@ use frontseat_config::{InterfaceConfig, IverModeAssignments};
 use crate::edge::{self as codec, IverMode, Sentence, ack_type};
 use frontseat_actors::clock::SimClock;
 use frontseat_actors::driver::{
-    Driver, DriverContext, DriverExtension, DriverIoEvent, SignalSink, raw_ascii,
+    DirectCommand, Driver, DriverContext, DriverExtension, DriverIoEvent, SignalSink, raw_ascii,
 };
 use frontseat_actors::drivers::kit::{
     AckQueue, Asker, Awaiting, LinkState, OwnedTask, TIMED_OUT, base_command, config_secs, log_due,
@@ -135,8 +135,13 @@ pub struct Iver3Driver {
     mode: IverMode,
     /// The latest `$OSI` navigation, so `$C` can republish it with new pitch and roll.
     status: Option<NodeStatus>,
-    /// Commands written, each waiting for the `$ACK` of its type.
-    pending: AckQueue<u32>,
+    /// Commands written, each waiting for the `$ACK` of its type; shared with the lane's
+    /// [`DirectOms`].
+    pending: Pending,
+    /// The sim clock (from `start`): the lane's `$OMS` gets its `$ACK` deadline from it.
+    clock: Option<SimClock>,
+    /// While the link is open: the setpoint lane's way to it.
+    direct: Option<Arc<DirectOms>>,
     bad_log: RateLimitedLog,
     pub counters: IverCounters,
 }
@@ -152,7 +157,9 @@ impl Iver3Driver {
             ntp_task: OwnedTask::default(),
             mode: IverMode::Unknown,
             status: None,
-            pending: AckQueue::new(MAX_PENDING),
+            pending: Pending(Arc::new(Mutex::new(AckQueue::new(MAX_PENDING)))),
+            clock: None,
+            direct: None,
             bad_log: RateLimitedLog::for_bad_input(),
             counters: IverCounters::default(),
         }
@@ -249,7 +256,8 @@ impl Iver3Driver {
             }
             Sentence::Ack(a) => {
                 self.counters.acks += 1;
-                match self.pending.take(|t| *t == a.msg_type) {
+                let taken = self.pending.lock().take(|t| *t == a.msg_type);
+                match taken {
                     Some(p) => {
                         let ok = a.status == 0;
                         p.asker.answer(
@@ -294,7 +302,7 @@ impl Iver3Driver {
         now: Duration,
         sig: &mut dyn SignalSink,
     ) {
-        self.pending.push(
+        self.pending.lock().push(
             Awaiting {
                 asker: Asker {
                     request_id,
@@ -372,6 +380,77 @@ impl Iver3Driver {
     }
 }
 
+/// The commands awaiting their `$ACK`, shared by the driver and the lane's [`DirectOms`]: a
+/// lane `$OMS` is entered under this lock before its bytes can reach the UVC, so the `$ACK` read
+/// on the vehicle thread finds it (and never answers an older request in its place).
+#[derive(Clone)]
+struct Pending(Arc<Mutex<AckQueue<u32>>>);
+
+impl Pending {
+    fn lock(&self) -> MutexGuard<'_, AckQueue<u32>> {
+        self.0.lock().unwrap_or_else(|p| p.into_inner())
+    }
+}
+
+/// `$OMS` for a course, in the units and limits the settings give.
+fn oms_line(
+    s: &Settings,
+    c: &frontseat_actors::proto::goby::middleware::frontseat::protobuf::DesiredCourse,
+) -> String {
+    let oms = codec::course_to_oms(
+        c,
+        s.remote_helm_version_major,
+        s.max_pitch_angle_degrees,
+        s.oms_timeout,
+    );
+    Sentence::Oms(oms).to_line()
+}
+
+/// The setpoint lane's way to the UVC (`frontseat_actors::setpoint_lane`, ARCHITECTURE.md "The
+/// lane per vehicle family"): a course's `$OMS` written at once from the publisher's thread,
+/// awaiting its `$ACK` like any other (no answer wanted: a lane course asks for none).
+struct DirectOms {
+    writer: LineWriter,
+    pending: Pending,
+    clock: SimClock,
+    settings: Settings,
+}
+
+impl DirectCommand for DirectOms {
+    fn send_now(&self, req: &CommandRequest) -> Option<Raw> {
+        let c = req.desired_course.as_ref()?;
+        // Something queued before it: the course queues behind it on the driver's path.
+        if !self.writer.writes_at_once() {
+            return None;
+        }
+        let line = oms_line(&self.settings, c);
+        let mut q = self.pending.lock();
+        // Full: the driver's path gives up the oldest and answers it (one place does that).
+        if q.len() >= MAX_PENDING {
+            return None;
+        }
+        let mut unheard = frontseat_actors::driver::RecordingSink::default();
+        q.push(
+            Awaiting {
+                asker: Asker {
+                    request_id: req.request_id,
+                    respond: false,
+                },
+                deadline: self.clock.now() + self.settings.ack_timeout,
+                what: ack_type::OMS,
+            },
+            "too many commands awaiting $ACK",
+            &mut unheard,
+        );
+        if self.writer.write_line(&line).is_err() {
+            let last = q.len().checked_sub(1)?;
+            q.remove(last);
+            return None;
+        }
+        Some(raw_ascii(&line, ""))
+    }
+}
+
 /// Extension data to the interface, tagged with its type.
 fn emit(sig: &mut dyn SignalSink, data: IverInterfaceData) {
     sig.extension_from_frontseat(DriverExtension::encode(DATA, "Iver3", &data));
@@ -389,6 +468,7 @@ impl Driver for Iver3Driver {
     }
 
     fn start(&mut self, ctx: DriverContext) {
+        self.clock = Some(ctx.clock);
         self.link_task.set(byte::spawn(
             self.settings.link.clone(),
             ctx.io,
@@ -417,6 +497,14 @@ impl Driver for Iver3Driver {
             DriverIoEvent::Connected(w) => {
                 tracing::info!(target: LOG_TARGET, link = %self.settings.link.transport.describe(), "connected to the Iver");
                 // Open but not yet told its mode: Goby3's "unknown" until the first $OSI.
+                self.direct = self.clock.map(|clock| {
+                    Arc::new(DirectOms {
+                        writer: w.clone(),
+                        pending: self.pending.clone(),
+                        clock,
+                        settings: self.settings.clone(),
+                    })
+                });
                 self.link.opened(w, FrontSeatState::FrontseatNotConnected);
             }
             DriverIoEvent::Line(line) => self.handle_line(&line, now, sig),
@@ -425,6 +513,7 @@ impl Driver for Iver3Driver {
             DriverIoEvent::Disconnected(reason) => {
                 tracing::warn!(target: LOG_TARGET, %reason, "Iver link lost; reopening");
                 self.link.lost();
+                self.direct = None;
                 self.mode = IverMode::Unknown;
             }
         }
@@ -444,14 +533,7 @@ impl Driver for Iver3Driver {
             );
             return;
         };
-        let s = &self.settings;
-        let oms = codec::course_to_oms(
-            c,
-            s.remote_helm_version_major,
-            s.max_pitch_angle_degrees,
-            s.oms_timeout,
-        );
-        let line = Sentence::Oms(oms).to_line();
+        let line = oms_line(&self.settings, c);
         if !self.write(&line, sig) {
             refuse(req, "not connected to the Iver: $OMS not sent", sig);
             return;
@@ -507,7 +589,10 @@ impl Driver for Iver3Driver {
                 self.settings.providing_data_timeout
             );
         }
-        while let Some(p) = self.pending.due(now) {
+        loop {
+            let Some(p) = self.pending.lock().due(now) else {
+                break;
+            };
             self.counters.ack_timeouts += 1;
             p.asker.fail(
                 sig,
@@ -528,7 +613,12 @@ impl Driver for Iver3Driver {
         self.link.data.providing()
     }
 
+    fn direct_command(&self) -> Option<Arc<dyn DirectCommand>> {
+        self.direct.clone().map(|d| d as Arc<dyn DirectCommand>)
+    }
+
     fn stop(&mut self) {
+        self.direct = None;
         self.link.close();
         *self.ntp.lock().unwrap_or_else(|p| p.into_inner()) = None;
     }

@@ -402,7 +402,8 @@ def _msg_file_fields(path):
     return out
 
 
-def self_test():
+def self_test(ros2_dir=os.path.join(ROOT, "ros2")):
+    """ros2_dir: the repository's ros2/ folder (frontseat_msgs/msg, type_hashes.txt), or a copy."""
     fails = []
 
     def check(ok, what):
@@ -431,11 +432,11 @@ def self_test():
           and DesiredCourse.__idl_typename__ == "frontseat_msgs::msg::dds_::DesiredCourse_",  # noqa: F821
           "DDS type names <pkg>::msg::dds_::<Type>_")
     # 3. frontseat_msgs twins == ros2/frontseat_msgs/msg/*.msg, field for field.
-    msg_dir = os.path.join(ROOT, "ros2", "frontseat_msgs", "msg")
+    msg_dir = os.path.join(ros2_dir, "frontseat_msgs", "msg")
     files = sorted(f[:-4] for f in os.listdir(msg_dir) if f.endswith(".msg"))
     ours = sorted(n.split("/")[-1] for n in MSGS if n.startswith("frontseat_msgs/"))
     check(files == ours, "frontseat_msgs: the same {} messages as ros2/frontseat_msgs/msg ({})".format(len(files), ", ".join(files)))
-    with open(os.path.join(ROOT, "ros2", "frontseat_msgs", "CMakeLists.txt")) as fh:
+    with open(os.path.join(ros2_dir, "frontseat_msgs", "CMakeLists.txt")) as fh:
         listed = sorted(re.findall(r'"msg/(\w+)\.msg"', fh.read()))
     check(listed == files, "frontseat_msgs/CMakeLists.txt generates every msg/*.msg")
     for short in files:
@@ -452,7 +453,7 @@ def self_test():
     }
     for name, h in reference.items():
         check(rihs01(name) == h, "{} hash {}...".format(name, h[:23]))
-    with open(os.path.join(ROOT, "ros2", "type_hashes.txt")) as fh:
+    with open(os.path.join(ros2_dir, "type_hashes.txt")) as fh:
         listed = dict(ln.split() for ln in fh if ln.strip() and not ln.startswith("#"))
     mine = [n for n in MSGS if n in listed]
     bad = [n for n in mine if rihs01(n) != listed[n]]
@@ -471,9 +472,11 @@ def self_test():
 if __name__ == "__main__":
     if sys.argv[1:] == ["--self-test"]:
         sys.exit(self_test())
+    if sys.argv[1:2] == ["--self-test"] and sys.argv[2:3] == ["--ros2-dir"] and len(sys.argv) == 4:
+        sys.exit(self_test(sys.argv[3]))
     if sys.argv[1:] == ["--hashes"]:
         for n in MSGS:
             print(n, rihs01(n))
         sys.exit(0)
-    print("usage: frontseat_ros2_types.py --self-test | --hashes", file=sys.stderr)
+    print("usage: frontseat_ros2_types.py --self-test [--ros2-dir DIR] | --hashes", file=sys.stderr)
     sys.exit(2)

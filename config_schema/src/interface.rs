@@ -143,6 +143,9 @@ pub struct InterfaceConfig {
     pub web: WebConfig,
     /// Recording every message this process sees to MCAP files.
     pub record: crate::RecordConfig,
+    /// OpenCPN: this vehicle as an AIS target, and OpenCPN's route as its helm. Absent = off.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub opencpn: Option<crate::OpenCpnConfig>,
 }
 
 impl Default for InterfaceConfig {
@@ -171,6 +174,7 @@ impl Default for InterfaceConfig {
             bus: BusConfig::default(),
             web: WebConfig::default(),
             record: crate::RecordConfig::default(),
+            opencpn: None,
         }
     }
 }
@@ -238,12 +242,32 @@ impl ServiceConfig for InterfaceConfig {
         self.bus.check("bus", &mut c);
         self.web.check("web", &mut c);
         self.record.check("record", &mut c);
+        if let Some(o) = &self.opencpn {
+            o.check("opencpn", &mut c);
+            if o.helm.enabled && self.moos.is_some() {
+                c.push(FieldError::new(
+                    "opencpn.helm.enabled",
+                    true,
+                    "[moos] gives this vehicle's helm to pHelmIvP already: one helm input per vehicle",
+                ));
+            }
+            if o.helm.enabled && self.helm_state_timeout <= 0.0 {
+                c.push(FieldError::new(
+                    "helm_state_timeout",
+                    self.helm_state_timeout,
+                    "must be greater than 0 with [opencpn.helm]: when OpenCPN's sentences stop, the vehicle leaves COMMAND by it",
+                ));
+            }
+        }
         c.errors
     }
 
     fn warnings(&self) -> Vec<String> {
         let mut w = self.web.warnings("web");
         w.extend(self.interprocess.warnings("interprocess"));
+        if let Some(o) = &self.opencpn {
+            w.extend(o.warnings("opencpn"));
+        }
         w
     }
 

@@ -19,6 +19,7 @@ mod goby3;
 pub mod goby3_import;
 mod interface;
 pub mod names;
+pub mod opencpn;
 mod record;
 mod sections;
 mod sim;
@@ -41,6 +42,7 @@ pub use interface::{
     MAX_QUEUE_CAPACITY, NavLimitsConfig, ParityConfig, RawSendConfig, RawSource, RestartConfig,
     RestartPolicy, SupervisionConfig, TransportKind, VehicleLinkConfig, VehicleType,
 };
+pub use opencpn::{AisConfig, AisVehicleConfig, OpenCpnConfig, OpenCpnHelmConfig};
 pub use record::{FOXGLOVE_TOKEN_ENV, FoxgloveConfig, RecordCompression, RecordConfig};
 pub use sections::{
     DEFAULT_MAX_EXPORT_BATCH_SIZE, DEFAULT_MAX_QUEUE_SIZE, DEFAULT_METRICS_INTERVAL_S,

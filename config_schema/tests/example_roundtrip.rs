@@ -109,6 +109,8 @@ fn interface_example_has_every_setting_and_commented_ones_work() {
     assert!(on.interprocess.tls.is_some() && on.interprocess.access.is_some());
     rest.interprocess.tls = None;
     rest.interprocess.access = None;
+    assert!(on.opencpn.is_some());
+    rest.opencpn = None;
     assert_eq!(rest, InterfaceConfig::default());
 }
 

@@ -11,9 +11,14 @@ pub struct BenchArgs {
     /// Print the results as JSON instead of the Markdown table.
     #[arg(long)]
     pub json: bool,
-    /// Only these rows, comma-separated (e.g. `--rows P1,P2,M1,M2` for an A/B of two builds);
-    /// L0 always runs, every ratio is over it. Rows that share a setup run together (M1/M2,
-    /// P4/P5, Z1–Z3/T1); the table shows only the rows asked for.
+    /// Only these rows, comma-separated (e.g. `--rows P1,P2,M1,M2` for an A/B of two builds).
+    /// Floors: L0 (loopback line → a task wakes) always runs; L1 (→ a thread blocked in read(2))
+    /// and L2 (a pseudo-terminal line → a task wakes) run with the rows whose last hop they are;
+    /// every latency row gives its ratio over its own floor. Vehicle families, each through its
+    /// emulator: I1/I2 Iver3, S1/S2 Wave Glider SV2 (pty), A1 ArduPilot Rover, U1 ArduSub, D1
+    /// DUNE (TCP); <F>1 navigation → node_status, <F>2 desired_course → the command read at the
+    /// vehicle. Rows that share a setup run together (M1/M2, P4/P5, Z1–Z3/T1, a family's two);
+    /// the table shows only the rows asked for.
     #[arg(long, value_delimiter = ',', value_name = "ROWS")]
     pub rows: Vec<String>,
     /// A/B against another build: runs this build's bench and that `frontseat` executable's

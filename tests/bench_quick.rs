@@ -4,9 +4,9 @@
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
-const ROWS: [&str; 20] = [
-    "L0", "P1", "P2", "P3", "P4", "P5", "P6", "M1", "M2", "G1", "G2", "Z1", "Z2", "Z3", "T1", "W1",
-    "R1", "R2", "F1", "F2",
+const ROWS: [&str; 29] = [
+    "L0", "L1", "L2", "P1", "P2", "P3", "P4", "P5", "P6", "M1", "M2", "G1", "G2", "Z1", "Z2", "Z3",
+    "T1", "W1", "R1", "R2", "F1", "F2", "I1", "I2", "S1", "S2", "A1", "U1", "D1",
 ];
 
 /// One bench at a time: two at once on a 2-core machine starve each other's children (the
@@ -62,7 +62,8 @@ fn quick_bench_prints_every_row_and_exits_0() {
         assert!(row.chars().any(|c| c.is_ascii_digit()), "{row}");
     }
     for id in [
-        "L0", "P1", "P2", "P5", "M1", "M2", "G1", "G2", "Z1", "Z2", "W1",
+        "L0", "L1", "L2", "P1", "P2", "P5", "M1", "M2", "G1", "G2", "Z1", "Z2", "W1", "I1", "I2",
+        "S1", "S2", "A1", "U1", "D1",
     ] {
         let row = stdout
             .lines()
@@ -76,9 +77,17 @@ fn quick_bench_prints_every_row_and_exits_0() {
                 "{id}: `{cell}` in {row}"
             );
         }
-        // The data-path rows are also given as ratios over the floor of the same run.
-        if id != "L0" && id != "P5" {
-            assert!(row.contains("over L0 (p50 / p99)"), "{row}");
+        // The data-path rows are also given as ratios over their own floor of the same run:
+        // a blocking reader's for the rows ending at the scripted frontseat, a pseudo-terminal's
+        // for the serial vehicles, L0's for the rest.
+        let floor = match id {
+            "L0" | "L1" | "L2" | "P5" => None,
+            "P2" | "M2" | "G2" | "Z2" => Some("L1"),
+            "I1" | "I2" | "S1" | "S2" => Some("L2"),
+            _ => Some("L0"),
+        };
+        if let Some(f) = floor {
+            assert!(row.contains(&format!("over {f} (p50 / p99)")), "{row}");
         }
     }
 }
@@ -115,10 +124,12 @@ fn rows_picks_rows_and_refuses_unknown_ones() {
     let v: serde_json::Value = serde_json::from_str(&stdout).unwrap();
     let rows = v["rows"].as_array().unwrap();
     let ids: Vec<&str> = rows.iter().map(|r| r["id"].as_str().unwrap()).collect();
-    // L0 always, for the ratios; M1 shares M2's setup but was not asked for.
-    assert_eq!(ids, ["L0", "P1", "M2"]);
-    for r in &rows[1..] {
+    // L0 always, for the ratios, and M2's own floor (its last hop is a blocking reader: L1);
+    // M1 shares M2's setup but was not asked for.
+    assert_eq!(ids, ["L0", "L1", "P1", "M2"]);
+    for r in &rows[2..] {
         assert!(r["p50_over_l0"].as_f64().unwrap() > 0.0, "{r}");
+        assert!(r["p50_over_floor"].as_f64().unwrap() > 0.0, "{r}");
         assert!(r["samples"].as_u64().unwrap() > 0, "{r}");
     }
 

@@ -8,8 +8,10 @@
 //! second child exporting traces to a loopback OTLP sink), this process being the frontseat and
 //! the Zenoh helm (`xproc`). G1 and G2 run the interface with its Goby3 gateway in this process
 //! and a second Goby3 gateway as the helm's side, through the stand-in gobyd (`goby3`).
-//! L0 is the bench's own floor (a loopback line → the reader wakes) and every latency row is
-//! also given as a ratio over it (`floor`).
+//! L0, L1 and L2 are the bench's own floors (a loopback line → a task wakes, → a blocked thread
+//! wakes; a pseudo-terminal line → a task wakes) and every latency row is also given as a ratio
+//! over the one its last hop has (`floor`). I1–D1 run each vehicle family's real driver against
+//! its emulator over its own link (`vehicles`).
 //! W1 runs the web scope in this process and reads its event stream over loopback (`web`).
 //! R1 and R2 are the cost of the MCAP record: recording, and replay at full speed (`record`).
 //! Figures are measured, never asserted: no test checks a timing.
@@ -31,6 +33,7 @@ mod procs;
 mod record;
 mod report;
 mod sink;
+mod vehicles;
 mod web;
 mod xproc;
 
@@ -62,13 +65,14 @@ pub struct BenchOptions {
 }
 
 /// Every row's id, in the order of the table.
-pub const ROW_IDS: [&str; 20] = [
-    "L0", "P1", "P2", "P3", "P4", "P5", "P6", "M1", "M2", "G1", "G2", "Z1", "Z2", "Z3", "T1", "W1",
-    "R1", "R2", "F1", "F2",
+pub const ROW_IDS: [&str; 29] = [
+    "L0", "L1", "L2", "P1", "P2", "P3", "P4", "P5", "P6", "M1", "M2", "G1", "G2", "Z1", "Z2", "Z3",
+    "T1", "W1", "R1", "R2", "F1", "F2", "I1", "I2", "S1", "S2", "A1", "U1", "D1",
 ];
 
-/// Which rows a run measures. Rows measured together (P4/P5, M1/M2, G1/G2, Z1–Z3/T1) share their
-/// setup, so asking for one runs its group and the others are left out of the table.
+/// Which rows a run measures. Rows measured together (P4/P5, M1/M2, G1/G2, Z1–Z3/T1, a vehicle
+/// family's two) share their setup, so asking for one runs its group and the others are left
+/// out of the table. A row's floor (`floor::floor_of`) is measured with it.
 #[derive(Clone, Debug)]
 pub struct Selection(Vec<&'static str>);
 
@@ -82,7 +86,15 @@ impl Selection {
         for id in ids {
             let id = id.trim().to_ascii_uppercase();
             match ROW_IDS.iter().find(|r| **r == id) {
-                Some(r) if !picked.contains(r) => picked.push(r),
+                Some(r) if !picked.contains(r) => {
+                    picked.push(r);
+                    if let Some(f) =
+                        floor::floor_of(r).and_then(|f| ROW_IDS.iter().find(|x| **x == f))
+                        && !picked.contains(f)
+                    {
+                        picked.push(f);
+                    }
+                }
                 Some(_) => {}
                 None => {
                     return Err(format!(
@@ -113,6 +125,7 @@ struct Plan {
     web: web::Plan,
     record: record::Plan,
     fleet: fleet::Plan,
+    vehicles: vehicles::Plan,
     capacity: (usize, f64, f64, Duration),
     start_runs: usize,
     settle: Duration,
@@ -164,6 +177,13 @@ impl Plan {
                 f2_vehicles: 1000,
                 f2_window: Duration::from_secs(5),
             },
+            vehicles: vehicles::Plan {
+                nav_count: 500,
+                cmd_count: 300,
+                cmd_rate_hz: 20.0,
+                cmd_wait: Duration::from_secs(2),
+                warp: 5.0,
+            },
             capacity: (100, 10.0, 100.0, Duration::from_secs(10)),
             start_runs: 20,
             settle: Duration::from_secs(2),
@@ -214,6 +234,13 @@ impl Plan {
                 f1_window: Duration::from_millis(500),
                 f2_vehicles: 100,
                 f2_window: Duration::from_millis(500),
+            },
+            vehicles: vehicles::Plan {
+                nav_count: 10,
+                cmd_count: 5,
+                cmd_rate_hz: 20.0,
+                cmd_wait: Duration::from_secs(2),
+                warp: 5.0,
             },
             capacity: (10, 10.0, 10.0, Duration::from_millis(500)),
             start_runs: 2,
@@ -321,6 +348,12 @@ pub async fn run(args: BenchOptions) -> ExitCode {
     // One after the other: on a small machine the rows must not disturb each other.
     let l0 = floor::run(plan.inproc.p1_count, plan.inproc.p1_rate_hz).await;
     let mut rows = vec![l0];
+    if sel.wants("L1") {
+        rows.push(floor::run_l1(plan.inproc.p1_count, plan.inproc.p1_rate_hz).await);
+    }
+    if sel.wants("L2") {
+        rows.push(floor::run_l2(plan.inproc.p1_count, plan.inproc.p1_rate_hz).await);
+    }
     if sel.any(&["P1", "P2", "P6", "M1", "M2"]) {
         rows.extend(inproc::run(plan.inproc, &sel).await);
     }
@@ -355,6 +388,9 @@ pub async fn run(args: BenchOptions) -> ExitCode {
             .exe
             .with_file_name(format!("frontseat-bench{}", std::env::consts::EXE_SUFFIX));
         rows.extend(fleet::run(plan.fleet, &bench_exe, sel.wants("F1"), sel.wants("F2")).await);
+    }
+    if sel.any(&["I1", "I2", "S1", "S2", "A1", "U1", "D1"]) {
+        rows.extend(vehicles::run(plan.vehicles, &sel).await);
     }
     rows.retain(|r| sel.wants(r.id));
     rows.sort_by_key(|r| ROW_IDS.iter().position(|id| *id == r.id));

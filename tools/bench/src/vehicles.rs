@@ -1,0 +1,554 @@
+//! The vehicle-family rows: each family's real driver in the real interface, over the link it
+//! uses (a pseudo-terminal for the serial vehicles, loopback TCP for the others), to that
+//! family's emulator — not the scripted basic-simulator frontseat of P1/P2.
+//!
+//! Two rows a family where it can: `<F>1`, the vehicle's navigation written → node_status at a
+//! bus subscriber, and `<F>2`, desired_course published → the vehicle's command read at the
+//! vehicle. The emulator is wrapped (`Timed`, no hook in the emulators): a navigation message
+//! is stamped when the emulator has it ready to write (right before the write, as P1 stamps
+//! before write(2)), a command when the bytes carrying it were read. A node_status is matched
+//! to the newest navigation write before it (a second node_status from the same write, as the
+//! Iver3's `$C` after `$OSI`, is not counted twice); a command to its course by its heading,
+//! so a driver's re-send of an older course is never taken for the new one.
+
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+
+use frontseat_actors::bus::Bus;
+use frontseat_actors::interface::InterfaceService;
+use frontseat_actors::ports::BenchHelmPorts;
+use frontseat_actors::proto::goby::middleware::frontseat::protobuf::DesiredCourse;
+use frontseat_config::InterfaceConfig;
+use frontseat_sim::emulator::{Emulator, Endpoint, Session};
+use serde_json::json;
+
+use super::inproc::{helm_drive, node_status_channel, reached_command, status_channel};
+use super::report::{Figures, Hist, Row};
+
+/// How long and how hard each row runs.
+#[derive(Clone, Copy, Debug)]
+pub struct Plan {
+    /// Navigation messages measured per `<F>1` row (at the family's own rate, warped).
+    pub nav_count: usize,
+    /// Courses per `<F>2` row, one at a time.
+    pub cmd_count: usize,
+    /// How often a course is published (each waits for its command, at most `cmd_wait`).
+    pub cmd_rate_hz: f64,
+    pub cmd_wait: Duration,
+    /// The emulators' and the interface's sim_warp_factor: the families' own rates × this.
+    pub warp: f64,
+}
+
+pub const I1: &str =
+    "Iver3: $OSI written by the emulated UVC (pty) → node_status at a bus subscriber";
+pub const I2: &str = "Iver3: desired_course published → $OMS read by the emulated UVC (pty)";
+pub const S1: &str =
+    "Wave Glider SV2: the C&C's RequestStatus written (pty) → node_status at a bus subscriber";
+pub const S2: &str = "Wave Glider SV2: desired_course published → the heading read by the emulated C&C (pty), pulled at its poll";
+pub const A1: &str = "ArduPilot Rover: GLOBAL_POSITION_INT written by the emulated autopilot (TCP) → node_status at a bus subscriber";
+pub const U1: &str = "ArduSub: GLOBAL_POSITION_INT written by the emulated autopilot (TCP) → node_status at a bus subscriber";
+pub const D1: &str =
+    "DUNE: EstimatedState written by the emulated vehicle (TCP) → node_status at a bus subscriber";
+
+/// What the bench reads off a family's emulator: whether bytes it wrote carry navigation, and
+/// how many commands it has read with the heading of the last.
+trait Probe<S>: Send + 'static {
+    fn carries_nav(&mut self, out: &[u8]) -> bool;
+    fn commands(&self, s: &S) -> (u64, Option<f64>);
+}
+
+/// Instants the emulator wrote navigation at, and read commands at (with their heading).
+#[derive(Default)]
+struct Seen {
+    navs: Vec<Instant>,
+    cmds: Vec<(Instant, Option<f64>)>,
+}
+
+/// A family's emulator session, stamping what the rows measure.
+struct Timed<S, P> {
+    inner: S,
+    probe: P,
+    seen: Arc<Mutex<Seen>>,
+}
+
+impl<S: Session, P: Probe<S>> Timed<S, P> {
+    fn seen(&self) -> std::sync::MutexGuard<'_, Seen> {
+        self.seen.lock().unwrap_or_else(|p| p.into_inner())
+    }
+    fn after(&mut self, out: &[u8]) {
+        if self.probe.carries_nav(out) {
+            let now = Instant::now();
+            self.seen().navs.push(now);
+        }
+    }
+}
+
+impl<S: Session, P: Probe<S>> Session for Timed<S, P> {
+    fn on_bytes(&mut self, bytes: &[u8], out: &mut Vec<u8>) {
+        let read_at = Instant::now();
+        let (before, _) = self.probe.commands(&self.inner);
+        let n0 = out.len();
+        self.inner.on_bytes(bytes, out);
+        let (after, heading) = self.probe.commands(&self.inner);
+        if after > before {
+            self.seen().cmds.push((read_at, heading));
+        }
+        self.after(&out[n0..]);
+    }
+    fn step(&mut self, dt: f64, out: &mut Vec<u8>) {
+        let n0 = out.len();
+        self.inner.step(dt, out);
+        self.after(&out[n0..]);
+    }
+    fn reset_input(&mut self) {
+        self.inner.reset_input();
+    }
+}
+
+struct IverProbe;
+
+impl Probe<frontseat_iver3::IverSession> for IverProbe {
+    fn carries_nav(&mut self, out: &[u8]) -> bool {
+        out.windows(4).any(|w| w == b"$OSI")
+    }
+    fn commands(&self, s: &frontseat_iver3::IverSession) -> (u64, Option<f64>) {
+        (s.stats.oms, s.stats.last_oms.as_ref().map(|o| o.heading))
+    }
+}
+
+struct Sv2Probe(frontseat_waveglider_sv2::codec::FrameDecoder);
+
+impl Probe<frontseat_waveglider_sv2::Sv2Session> for Sv2Probe {
+    fn carries_nav(&mut self, out: &[u8]) -> bool {
+        use frontseat_waveglider_sv2::codec::msg_type;
+        let mut nav = false;
+        self.0.feed(out, &mut |f| {
+            nav |= f.is_ok_and(|f| f.header.kind() == msg_type::REQUEST_STATUS);
+        });
+        nav
+    }
+    fn commands(&self, s: &frontseat_waveglider_sv2::Sv2Session) -> (u64, Option<f64>) {
+        (s.stats.commands, s.stats.last_heading.map(f64::from))
+    }
+}
+
+/// MAVLink frames carrying GLOBAL_POSITION_INT (the driver's node_status comes from it).
+struct MavNav(frontseat_ardupilot::codec::Deframer);
+
+const GLOBAL_POSITION_INT: u32 = 33;
+
+impl MavNav {
+    fn carries_nav(&mut self, out: &[u8]) -> bool {
+        let mut nav = false;
+        self.0.feed(out, &mut |f| {
+            nav |= f.is_ok_and(|f| {
+                frontseat_ardupilot::codec::header(&f)
+                    .is_ok_and(|h| h.message_id == GLOBAL_POSITION_INT)
+            });
+        });
+        nav
+    }
+}
+
+impl Probe<frontseat_ardupilot::emulator::RoverSession> for MavNav {
+    fn carries_nav(&mut self, out: &[u8]) -> bool {
+        MavNav::carries_nav(self, out)
+    }
+    fn commands(&self, s: &frontseat_ardupilot::emulator::RoverSession) -> (u64, Option<f64>) {
+        let _ = s;
+        (0, None)
+    }
+}
+
+impl Probe<frontseat_ardupilot::sub_emulator::SubSession> for MavNav {
+    fn carries_nav(&mut self, out: &[u8]) -> bool {
+        MavNav::carries_nav(self, out)
+    }
+    fn commands(&self, s: &frontseat_ardupilot::sub_emulator::SubSession) -> (u64, Option<f64>) {
+        let _ = s;
+        (0, None)
+    }
+}
+
+/// IMC packets carrying EstimatedState (350).
+struct ImcNav(frontseat_dune::imc::Deframer);
+
+const ESTIMATED_STATE: u16 = 350;
+
+impl Probe<frontseat_dune::emulator::DuneSession> for ImcNav {
+    fn carries_nav(&mut self, out: &[u8]) -> bool {
+        let mut nav = false;
+        self.0.feed(out, &mut |f| {
+            nav |= f.is_ok_and(|f| {
+                frontseat_dune::imc::peek(&f).is_ok_and(|(h, _, _)| h.mgid == ESTIMATED_STATE)
+            });
+        });
+        nav
+    }
+    fn commands(&self, s: &frontseat_dune::emulator::DuneSession) -> (u64, Option<f64>) {
+        let _ = s;
+        (0, None)
+    }
+}
+
+/// One family's rows as asked: (nav row id and words, command row id and words, if it has one).
+struct Family {
+    nav: (&'static str, &'static str),
+    cmd: Option<(&'static str, &'static str)>,
+}
+
+/// Runs the vehicle-family rows `sel` wants, one family after the other.
+pub async fn run(plan: Plan, sel: &super::Selection) -> Vec<Row> {
+    let mut rows = Vec::new();
+    if sel.any(&["I1", "I2"]) {
+        let fam = Family {
+            nav: ("I1", I1),
+            cmd: Some(("I2", I2)),
+        };
+        let session = Timed {
+            inner: frontseat_iver3::IverSession::new(frontseat_iver3::IverOptions {
+                remote_helm_version_major: 5,
+                ..Default::default()
+            }),
+            probe: IverProbe,
+            seen: Arc::default(),
+        };
+        rows.extend(
+            family(plan, &fam, session, Endpoint::Pty, |cfg, at| {
+                cfg.driver.name = "iver3".into();
+                cfg.driver.iver3.serial_port = at.to_string();
+                cfg.driver.iver3.remote_helm_version_major = Some(5);
+                cfg.driver.iver3.link.reconnect_initial_ms = 20;
+            })
+            .await,
+        );
+    }
+    if sel.any(&["S1", "S2"]) {
+        let fam = Family {
+            nav: ("S1", S1),
+            cmd: Some(("S2", S2)),
+        };
+        let session = Timed {
+            inner: frontseat_waveglider_sv2::Sv2Session::new(
+                frontseat_waveglider_sv2::Sv2Options::default(),
+            ),
+            probe: Sv2Probe(frontseat_waveglider_sv2::codec::FrameDecoder::new()),
+            seen: Arc::default(),
+        };
+        rows.extend(
+            family(plan, &fam, session, Endpoint::Pty, |cfg, at| {
+                cfg.driver.name = "waveglider_sv2".into();
+                cfg.driver.waveglider_sv2.pm_serial_port = at.to_string();
+                cfg.driver.waveglider_sv2.publish_navigation = true;
+            })
+            .await,
+        );
+    }
+    let tcp = Endpoint::Tcp(([127, 0, 0, 1], 0).into());
+    if sel.wants("A1") {
+        let fam = Family {
+            nav: ("A1", A1),
+            cmd: None,
+        };
+        let session = Timed {
+            inner: frontseat_ardupilot::emulator::RoverSession::new(Default::default()),
+            probe: MavNav(frontseat_ardupilot::codec::Deframer::new()),
+            seen: Arc::default(),
+        };
+        rows.extend(
+            family(plan, &fam, session, tcp.clone(), |cfg, at| {
+                cfg.driver.name = "ardupilot".into();
+                cfg.driver.ardupilot.address = format!("tcpout:{at}");
+                cfg.driver.ardupilot.reconnect_initial_ms = 20;
+            })
+            .await,
+        );
+    }
+    if sel.wants("U1") {
+        let fam = Family {
+            nav: ("U1", U1),
+            cmd: None,
+        };
+        let session = Timed {
+            inner: frontseat_ardupilot::sub_emulator::SubSession::new(Default::default()),
+            probe: MavNav(frontseat_ardupilot::codec::Deframer::new()),
+            seen: Arc::default(),
+        };
+        rows.extend(
+            family(plan, &fam, session, tcp.clone(), |cfg, at| {
+                cfg.driver.name = "ardupilot".into();
+                cfg.driver.ardupilot.vehicle = frontseat_config::ArdupilotVehicle::Sub;
+                cfg.driver.ardupilot.address = format!("tcpout:{at}");
+                cfg.driver.ardupilot.reconnect_initial_ms = 20;
+            })
+            .await,
+        );
+    }
+    if sel.wants("D1") {
+        let fam = Family {
+            nav: ("D1", D1),
+            cmd: None,
+        };
+        let session = Timed {
+            inner: frontseat_dune::emulator::DuneSession::new(Default::default()),
+            probe: ImcNav(frontseat_dune::imc::Deframer::new()),
+            seen: Arc::default(),
+        };
+        rows.extend(
+            family(plan, &fam, session, tcp, |cfg, at| {
+                let (host, port) = at.rsplit_once(':').unwrap_or((at, "0"));
+                cfg.driver.name = "dune".into();
+                cfg.driver.dune.address = host.to_string();
+                cfg.driver.dune.port = port.parse().unwrap_or(0);
+                cfg.driver.dune.reconnect_initial_ms = 20;
+            })
+            .await,
+        );
+    }
+    rows.retain(|r| sel.wants(r.id));
+    rows
+}
+
+/// One family: its emulator on `endpoint`, the interface with its driver there (`configure`
+/// gets the config and the emulator's pty path or TCP address), then its rows.
+async fn family<S, P>(
+    plan: Plan,
+    fam: &Family,
+    session: Timed<S, P>,
+    endpoint: Endpoint,
+    configure: impl FnOnce(&mut InterfaceConfig, &str),
+) -> Vec<Row>
+where
+    S: Session,
+    P: Probe<S>,
+{
+    let fail = |why: String| {
+        let mut v = vec![Row::failed(fam.nav.0, fam.nav.1, why.clone())];
+        if let Some((id, what)) = fam.cmd {
+            v.push(Row::failed(id, what, why));
+        }
+        v
+    };
+    let seen = session.seen.clone();
+    let emu = match Emulator::start(session, endpoint, plan.warp).await {
+        Ok(e) => e,
+        Err(e) => return fail(format!("emulator: {e}")),
+    };
+    let at = emu
+        .pty_path()
+        .map(|p| p.display().to_string())
+        .or(emu.tcp_addr().map(|a| a.to_string()))
+        .unwrap_or_default();
+    let mut cfg = InterfaceConfig {
+        name: "bench-vehicle".into(),
+        sim_warp_factor: plan.warp,
+        ..InterfaceConfig::default()
+    };
+    configure(&mut cfg, &at);
+    let capacity = cfg.bus.queue_capacity;
+    let bus = Bus::new();
+    let (_ns_sub, mut ns_rx) = node_status_channel(&bus, "bench-vehicle", capacity);
+    let arrivals: Arc<Mutex<Vec<Instant>>> = Arc::default();
+    let ns_task = {
+        let arrivals = arrivals.clone();
+        tokio::spawn(async move {
+            while let Some(_env) = ns_rx.recv().await {
+                let now = Instant::now();
+                arrivals.lock().unwrap_or_else(|p| p.into_inner()).push(now);
+            }
+        })
+    };
+    let (_st_sub, mut st_rx) = status_channel(&bus, capacity);
+    let helm = helm_drive(&bus);
+    let service = match InterfaceService::start(&cfg, &bus, frontseat_drivers::BUILT_IN).await {
+        Ok(s) => s,
+        Err(e) => {
+            helm.abort();
+            ns_task.abort();
+            return fail(format!("interface: {e}"));
+        }
+    };
+    // Only a family with a command row needs a helm in command; the others' navigation flows
+    // as soon as the driver is connected.
+    let in_command = fam.cmd.is_some() && reached_command(&mut st_rx).await;
+    let mut rows = Vec::new();
+
+    // <F>1: from the first node_status on (before it, the emulator wrote to nobody or to a
+    // driver still connecting), every navigation write and every node_status.
+    let first = tokio::time::timeout(Duration::from_secs(10), async {
+        while arrivals
+            .lock()
+            .unwrap_or_else(|p| p.into_inner())
+            .is_empty()
+        {
+            tokio::time::sleep(Duration::from_millis(5)).await;
+        }
+    })
+    .await;
+    if first.is_err() {
+        rows.push(Row::failed(
+            fam.nav.0,
+            fam.nav.1,
+            "no node_status within 10 s of the interface's start",
+        ));
+    }
+    let t0 = Instant::now();
+    let lock = |m: &Arc<Mutex<Seen>>| {
+        let mut g = m.lock().unwrap_or_else(|p| p.into_inner());
+        std::mem::take(&mut *g)
+    };
+    drop(lock(&seen));
+    arrivals.lock().unwrap_or_else(|p| p.into_inner()).clear();
+    let bound = if first.is_err() {
+        Duration::ZERO
+    } else {
+        Duration::from_secs(20)
+    };
+    while seen.lock().unwrap_or_else(|p| p.into_inner()).navs.len() < plan.nav_count
+        && t0.elapsed() < bound
+    {
+        tokio::time::sleep(Duration::from_millis(10)).await;
+    }
+    // The last ones' node_status.
+    tokio::time::sleep(Duration::from_millis(100)).await;
+    let navs = lock(&seen).navs;
+    let got = std::mem::take(&mut *arrivals.lock().unwrap_or_else(|p| p.into_inner()));
+    if first.is_ok() {
+        rows.push(nav_row(fam.nav, &navs, &got, t0.elapsed(), plan));
+    }
+
+    if let Some(cmd) = fam.cmd {
+        rows.push(if in_command {
+            let lane0 = service
+                .snapshot(Duration::from_secs(2))
+                .await
+                .map_or(0, |s| s.setpoints_direct);
+            let mut row = cmd_row(cmd, plan, &bus, &seen).await;
+            let lane = service
+                .snapshot(Duration::from_secs(2))
+                .await
+                .map_or(0, |s| s.setpoints_direct)
+                .saturating_sub(lane0);
+            row.detail
+                .push_str(&format!("; {lane} through the setpoint lane"));
+            if let serde_json::Value::Object(m) = &mut row.extra {
+                m.insert("setpoint_lane".into(), json!(lane));
+            }
+            row
+        } else {
+            Row::failed(
+                cmd.0,
+                cmd.1,
+                "the interface did not reach running:command within 10 s",
+            )
+        });
+    }
+    let _ = service.shutdown(Duration::from_secs(2)).await;
+    helm.abort();
+    ns_task.abort();
+    drop(emu);
+    rows
+}
+
+/// Each node_status matched to the newest navigation write at or before it, once.
+fn nav_row(
+    (id, what): (&'static str, &'static str),
+    navs: &[Instant],
+    got: &[Instant],
+    took: Duration,
+    plan: Plan,
+) -> Row {
+    let mut h = Hist::new();
+    let mut used = vec![false; navs.len()];
+    for &a in got {
+        let i = navs.partition_point(|n| *n <= a);
+        if let Some(i) = i.checked_sub(1)
+            && !used[i]
+        {
+            used[i] = true;
+            h.record(a.saturating_duration_since(navs[i]));
+        }
+    }
+    let matched = used.iter().filter(|u| **u).count();
+    let rate = navs.len() as f64 / took.as_secs_f64().max(1e-9);
+    let detail = format!(
+        "{} navigation writes at {rate:.0} Hz (the family's own rate, warp {}), {} node_status; {matched} matched, {} writes without one",
+        navs.len(),
+        plan.warp,
+        got.len(),
+        navs.len() - matched,
+    );
+    match h.latency() {
+        Some(l) => Row {
+            id,
+            what: what.into(),
+            figures: Figures::Latency(l),
+            detail,
+            extra: json!({ "writes": navs.len(), "node_status": got.len(), "matched": matched }),
+        },
+        None => Row::failed(id, what, format!("nothing matched; {detail}")),
+    }
+}
+
+/// `plan.cmd_count` courses one at a time, each a new heading; each waits (at most
+/// `plan.cmd_wait`) for the emulator to read a command with its heading.
+async fn cmd_row(
+    (id, what): (&'static str, &'static str),
+    plan: Plan,
+    bus: &Bus,
+    seen: &Arc<Mutex<Seen>>,
+) -> Row {
+    let helm = BenchHelmPorts::new(bus);
+    let period = Duration::from_secs_f64(1.0 / plan.cmd_rate_hz.max(1e-3));
+    let mut h = Hist::new();
+    let mut lost = 0;
+    let start = tokio::time::Instant::now();
+    for i in 0..plan.cmd_count {
+        tokio::time::sleep_until(start + period.mul_f64(i as f64)).await;
+        let heading = 10.0 + (i % 340) as f64;
+        seen.lock().unwrap_or_else(|p| p.into_inner()).cmds.clear();
+        let sent = Instant::now();
+        helm.publish_desired_course(DesiredCourse {
+            time: 0.0,
+            heading: Some(heading),
+            speed: Some(1.0),
+            depth: Some(1.0),
+            ..Default::default()
+        });
+        let until = tokio::time::Instant::now() + plan.cmd_wait;
+        let read = loop {
+            let hit = seen
+                .lock()
+                .unwrap_or_else(|p| p.into_inner())
+                .cmds
+                .iter()
+                .find(|(_, hd)| hd.is_some_and(|hd| (hd - heading).abs() < 0.05))
+                .map(|(t, _)| *t);
+            if let Some(t) = hit {
+                break Some(t);
+            }
+            if tokio::time::Instant::now() >= until {
+                break None;
+            }
+            tokio::time::sleep(Duration::from_micros(500)).await;
+        };
+        match read {
+            Some(t) => h.record(t.saturating_duration_since(sent)),
+            None => lost += 1,
+        }
+    }
+    let detail = format!(
+        "{} desired_course at {:.0} Hz, one at a time, each a new heading; lost {lost} (no command within {:?})",
+        plan.cmd_count, plan.cmd_rate_hz, plan.cmd_wait
+    );
+    match h.latency() {
+        Some(l) => Row {
+            id,
+            what: what.into(),
+            figures: Figures::Latency(l),
+            detail,
+            extra: json!({ "published": plan.cmd_count, "lost": lost }),
+        },
+        None => Row::failed(id, what, format!("no command read; {detail}")),
+    }
+}

@@ -1,7 +1,8 @@
 //! `frontseat log plot`: what the vehicle did against what the helm asked, from a recording.
 //! The samples are read by reflection with the file's own schemas (node_status for the actual
-//! track, speed, heading and depth; desired_course for the commanded ones), and drawn as a plain
-//! SVG of three panels against time. The track itself is drawn by the caller (the demo's SVG).
+//! track, speed, heading and depth; desired_course for the commanded ones; status for the
+//! interface's state), and drawn as a plain SVG of three panels against time under a band of
+//! the interface's state. The track itself is drawn by the caller (the demo's SVG).
 
 use std::collections::HashMap;
 use std::fmt::Write as _;
@@ -16,6 +17,17 @@ use crate::reader::{ReadError, Recording};
 
 pub const NODE_STATUS: &str = "goby::middleware::frontseat::node_status";
 pub const DESIRED_COURSE: &str = "goby::middleware::frontseat::desired_course";
+pub const STATUS: &str = "goby::middleware::frontseat::status";
+/// The band's colour of each interface state (the pages' plots use the same).
+const STATE_COLOURS: [(&str, &str); 5] = [
+    ("INTERFACE_STANDBY", "#bdbdbd"),
+    ("INTERFACE_LISTEN", "#6baed6"),
+    ("INTERFACE_COMMAND", "#31a354"),
+    ("INTERFACE_HELM_ERROR", "#fd8d3c"),
+    ("INTERFACE_FS_ERROR", "#de2d26"),
+];
+/// Any other state a file names.
+const STATE_OTHER: &str = "#9e9ac8";
 /// Samples kept per series: a day at 10 Hz is 864 000; beyond this every n-th is kept.
 const MAX_SAMPLES: usize = 20_000;
 /// Vehicles drawn apart in one file (a topside's); samples of further ones are skipped.
@@ -39,10 +51,20 @@ pub struct Sample {
     pub depth: Option<f64>,
 }
 
+/// The interface entering a state (status), kept only when it changed.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct StateChange {
+    pub vehicle: u16,
+    pub t: f64,
+    /// The enum value's name from the file's schema (at most 48 characters), or its number.
+    pub state: String,
+}
+
 #[derive(Clone, Debug, Default)]
 pub struct Series {
     pub actual: Vec<Sample>,
     pub commanded: Vec<Sample>,
+    pub states: Vec<StateChange>,
     /// The vehicles, in order of first appearance: `""` for a vehicle's own recording (topic =
     /// the group), the platform for a topside's (topic = `<platform>/<group>`).
     pub vehicles: Vec<String>,
@@ -60,10 +82,11 @@ impl Series {
     }
 }
 
-/// Which of the two plotted groups `topic` is, and of which platform: the group itself in a
-/// vehicle's recording, `<platform>/<group>` in a topside's.
+/// Which of the three plotted groups `topic` is (0 node_status, 1 desired_course, 2 status),
+/// and of which platform: the group itself in a vehicle's recording, `<platform>/<group>` in a
+/// topside's.
 fn classify(topic: &str) -> Option<(usize, &str)> {
-    for (which, group) in [(0, NODE_STATUS), (1, DESIRED_COURSE)] {
+    for (which, group) in [(0, NODE_STATUS), (1, DESIRED_COURSE), (2, STATUS)] {
         if topic == group {
             return Some((which, ""));
         }
@@ -101,7 +124,24 @@ fn get(msg: &DynamicMessage, path: &[&str]) -> Option<f64> {
     .filter(|v| v.is_finite())
 }
 
-/// Which series (0 actual, 1 commanded) and which vehicle a channel's messages go to.
+/// The name of enum field `name` of `msg` (its number when the schema does not name it).
+fn enum_name(msg: &DynamicMessage, name: &str) -> Option<String> {
+    let f = msg.descriptor().get_field_by_name(name)?;
+    if !msg.has_field(&f) {
+        return None;
+    }
+    let Value::EnumNumber(n) = msg.get_field(&f).as_ref().clone() else {
+        return None;
+    };
+    let named = f
+        .kind()
+        .as_enum()
+        .and_then(|e| e.get_value(n))
+        .map(|v| v.name().chars().take(48).collect());
+    Some(named.unwrap_or_else(|| n.to_string()))
+}
+
+/// Which series (0 actual, 1 commanded, 2 states) and which vehicle a channel's messages go to.
 type Route = (usize, u16);
 
 /// Reads node_status and desired_course samples (decimated past [`MAX_SAMPLES`]).
@@ -110,7 +150,7 @@ pub fn series<R: Read>(mut rec: Recording<R>) -> Result<Series, ReadError> {
     let mut routes: HashMap<u16, (Arc<str>, Option<Route>)> = HashMap::new();
     let mut out = Series::default();
     let mut start = None;
-    let mut seen = [0usize; 2];
+    let mut seen = [0usize; 3];
     while let Some(m) = rec.next_message()? {
         let t0 = *start.get_or_insert(m.log_time);
         let Some(ch) = rec.channel(m.channel_id) else {
@@ -140,9 +180,10 @@ pub fn series<R: Read>(mut rec: Recording<R>) -> Result<Series, ReadError> {
             continue;
         };
         seen[which] += 1;
-        // Decimate evenly once past the bound: keep every k-th, k growing with the count.
+        // Decimate evenly once past the bound: keep every k-th, k growing with the count. A
+        // state is kept only when it changes, so it is never decimated (a change is never lost).
         let k = seen[which].div_ceil(MAX_SAMPLES).max(1);
-        if seen[which] % k != 0 {
+        if which != 2 && seen[which] % k != 0 {
             continue;
         }
         let schema_id = ch.schema_id;
@@ -160,6 +201,16 @@ pub fn series<R: Read>(mut rec: Recording<R>) -> Result<Series, ReadError> {
             continue;
         };
         let t = m.log_time.saturating_sub(t0) as f64 / 1e9;
+        if which == 2 {
+            let Some(state) = enum_name(&msg, "state") else {
+                continue;
+            };
+            let last = out.states.iter().rev().find(|c| c.vehicle == vehicle);
+            if last.is_none_or(|c| c.state != state) && out.states.len() < MAX_SAMPLES {
+                out.states.push(StateChange { vehicle, t, state });
+            }
+            continue;
+        }
         let s = if which == 0 {
             Sample {
                 vehicle,
@@ -236,15 +287,25 @@ pub fn time_svg(s: &Series) -> String {
         ("heading (deg)", |p| p.heading),
         ("depth (m)", |p| p.depth),
     ];
-    let (w, ph, left, top) = (900.0, 200.0, 70.0, 40.0);
+    let (w, ph, left) = (900.0, 200.0, 70.0);
     let pw = w - left - 30.0;
     let tmax = s
         .actual
         .iter()
         .chain(&s.commanded)
         .map(|p| p.t)
+        .chain(s.states.iter().map(|c| c.t))
         .fold(1e-3f64, f64::max);
-    let h = top + 3.0 * (ph + 40.0);
+    // The interface's state: one band a vehicle, under the title, above the panels.
+    let band_h = 14.0;
+    let band_top = 52.0;
+    let bands = if s.states.is_empty() {
+        0
+    } else {
+        s.vehicle_count()
+    };
+    let top = band_top + bands as f64 * (band_h + 4.0) + 40.0;
+    let h = top + 3.0 * (ph + 40.0) + 20.0;
     let mut out = String::new();
     let _ = writeln!(
         out,
@@ -255,6 +316,7 @@ pub fn time_svg(s: &Series) -> String {
         out,
         r##"<text x="{left}" y="24" font-size="15">actual (node_status, <tspan fill="#1f77b4">blue</tspan>) and commanded (desired_course, <tspan fill="#ff7f0e">orange</tspan>) against time, {tmax:.1} s</text>"##
     );
+    state_bands(&mut out, s, left, pw, band_top, band_h, tmax);
     for (i, (name, f)) in panels.iter().enumerate() {
         let y0 = top + i as f64 * (ph + 40.0);
         let vals: Vec<f64> = s.actual.iter().chain(&s.commanded).filter_map(f).collect();
@@ -316,6 +378,68 @@ pub fn time_svg(s: &Series) -> String {
     legend(&mut out, s, left, h - 10.0);
     let _ = writeln!(out, "</svg>");
     out
+}
+
+/// The interface's state against time, one band a vehicle: each state holds until the next
+/// change (the last until the end of the file), with its name in a `<title>` and a
+/// `data-state` attribute, and a legend of the colours.
+fn state_bands(out: &mut String, s: &Series, left: f64, pw: f64, top: f64, bh: f64, tmax: f64) {
+    if s.states.is_empty() {
+        return;
+    }
+    let px = |t: f64| left + t / tmax * pw;
+    let _ = writeln!(
+        out,
+        r##"<text x="{left}" y="{:.1}" font-size="12">interface state (status)</text>"##,
+        top - 4.0
+    );
+    for v in 0..s.vehicle_count() {
+        let y = top + v as f64 * (bh + 4.0);
+        let changes: Vec<&StateChange> = s
+            .states
+            .iter()
+            .filter(|c| usize::from(c.vehicle) == v)
+            .collect();
+        for (i, c) in changes.iter().enumerate() {
+            let end = changes.get(i + 1).map_or(tmax, |n| n.t);
+            let colour = STATE_COLOURS
+                .iter()
+                .find(|(k, _)| *k == c.state)
+                .map_or(STATE_OTHER, |(_, col)| col);
+            let state = xml_escape(&c.state);
+            let _ = writeln!(
+                out,
+                r#"<rect class="state" data-state="{state}" x="{:.1}" y="{y:.1}" width="{:.1}" height="{bh}" fill="{colour}"><title>{state} from {:.1} s</title></rect>"#,
+                px(c.t),
+                (px(end) - px(c.t)).max(0.5),
+                c.t
+            );
+        }
+        if s.vehicle_count() > 1
+            && let Some(name) = s.vehicles.get(v)
+        {
+            let _ = writeln!(
+                out,
+                r#"<text x="{:.1}" y="{:.1}" font-size="10" text-anchor="end">{}</text>"#,
+                left - 4.0,
+                y + bh - 3.0,
+                xml_escape(name)
+            );
+        }
+    }
+    let legend_y = top + s.vehicle_count() as f64 * (bh + 4.0) + 12.0;
+    let mut x = left;
+    for (k, colour) in STATE_COLOURS {
+        let word = k.trim_start_matches("INTERFACE_");
+        let _ = write!(
+            out,
+            r#"<rect x="{x:.0}" y="{:.0}" width="10" height="10" fill="{colour}"/><text x="{:.0}" y="{legend_y:.0}" font-size="11">{word}</text>"#,
+            legend_y - 9.0,
+            x + 13.0
+        );
+        x += 24.0 + 7.0 * word.len() as f64;
+    }
+    let _ = writeln!(out);
 }
 
 /// The vehicles' names in their colours, when a file holds several.
@@ -447,11 +571,66 @@ mod tests {
                 ..Default::default()
             }],
             vehicles: Vec::new(),
+            states: Vec::new(),
         };
         let t = time_svg(&flat);
         assert_eq!(t.matches("<polyline").count(), 4, "3 actual + 1 commanded");
         assert!(!t.contains("NaN"));
         assert!(track_svg(&flat).contains("<circle"));
+    }
+
+    #[test]
+    fn each_vehicle_has_its_band_and_a_state_holds_until_the_next() {
+        let change = |vehicle, t, state: &str| StateChange {
+            vehicle,
+            t,
+            state: state.into(),
+        };
+        let s = Series {
+            actual: vec![Sample {
+                t: 10.0,
+                speed: Some(1.0),
+                ..Default::default()
+            }],
+            states: vec![
+                change(0, 0.0, "INTERFACE_LISTEN"),
+                change(1, 1.0, "<odd>"),
+                change(0, 5.0, "INTERFACE_COMMAND"),
+            ],
+            vehicles: vec!["auv1".into(), "auv2".into()],
+            ..Default::default()
+        };
+        let svg = time_svg(&s);
+        let rects: Vec<&str> = svg
+            .lines()
+            .filter(|l| l.starts_with(r#"<rect class="state""#))
+            .collect();
+        assert_eq!(rects.len(), 3, "{svg}");
+        // auv1's band first: LISTEN from 0 to 5 s of 10, half the panel's width (800 px), then
+        // COMMAND to the end; then auv2's, one row down, its unknown state escaped.
+        assert!(
+            rects[0].contains(r#"x="70.0""#) && rects[0].contains(r#"width="400.0""#),
+            "{}",
+            rects[0]
+        );
+        assert!(
+            rects[1].contains(r#"x="470.0""#) && rects[1].contains(r#"width="400.0""#),
+            "{}",
+            rects[1]
+        );
+        assert!(
+            rects[2].contains("&lt;odd&gt;")
+                && rects[2].contains(STATE_OTHER)
+                && rects[2].contains(r#"y="70.0""#),
+            "{}",
+            rects[2]
+        );
+        // No status in the file: no band, the panels where they were.
+        let bare = time_svg(&Series {
+            states: Vec::new(),
+            ..s
+        });
+        assert!(!bare.contains("interface state"));
     }
 
     #[test]
@@ -461,7 +640,9 @@ mod tests {
         assert_eq!(classify(&format!("auv1/{NODE_STATUS}")), Some((0, "auv1")));
         assert_eq!(classify(&format!("a/b/{NODE_STATUS}")), None);
         assert_eq!(classify(&format!("/{NODE_STATUS}")), None);
-        assert_eq!(classify("goby::middleware::frontseat::status"), None);
+        assert_eq!(classify(STATUS), Some((2, "")));
+        assert_eq!(classify(&format!("auv2/{STATUS}")), Some((2, "auv2")));
+        assert_eq!(classify("goby::middleware::frontseat::helm_state"), None);
         assert_eq!(classify(&format!("auv1{NODE_STATUS}")), None);
     }
 
@@ -478,6 +659,7 @@ mod tests {
             actual: vec![at(0, 0.0), at(1, 5.0), at(0, 1.0), at(1, 6.0)],
             commanded: Vec::new(),
             vehicles: vec!["auv1".into(), "<auv2>".into()],
+            states: Vec::new(),
         };
         let t = track_svg(&s);
         assert_eq!(t.matches("<polyline").count(), 2, "{t}");

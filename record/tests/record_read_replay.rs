@@ -433,3 +433,69 @@ fn an_unwritable_disk_degrades_the_recorder_never_the_publisher() {
     assert!(s.write_errors >= 1, "{s:?}");
     assert_eq!(s.files_opened, 0);
 }
+
+#[test]
+fn plot_reads_the_interface_state_as_a_band_of_its_changes() {
+    use frontseat_actors::groups::GOBY_MIDDLEWARE_FRONTSEAT_STATUS as STATUS;
+    use frontseat_actors::proto::goby::middleware::frontseat::protobuf::{
+        InterfaceState, InterfaceStatus,
+    };
+    use frontseat_record::plot;
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("run.mcap");
+    let bus = Bus::new();
+    let rec = Recorder::start(&bus, small_file(&path), meta()).unwrap();
+    let status = |s: InterfaceState| InterfaceStatus {
+        state: Some(s as i32),
+        ..Default::default()
+    };
+    let mut n = 0;
+    for (i, s) in [
+        InterfaceState::InterfaceListen,
+        InterfaceState::InterfaceListen,
+        InterfaceState::InterfaceCommand,
+        InterfaceState::InterfaceCommand,
+        InterfaceState::InterfaceHelmError,
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        bus.publish(&NODE_STATUS, node_status(i as u32));
+        bus.publish(&STATUS, status(s));
+        n += 2;
+    }
+    bus.publish(
+        &DESIRED,
+        DesiredCourse {
+            time: 5.0,
+            heading: Some(90.0),
+            ..Default::default()
+        },
+    );
+    wait_written(&rec, n + 1);
+    rec.stop();
+
+    let s = plot::series(Recording::open(&path).unwrap()).unwrap();
+    let states: Vec<&str> = s.states.iter().map(|c| c.state.as_str()).collect();
+    assert_eq!(
+        states,
+        [
+            "INTERFACE_LISTEN",
+            "INTERFACE_COMMAND",
+            "INTERFACE_HELM_ERROR"
+        ],
+        "changes only, named from the file's schema"
+    );
+    assert!(s.states.windows(2).all(|w| w[0].t <= w[1].t));
+    let svg = plot::time_svg(&s);
+    let drawn: Vec<&str> = svg
+        .lines()
+        .filter(|l| l.starts_with(r#"<rect class="state""#))
+        .filter_map(|l| l.split("data-state=\"").nth(1)?.split('"').next())
+        .collect();
+    assert_eq!(drawn, states, "{svg}");
+    assert!(svg.contains(r##"data-state="INTERFACE_COMMAND" "##) && svg.contains("#31a354"));
+    assert_eq!(s.actual.len(), 5);
+    assert_eq!(s.commanded.len(), 1);
+    assert!(!svg.contains("NaN"));
+}

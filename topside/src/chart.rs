@@ -455,14 +455,14 @@ fn refused(status: StatusCode, text: &str) -> Response {
 }
 
 impl ChartState {
-    fn check(&self, headers: &HeaderMap, token: Option<&str>) -> Result<(), Response> {
-        self.access.check_read(headers, token).map_err(|r| {
-            self.chart
-                .counters
-                .unauthorized
-                .fetch_add(1, Ordering::Relaxed);
-            refused(r.status(), r.text())
-        })
+    /// The refusal to send when the request may not read the chart.
+    fn refusal(&self, headers: &HeaderMap, token: Option<&str>) -> Option<Response> {
+        let r = self.access.check_read(headers, token).err()?;
+        self.chart
+            .counters
+            .unauthorized
+            .fetch_add(1, Ordering::Relaxed);
+        Some(refused(r.status(), r.text()))
     }
 }
 
@@ -479,7 +479,7 @@ async fn tile(
     headers: HeaderMap,
     Query(q): Query<TokenQuery>,
 ) -> Response {
-    if let Err(r) = st.check(&headers, q.token.as_deref()) {
+    if let Some(r) = st.refusal(&headers, q.token.as_deref()) {
         return r;
     }
     let c = &st.chart.counters;
@@ -552,7 +552,7 @@ async fn chart_json(
     headers: HeaderMap,
     Query(q): Query<TokenQuery>,
 ) -> Response {
-    if let Err(r) = st.check(&headers, q.token.as_deref()) {
+    if let Some(r) = st.refusal(&headers, q.token.as_deref()) {
         return r;
     }
     let mut r = axum::Json(st.chart.json()).into_response();
@@ -567,7 +567,7 @@ async fn geojson(
     headers: HeaderMap,
     Query(q): Query<TokenQuery>,
 ) -> Response {
-    if let Err(r) = st.check(&headers, q.token.as_deref()) {
+    if let Some(r) = st.refusal(&headers, q.token.as_deref()) {
         return r;
     }
     let Some(o) = number(&i).and_then(|i| st.chart.overlays.get(i as usize)) else {

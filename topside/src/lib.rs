@@ -501,6 +501,12 @@ fn router(st: AppState) -> Router {
                 frontseat_web::server::asset("text/javascript", frontseat_web::server::FORM_JS)
             }),
         )
+        .route(
+            "/plots.js",
+            get(|| async {
+                frontseat_web::server::asset("text/javascript", frontseat_web::server::PLOTS_JS)
+            }),
+        )
         .route("/api/info", get(info))
         .route("/api/commander", get(commander))
         .route("/api/vehicle/{name}/scope", get(vehicle_scope))

@@ -25,7 +25,9 @@
     responses: [],
   };
   const ui = { expanded: new Set(), historyGroup: null, history: [], dirty: true, filter: null };
-  window.frontseat = { model, ui };
+  // What the vehicle did against what it was asked (plots.js): bounded rings.
+  const plots = new FrontseatPlots.Recorder();
+  window.frontseat = { model, ui, plots };
 
   // ---------- events ----------
   function applyMsg(ev) {
@@ -33,6 +35,7 @@
     if (!g) { g = { info: { group: ev.group, type: ev.type }, latest: null, count: 0 }; model.groups.set(ev.group, g); }
     g.latest = ev;
     g.count += 1;
+    if (ev.msg) plotMsg(ev);
     if (ev.group === "goby::middleware::frontseat::node_status" && ev.msg) {
       model.navCount += 1;
       model.lastNav = ev;
@@ -55,6 +58,13 @@
     }
   }
 
+  function plotMsg(ev) {
+    if (ev.group === "goby::middleware::frontseat::node_status") plots.nav(ev.time, ev.msg);
+    else if (ev.group === "goby::middleware::frontseat::desired_course") plots.course(ev.time, ev.msg);
+    else if (ev.group === "goby::middleware::frontseat::command_request" && ev.msg.desired_course) plots.course(ev.time, ev.msg.desired_course);
+    else if (ev.group === "goby::middleware::frontseat::status") plots.state(ev.time, ev.msg.state);
+  }
+
   function statusChange(ev) {
     model.statusHistory.push(ev);
     if (model.statusHistory.length > 1000) model.statusHistory.shift();
@@ -73,6 +83,10 @@
     model.groups.clear();
     for (const info of s.groups) model.groups.set(info.group, { info, latest: null, count: info.count });
     for (const ev of s.latest) { const g = model.groups.get(ev.group); if (g) g.latest = ev; }
+    // A reconnect starts the plots again from what the server kept.
+    plots.clear();
+    for (const ev of s.status_history) if (ev.msg) plotMsg(ev);
+    for (const ev of s.latest.slice().sort((a, b) => a.time - b.time)) if (ev.msg && ev.group !== "goby::middleware::frontseat::status") plotMsg(ev);
     model.track = s.track.slice();
     model.statusHistory = []; model.timeline = [];
     for (const ev of s.status_history) statusChange(ev);
@@ -269,6 +283,7 @@
     const tbody = $("timeline").querySelector("tbody"); tbody.replaceChildren();
     for (const t of model.timeline.slice(-100).reverse()) tbody.append(el("tr", { class: t.error ? "bad-text" : "" }, el("td", {}, fmtTime(t.time)), el("td", {}, t.text)));
     drawMap();
+    if (!$("vehicle").hidden) FrontseatPlots.draw($("plots"), plots, Number($("plot-minutes").value) || 5, Date.now());
   }
   function drawMap() {
     const c = $("map"); const ctx = c.getContext("2d"); const W = c.width, H = c.height;
@@ -338,6 +353,8 @@
     render(true);
   });
   $("pause").addEventListener("change", () => render(true));
+  $("plot-legend").append(FrontseatPlots.legend());
+  $("plot-minutes").addEventListener("change", () => render(true));
   $("history-close").addEventListener("click", () => { ui.historyGroup = null; $("history").hidden = true; });
   $("cmd-group").addEventListener("change", buildForm);
   $("cmd-send").addEventListener("click", send);

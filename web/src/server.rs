@@ -31,6 +31,8 @@ const APP_JS: &str = include_str!("../assets/app.js");
 const APP_CSS: &str = include_str!("../assets/app.css");
 /// The commander's form (schema → inputs → checked JSON), also served by the topside's page.
 pub const FORM_JS: &str = include_str!("../assets/form.js");
+/// The plots of what a vehicle did against what it was asked; the topside serves it too.
+pub const PLOTS_JS: &str = include_str!("../assets/plots.js");
 
 /// How long a request waits for the hub before answering 503.
 const HUB_TIMEOUT: Duration = Duration::from_secs(2);
@@ -112,6 +114,10 @@ pub fn router(st: AppState, max_body_bytes: usize) -> Router {
         .route(
             "/form.js",
             get(|| async { asset("text/javascript", FORM_JS) }),
+        )
+        .route(
+            "/plots.js",
+            get(|| async { asset("text/javascript", PLOTS_JS) }),
         )
         .route("/api/info", get(info))
         .route("/api/events", get(events))

@@ -69,6 +69,11 @@ pub struct DemoArgs {
     /// (`tcp/10.0.0.11:7447,tcp/10.0.0.12:7447`). Nothing is launched.
     #[arg(long, value_name = "ENDPOINTS", value_delimiter = ',')]
     pub fleet_connect: Vec<String>,
+    /// With --fleet: send the fleet's AIS (NMEA 0183 `!AIVDM`, class B targets) to this UDP
+    /// address, e.g. OpenCPN's UDP input `127.0.0.1:10110`. The vehicles get MMSIs 299000001,
+    /// 299000002, ... (the leader first), from the range for simulated vehicles.
+    #[arg(long, value_name = "HOST:PORT", requires = "fleet")]
+    pub ais: Option<String>,
 }
 
 /// The basic simulator or the Bluefin emulator over loopback TCP (the serial vehicles' demo is

@@ -211,7 +211,14 @@ impl AisConfig {
         }
     }
 
-    pub(crate) fn warnings(&self, prefix: &str) -> Vec<String> {
+    /// The errors of this section at `prefix` (for a service outside this crate: the topside).
+    pub fn errors_at(&self, prefix: &str) -> Vec<FieldError> {
+        let mut c = Checker::default();
+        self.check(prefix, &mut c);
+        c.errors
+    }
+
+    pub fn warnings(&self, prefix: &str) -> Vec<String> {
         let mut w = Vec::new();
         if self.enabled
             && let Some(a) = socket(&self.tcp_listen)

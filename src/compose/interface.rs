@@ -100,6 +100,9 @@ pub fn children(
             .noted("with [moos]; [supervision.translation]"),
         );
     }
+    if let Some(o) = &config.opencpn {
+        children.extend(opencpn_children(o, bus));
+    }
     if config.web.enabled {
         children.push(
             service_child_with(
@@ -120,6 +123,46 @@ pub fn children(
     children
 }
 
+/// `[opencpn]`'s children: this vehicle's AIS and OpenCPN's route as its helm, both on the helm
+/// side (restarted without end; a fault never ends the process).
+fn opencpn_children(o: &frontseat_config::OpenCpnConfig, bus: &Bus) -> Vec<ChildSpec> {
+    let policy = Policy::from(&frontseat_config::RestartConfig::default()).helm_side();
+    let mut c = Vec::new();
+    if o.ais.enabled {
+        c.push(
+            service_child_with(
+                "AisReporter",
+                policy.clone(),
+                (Arc::new(o.ais.clone()), bus.clone()),
+                |(cfg, bus)| async move {
+                    frontseat_opencpn::lone::LoneAis::start(&cfg, &bus)
+                        .await
+                        .map(|s| Box::new(s) as Box<dyn Service>)
+                        .map_err(|e| format!("[opencpn.ais]: {e}"))
+                },
+            )
+            .noted("with [opencpn.ais] enabled: this vehicle as an AIS target (UDP, TCP)"),
+        );
+    }
+    if o.helm.enabled {
+        c.push(
+            service_child_with(
+                "OpenCpnHelm",
+                policy,
+                (Arc::new(o.helm.clone()), bus.clone()),
+                |(cfg, bus)| async move {
+                    frontseat_opencpn::helm::OpenCpnHelm::start(&cfg, &bus)
+                        .await
+                        .map(|s| Box::new(s) as Box<dyn Service>)
+                        .map_err(|e| format!("[opencpn.helm] {}: {e}", cfg.listen))
+                },
+            )
+            .noted("with [opencpn.helm] enabled: OpenCPN's APB/RMB as this vehicle's helm"),
+        );
+    }
+    c
+}
+
 /// `config` with every optional child of `frontseat interface` on.
 pub(super) fn with_every_child(mut config: InterfaceConfig) -> InterfaceConfig {
     config.interprocess.enabled = true;
@@ -134,6 +177,9 @@ fn interface_actors(cfg: &InterfaceConfig) -> Vec<&'static str> {
     let mut hosted = vec!["FrontSeatInterface", "RootSupervisor", "HealthReporter"];
     if cfg.moos.is_some() {
         hosted.push("FrontSeatTranslation");
+    }
+    if cfg.opencpn.as_ref().is_some_and(|o| o.helm.enabled) {
+        hosted.push("OpenCpnHelm");
     }
     hosted
 }

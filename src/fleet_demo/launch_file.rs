@@ -56,6 +56,12 @@ pub fn launch_config(
         let lon = origin.lon + x / (M_PER_DEG * origin.lat.to_radians().cos());
         // The topside takes the --web-listen address; the vehicles' own pages the next ports.
         let web_listen = args.web.then(|| web_address(&args.web_listen, i + 1));
+        // --ais: each interface reports itself (`[opencpn.ais]`), MMSIs from the simulated range.
+        let ais = args.ais.as_ref().map(|to| {
+            let v = serde_json::json!({"name": name, "mmsi": frontseat_config::opencpn::SIM_MMSI_FIRST + i as u32});
+            let section = serde_json::json!({"enabled": true, "udp": [to], "vehicle": [v]});
+            ("opencpn.ais".to_string(), section)
+        });
         cfg.vehicle.push(VehicleEntry {
             name,
             sim_port: Some(sim_port),
@@ -71,7 +77,9 @@ pub fn launch_config(
                 ("sim_warp_factor".to_string(), serde_json::json!(args.warp)),
                 ("helm_state_timeout".to_string(), serde_json::json!(3.0)),
             ]
-            .into(),
+            .into_iter()
+            .chain(ais)
+            .collect(),
             ..Default::default()
         });
     }

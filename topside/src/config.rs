@@ -44,6 +44,10 @@ pub struct TopsideConfig {
     pub foxglove: frontseat_config::FoxgloveConfig,
     /// The chart under the map: offline files the topside serves to its page.
     pub chart: ChartConfig,
+    /// Every vehicle heard reported to OpenCPN (or any chart plotter) as an AIS class B target,
+    /// with its MMSI from `[[ais.vehicle]]`; a vehicle whose node_status is stale is no longer
+    /// reported. See the guide's "OpenCPN" page.
+    pub ais: frontseat_config::AisConfig,
 }
 
 impl Default for TopsideConfig {
@@ -58,6 +62,7 @@ impl Default for TopsideConfig {
             record: frontseat_config::RecordConfig::default(),
             foxglove: frontseat_config::FoxgloveConfig::default(),
             chart: ChartConfig::default(),
+            ais: frontseat_config::AisConfig::default(),
         }
     }
 }
@@ -321,6 +326,7 @@ impl ServiceConfig for TopsideConfig {
             ));
         }
         e.extend(self.foxglove.errors_at("foxglove"));
+        e.extend(self.ais.errors_at("ais"));
         e.extend(self.chart.errors());
         for (i, v) in self.vehicle.iter().enumerate() {
             if frontseat_helm_side::plan::check_platform(&v.name).is_err() {
@@ -352,6 +358,7 @@ impl ServiceConfig for TopsideConfig {
             ));
         }
         w.extend(self.zenoh.security().warnings("zenoh"));
+        w.extend(self.ais.warnings("ais"));
         w
     }
 }

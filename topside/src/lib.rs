@@ -15,6 +15,7 @@
 //! bounded queue: the Zenoh callback never waits for the disk.
 #![forbid(unsafe_code)]
 
+pub mod ais;
 pub mod chart;
 pub mod config;
 pub mod fleet;
@@ -702,16 +703,27 @@ pub fn children(
     use frontseat_actors::service_child::service_child_with;
     use frontseat_actors::supervisor::Policy;
     let policy = Policy::from(&frontseat_config::RestartConfig::default()).helm_side();
-    let ctx = (Arc::new(cfg), input);
-    vec![
-        service_child_with("Topside", policy, ctx, |(cfg, input)| async move {
-            Topside::start_with(&cfg, None, input)
-                .await
-                .map(|t| Box::new(t) as Box<dyn Service>)
-                .map_err(|e| e.to_string())
-        })
+    // `[ais]`: the node_status the fleet model takes in also feeds the AIS targets.
+    let fleet = cfg.ais.enabled.then(|| ais::fleet(&cfg.ais));
+    let observer = fleet.as_ref().map(ais::observer);
+    let ais_child = fleet.map(|f| ais::child(cfg.ais.clone(), f, policy.clone()));
+    let ctx = (Arc::new(cfg), input, observer);
+    let mut children = vec![
+        service_child_with(
+            "Topside",
+            policy,
+            ctx,
+            |(cfg, input, observer)| async move {
+                Topside::start_with(&cfg, observer, input)
+                    .await
+                    .map(|t| Box::new(t) as Box<dyn Service>)
+                    .map_err(|e| e.to_string())
+            },
+        )
         .noted("the page server and its Zenoh session; restarted without end, jittered"),
-    ]
+    ];
+    children.extend(ais_child);
+    children
 }
 
 /// The topside under a supervisor until `stop`: restarted (with backoff) if its server fails.

@@ -7,6 +7,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::check::{Checker, at};
 use crate::goby3::Goby3Config;
+use crate::ros2::Ros2Config;
 use crate::sections::{InterprocessConfig, LatLonConfig, MoosConfig, TelemetryConfig};
 use crate::web::WebConfig;
 use crate::{DriverConfig, FieldError, MAX_WARP, ServiceConfig};
@@ -146,6 +147,8 @@ pub struct InterfaceConfig {
     /// OpenCPN: this vehicle as an AIS target, and OpenCPN's route as its helm. Absent = off.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub opencpn: Option<crate::OpenCpnConfig>,
+    /// The vehicle as a ROS 2 participant over DDS (topics under the platform name).
+    pub ros2: Ros2Config,
 }
 
 impl Default for InterfaceConfig {
@@ -175,6 +178,19 @@ impl Default for InterfaceConfig {
             web: WebConfig::default(),
             record: crate::RecordConfig::default(),
             opencpn: None,
+            ros2: Ros2Config::default(),
+        }
+    }
+}
+
+impl InterfaceConfig {
+    /// The platform name: `[interprocess] platform`, else `name`, else Goby3's default (the
+    /// Zenoh gateway's rule, `frontseat_helm_side::resolve_platform`).
+    pub fn platform_name(&self) -> &str {
+        match (self.interprocess.platform.as_str(), self.name.as_str()) {
+            ("", "") => "default_goby_platform",
+            ("", n) => n,
+            (p, _) => p,
         }
     }
 }
@@ -242,6 +258,7 @@ impl ServiceConfig for InterfaceConfig {
         self.bus.check("bus", &mut c);
         self.web.check("web", &mut c);
         self.record.check("record", &mut c);
+        self.ros2.check("ros2", self.platform_name(), &mut c);
         if let Some(o) = &self.opencpn {
             o.check("opencpn", &mut c);
             if o.helm.enabled && self.moos.is_some() {
@@ -265,6 +282,7 @@ impl ServiceConfig for InterfaceConfig {
     fn warnings(&self) -> Vec<String> {
         let mut w = self.web.warnings("web");
         w.extend(self.interprocess.warnings("interprocess"));
+        w.extend(self.ros2.warnings("ros2"));
         if let Some(o) = &self.opencpn {
             w.extend(o.warnings("opencpn"));
         }
@@ -308,6 +326,8 @@ pub struct SupervisionConfig {
     /// The web scope (`[web] enabled`) under the root supervisor; its hub has its own bounded
     /// restarts inside it.
     pub web: RestartConfig,
+    /// The ROS 2 gateway (`[ros2] enabled`) under the root supervisor.
+    pub ros2: RestartConfig,
 }
 
 /// When a supervised actor ends.
@@ -381,6 +401,7 @@ impl Default for SupervisionConfig {
             zenoh: RestartConfig::default(),
             goby3: RestartConfig::default(),
             web: RestartConfig::default(),
+            ros2: RestartConfig::default(),
         }
     }
 }
@@ -403,6 +424,7 @@ impl SupervisionConfig {
         self.zenoh.check_at(&at(prefix, "zenoh"), c);
         self.goby3.check_at(&at(prefix, "goby3"), c);
         self.web.check_at(&at(prefix, "web"), c);
+        self.ros2.check_at(&at(prefix, "ros2"), c);
     }
 }
 

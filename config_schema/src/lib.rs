@@ -21,6 +21,7 @@ mod interface;
 pub mod names;
 pub mod opencpn;
 mod record;
+mod ros2;
 mod sections;
 mod sim;
 mod state_name;
@@ -44,6 +45,9 @@ pub use interface::{
 };
 pub use opencpn::{AisConfig, AisVehicleConfig, OpenCpnConfig, OpenCpnHelmConfig};
 pub use record::{FOXGLOVE_TOKEN_ENV, FoxgloveConfig, RecordCompression, RecordConfig};
+pub use ros2::{
+    Ros2Config, Ros2Group, Ros2QosConfig, Ros2Reliability, check_ros_token, ros_namespace,
+};
 pub use sections::{
     DEFAULT_MAX_EXPORT_BATCH_SIZE, DEFAULT_MAX_QUEUE_SIZE, DEFAULT_METRICS_INTERVAL_S,
     DEFAULT_ORIGIN_LAT, DEFAULT_ORIGIN_LON, DEFAULT_SCHEDULED_DELAY_MS, InterprocessConfig,

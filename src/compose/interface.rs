@@ -103,6 +103,9 @@ pub fn children(
     if let Some(o) = &config.opencpn {
         children.extend(opencpn_children(o, bus));
     }
+    if config.ros2.enabled {
+        children.push(ros2_child(config, bus));
+    }
     if config.web.enabled {
         children.push(
             service_child_with(
@@ -163,12 +166,38 @@ fn opencpn_children(o: &frontseat_config::OpenCpnConfig, bus: &Bus) -> Vec<Child
     c
 }
 
+/// `[ros2]`: the vehicle as a ROS 2 participant over DDS, on the helm side (restarted without
+/// end; a DDS fault never ends the process). Its samples reach the bus like a Zenoh helm's, so they
+/// cross the command gate and the state machine like any helm's.
+fn ros2_child(config: &InterfaceConfig, bus: &Bus) -> ChildSpec {
+    service_child_with(
+        "Ros2Gateway",
+        Policy::from(&config.supervision.ros2).helm_side(),
+        (Arc::new(config.clone()), bus.clone()),
+        |(cfg, bus)| async move { start_ros2(&cfg, &bus) },
+    )
+    .noted("with [ros2] enabled; [supervision.ros2]")
+}
+
+#[cfg(feature = "ros2")]
+fn start_ros2(cfg: &InterfaceConfig, bus: &Bus) -> Result<Box<dyn Service>, String> {
+    frontseat_ros2::start(bus, &cfg.ros2, cfg.platform_name())
+        .map(|g| Box::new(g) as Box<dyn Service>)
+        .map_err(|e| e.to_string())
+}
+
+#[cfg(not(feature = "ros2"))]
+fn start_ros2(_: &InterfaceConfig, _: &Bus) -> Result<Box<dyn Service>, String> {
+    Err("[ros2] is enabled but this frontseat was built without the `ros2` feature".into())
+}
+
 /// `config` with every optional child of `frontseat interface` on.
 pub(super) fn with_every_child(mut config: InterfaceConfig) -> InterfaceConfig {
     config.interprocess.enabled = true;
     config.goby3.enabled = true;
     config.moos.get_or_insert_with(Default::default);
     config.web.enabled = true;
+    config.ros2.enabled = true;
     config
 }
 

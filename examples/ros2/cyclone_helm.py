@@ -5,8 +5,8 @@ and QoS, so it runs where ROS 2 is not installed — here and in CI.
 
 helm_state HELM_DRIVE at 1 Hz on /<platform>/frontseat/helm_state; once the interface reports
 COMMAND on /<platform>/frontseat/status, 1.5 m/s due east for T1 s, due south for T2 s, then
-northwest until the vehicle stops closing on its start, each desired_course sent on a node_status
-(sensor-data QoS) position. Leg times are vehicle seconds: wall seconds times --warp, which must
+northwest until the vehicle stops closing on its start, reading node_status (sensor-data QoS) for
+the position; desired_course goes out when it changes and every 0.25 s. Leg times are vehicle seconds: wall seconds times --warp, which must
 match the interface's sim_warp_factor. DDS stays on 127.0.0.1 unless CYCLONEDDS_URI is set.
 
     python3 -m pip install -r examples/ros2/requirements.txt
@@ -48,7 +48,7 @@ try:
     import time  # noqa: E402
 
     import frontseat_ros2_types as T  # noqa: E402
-    from homework import HomeworkPath  # noqa: E402
+    from homework import CourseThrottle, HomeworkPath  # noqa: E402
 
     from cyclonedds.core import DDSException, InstanceState, Policy, Qos, ReadCondition, SampleState, ViewState, WaitSet  # noqa: E402
     from cyclonedds.domain import DomainParticipant  # noqa: E402
@@ -110,6 +110,7 @@ def fly(a, dp):
                                        speed=speed, has_depth=True, depth=0.0))
 
     path = HomeworkPath(a.t1, a.t2, a.speed, log=lambda line: print(line, flush=True))
+    throttle = CourseThrottle()
     t_start = time.monotonic()
     deadline = t_start + a.timeout
     next_beat = 0.0
@@ -126,7 +127,7 @@ def fly(a, dp):
             if not (s.sample_info.valid_data and s.has_local_fix):
                 continue
             c = path.on_position(s.local_fix.x, s.local_fix.y, (time.monotonic() - t_start) * a.warp)
-            if c:
+            if throttle.due(c, time.monotonic()):
                 course(*c)
             if path.done:
                 course_w.wait_for_acks(duration(seconds=1))  # the stop reaches the vehicle before we leave

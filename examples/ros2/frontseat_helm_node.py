@@ -26,7 +26,7 @@ from rclpy.node import Node
 from rclpy.qos import qos_profile_sensor_data
 
 from frontseat_msgs.msg import DesiredCourse, HelmStateReport, InterfaceStatus, NodeStatus
-from homework import HomeworkPath
+from homework import CourseThrottle, HomeworkPath
 
 
 class FrontseatHelm(Node):
@@ -45,6 +45,7 @@ class FrontseatHelm(Node):
         self.create_subscription(InterfaceStatus, prefix + "status", self.on_status, 10)
         self.create_timer(1.0, self.beat)
         self.path = HomeworkPath(t1, t2, speed, log=self.get_logger().info)
+        self.throttle = CourseThrottle()
         self.t_start = time.monotonic()
         self.beat()
 
@@ -60,7 +61,7 @@ class FrontseatHelm(Node):
             return
         t = (time.monotonic() - self.t_start) * self.warp
         c = self.path.on_position(msg.local_fix.x, msg.local_fix.y, t)
-        if c:
+        if self.throttle.due(c, time.monotonic()):
             # time: seconds since the UNIX epoch, as Goby3's DesiredCourse.time
             self.course_pub.publish(DesiredCourse(
                 time=time.time(), has_heading=True, heading=c[0], has_speed=True, speed=c[1],

@@ -57,3 +57,20 @@ class HomeworkPath:
         if self.leg == "waiting":
             return None
         return (HEADINGS[self.leg], self.speed)
+
+
+class CourseThrottle:
+    """When to send a course: at once when it changes, else again every `period` wall seconds.
+    Node_status can arrive at 100 Hz (10 Hz warped 10 times); a helm that answered each one would
+    pass the gateway's command rate limit ([ros2] max_command_rate_hz) for nothing."""
+
+    def __init__(self, period=0.25):
+        self.period, self.last, self.at = period, None, -float("inf")
+
+    def due(self, course, now):
+        if course is None:
+            return False
+        if course != self.last or now - self.at >= self.period:
+            self.last, self.at = course, now
+            return True
+        return False

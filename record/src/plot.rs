@@ -437,7 +437,7 @@ fn state_bands(out: &mut String, s: &Series, left: f64, pw: f64, top: f64, bh: f
             legend_y - 9.0,
             x + 13.0
         );
-        x += 24.0 + 7.0 * word.len() as f64;
+        x += 26.0 + 8.0 * word.len() as f64;
     }
     let _ = writeln!(out);
 }

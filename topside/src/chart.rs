@@ -24,15 +24,11 @@ use rusqlite::{Connection, OpenFlags, OptionalExtension};
 use serde::Deserialize;
 use serde_json::json;
 
-use crate::config::ChartConfig;
+pub use crate::config::{ChartConfig, MAX_GEOJSON_BYTES, MAX_GEOJSON_FILES};
 
 /// Largest tile served; a larger one is answered 502 and counted (a raster tile is a few tens
 /// of kilobytes).
 pub const MAX_TILE_BYTES: i64 = 4 * 1024 * 1024;
-/// Largest GeoJSON overlay read; it is held in memory and sent whole to the page.
-pub const MAX_GEOJSON_BYTES: u64 = 16 * 1024 * 1024;
-/// Most GeoJSON overlays.
-pub const MAX_GEOJSON_FILES: usize = 16;
 /// Deepest zoom level served (2^z tiles a side must fit a u32 and an SQLite integer).
 pub const MAX_ZOOM: u8 = 30;
 
@@ -523,8 +519,11 @@ async fn tile(
             refused(StatusCode::NOT_FOUND, "not a tile of the pyramid")
         }
         Tile::Bad => {
-            c.tiles_bad.fetch_add(1, Ordering::Relaxed);
-            tracing::warn!(z, x, y, "chart tile too large or not an image");
+            let n = c.tiles_bad.fetch_add(1, Ordering::Relaxed);
+            // The first and then every 1000th: a page scrolling over bad tiles asks for many.
+            if n % 1000 == 0 {
+                tracing::warn!(z, x, y, bad = n + 1, "chart tile too large or not an image");
+            }
             refused(
                 StatusCode::BAD_GATEWAY,
                 "the chart's tile is too large or not an image",

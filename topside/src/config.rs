@@ -146,6 +146,11 @@ impl Default for TopsideWebConfig {
     }
 }
 
+/// Largest GeoJSON overlay read; it is held in memory and sent whole to the page.
+pub const MAX_GEOJSON_BYTES: u64 = 16 * 1024 * 1024;
+/// Most GeoJSON overlays.
+pub const MAX_GEOJSON_FILES: usize = 16;
+
 /// The chart under the topside map, from files carried to sea: nothing is fetched from the
 /// internet unless `tile_url` is set. See the guide's "The chart and the plots".
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize, JsonSchema)]
@@ -154,14 +159,17 @@ pub struct ChartConfig {
     /// An MBTiles file of raster tiles (PNG, JPEG or WebP), opened read-only and served as
     /// `/tiles/{z}/{x}/{y}`. None: no basemap (the fleet on a blank Web Mercator map).
     #[serde(skip_serializing_if = "Option::is_none")]
+    #[schemars(example = &"/srv/charts/harbour.mbtiles")]
     pub mbtiles: Option<std::path::PathBuf>,
     /// GeoJSON files drawn over the basemap (a coastline, an operating area): each read once at
     /// start, at most 16 MiB, at most 16 files.
+    #[schemars(example = vec!["/srv/charts/operating-area.geojson".to_string()])]
     pub geojson: Vec<std::path::PathBuf>,
     /// For an operator with a connection: a tile URL template the page's browser fetches
     /// itself, e.g. "https://tile.openstreetmap.org/{z}/{x}/{y}.png" (mind the server's usage
     /// policy). None by default: the page fetches nothing beyond the topside.
     #[serde(skip_serializing_if = "Option::is_none")]
+    #[schemars(example = &"https://tile.openstreetmap.org/{z}/{x}/{y}.png")]
     pub tile_url: Option<String>,
 }
 
@@ -184,11 +192,11 @@ impl ChartConfig {
                 )),
             }
         }
-        if self.geojson.len() > crate::chart::MAX_GEOJSON_FILES {
+        if self.geojson.len() > MAX_GEOJSON_FILES {
             e.push(FieldError::new(
                 "chart.geojson",
                 self.geojson.len(),
-                format!("more than {} files", crate::chart::MAX_GEOJSON_FILES),
+                format!("more than {} files", MAX_GEOJSON_FILES),
             ));
         }
         for (i, p) in self.geojson.iter().enumerate() {
@@ -197,10 +205,10 @@ impl ChartConfig {
                 Ok(m) if !m.is_file() => {
                     e.push(FieldError::new(at, p.display(), "not a regular file"))
                 }
-                Ok(m) if m.len() > crate::chart::MAX_GEOJSON_BYTES => e.push(FieldError::new(
+                Ok(m) if m.len() > MAX_GEOJSON_BYTES => e.push(FieldError::new(
                     at,
                     p.display(),
-                    format!("larger than {} bytes", crate::chart::MAX_GEOJSON_BYTES),
+                    format!("larger than {} bytes", MAX_GEOJSON_BYTES),
                 )),
                 Ok(_) => {}
                 Err(err) => e.push(FieldError::new(at, p.display(), err.to_string())),

@@ -3,7 +3,7 @@
 //! reading tokio task wakes with it. L1: the same line → a thread blocked in `read(2)` wakes with
 //! it (the scripted frontseat's reader: the end of P2, M2, G2, Z2). L2: a line written on a
 //! pseudo-terminal → the tokio task reading its other side wakes with it (the serial vehicles'
-//! link, Iver3 and SV2). On a small VM the idle wake-up latency dominates every absolute figure
+//! link, Iver3 and SV2; B2's relay reads as L1 does). On a small VM the idle wake-up latency dominates every absolute figure
 //! (an idle 2-core machine is slower than a busy one), so each latency row is also given as a
 //! ratio over its own floor ([`floor_of`]): only the ratios compare between runs, and a row is
 //! never compared with a cheaper wake-up than its own last hop has.
@@ -112,11 +112,10 @@ pub fn floor_of(id: &str) -> Option<&'static str> {
     match id {
         // The last hop is a tokio task (a bus subscriber, a MOOS client, a Zenoh subscriber,
         // the web page model's reader) woken by data from another thread or process.
-        "P1" | "M1" | "G1" | "Z1" | "W1" | "A1" | "U1" | "D1" => Some("L0"),
-        // The scripted frontseat reads with a blocking read(2) on a plain thread.
-        "P2" | "M2" | "G2" | "Z2" => Some("L1"),
-        // The vehicles' emulators read their TCP socket with a tokio task.
-        "A2" | "U2" | "D2" | "B1" | "B2" => Some("L0"),
+        "P1" | "M1" | "G1" | "Z1" | "W1" | "A1" | "U1" | "D1" | "B1" => Some("L0"),
+        // The scripted frontseat, and the bench's relay in front of the Huxley, read with a
+        // blocking read(2) on a plain thread.
+        "P2" | "M2" | "G2" | "Z2" | "B2" => Some("L1"),
         // Over a pseudo-terminal both ways.
         "I1" | "I2" | "S1" | "S2" => Some("L2"),
         _ => None,

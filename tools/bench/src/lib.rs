@@ -10,7 +10,7 @@
 //! and a second Goby3 gateway as the helm's side, through the stand-in gobyd (`goby3`).
 //! L0, L1 and L2 are the bench's own floors (a loopback line → a task wakes, → a blocked thread
 //! wakes; a pseudo-terminal line → a task wakes) and every latency row is also given as a ratio
-//! over the one its last hop has (`floor`). I1–D1 run each vehicle family's real driver against
+//! over the one its last hop has (`floor`). B1–D1 run each vehicle family's real driver against
 //! its emulator over its own link (`vehicles`).
 //! W1 runs the web scope in this process and reads its event stream over loopback (`web`).
 //! R1 and R2 are the cost of the MCAP record: recording, and replay at full speed (`record`).
@@ -65,9 +65,9 @@ pub struct BenchOptions {
 }
 
 /// Every row's id, in the order of the table.
-pub const ROW_IDS: [&str; 29] = [
+pub const ROW_IDS: [&str; 31] = [
     "L0", "L1", "L2", "P1", "P2", "P3", "P4", "P5", "P6", "M1", "M2", "G1", "G2", "Z1", "Z2", "Z3",
-    "T1", "W1", "R1", "R2", "F1", "F2", "I1", "I2", "S1", "S2", "A1", "U1", "D1",
+    "T1", "W1", "R1", "R2", "F1", "F2", "B1", "B2", "I1", "I2", "S1", "S2", "A1", "U1", "D1",
 ];
 
 /// Which rows a run measures. Rows measured together (P4/P5, M1/M2, G1/G2, Z1–Z3/T1, a vehicle
@@ -389,7 +389,7 @@ pub async fn run(args: BenchOptions) -> ExitCode {
             .with_file_name(format!("frontseat-bench{}", std::env::consts::EXE_SUFFIX));
         rows.extend(fleet::run(plan.fleet, &bench_exe, sel.wants("F1"), sel.wants("F2")).await);
     }
-    if sel.any(&["I1", "I2", "S1", "S2", "A1", "U1", "D1"]) {
+    if sel.any(&["B1", "B2", "I1", "I2", "S1", "S2", "A1", "U1", "D1"]) {
         rows.extend(vehicles::run(plan.vehicles, &sel).await);
     }
     rows.retain(|r| sel.wants(r.id));

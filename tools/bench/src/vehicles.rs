@@ -47,6 +47,9 @@ pub const S1: &str =
 pub const S2: &str = "Wave Glider SV2: desired_course published → the heading read by the emulated C&C (pty), pulled at its poll";
 pub const A1: &str = "ArduPilot Rover: GLOBAL_POSITION_INT written by the emulated autopilot (TCP) → node_status at a bus subscriber";
 pub const U1: &str = "ArduSub: GLOBAL_POSITION_INT written by the emulated autopilot (TCP) → node_status at a bus subscriber";
+pub const B1: &str = "Bluefin: $BFNVR written to the payload (TCP, from the Huxley emulator) → node_status at a bus subscriber";
+pub const B2: &str =
+    "Bluefin: desired_course published → $BPRMB read on the Huxley's side (TCP, a blocking reader)";
 pub const D1: &str =
     "DUNE: EstimatedState written by the emulated vehicle (TCP) → node_status at a bus subscriber";
 
@@ -305,8 +308,129 @@ pub async fn run(plan: Plan, sel: &super::Selection) -> Vec<Row> {
             .await,
         );
     }
+    if sel.any(&["B1", "B2"]) {
+        rows.extend(bluefin(plan).await);
+    }
     rows.retain(|r| sel.wants(r.id));
     rows
+}
+
+/// The Bluefin rows. The Huxley emulator is a TCP server of its own (not an emulator session),
+/// so the bench stands on the wire between it and the payload: a relay on plain threads that
+/// stamps each `$BFNVR` right before it writes it to the payload and each `$BPRMB` when its
+/// blocking read returns it (B2's last hop: floor L1), and passes every byte on unchanged.
+async fn bluefin(plan: Plan) -> Vec<Row> {
+    let fam = Family {
+        nav: ("B1", B1),
+        cmd: Some(("B2", B2)),
+    };
+    let base = InterfaceConfig::default();
+    let hux = match frontseat_bluefin::HuxleyServer::bind(
+        ([127, 0, 0, 1], 0).into(),
+        frontseat_bluefin::HuxleyServerOptions {
+            huxley: frontseat_bluefin::HuxleyOptions {
+                lat: base.origin.lat,
+                lon: base.origin.lon,
+                ..Default::default()
+            },
+            warp: plan.warp,
+            ..Default::default()
+        },
+    )
+    .await
+    {
+        Ok(h) => h,
+        Err(e) => {
+            return vec![
+                Row::failed("B1", B1, format!("Huxley emulator: {e}")),
+                Row::failed("B2", B2, format!("Huxley emulator: {e}")),
+            ];
+        }
+    };
+    let seen: Arc<Mutex<Seen>> = Arc::default();
+    let port = match relay(hux.local_addr(), seen.clone()) {
+        Ok(p) => p,
+        Err(e) => {
+            hux.shutdown().await;
+            return vec![
+                Row::failed("B1", B1, format!("relay: {e}")),
+                Row::failed("B2", B2, format!("relay: {e}")),
+            ];
+        }
+    };
+    let mut cfg = InterfaceConfig {
+        name: "bench-vehicle".into(),
+        sim_warp_factor: plan.warp,
+        ..InterfaceConfig::default()
+    };
+    cfg.driver.name = "bluefin".into();
+    cfg.driver.bluefin.huxley_tcp_port = port;
+    let rows = measure(plan, &fam, &seen, &cfg).await;
+    hux.shutdown().await;
+    rows
+}
+
+/// The relay between the Bluefin payload (it connects here) and the Huxley; ends when either
+/// side closes. Its port.
+fn relay(huxley: std::net::SocketAddr, seen: Arc<Mutex<Seen>>) -> std::io::Result<u16> {
+    use std::io::{BufRead as _, Write as _};
+    let listener = std::net::TcpListener::bind(("127.0.0.1", 0))?;
+    let port = listener.local_addr()?.port();
+    std::thread::spawn(move || {
+        let Ok((payload, _)) = listener.accept() else {
+            return;
+        };
+        let Ok(vehicle) = std::net::TcpStream::connect(huxley) else {
+            return;
+        };
+        let _ = payload.set_nodelay(true);
+        let _ = vehicle.set_nodelay(true);
+        let (Ok(mut to_payload), Ok(from_vehicle)) = (payload.try_clone(), vehicle.try_clone())
+        else {
+            return;
+        };
+        let nav_seen = seen.clone();
+        std::thread::spawn(move || {
+            let mut lines = std::io::BufReader::new(from_vehicle);
+            let mut line = Vec::new();
+            while lines.read_until(b'\n', &mut line).is_ok_and(|n| n > 0) {
+                if line.starts_with(b"$BFNVR") {
+                    let now = Instant::now();
+                    nav_seen
+                        .lock()
+                        .unwrap_or_else(|p| p.into_inner())
+                        .navs
+                        .push(now);
+                }
+                if to_payload.write_all(&line).is_err() {
+                    return;
+                }
+                line.clear();
+            }
+        });
+        let mut to_vehicle = vehicle;
+        let mut lines = std::io::BufReader::new(payload);
+        let mut line = Vec::new();
+        while lines.read_until(b'\n', &mut line).is_ok_and(|n| n > 0) {
+            let now = Instant::now();
+            if line.starts_with(b"$BPRMB") {
+                // $BPRMB,<time>,<heading>,...
+                let heading = std::str::from_utf8(&line)
+                    .ok()
+                    .and_then(|l| l.split(',').nth(2))
+                    .and_then(|h| h.parse::<f64>().ok());
+                seen.lock()
+                    .unwrap_or_else(|p| p.into_inner())
+                    .cmds
+                    .push((now, heading));
+            }
+            if to_vehicle.write_all(&line).is_err() {
+                return;
+            }
+            line.clear();
+        }
+    });
+    Ok(port)
 }
 
 /// One family: its emulator on `endpoint`, the interface with its driver there (`configure`
@@ -345,6 +469,26 @@ where
         ..InterfaceConfig::default()
     };
     configure(&mut cfg, &at);
+    let rows = measure(plan, fam, &seen, &cfg).await;
+    drop(emu);
+    rows
+}
+
+/// The interface with `cfg`'s driver on `bus`, a helm driving, then the family's rows from
+/// what `seen` stamps at the vehicle's end.
+async fn measure(
+    plan: Plan,
+    fam: &Family,
+    seen: &Arc<Mutex<Seen>>,
+    cfg: &InterfaceConfig,
+) -> Vec<Row> {
+    let fail = |why: String| {
+        let mut v = vec![Row::failed(fam.nav.0, fam.nav.1, why.clone())];
+        if let Some((id, what)) = fam.cmd {
+            v.push(Row::failed(id, what, why));
+        }
+        v
+    };
     let capacity = cfg.bus.queue_capacity;
     let bus = Bus::new();
     let (_ns_sub, mut ns_rx) = node_status_channel(&bus, "bench-vehicle", capacity);
@@ -360,7 +504,7 @@ where
     };
     let (_st_sub, mut st_rx) = status_channel(&bus, capacity);
     let helm = helm_drive(&bus);
-    let service = match InterfaceService::start(&cfg, &bus, frontseat_drivers::BUILT_IN).await {
+    let service = match InterfaceService::start(cfg, &bus, frontseat_drivers::BUILT_IN).await {
         Ok(s) => s,
         Err(e) => {
             helm.abort();
@@ -397,7 +541,7 @@ where
         let mut g = m.lock().unwrap_or_else(|p| p.into_inner());
         std::mem::take(&mut *g)
     };
-    drop(lock(&seen));
+    drop(lock(seen));
     arrivals.lock().unwrap_or_else(|p| p.into_inner()).clear();
     let bound = if first.is_err() {
         Duration::ZERO
@@ -411,7 +555,7 @@ where
     }
     // The last ones' node_status.
     tokio::time::sleep(Duration::from_millis(100)).await;
-    let navs = lock(&seen).navs;
+    let navs = lock(seen).navs;
     let got = std::mem::take(&mut *arrivals.lock().unwrap_or_else(|p| p.into_inner()));
     if first.is_ok() {
         rows.push(nav_row(fam.nav, &navs, &got, t0.elapsed(), plan));
@@ -423,7 +567,7 @@ where
                 .snapshot(Duration::from_secs(2))
                 .await
                 .map_or(0, |s| s.setpoints_direct);
-            let mut row = cmd_row(cmd, plan, &bus, &seen).await;
+            let mut row = cmd_row(cmd, plan, &bus, seen).await;
             let lane = service
                 .snapshot(Duration::from_secs(2))
                 .await
@@ -446,7 +590,6 @@ where
     let _ = service.shutdown(Duration::from_secs(2)).await;
     helm.abort();
     ns_task.abort();
-    drop(emu);
     rows
 }
 

@@ -19,6 +19,7 @@
 const LOG_TARGET: &str = "frontseat_bluefin::driver";
 
 use std::collections::VecDeque;
+use std::sync::{Arc, Mutex, MutexGuard};
 use std::time::Duration;
 
 use frontseat_config::{AcceptingCommandsHook, InterfaceConfig};
@@ -26,10 +27,11 @@ use frontseat_config::{AcceptingCommandsHook, InterfaceConfig};
 use crate::codec::{self, FromPayload, Nvg, Sentence};
 use frontseat_actors::clock::SimClock;
 use frontseat_actors::driver::{
-    Driver, DriverContext, DriverExtension, DriverIoEvent, IoSender, SignalSink, refuse_extension,
+    DirectCommand, Driver, DriverContext, DriverExtension, DriverIoEvent, IoSender, SignalSink,
+    raw_ascii, refuse_extension,
 };
 use frontseat_actors::drivers::kit::{LinkState, OwnedTask, decoded};
-use frontseat_actors::link::{self, LinkConfig};
+use frontseat_actors::link::{self, LineWriter, LinkConfig};
 use frontseat_actors::proto::frontseat::protobuf::bluefin as bf;
 use frontseat_actors::proto::goby::middleware::frontseat::protobuf::{
     CommandRequest, CommandResponse, DesiredCourse, FrontSeatState, InterfaceData, Raw,
@@ -181,6 +183,71 @@ struct Outgoing {
     writes: u32,
 }
 
+/// What the driver shares with the setpoint lane's [`DirectRmb`], under one lock (ARCHITECTURE.md
+/// "The lane per vehicle family"): whether a sentence of the driver's is queued or in flight
+/// (`busy`: set before the driver writes a head, cleared after a message only when its queue is
+/// empty), and the lane's `$BPRMB` in flight until the driver takes it in as its queue's head at
+/// the start of its next message — before the `$BFACK` that answers it can be handled. So the
+/// lane writes only when nothing is in flight, and stop-and-wait holds whichever thread wrote.
+#[derive(Default)]
+struct Wire {
+    busy: bool,
+    lane_head: Option<Outgoing>,
+}
+
+#[derive(Clone, Default)]
+struct SharedWire(Arc<Mutex<Wire>>);
+
+impl SharedWire {
+    fn lock(&self) -> MutexGuard<'_, Wire> {
+        self.0.lock().unwrap_or_else(|p| p.into_inner())
+    }
+}
+
+/// The setpoint lane's way to the Huxley: a course's `$BPRMB` written from the publisher's
+/// thread when nothing of the driver's is queued or in flight, then tracked as the in-flight
+/// head (its `$BFACK`, resends after `nmea_resend_interval`, the drop and its demerit) like any
+/// sentence. A lane course asks for no answer.
+struct DirectRmb {
+    writer: LineWriter,
+    wire: SharedWire,
+    clock: SimClock,
+    settings: Settings,
+}
+
+impl DirectCommand for DirectRmb {
+    fn send_now(&self, req: &CommandRequest) -> Option<Raw> {
+        let c = req.desired_course.as_ref()?;
+        if !self.writer.writes_at_once() {
+            return None;
+        }
+        // The driver's wall clock is the system's outside its unit tests.
+        let tod = codec::seconds_of_day(SimClock::unix_now());
+        let msg = FromPayload::Rmb(outbound::rmb(&self.settings, c, tod).ok()?);
+        let line = msg.to_sentence().format();
+        let mut w = self.wire.lock();
+        if w.busy || w.lane_head.is_some() {
+            return None;
+        }
+        if !self.settings.disable_ack {
+            w.lane_head = Some(Outgoing {
+                ack_id: msg.id().to_string(),
+                line: line.clone(),
+                request: None,
+                written_at: Some(self.clock.now()),
+                writes: 1,
+            });
+            w.busy = true;
+        }
+        if self.writer.write_line(&line).is_err() {
+            w.lane_head = None;
+            w.busy = false;
+            return None;
+        }
+        Some(raw_ascii(&line, ""))
+    }
+}
+
 /// Wall clock (Unix seconds) used for sentence timestamps and NodeStatus dates; a test fixes it.
 pub type WallClock = Box<dyn Fn(Duration) -> f64 + Send>;
 
@@ -196,6 +263,12 @@ pub struct BluefinDriver {
     queue: VecDeque<Outgoing>,
     /// Acknowledged "pending" (status 3), waiting for the final answer.
     pending: VecDeque<Outgoing>,
+    /// Shared with the lane's [`DirectRmb`].
+    wire: SharedWire,
+    /// The sim clock (from `start`): the lane's `$BPRMB` is stamped written by it.
+    clock: Option<SimClock>,
+    /// While connected: the setpoint lane's way to the Huxley.
+    direct: Option<Arc<DirectRmb>>,
     demerits: u32,
     last_heartbeat: Option<Duration>,
     payload_status: Vec<PayloadStatus>,
@@ -223,6 +296,9 @@ impl BluefinDriver {
             nvg: None,
             queue: VecDeque::new(),
             pending: VecDeque::new(),
+            wire: SharedWire::default(),
+            clock: None,
+            direct: None,
             demerits: 0,
             last_heartbeat: None,
             payload_status: Vec::new(),
@@ -235,6 +311,25 @@ impl BluefinDriver {
     /// Sentences queued or in flight, and pending a final answer.
     pub fn queue_lengths(&self) -> (usize, usize) {
         (self.queue.len(), self.pending.len())
+    }
+
+    /// At the start of every message: the lane's `$BPRMB` in flight (if any) becomes the queue's
+    /// head, before anything of this message can look for it or write.
+    fn absorb(&mut self) {
+        if let Some(o) = self.wire.lock().lane_head.take() {
+            self.queue.push_front(o);
+        }
+    }
+
+    /// At the end of every message: whether the lane may write (nothing queued or in flight).
+    fn settle(&mut self) {
+        let mut w = self.wire.lock();
+        w.busy = !self.queue.is_empty() || w.lane_head.is_some();
+    }
+
+    /// The link is gone or being re-opened: no more lane writes to it.
+    fn drop_direct(&mut self) {
+        self.direct = None;
     }
 
     fn tod(&self, now: Duration) -> f64 {
@@ -293,6 +388,102 @@ struct Cmd<'a> {
 
 impl Driver for BluefinDriver {
     fn send_extension(&mut self, ext: &DriverExtension, now: Duration, sig: &mut dyn SignalSink) {
+        self.absorb();
+        self.extension(ext, now, sig);
+        self.settle();
+    }
+
+    fn name(&self) -> &str {
+        "bluefin"
+    }
+
+    fn start(&mut self, ctx: DriverContext) {
+        self.io = Some(ctx.io.clone());
+        self.clock = Some(ctx.clock);
+        self.link_task
+            .set(link::spawn(self.settings.link.clone(), ctx.io));
+    }
+
+    fn handle_io(&mut self, ev: DriverIoEvent, now: Duration, sig: &mut dyn SignalSink) {
+        self.absorb();
+        self.io_event(ev, now, sig);
+        self.settle();
+    }
+
+    fn send_command_to_frontseat(
+        &mut self,
+        req: &CommandRequest,
+        now: Duration,
+        sig: &mut dyn SignalSink,
+    ) {
+        self.absorb();
+        let c = Cmd {
+            desired: req.desired_course.as_ref(),
+            ext: None,
+            response_requested: req.response_requested(),
+            request_id: req.request_id,
+            cancel_request_id: req.cancel_request_id,
+        };
+        self.command(c, now, sig);
+        self.settle();
+    }
+
+    fn send_data_to_frontseat(
+        &mut self,
+        data: &InterfaceData,
+        now: Duration,
+        sig: &mut dyn SignalSink,
+    ) {
+        self.absorb();
+        self.data(data, now, sig);
+        self.settle();
+    }
+
+    fn send_raw_to_frontseat(&mut self, raw: &Raw, now: Duration, sig: &mut dyn SignalSink) {
+        self.absorb();
+        self.raw(raw, now, sig);
+        self.settle();
+    }
+
+    fn do_loop(&mut self, now: Duration, sig: &mut dyn SignalSink) {
+        self.absorb();
+        self.tick(now, sig);
+        self.settle();
+    }
+
+    fn interface_status(
+        &mut self,
+        status: &frontseat_actors::proto::goby::middleware::frontseat::protobuf::InterfaceStatus,
+    ) {
+        use frontseat_actors::proto::goby::middleware::frontseat::protobuf::InterfaceState;
+        self.interface_in_error = matches!(
+            status.state(),
+            InterfaceState::InterfaceHelmError | InterfaceState::InterfaceFsError
+        );
+    }
+
+    fn frontseat_state(&self) -> FrontSeatState {
+        self.link.state
+    }
+
+    fn frontseat_providing_data(&self) -> bool {
+        self.link.data.providing()
+    }
+
+    fn direct_command(&self) -> Option<Arc<dyn DirectCommand>> {
+        self.direct.clone().map(|d| d as Arc<dyn DirectCommand>)
+    }
+
+    fn stop(&mut self) {
+        self.drop_direct();
+        self.link.close();
+    }
+}
+
+/// The driver's work per message, between [`BluefinDriver::absorb`] and
+/// [`BluefinDriver::settle`].
+impl BluefinDriver {
+    fn extension(&mut self, ext: &DriverExtension, now: Duration, sig: &mut dyn SignalSink) {
         match ext.type_name() {
             COMMAND => {
                 if let Some(r) = decoded::<bf::CommandRequest>(ext, sig, self.name()) {
@@ -308,17 +499,7 @@ impl Driver for BluefinDriver {
         }
     }
 
-    fn name(&self) -> &str {
-        "bluefin"
-    }
-
-    fn start(&mut self, ctx: DriverContext) {
-        self.io = Some(ctx.io.clone());
-        self.link_task
-            .set(link::spawn(self.settings.link.clone(), ctx.io));
-    }
-
-    fn handle_io(&mut self, ev: DriverIoEvent, now: Duration, sig: &mut dyn SignalSink) {
+    fn io_event(&mut self, ev: DriverIoEvent, now: Duration, sig: &mut dyn SignalSink) {
         match ev {
             DriverIoEvent::Connected(w) => {
                 tracing::info!(
@@ -327,6 +508,14 @@ impl Driver for BluefinDriver {
                     port = self.settings.link.port,
                     "connected to the Huxley; enabling its sentences"
                 );
+                self.direct = self.clock.map(|clock| {
+                    Arc::new(DirectRmb {
+                        writer: w.clone(),
+                        wire: self.wire.clone(),
+                        clock,
+                        settings: self.settings.clone(),
+                    })
+                });
                 self.link.opened(w, FrontSeatState::FrontseatIdle);
                 self.initialise(now, sig);
             }
@@ -343,38 +532,14 @@ impl Driver for BluefinDriver {
             }
             DriverIoEvent::Disconnected(reason) => {
                 tracing::warn!(target: LOG_TARGET, %reason, "Huxley connection lost; reconnecting");
+                self.drop_direct();
                 self.link.lost();
                 self.fail_all("connection to the Huxley lost", sig);
             }
         }
     }
 
-    fn send_command_to_frontseat(
-        &mut self,
-        req: &CommandRequest,
-        now: Duration,
-        sig: &mut dyn SignalSink,
-    ) {
-        let c = Cmd {
-            desired: req.desired_course.as_ref(),
-            ext: None,
-            response_requested: req.response_requested(),
-            request_id: req.request_id,
-            cancel_request_id: req.cancel_request_id,
-        };
-        self.command(c, now, sig);
-    }
-
-    fn send_data_to_frontseat(
-        &mut self,
-        data: &InterfaceData,
-        now: Duration,
-        sig: &mut dyn SignalSink,
-    ) {
-        self.data(data, now, sig);
-    }
-
-    fn send_raw_to_frontseat(&mut self, raw: &Raw, now: Duration, sig: &mut dyn SignalSink) {
+    fn raw(&mut self, raw: &Raw, now: Duration, sig: &mut dyn SignalSink) {
         let bytes = raw.raw.as_deref().unwrap_or_default();
         let Ok(text) = std::str::from_utf8(bytes) else {
             self.stats.bad_lines += 1;
@@ -401,7 +566,7 @@ impl Driver for BluefinDriver {
         }
     }
 
-    fn do_loop(&mut self, now: Duration, sig: &mut dyn SignalSink) {
+    fn tick(&mut self, now: Duration, sig: &mut dyn SignalSink) {
         if self.link.data.expired(now, self.settings.missing_nav) {
             tracing::warn!(
                 target: LOG_TARGET,
@@ -420,28 +585,5 @@ impl Driver for BluefinDriver {
         }
         self.resend_or_drop(now, sig);
         self.try_send(now, sig);
-    }
-
-    fn interface_status(
-        &mut self,
-        status: &frontseat_actors::proto::goby::middleware::frontseat::protobuf::InterfaceStatus,
-    ) {
-        use frontseat_actors::proto::goby::middleware::frontseat::protobuf::InterfaceState;
-        self.interface_in_error = matches!(
-            status.state(),
-            InterfaceState::InterfaceHelmError | InterfaceState::InterfaceFsError
-        );
-    }
-
-    fn frontseat_state(&self) -> FrontSeatState {
-        self.link.state
-    }
-
-    fn frontseat_providing_data(&self) -> bool {
-        self.link.data.providing()
-    }
-
-    fn stop(&mut self) {
-        self.link.close();
     }
 }

@@ -7,7 +7,7 @@ use std::time::Duration;
 
 use base64::Engine as _;
 
-use super::{BluefinDriver, Cmd, MAX_PAYLOAD_STATUSES, error_code};
+use super::{BluefinDriver, Cmd, MAX_PAYLOAD_STATUSES, Settings, error_code};
 use crate::codec::{self, CtdOut, FromPayload, HorizontalMode, Rmb, SpeedMode, VerticalMode};
 use frontseat_actors::driver::SignalSink;
 use frontseat_actors::proto::frontseat::protobuf::bluefin as bf;
@@ -55,49 +55,8 @@ impl BluefinDriver {
         self.enqueue(msg, None, now, sig);
     }
 
-    fn rpm_for(&self, speed: f64) -> Option<f64> {
-        let t = self.settings.rpm_table.as_ref()?;
-        let (first, last) = (t.first()?, t.last()?);
-        if t.len() < 2 || speed <= first.0 {
-            return Some(first.1);
-        }
-        if speed >= last.0 {
-            return Some(last.1);
-        }
-        let i = t.iter().position(|p| p.0 >= speed)?;
-        let (a, b) = (t[i - 1], t[i]);
-        let f = if b.0 > a.0 {
-            (speed - a.0) / (b.0 - a.0)
-        } else {
-            0.0
-        };
-        Some((a.1 + f * (b.1 - a.1)).round())
-    }
-
-    /// `$BPRMB` for a desired course; an error text when a value cannot be written.
     fn rmb(&self, c: &DesiredCourse, tod: f64) -> Result<Rmb, String> {
-        let (heading, depth, speed) = (c.heading(), c.depth(), c.speed());
-        if !(heading.is_finite() && depth.is_finite() && speed.is_finite()) {
-            return Err(format!(
-                "desired_course has a non-finite value (heading {heading}, depth {depth}, speed {speed})"
-            ));
-        }
-        if speed < 0.01 {
-            return Ok(Rmb::stop(tod));
-        }
-        let (translational, speed_mode) = match self.rpm_for(speed) {
-            Some(rpm) => (rpm, SpeedMode::Rpm),
-            None => (speed, SpeedMode::Speed),
-        };
-        Ok(Rmb {
-            time: tod,
-            horizontal: heading,
-            vertical: depth,
-            vertical_mode: VerticalMode::Depth,
-            translational,
-            speed_mode,
-            horizontal_mode: HorizontalMode::Heading,
-        })
+        rmb(&self.settings, c, tod)
     }
 
     /// The common path of plain and Bluefin-extended CommandRequests.
@@ -294,4 +253,49 @@ impl BluefinDriver {
             self.enqueue(FromPayload::Tmr { time: tod, line }, None, now, sig);
         }
     }
+}
+
+fn rpm_for(settings: &Settings, speed: f64) -> Option<f64> {
+    let t = settings.rpm_table.as_ref()?;
+    let (first, last) = (t.first()?, t.last()?);
+    if t.len() < 2 || speed <= first.0 {
+        return Some(first.1);
+    }
+    if speed >= last.0 {
+        return Some(last.1);
+    }
+    let i = t.iter().position(|p| p.0 >= speed)?;
+    let (a, b) = (t[i - 1], t[i]);
+    let f = if b.0 > a.0 {
+        (speed - a.0) / (b.0 - a.0)
+    } else {
+        0.0
+    };
+    Some((a.1 + f * (b.1 - a.1)).round())
+}
+
+/// `$BPRMB` for a desired course; an error text when a value cannot be written.
+pub(super) fn rmb(settings: &Settings, c: &DesiredCourse, tod: f64) -> Result<Rmb, String> {
+    let (heading, depth, speed) = (c.heading(), c.depth(), c.speed());
+    if !(heading.is_finite() && depth.is_finite() && speed.is_finite()) {
+        return Err(format!(
+            "desired_course has a non-finite value (heading {heading}, depth {depth}, speed {speed})"
+        ));
+    }
+    if speed < 0.01 {
+        return Ok(Rmb::stop(tod));
+    }
+    let (translational, speed_mode) = match rpm_for(settings, speed) {
+        Some(rpm) => (rpm, SpeedMode::Rpm),
+        None => (speed, SpeedMode::Speed),
+    };
+    Ok(Rmb {
+        time: tod,
+        horizontal: heading,
+        vertical: depth,
+        vertical_mode: VerticalMode::Depth,
+        translational,
+        speed_mode,
+        horizontal_mode: HorizontalMode::Heading,
+    })
 }

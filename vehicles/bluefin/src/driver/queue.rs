@@ -75,6 +75,14 @@ impl BluefinDriver {
             }
             return;
         }
+        // Under the lane's lock: its `$BPRMB` written since this message began is taken in as
+        // the head first (then the head is in flight and nothing more is written), and the lane
+        // sees `busy` before this write can reach the Huxley.
+        let wire = self.wire.clone();
+        let mut w = wire.lock();
+        if let Some(o) = w.lane_head.take() {
+            self.queue.push_front(o);
+        }
         let line = match self.queue.front_mut() {
             Some(head) if head.written_at.is_none() => {
                 head.written_at = Some(now);
@@ -83,6 +91,7 @@ impl BluefinDriver {
             }
             _ => return,
         };
+        w.busy = true;
         self.write(&line, sig);
     }
 
@@ -176,6 +185,7 @@ impl BluefinDriver {
             "the Huxley is ignoring our sentences; re-opening the connection"
         );
         // Not lost: the navigation received stays fresh until its own timeout.
+        self.drop_direct();
         self.link.close();
         self.link.state = FrontSeatState::FrontseatNotConnected;
         self.fail_all("the Huxley stopped acknowledging", sig);

@@ -273,3 +273,118 @@ timeout_s = 2.0
     .await;
     assert!(angle_diff(h3, 230.0) <= 3.0, "settled heading {h3}");
 }
+
+/// Forwards the interface's connection to the simulator, and sends each CMD line the interface
+/// writes (with when it was read) to `tx`.
+async fn cmd_tap(
+    listen: tokio::net::TcpListener,
+    sim_port: u16,
+    tx: tokio::sync::mpsc::UnboundedSender<(Instant, String)>,
+) {
+    use tokio::io::{AsyncBufReadExt, AsyncWriteExt};
+    let (inner, _) = listen.accept().await.unwrap();
+    let sim = tokio::net::TcpStream::connect(("127.0.0.1", sim_port))
+        .await
+        .unwrap();
+    let (ir, mut iw) = inner.into_split();
+    let (mut sr, mut sw) = sim.into_split();
+    tokio::spawn(async move {
+        let _ = tokio::io::copy(&mut sr, &mut iw).await;
+    });
+    let mut lines = tokio::io::BufReader::new(ir);
+    let mut line = String::new();
+    while lines.read_line(&mut line).await.is_ok_and(|n| n > 0) {
+        if line.starts_with("CMD,") {
+            let _ = tx.send((Instant::now(), line.trim_end().to_string()));
+        }
+        if sw.write_all(line.as_bytes()).await.is_err() {
+            break;
+        }
+        line.clear();
+    }
+}
+
+/// Time from a new APB (a new bearing) sent over UDP to the CMD line with that heading at the
+/// vehicle: printed (BENCHMARKS.md), not asserted; asserted only that every one arrives.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn every_new_apb_reaches_the_vehicle_as_a_cmd_line() {
+    let dir = scratch("opencpn_helm", "latency");
+    let sim_port = free_port();
+    let _sim = Kill(
+        Command::new(env!("CARGO_BIN_EXE_frontseat"))
+            .args(["sim", "--port", &sim_port.to_string()])
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .spawn()
+            .unwrap(),
+    );
+    wait_for_tcp(sim_port).await;
+    let tap = tokio::net::TcpListener::bind("127.0.0.1:0").await.unwrap();
+    let tap_port = tap.local_addr().unwrap().port();
+    let (tx, mut cmds) = tokio::sync::mpsc::unbounded_channel();
+    tokio::spawn(cmd_tap(tap, sim_port, tx));
+    let helm_port = {
+        let s = std::net::UdpSocket::bind("127.0.0.1:0").unwrap();
+        s.local_addr().unwrap().port()
+    };
+    let cfg = format!(
+        "name = \"auv1\"\nhelm_state_timeout = 2.0\n[driver.basic_simulator]\ntcp_port = {tap_port}\n[interprocess]\nenabled = false\n[opencpn.helm]\nenabled = true\nlisten = \"127.0.0.1:{helm_port}\"\nspeed = 2.0\ntimeout_s = 2.0\n"
+    );
+    let cfg_path = dir.join("interface.toml");
+    std::fs::write(&cfg_path, cfg).unwrap();
+    let _iface = Kill(
+        Command::new(env!("CARGO_BIN_EXE_frontseat"))
+            .args(["interface", "-c"])
+            .arg(&cfg_path)
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .spawn()
+            .unwrap(),
+    );
+    let to = UdpSocket::bind("127.0.0.1:0").await.unwrap();
+    let helm: std::net::SocketAddr = format!("127.0.0.1:{helm_port}").parse().unwrap();
+    let apb = |b: u32| {
+        sentence(&format!(
+            "ECAPB,A,A,0.000,R,N,V,V,{b}.000,T,WP{b},{b}.000,T,{b}.000,T"
+        ))
+    };
+    // Until the vehicle is in COMMAND: the first course reaches it as a CMD line.
+    let t0 = Instant::now();
+    loop {
+        assert!(
+            t0.elapsed() < Duration::from_secs(60),
+            "no CMD line within 60 s"
+        );
+        to.send_to(apb(10).as_bytes(), helm).await.unwrap();
+        if let Ok(Some(_)) = tokio::time::timeout(Duration::from_millis(300), cmds.recv()).await {
+            break;
+        }
+    }
+    let mut lat = Vec::new();
+    for k in 0..20u32 {
+        let b = 20 + k * 15;
+        while cmds.try_recv().is_ok() {}
+        let sent = Instant::now();
+        to.send_to(apb(b).as_bytes(), helm).await.unwrap();
+        let want = format!("HEADING:{b}");
+        loop {
+            let (at, line) = tokio::time::timeout(Duration::from_secs(5), cmds.recv())
+                .await
+                .expect("a CMD line within 5 s")
+                .unwrap();
+            if line.contains(&want) {
+                lat.push(at.duration_since(sent));
+                break;
+            }
+        }
+        tokio::time::sleep(Duration::from_millis(100)).await;
+    }
+    lat.sort();
+    println!(
+        "MEASURE opencpn helm: APB (new bearing) over UDP -> CMD line at the vehicle, {} samples: min {:?}, p50 {:?}, max {:?}",
+        lat.len(),
+        lat[0],
+        lat[lat.len() / 2],
+        lat[lat.len() - 1]
+    );
+}

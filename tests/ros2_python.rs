@@ -1,14 +1,22 @@
 //! The Python/ROS 2 side of issue 48, run for real: the Cyclone DDS twins of the ROS 2 types
 //! check themselves (`examples/ros2/frontseat_ros2_types.py --self-test`: hand-encoded golden
-//! bytes, the frontseat_msgs .msg files, the type hashes) and catch a .msg they do not match.
-//! With FRONTSEAT_REQUIRE_PYTHON_HELM set (CI), a missing `cyclonedds` fails instead of skipping.
+//! bytes, the frontseat_msgs .msg files, the type hashes) and catch a .msg they do not match; and
+//! `examples/ros2/cyclone_helm.py`, the ROS 2 example helm's logic over Cyclone DDS, flies the
+//! homework path through `frontseat sim` + `frontseat interface` with `[ros2]` enabled. DDS stays
+//! on loopback (the scripts set CYCLONEDDS_URI; the gateway's allow_remote_peers is false). With
+//! FRONTSEAT_REQUIRE_PYTHON_HELM set (CI), a missing `cyclonedds` fails instead of skipping.
 
 mod common;
 
-use common::procs::scratch;
+use common::procs::{Kill, free_port, scratch, wait_for_tcp};
 
+use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
+use std::time::Duration;
+
+const BIN: &str = env!("CARGO_BIN_EXE_frontseat");
+const WARP: f64 = 10.0;
 
 fn root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
@@ -123,4 +131,148 @@ fn the_self_test_fails_when_a_msg_file_and_its_twin_differ() {
         "{all}"
     );
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// A DDS domain of this test process (ports 7400 + 250 x domain): concurrent test binaries
+/// rarely share one, and the namespace keeps them apart when they do.
+fn domain() -> u16 {
+    100 + (std::process::id() % 100) as u16
+}
+
+/// `frontseat sim` and `frontseat interface` with `[ros2]` enabled in `domain` under `platform`.
+struct Stack {
+    dir: PathBuf,
+    _sim: Kill,
+    _interface: Kill,
+}
+
+impl Stack {
+    fn log(&self) -> String {
+        std::fs::read_to_string(self.dir.join("interface.log")).unwrap_or_default()
+    }
+}
+
+async fn start_stack(name: &str, platform: &str, domain: u16) -> Stack {
+    let dir = scratch("ros2py", name);
+    let sim_port = free_port();
+    let sim = Kill(
+        Command::new(BIN)
+            .args(["sim", "--port", &sim_port.to_string()])
+            .stdout(Stdio::null())
+            .stderr(std::fs::File::create(dir.join("sim.log")).unwrap())
+            .spawn()
+            .unwrap(),
+    );
+    wait_for_tcp(sim_port).await;
+    let cfg = format!(
+        r#"name = "{platform}"
+sim_warp_factor = {WARP}
+status_period = 0.5
+helm_running_timeout = 5.0
+[driver]
+name = "basic_simulator"
+[driver.basic_simulator]
+tcp_port = {sim_port}
+[ros2]
+enabled = true
+domain_id = {domain}
+"#
+    );
+    let cfg_path = dir.join("interface.toml");
+    std::fs::write(&cfg_path, cfg).unwrap();
+    let interface = Kill(
+        Command::new(BIN)
+            .arg("interface")
+            .arg("-c")
+            .arg(&cfg_path)
+            .env("RUST_LOG", "info")
+            .stdout(Stdio::null())
+            .stderr(std::fs::File::create(dir.join("interface.log")).unwrap())
+            .spawn()
+            .unwrap(),
+    );
+    Stack {
+        dir,
+        _sim: sim,
+        _interface: interface,
+    }
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn the_cyclone_dds_helm_flies_the_homework_path_over_ros2_topics() {
+    if !cyclonedds_can_run("the_cyclone_dds_helm_flies_the_homework_path_over_ros2_topics") {
+        return;
+    }
+    let domain = domain();
+    let stack = start_stack("helm", "r2auv", domain).await;
+    let mut helm = Kill(
+        Command::new("python3")
+            .arg(root().join("examples/ros2/cyclone_helm.py"))
+            .args(["--domain", &domain.to_string(), "--platform", "r2auv"])
+            .args(["--warp", &WARP.to_string()])
+            .args(["--t1", "60", "--t2", "60", "--timeout", "90"])
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap(),
+    );
+    let stdout = helm.0.stdout.take().unwrap();
+    let lines = tokio::task::spawn_blocking(move || {
+        BufReader::new(stdout)
+            .lines()
+            .map_while(Result::ok)
+            .collect::<Vec<_>>()
+    });
+    // The helm bounds itself (--timeout 90); this bounds the test if it hangs anyway.
+    let lines = tokio::time::timeout(Duration::from_secs(120), lines)
+        .await
+        .expect("the Cyclone DDS helm finished")
+        .unwrap();
+    let status = helm.0.wait().unwrap();
+    let mut err = String::new();
+    if let Some(mut e) = helm.0.stderr.take() {
+        let _ = std::io::Read::read_to_string(&mut e, &mut err);
+    }
+    let out = lines.join("\n");
+    assert!(
+        status.success(),
+        "cyclone_helm.py failed: {status}\n{out}\n{err}\ninterface log:\n{}",
+        stack.log()
+    );
+    for what in [
+        "interface state INTERFACE_COMMAND",
+        "leg east",
+        "leg south",
+        "leg northwest",
+        "triangle done",
+    ] {
+        assert!(out.contains(what), "no {what:?} in:\n{out}");
+    }
+    // Each leg moved the vehicle the way it was commanded (1.5 m/s for 60 s: about 90 m).
+    let at = |leg: &str| -> (f64, f64) {
+        let l = out
+            .lines()
+            .find(|l| l.starts_with(&format!("leg {leg} at")))
+            .unwrap();
+        let p = l.rsplit_once("position (").unwrap().1.trim_end_matches(')');
+        let (x, y) = p.split_once(", ").unwrap();
+        (x.parse().unwrap(), y.parse().unwrap())
+    };
+    let (e, s, nw) = (at("east"), at("south"), at("northwest"));
+    assert!(
+        s.0 - e.0 > 60.0 && (s.1 - e.1).abs() < 15.0,
+        "east leg {e:?} -> {s:?}:\n{out}"
+    );
+    assert!(
+        s.1 - nw.1 > 60.0 && (nw.0 - s.0).abs() < 15.0,
+        "south leg {s:?} -> {nw:?}:\n{out}"
+    );
+    // Equal legs: the northwest leg passes near the start.
+    let closest: f64 = out
+        .lines()
+        .find_map(|l| l.strip_prefix("triangle done: closest approach "))
+        .and_then(|r| r.split(' ').next())
+        .and_then(|v| v.parse().ok())
+        .expect("closest approach printed");
+    assert!(closest < 15.0, "closest approach {closest} m:\n{out}");
 }

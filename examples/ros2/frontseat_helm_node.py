@@ -14,7 +14,8 @@ tests/ros2_python.rs). On a ROS 2 machine, with frontseat_msgs built in your wor
 Subscribes /<platform>/frontseat/node_status (sensor-data QoS) and /<platform>/frontseat/status;
 publishes /<platform>/frontseat/helm_state (HELM_DRIVE, 1 Hz) and desired_course (QoS depth 10,
 reliable). Once the interface reports COMMAND: 1.5 m/s east for t1 s, south for t2 s, then
-northwest until the vehicle stops closing on its start; exits 0 when done, 1 on timeout.
+northwest until the vehicle stops closing on its start; exits 0 when done, 1 on timeout, 130 on
+Ctrl-C.
 Parameters: platform, t1, t2, speed, warp (the interface's sim_warp_factor), timeout (wall s).
 """
 
@@ -72,18 +73,25 @@ def main():
     rclpy.init(args=sys.argv)
     node = FrontseatHelm()
     deadline = time.monotonic() + node.timeout
+    interrupted = False
     try:
         while rclpy.ok() and not node.path.done and time.monotonic() < deadline:
             rclpy.spin_once(node, timeout_sec=0.5)
+        # rclpy's own SIGINT handler shuts the context down: the loop ends with ok() false.
+        interrupted = not rclpy.ok()
     except KeyboardInterrupt:
-        return 130
+        interrupted = True
     finally:
         done = node.path.done
         node.destroy_node()
         rclpy.try_shutdown()
-    if not done:
-        print("helm: timed out in leg", node.path.leg, file=sys.stderr, flush=True)
-    return 0 if done else 1
+    if done:
+        return 0
+    if interrupted:
+        print("helm: interrupted", file=sys.stderr, flush=True)
+        return 130
+    print("helm: timed out in leg", node.path.leg, file=sys.stderr, flush=True)
+    return 1
 
 
 if __name__ == "__main__":

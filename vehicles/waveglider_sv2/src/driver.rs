@@ -357,6 +357,10 @@ impl Driver for WavegliderSv2Driver {
             return;
         };
         // One slot, as Goby3: a newer heading replaces one the C&C has not pulled yet.
+        // No setpoint lane here (no `direct_command`): the payload never writes a command on
+        // its own, the C&C pulls it with RequestQueuedMessage and the heading goes out as the
+        // reply to that transaction, so there is nothing a publisher's thread could write at
+        // once (ARCHITECTURE.md "The lane per vehicle family").
         let new = Queued {
             heading,
             asker: Asker::of(req),

@@ -14,7 +14,7 @@
 /// operators filter and grep on it.
 const LOG_TARGET: &str = "frontseat_dune::driver";
 
-use std::sync::Arc;
+use std::sync::{Arc, Mutex, MutexGuard};
 use std::time::Duration;
 
 use crate::imc::{self, ByteOrder, Header, Message, consts};
@@ -22,9 +22,9 @@ use crate::infer::Position;
 use frontseat_config::InterfaceConfig;
 
 use frontseat_actors::clock::SimClock;
-use frontseat_actors::driver::{Driver, DriverContext, DriverIoEvent, SignalSink};
+use frontseat_actors::driver::{DirectCommand, Driver, DriverContext, DriverIoEvent, SignalSink};
 use frontseat_actors::drivers::kit::{
-    Asker, DataWatch, OwnedTask, config_secs, log_due, refuse, send_bytes,
+    Asker, DataWatch, OwnedTask, config_secs, log_due, raw_binary, refuse, send_bytes,
 };
 use frontseat_actors::link::LineWriter;
 use frontseat_actors::link::byte::{self, ByteLinkConfig, LinkStats, Transport};
@@ -133,10 +133,91 @@ struct Plan {
     confirmed: bool,
     last_reference: Option<Duration>,
 }
+/// Where a lane Reference may go, as the driver last left it: our plan running, the vehicle
+/// taking a backseat's course, its IMC address and last position, the course in force.
+#[derive(Clone, Copy)]
+struct Ready {
+    dst: u16,
+    lat: f64,
+    lon: f64,
+    course: Option<(f64, f64, Option<f64>)>,
+}
+
+/// What the driver shares with the setpoint lane's [`DirectReference`] (ARCHITECTURE.md "The lane
+/// per vehicle family"): `ready`, published by the driver after every message (None: the course
+/// goes the actors' way), and the course the lane last wrote a Reference for, which the driver
+/// takes as its own at the start of its next message — so the Reference's re-sends every
+/// `reference_period` and the helm's `course_timeout` go on from it.
+#[derive(Default)]
+struct SteerState {
+    ready: Option<Ready>,
+    written: Option<(f64, f64, Option<f64>)>,
+}
+
+#[derive(Clone, Default)]
+struct Steer(Arc<Mutex<SteerState>>);
+
+impl Steer {
+    fn lock(&self) -> MutexGuard<'_, SteerState> {
+        self.0.lock().unwrap_or_else(|p| p.into_inner())
+    }
+}
+
+/// The setpoint lane's way to a DUNE vehicle: a new course's Reference (toward the point ahead
+/// on its heading, as the driver computes it) written from the publisher's thread while our
+/// FollowReference plan runs. Starting and ending the plan stay the driver's.
+struct DirectReference {
+    writer: LineWriter,
+    steer: Steer,
+    own_id: u16,
+    lookahead_m: f64,
+}
+
+impl DirectCommand for DirectReference {
+    fn send_now(&self, req: &CommandRequest) -> Option<Raw> {
+        let c = req.desired_course.as_ref()?;
+        let (heading, speed, depth) = (c.heading(), c.speed(), c.depth);
+        // What the driver's own path would refuse goes there to be refused.
+        if !(heading.is_finite()
+            && speed.is_finite()
+            && speed >= 0.0
+            && depth.is_none_or(|d| d.is_finite()))
+        {
+            return None;
+        }
+        if !self.writer.writes_at_once() {
+            return None;
+        }
+        let mut st = self.steer.lock();
+        let ready = st.ready?;
+        let now_course = st.written.or(ready.course);
+        // Unchanged: the driver's path renews it without a write.
+        if now_course == Some((heading, speed, depth)) {
+            return None;
+        }
+        let r = crate::infer::steering_reference(
+            ready.lat,
+            ready.lon,
+            heading,
+            speed,
+            depth,
+            self.lookahead_m,
+        );
+        let h = Header::new(self.own_id, ready.dst, SimClock::unix_now());
+        let bytes = imc::encode(&h, &r.into(), ByteOrder::Little).ok()?;
+        self.writer.write_bytes(bytes.clone()).ok()?;
+        st.written = Some((heading, speed, depth));
+        Some(raw_binary(bytes))
+    }
+}
 
 pub struct DuneDriver {
     settings: Settings,
     writer: Option<LineWriter>,
+    /// Shared with the lane's [`DirectReference`].
+    steer: Steer,
+    /// While the link is open: the setpoint lane's way to it.
+    direct: Option<Arc<DirectReference>>,
     link_task: OwnedTask,
     pub link_stats: Arc<LinkStats>,
     vehicle_id: Option<u16>,
@@ -169,6 +250,8 @@ impl DuneDriver {
         Self {
             settings,
             writer: None,
+            steer: Steer::default(),
+            direct: None,
             link_task: OwnedTask::default(),
             link_stats: Arc::new(LinkStats::default()),
             vehicle_id,
@@ -193,6 +276,53 @@ impl DuneDriver {
             info_log: RateLimitedLog::for_bad_input(),
             counters: DuneCounters::default(),
         }
+    }
+
+    /// At the start of every message: the course the lane wrote a Reference for becomes the
+    /// driver's, renewed now, its Reference sent now.
+    fn absorb(&mut self, now: Duration) {
+        let written = self.steer.lock().written.take();
+        if let Some(w) = written {
+            self.adopt(w, now);
+        }
+    }
+
+    /// The lane's course `(heading, speed, depth)`, its Reference written: the driver's own now.
+    fn adopt(&mut self, (heading, speed, depth): (f64, f64, Option<f64>), now: Duration) {
+        self.course = Some(Course {
+            heading,
+            speed,
+            depth,
+            renewed: now,
+        });
+        self.counters.references_sent += 1;
+        if let Some(plan) = &mut self.plan {
+            plan.last_reference = Some(now);
+        }
+    }
+
+    /// At the end of every message: where a lane Reference may go now, if anywhere.
+    fn publish_steer(&mut self) {
+        let ready = match (
+            self.plan,
+            self.vehicle_id,
+            self.position,
+            self.writer.is_some(),
+        ) {
+            (Some(_), Some(dst), Some(p), true)
+                if self.state == FrontSeatState::FrontseatAcceptingCommands
+                    && self.interface == InterfaceState::InterfaceCommand =>
+            {
+                Some(Ready {
+                    dst,
+                    lat: p.lat,
+                    lon: p.lon,
+                    course: self.course.map(|c| (c.heading, c.speed, c.depth)),
+                })
+            }
+            _ => None,
+        };
+        self.steer.lock().ready = ready;
     }
 
     /// Why the frontseat state is what it is.
@@ -285,20 +415,9 @@ impl Driver for DuneDriver {
     }
 
     fn handle_io(&mut self, ev: DriverIoEvent, now: Duration, sig: &mut dyn SignalSink) {
-        match ev {
-            DriverIoEvent::Connected(w) => {
-                tracing::info!(target: LOG_TARGET, address = %self.settings.address, "IMC BackSeat link open");
-                self.writer = Some(w);
-            }
-            DriverIoEvent::Frame(b) => self.on_packet(b, now, sig),
-            DriverIoEvent::Line(_) => self.bad("text line on an IMC link"),
-            DriverIoEvent::BadInput(what) => self.bad(&what),
-            DriverIoEvent::Disconnected(reason) => {
-                tracing::warn!(target: LOG_TARGET, %reason, "IMC BackSeat link lost; reconnecting");
-                self.writer = None;
-                self.vehicle_lost("link lost");
-            }
-        }
+        self.absorb(now);
+        self.io_event(ev, now, sig);
+        self.publish_steer();
     }
 
     fn send_command_to_frontseat(
@@ -307,6 +426,96 @@ impl Driver for DuneDriver {
         now: Duration,
         sig: &mut dyn SignalSink,
     ) {
+        self.absorb(now);
+        self.take_course(req, now, sig);
+        self.publish_steer();
+    }
+
+    fn send_data_to_frontseat(
+        &mut self,
+        _data: &InterfaceData,
+        _now: Duration,
+        _sig: &mut dyn SignalSink,
+    ) {
+        // No data channel to DUNE.
+    }
+
+    fn send_raw_to_frontseat(&mut self, raw: &Raw, _now: Duration, sig: &mut dyn SignalSink) {
+        let bytes = raw.raw.as_deref().unwrap_or_default();
+        if bytes.is_empty() || bytes.len() > MAX_RAW_BYTES {
+            return self.bad("raw_send_request is not 1 to 16384 bytes of IMC packets");
+        }
+        // Whole, checked packets only: a broken one would cost the vehicle's parser a resync.
+        let mut d = imc::Deframer::new();
+        let mut ok = true;
+        d.feed(bytes, &mut |r| ok &= r.is_ok());
+        if !ok || d.buffered() != 0 {
+            return self.bad("raw_send_request is not whole IMC packets with good CRCs");
+        }
+        self.write_bytes(bytes.to_vec(), sig);
+    }
+
+    fn interface_status(&mut self, status: &InterfaceStatus) {
+        self.on_interface_status(status);
+        self.publish_steer();
+    }
+
+    fn do_loop(&mut self, now: Duration, sig: &mut dyn SignalSink) {
+        self.absorb(now);
+        self.tick(now, sig);
+        self.publish_steer();
+    }
+
+    fn direct_command(&self) -> Option<Arc<dyn DirectCommand>> {
+        self.direct.clone().map(|d| d as Arc<dyn DirectCommand>)
+    }
+
+    fn frontseat_state(&self) -> FrontSeatState {
+        self.state
+    }
+
+    fn frontseat_providing_data(&self) -> bool {
+        self.nav.providing()
+    }
+
+    fn stop(&mut self) {
+        // An orderly stop ends our plan rather than leaving it to the maneuver's timeout.
+        let mut sink = NullSink;
+        self.stop_plan("the interface is stopping", Duration::ZERO, &mut sink);
+        self.writer = None;
+        self.direct = None;
+        self.steer.lock().ready = None;
+    }
+}
+
+/// The driver's work per message, between [`DuneDriver::absorb`] and
+/// [`DuneDriver::publish_steer`].
+impl DuneDriver {
+    fn io_event(&mut self, ev: DriverIoEvent, now: Duration, sig: &mut dyn SignalSink) {
+        match ev {
+            DriverIoEvent::Connected(w) => {
+                tracing::info!(target: LOG_TARGET, address = %self.settings.address, "IMC BackSeat link open");
+                self.direct = Some(Arc::new(DirectReference {
+                    writer: w.clone(),
+                    steer: self.steer.clone(),
+                    own_id: self.settings.own_id,
+                    lookahead_m: self.settings.lookahead_m,
+                }));
+                self.writer = Some(w);
+            }
+            DriverIoEvent::Frame(b) => self.on_packet(b, now, sig),
+            DriverIoEvent::Line(_) => self.bad("text line on an IMC link"),
+            DriverIoEvent::BadInput(what) => self.bad(&what),
+            DriverIoEvent::Disconnected(reason) => {
+                tracing::warn!(target: LOG_TARGET, %reason, "IMC BackSeat link lost; reconnecting");
+                self.writer = None;
+                self.direct = None;
+                self.vehicle_lost("link lost");
+            }
+        }
+    }
+
+    fn take_course(&mut self, req: &CommandRequest, now: Duration, sig: &mut dyn SignalSink) {
         let Some(c) = &req.desired_course else {
             refuse(req, "the DUNE driver takes desired_course only", sig);
             return;
@@ -348,31 +557,7 @@ impl Driver for DuneDriver {
         Asker::of(req).answer(sig, true, 0, None);
     }
 
-    fn send_data_to_frontseat(
-        &mut self,
-        _data: &InterfaceData,
-        _now: Duration,
-        _sig: &mut dyn SignalSink,
-    ) {
-        // No data channel to DUNE.
-    }
-
-    fn send_raw_to_frontseat(&mut self, raw: &Raw, _now: Duration, sig: &mut dyn SignalSink) {
-        let bytes = raw.raw.as_deref().unwrap_or_default();
-        if bytes.is_empty() || bytes.len() > MAX_RAW_BYTES {
-            return self.bad("raw_send_request is not 1 to 16384 bytes of IMC packets");
-        }
-        // Whole, checked packets only: a broken one would cost the vehicle's parser a resync.
-        let mut d = imc::Deframer::new();
-        let mut ok = true;
-        d.feed(bytes, &mut |r| ok &= r.is_ok());
-        if !ok || d.buffered() != 0 {
-            return self.bad("raw_send_request is not whole IMC packets with good CRCs");
-        }
-        self.write_bytes(bytes.to_vec(), sig);
-    }
-
-    fn interface_status(&mut self, status: &InterfaceStatus) {
+    fn on_interface_status(&mut self, status: &InterfaceStatus) {
         let s = status.state();
         if s == InterfaceState::InterfaceCommand && self.interface != s {
             self.command_entered = true;
@@ -380,7 +565,7 @@ impl Driver for DuneDriver {
         self.interface = s;
     }
 
-    fn do_loop(&mut self, now: Duration, sig: &mut dyn SignalSink) {
+    fn tick(&mut self, now: Duration, sig: &mut dyn SignalSink) {
         if let Some(t) = self.last_vs
             && now.saturating_sub(t) > self.settings.vehicle_state_timeout
         {
@@ -423,21 +608,6 @@ impl Driver for DuneDriver {
                 }
             }
         }
-    }
-
-    fn frontseat_state(&self) -> FrontSeatState {
-        self.state
-    }
-
-    fn frontseat_providing_data(&self) -> bool {
-        self.nav.providing()
-    }
-
-    fn stop(&mut self) {
-        // An orderly stop ends our plan rather than leaving it to the maneuver's timeout.
-        let mut sink = NullSink;
-        self.stop_plan("the interface is stopping", Duration::ZERO, &mut sink);
-        self.writer = None;
     }
 }
 

@@ -69,6 +69,8 @@ impl DuneDriver {
         let Some(plan) = self.plan.take() else {
             return;
         };
+        // No lane Reference after the MANDONE.
+        self.steer.lock().ready = None;
         self.last_stop = Some(now);
         tracing::info!(target: super::LOG_TARGET, %why, "DUNE: ending our FollowReference plan (MANDONE, STOP)");
         let (lat, lon) = self
@@ -103,7 +105,17 @@ impl DuneDriver {
         self.counters.plan_stops += 1;
     }
 
+    /// Every course's Reference is written here, through the actors: the setpoint lane's design
+    /// for this driver (a snapshot of our running plan and the last position, published by the
+    /// driver) is in ARCHITECTURE.md "The lane per vehicle family", not yet coded.
     pub(super) fn send_reference(&mut self, now: Duration, sig: &mut dyn SignalSink) {
+        // Under the lane's lock: a course the lane wrote since this message began is taken in
+        // first, so a re-send never writes an older course after the lane's newer one.
+        let steer = self.steer.clone();
+        let mut st = steer.lock();
+        if let Some(w) = st.written.take() {
+            self.adopt(w, now);
+        }
         let (Some(c), Some(p)) = (self.course, self.position) else {
             return;
         };

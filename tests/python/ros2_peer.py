@@ -15,7 +15,7 @@ one JSON object per line on stdout (flushed), exits 0; errors go to stderr with 
   flood --domain D --namespace NS --seconds S [--heading H --speed V]
       Writes desired_course as fast as it can, every 10th sample a malformed one under the same
       DDS type name from a second participant: too short (only `time`), oversize (`time` then a
-      1 MiB sequence), a bool byte that is 2, or present fields NaN/infinite. Last line:
+      64 KiB sequence), a bool byte that is 2, or present fields NaN/infinite. Last line:
       {"sent": all samples written, "valid": N, "malformed": {kind: n}}.
   graph --domain D --seconds S
       Prints what `ros2 node list` / `ros2 topic list` are built from: {"node": "/ns/name",
@@ -229,14 +229,14 @@ def mode_flood(a):
     bad = {
         "short": (DataWriter(bad_dp, Topic(bad_dp, topic, Short), qos=qos), lambda: Short(time=time.time())),
         "oversize": (DataWriter(bad_dp, Topic(bad_dp, topic, Oversize), qos=qos),
-                     lambda: Oversize(time=time.time(), junk=[7] * (1 << 20))),
+                     lambda: Oversize(time=time.time(), junk=[7] * (1 << 16))),
         "bad_bool": (DataWriter(bad_dp, Topic(bad_dp, topic, BadBool), qos=qos), lambda: BadBool(time=time.time())),
         "nan": (course_w, lambda: T.DesiredCourse(time=time.time(), has_heading=True, heading=float("nan"),
                                                  has_speed=True, speed=float("inf"))),
     }
     kinds = list(bad)
     counts = {k: 0 for k in kinds}
-    # The oversize sample costs a megabyte each time: one in 40, not one in 10.
+    # The oversize sample costs 64 KiB each time: one in 40, not one in 10.
     order = ["short", "bad_bool", "nan", "oversize"] + ["short", "bad_bool", "nan"] * 3
     valid, i = 0, 0
     until = time.monotonic() + a.seconds

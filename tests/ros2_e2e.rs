@@ -261,7 +261,7 @@ async fn cyclone_receives_odometry_fix_and_node_status_matching_the_vehicle() {
 
     // Every DDS node_status that Zenoh also saw is the vehicle's, field for field; its Odometry
     // and NavSatFix (same stamp) carry the same position, heading and speed.
-    let mut matched = 0;
+    let (mut matched, mut odom_matched, mut fix_matched) = (0, 0, 0);
     for n in &nsd {
         let data = &n["data"];
         let Some(v) = vehicle.iter().find(|v| v.time == f(&data["time"])) else {
@@ -281,27 +281,36 @@ async fn cyclone_receives_odometry_fix_and_node_status_matching_the_vehicle() {
             m["data"]["header"]["stamp"]["sec"].as_i64() == Some(sec)
                 && m["data"]["header"]["stamp"]["nanosec"].as_i64() == Some(nsec)
         };
-        let o = odom.iter().find(same).expect("an Odometry of that time");
-        let od = &o["data"];
-        assert_eq!(od["header"]["frame_id"], "odom");
-        assert_eq!(od["child_frame_id"], "base_link");
-        assert_eq!(f(&od["pose"]["pose"]["position"]["x"]), local.x);
-        assert_eq!(f(&od["pose"]["pose"]["position"]["y"]), local.y);
-        let q = &od["pose"]["pose"]["orientation"];
-        let yaw = 2.0 * f(&q["z"]).atan2(f(&q["w"]));
-        let heading = (90.0 - yaw.to_degrees()).rem_euclid(360.0);
-        let dh = (heading - v.pose.heading.unwrap()).rem_euclid(360.0);
-        assert!(
-            dh.min(360.0 - dh) < 1e-6,
-            "heading {heading} vs {:?}",
-            v.pose.heading
-        );
-        assert_eq!(f(&od["twist"]["twist"]["linear"]["x"]), v.speed.over_ground);
-        let x = fix.iter().find(same).expect("a NavSatFix of that time");
-        assert_eq!(f(&x["data"]["latitude"]), v.global_fix.lat);
-        assert_eq!(f(&x["data"]["longitude"]), v.global_fix.lon);
-        assert_eq!(x["data"]["status"]["status"], 0, "FIX");
+        // Sensor-data readers (best effort, keep last 5) may miss some: judge those that came.
+        if let Some(o) = odom.iter().find(same) {
+            odom_matched += 1;
+            let od = &o["data"];
+            assert_eq!(od["header"]["frame_id"], "odom");
+            assert_eq!(od["child_frame_id"], "base_link");
+            assert_eq!(f(&od["pose"]["pose"]["position"]["x"]), local.x);
+            assert_eq!(f(&od["pose"]["pose"]["position"]["y"]), local.y);
+            let q = &od["pose"]["pose"]["orientation"];
+            let yaw = 2.0 * f(&q["z"]).atan2(f(&q["w"]));
+            let heading = (90.0 - yaw.to_degrees()).rem_euclid(360.0);
+            let dh = (heading - v.pose.heading.unwrap()).rem_euclid(360.0);
+            assert!(
+                dh.min(360.0 - dh) < 1e-6,
+                "heading {heading} vs {:?}",
+                v.pose.heading
+            );
+            assert_eq!(f(&od["twist"]["twist"]["linear"]["x"]), v.speed.over_ground);
+        }
+        if let Some(x) = fix.iter().find(same) {
+            fix_matched += 1;
+            assert_eq!(f(&x["data"]["latitude"]), v.global_fix.lat);
+            assert_eq!(f(&x["data"]["longitude"]), v.global_fix.lon);
+            assert_eq!(x["data"]["status"]["status"], 0, "FIX");
+        }
     }
+    assert!(
+        odom_matched >= 5 && fix_matched >= 5,
+        "Odometry {odom_matched}, NavSatFix {fix_matched} of the vehicle's node_status times"
+    );
     assert!(
         matched >= 5,
         "only {matched} DDS node_status matched one seen over Zenoh ({} seen)",

@@ -129,7 +129,7 @@ impl Default for Ros2Config {
 pub fn check_ros_token(token: &str) -> Result<(), String> {
     let mut chars = token.chars();
     match chars.next() {
-        None => return Err("has an empty token (\"//\" or a trailing '/')".into()),
+        None => return Err("an empty token (\"//\" or a trailing '/')".into()),
         Some(c) if c.is_ascii_digit() => {
             return Err(format!("token {token:?} starts with a digit"));
         }
@@ -162,7 +162,7 @@ pub fn ros_namespace(ns: &str) -> Result<String, String> {
     let full = format!("/{body}");
     if full.len() + LONGEST_SUFFIX.len() > MAX_TOPIC_CHARS {
         return Err(format!(
-            "is {} characters: with {LONGEST_SUFFIX} it passes ROS 2's {MAX_TOPIC_CHARS}-character topic limit",
+            "{} characters: with {LONGEST_SUFFIX} it passes ROS 2's {MAX_TOPIC_CHARS}-character topic limit",
             full.len()
         ));
     }
@@ -206,7 +206,7 @@ impl Ros2Config {
             c.push(FieldError::new(
                 field,
                 value,
-                format!("not a ROS 2 namespace: it {why}; set [ros2] namespace to a valid one"),
+                format!("not a ROS 2 namespace: {why}; set [ros2] namespace to a valid one"),
             ));
         }
         for (name, v) in [

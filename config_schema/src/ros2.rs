@@ -152,7 +152,7 @@ pub fn ros_namespace(ns: &str) -> Result<String, String> {
     let body = ns.strip_prefix('/').unwrap_or(ns);
     if body.is_empty() {
         return Err(
-            "is empty (the root namespace is not allowed: topics would clash across vehicles)"
+            "empty (the root namespace is not allowed: topics would clash across vehicles)"
                 .into(),
         );
     }

@@ -276,7 +276,7 @@ _frontseat() {
             return 0
             ;;
         frontseat__subcmd__demo)
-            opts="-h --warp --out --east --south --lines --vehicle --web --web-listen --record --force --fleet --trail-behind --trail-side --fleet-connect --help"
+            opts="-h --warp --out --east --south --lines --vehicle --web --web-listen --record --force --fleet --trail-behind --trail-side --fleet-connect --ais --help"
             if [[ ${cur} == -* || ${COMP_CWORD} -eq 2 ]] ; then
                 COMPREPLY=( $(compgen -W "${opts}" -- "${cur}") )
                 return 0
@@ -323,6 +323,10 @@ _frontseat() {
                     return 0
                     ;;
                 --fleet-connect)
+                    COMPREPLY=($(compgen -f "${cur}"))
+                    return 0
+                    ;;
+                --ais)
                     COMPREPLY=($(compgen -f "${cur}"))
                     return 0
                     ;;

@@ -108,6 +108,7 @@ complete -c frontseat -n "__fish_frontseat_using_subcommand demo" -l fleet -d 'F
 complete -c frontseat -n "__fish_frontseat_using_subcommand demo" -l trail-behind -d 'With --fleet: how far behind the leader each pair of followers keeps. Unit: m' -r
 complete -c frontseat -n "__fish_frontseat_using_subcommand demo" -l trail-side -d 'With --fleet: how far to the side of the leader the followers keep (right, then left). Unit: m' -r
 complete -c frontseat -n "__fish_frontseat_using_subcommand demo" -l fleet-connect -d 'With --fleet: fly only the helms, against interfaces already running elsewhere (other hosts): their Zenoh endpoints, leader first, comma-separated (`tcp/10.0.0.11:7447,tcp/10.0.0.12:7447`). Nothing is launched' -r
+complete -c frontseat -n "__fish_frontseat_using_subcommand demo" -l ais -d 'With --fleet: send the fleet\'s AIS (NMEA 0183 `!AIVDM`, class B targets) to this UDP address, e.g. OpenCPN\'s UDP input `127.0.0.1:10110`. The vehicles get MMSIs 299000001, 299000002, ... (the leader first), from the range for simulated vehicles' -r
 complete -c frontseat -n "__fish_frontseat_using_subcommand demo" -l lines -d 'Print one status line per simulated second instead of a live line'
 complete -c frontseat -n "__fish_frontseat_using_subcommand demo" -l web -d 'Also serve the web scope and commander (on 127.0.0.1:50001 unless --web-listen)'
 complete -c frontseat -n "__fish_frontseat_using_subcommand demo" -l force -d 'With --record: replace FILE if it exists (the new recording is renamed onto it at the end)'

@@ -2,6 +2,7 @@
 //! interface config pointing at it, and waiting for published statuses with a deadline.
 #![allow(dead_code)]
 
+pub mod ais;
 pub mod goby3;
 pub mod logcap;
 pub mod mcap_python;

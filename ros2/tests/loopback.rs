@@ -149,8 +149,10 @@ async fn navigation_out_commands_in_and_bad_samples_counted() {
     nan.heading = Some(f64::NAN);
     let mut bad_bool = encode::desired_course(&good);
     bad_bool[4 + 8] = 2;
+    // Each topic matches on its own: write the batch until every kind has been judged.
     let deadline = tokio::time::Instant::now() + LONG;
-    let got = loop {
+    let mut got = 0;
+    loop {
         course_w.write(encode::desired_course(&nan), None).unwrap();
         course_w.write(bad_bool.clone(), None).unwrap();
         course_w.write(vec![0, 1, 0, 0, 1, 2, 3], None).unwrap();
@@ -158,25 +160,27 @@ async fn navigation_out_commands_in_and_bad_samples_counted() {
             .write(encode::helm_state(&HelmStateReport { state: 9 }), None)
             .unwrap();
         course_w.write(encode::desired_course(&good), None).unwrap();
-        match tokio::time::timeout(Duration::from_millis(300), courses.recv()).await {
-            Ok(Some(env)) => break env,
-            _ => assert!(
-                tokio::time::Instant::now() < deadline,
-                "no course on the bus"
-            ),
+        tokio::time::sleep(Duration::from_millis(100)).await;
+        // Only good courses ever reach the bus, marked as imported.
+        while let Ok(env) = courses.try_recv() {
+            assert_eq!(*env.msg, good);
+            assert!(env.meta().origin.is_imported());
+            got += 1;
         }
-    };
-    assert_eq!(*got.msg, good);
-    assert!(got.meta().origin.is_imported());
-    // Only good courses ever reached the bus.
-    while let Ok(env) = courses.try_recv() {
-        assert_eq!(*env.msg, good);
+        let stats = gw.stats();
+        if got > 0
+            && stats.get("imported") >= 1
+            && stats.get("refused_not_finite") >= 1
+            && stats.get("refused_malformed") >= 2
+            && stats.get("refused_bad_enum") >= 1
+        {
+            break;
+        }
+        assert!(
+            tokio::time::Instant::now() < deadline,
+            "{got} courses on the bus; {stats:?}"
+        );
     }
-    let stats = gw.stats();
-    assert!(stats.get("refused_not_finite") >= 1, "{stats:?}");
-    assert!(stats.get("refused_malformed") >= 2, "{stats:?}");
-    assert!(stats.get("refused_bad_enum") >= 1, "{stats:?}");
-    assert!(stats.get("imported") >= 1, "{stats:?}");
-    assert!(stats.get("published") >= 3, "{stats:?}");
+    assert!(gw.stats().get("published") >= 3);
     gw.close();
 }

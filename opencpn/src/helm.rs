@@ -154,7 +154,12 @@ impl Helm {
         let mut tick = tokio::time::interval(REPEAT);
         tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Skip);
         loop {
+            // Biased, the bus first: another helm heard before a datagram is read makes this
+            // one stand down before it could act on that datagram.
             tokio::select! {
+                biased;
+                Some(m) = inbox.recv() => self.on_bus(m),
+                _ = tick.tick() => self.on_tick(),
                 r = sock.recv_from(&mut buf) => match r {
                     Ok((n, _from)) => {
                         let text = String::from_utf8_lossy(&buf[..n]).into_owned();
@@ -167,8 +172,6 @@ impl Helm {
                         tokio::time::sleep(Duration::from_millis(50)).await;
                     }
                 },
-                Some(m) = inbox.recv() => self.on_bus(m),
-                _ = tick.tick() => self.on_tick(),
             }
         }
     }

@@ -13,7 +13,8 @@ pub struct BenchArgs {
     pub json: bool,
     /// Only these rows, comma-separated (e.g. `--rows P1,P2,M1,M2` for an A/B of two builds).
     /// Floors: L0 (loopback line → a task wakes) always runs; L1 (→ a thread blocked in read(2))
-    /// and L2 (a pseudo-terminal line → a task wakes) run with the rows whose last hop they are;
+    /// L2 (a pseudo-terminal line → a task wakes) and L3 (an SSE event → the client parses it)
+    /// run with the rows whose last hop they are;
     /// every latency row gives its ratio over its own floor. Vehicle families, each through its
     /// emulator: B1/B2 Bluefin (TCP), I1/I2 Iver3, S1/S2 Wave Glider SV2 (pty), A1 ArduPilot
     /// Rover, U1 ArduSub, D1 DUNE (TCP); <F>1 navigation → node_status, <F>2 desired_course →

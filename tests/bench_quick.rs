@@ -4,9 +4,9 @@
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
-const ROWS: [&str; 31] = [
-    "L0", "L1", "L2", "P1", "P2", "P3", "P4", "P5", "P6", "M1", "M2", "G1", "G2", "Z1", "Z2", "Z3",
-    "T1", "W1", "R1", "R2", "F1", "F2", "B1", "B2", "I1", "I2", "S1", "S2", "A1", "U1", "D1",
+const ROWS: [&str; 32] = [
+    "L0", "L1", "L2", "L3", "P1", "P2", "P3", "P4", "P5", "P6", "M1", "M2", "G1", "G2", "Z1", "Z2",
+    "Z3", "T1", "W1", "R1", "R2", "F1", "F2", "B1", "B2", "I1", "I2", "S1", "S2", "A1", "U1", "D1",
 ];
 
 /// One bench at a time: two at once on a 2-core machine starve each other's children (the
@@ -62,8 +62,8 @@ fn quick_bench_prints_every_row_and_exits_0() {
         assert!(row.chars().any(|c| c.is_ascii_digit()), "{row}");
     }
     for id in [
-        "L0", "L1", "L2", "P1", "P2", "P5", "M1", "M2", "G1", "G2", "Z1", "Z2", "W1", "B1", "B2",
-        "I1", "I2", "S1", "S2", "A1", "U1", "D1",
+        "L0", "L1", "L2", "L3", "P1", "P2", "P5", "M1", "M2", "G1", "G2", "Z1", "Z2", "W1", "B1",
+        "B2", "I1", "I2", "S1", "S2", "A1", "U1", "D1",
     ] {
         let row = stdout
             .lines()
@@ -81,7 +81,8 @@ fn quick_bench_prints_every_row_and_exits_0() {
         // a blocking reader's for the rows ending at the scripted frontseat, a pseudo-terminal's
         // for the serial vehicles, L0's for the rest.
         let floor = match id {
-            "L0" | "L1" | "L2" | "P5" => None,
+            "L0" | "L1" | "L2" | "L3" | "P5" => None,
+            "W1" => Some("L3"),
             "P2" | "M2" | "G2" | "Z2" | "B2" => Some("L1"),
             "I1" | "I2" | "S1" | "S2" => Some("L2"),
             _ => Some("L0"),
@@ -136,7 +137,7 @@ fn rows_picks_rows_and_refuses_unknown_ones() {
     let (ok, stdout, stderr) = run_bench(&["--quick", "--rows", "P1,X9"]);
     assert!(!ok, "an unknown row must fail: {stdout}");
     assert!(stderr.contains("unknown row `X9`"), "{stderr}");
-    assert!(stderr.contains("L0, L1, L2, P1"), "{stderr}");
+    assert!(stderr.contains("L0, L1, L2, L3, P1"), "{stderr}");
 }
 
 #[test]

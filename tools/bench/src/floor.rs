@@ -3,7 +3,8 @@
 //! reading tokio task wakes with it. L1: the same line → a thread blocked in `read(2)` wakes with
 //! it (the scripted frontseat's reader: the end of P2, M2, G2, Z2). L2: a line written on a
 //! pseudo-terminal → the tokio task reading its other side wakes with it (the serial vehicles'
-//! link, Iver3 and SV2; B2's relay reads as L1 does). On a small VM the idle wake-up latency dominates every absolute figure
+//! link, Iver3 and SV2; B2's relay reads as L1 does). L3 (in `web`): an SSE event written by a
+//! server task → the client parses it (W1's last hop). On a small VM the idle wake-up latency dominates every absolute figure
 //! (an idle 2-core machine is slower than a busy one), so each latency row is also given as a
 //! ratio over its own floor ([`floor_of`]): only the ratios compare between runs, and a row is
 //! never compared with a cheaper wake-up than its own last hop has.
@@ -110,9 +111,11 @@ pub async fn run(count: usize, rate_hz: f64) -> Row {
 /// is not a data-path latency).
 pub fn floor_of(id: &str) -> Option<&'static str> {
     match id {
-        // The last hop is a tokio task (a bus subscriber, a MOOS client, a Zenoh subscriber,
-        // the web page model's reader) woken by data from another thread or process.
-        "P1" | "M1" | "G1" | "Z1" | "W1" | "A1" | "U1" | "D1" | "B1" => Some("L0"),
+        // The last hop is a tokio task (a bus subscriber, a MOOS client, a Zenoh subscriber)
+        // woken by data from another thread or process.
+        "P1" | "M1" | "G1" | "Z1" | "A1" | "U1" | "D1" | "B1" => Some("L0"),
+        // The web page's model reads an SSE stream (`web::run_floor`).
+        "W1" => Some("L3"),
         // The scripted frontseat, and the bench's relay in front of the Huxley, read with a
         // blocking read(2) on a plain thread.
         "P2" | "M2" | "G2" | "Z2" | "B2" => Some("L1"),
@@ -123,7 +126,7 @@ pub fn floor_of(id: &str) -> Option<&'static str> {
 }
 
 /// The floors [`floor_of`] names, for the row selection.
-pub const FLOORS: [&str; 3] = ["L0", "L1", "L2"];
+pub const FLOORS: [&str; 4] = ["L0", "L1", "L2", "L3"];
 
 /// Adds "p50 ×a, p99 ×b over <floor>" to every data-path latency row (and the ratios to its
 /// JSON: `floor`, `p50_over_floor`, `p99_over_floor`; `p50_over_l0`, `p99_over_l0` as well,

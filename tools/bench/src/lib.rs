@@ -65,9 +65,9 @@ pub struct BenchOptions {
 }
 
 /// Every row's id, in the order of the table.
-pub const ROW_IDS: [&str; 31] = [
-    "L0", "L1", "L2", "P1", "P2", "P3", "P4", "P5", "P6", "M1", "M2", "G1", "G2", "Z1", "Z2", "Z3",
-    "T1", "W1", "R1", "R2", "F1", "F2", "B1", "B2", "I1", "I2", "S1", "S2", "A1", "U1", "D1",
+pub const ROW_IDS: [&str; 32] = [
+    "L0", "L1", "L2", "L3", "P1", "P2", "P3", "P4", "P5", "P6", "M1", "M2", "G1", "G2", "Z1", "Z2",
+    "Z3", "T1", "W1", "R1", "R2", "F1", "F2", "B1", "B2", "I1", "I2", "S1", "S2", "A1", "U1", "D1",
 ];
 
 /// Which rows a run measures. Rows measured together (P4/P5, M1/M2, G1/G2, Z1–Z3/T1, a vehicle
@@ -353,6 +353,9 @@ pub async fn run(args: BenchOptions) -> ExitCode {
     }
     if sel.wants("L2") {
         rows.push(floor::run_l2(plan.inproc.p1_count, plan.inproc.p1_rate_hz).await);
+    }
+    if sel.wants("L3") {
+        rows.push(web::run_floor(plan.web).await);
     }
     if sel.any(&["P1", "P2", "P6", "M1", "M2"]) {
         rows.extend(inproc::run(plan.inproc, &sel).await);

@@ -142,3 +142,120 @@ async fn run_inner(plan: Plan) -> Result<Row, String> {
     row.extra = json!({"written": plan.count, "lost": lost, "dropped": dropped});
     Ok(row)
 }
+
+pub const L3: &str = "floor: an SSE event written by a server task on loopback → the reading client parses it (W1's rate)";
+
+/// Measures L3, W1's floor: a bare event stream with nothing in between — a server task that
+/// takes each event from a channel and writes it as `data: {json}` on its HTTP/1.1 connection
+/// (as the web scope's stream writer does), a client task that reads and parses it (as W1's
+/// does). No bus, no hub, no reflection: what any "event over SSE → the page's model" path costs
+/// here at least.
+pub async fn run_floor(plan: Plan) -> Row {
+    match floor_inner(plan).await {
+        Ok(r) => r,
+        Err(why) => Row::failed("L3", L3, why),
+    }
+}
+
+async fn floor_inner(plan: Plan) -> Result<Row, String> {
+    let listener = tokio::net::TcpListener::bind(("127.0.0.1", 0))
+        .await
+        .map_err(|e| format!("bind: {e}"))?;
+    let addr = listener.local_addr().map_err(|e| e.to_string())?;
+    let (ev_tx, mut ev_rx) = tokio::sync::mpsc::unbounded_channel::<u64>();
+    let server = tokio::spawn(async move {
+        let Ok((s, _)) = listener.accept().await else {
+            return;
+        };
+        let _ = s.set_nodelay(true);
+        let mut s = BufReader::new(s);
+        // The request, up to its blank line.
+        let mut line = String::new();
+        loop {
+            line.clear();
+            match s.read_line(&mut line).await {
+                Ok(0) | Err(_) => return,
+                Ok(_) if line.trim_end().is_empty() => break,
+                Ok(_) => {}
+            }
+        }
+        let mut s = s.into_inner();
+        let head =
+            "HTTP/1.1 200 OK\r\ncontent-type: text/event-stream\r\ncache-control: no-cache\r\n\r\n";
+        if s.write_all(head.as_bytes()).await.is_err() {
+            return;
+        }
+        while let Some(seq) = ev_rx.recv().await {
+            let ev = format!("data: {}\n\n", json!({ "seq": seq }));
+            if s.write_all(ev.as_bytes()).await.is_err() {
+                return;
+            }
+        }
+    });
+    let mut s = TcpStream::connect(addr).await.map_err(|e| e.to_string())?;
+    let _ = s.set_nodelay(true);
+    s.write_all(format!("GET /events HTTP/1.1\r\nHost: {addr}\r\n\r\n").as_bytes())
+        .await
+        .map_err(|e| e.to_string())?;
+    let mut reader = BufReader::new(s);
+    let (tx, mut rx) = tokio::sync::mpsc::unbounded_channel::<(u64, Instant)>();
+    let reading = tokio::spawn(async move {
+        let mut line = String::new();
+        loop {
+            line.clear();
+            match reader.read_line(&mut line).await {
+                Ok(0) | Err(_) => break,
+                Ok(_) => {}
+            }
+            let Some(data) = line.trim_end().strip_prefix("data: ") else {
+                continue;
+            };
+            let Ok(ev) = serde_json::from_str::<Value>(data) else {
+                continue;
+            };
+            let at = Instant::now();
+            if let Some(seq) = ev["seq"].as_u64() {
+                let _ = tx.send((seq, at));
+            }
+        }
+    });
+    let period = Duration::from_secs_f64(1.0 / plan.rate_hz);
+    let mut sent = HashMap::with_capacity(plan.count);
+    let mut tick = tokio::time::interval(period);
+    tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
+    for i in 0..plan.count as u64 {
+        tick.tick().await;
+        sent.insert(i, Instant::now());
+        if ev_tx.send(i).is_err() {
+            break;
+        }
+    }
+    let mut h = Hist::new();
+    let mut got = 0usize;
+    let deadline = tokio::time::Instant::now() + Duration::from_secs(2);
+    while got < plan.count {
+        match tokio::time::timeout_at(deadline, rx.recv()).await {
+            Ok(Some((seq, at))) => {
+                if let Some(t0) = sent.get(&seq) {
+                    h.record(at.saturating_duration_since(*t0));
+                    got += 1;
+                }
+            }
+            _ => break,
+        }
+    }
+    reading.abort();
+    server.abort();
+    let lost = plan.count - got;
+    Ok(latency_row(
+        "L3",
+        L3,
+        &h,
+        format!(
+            "{} events at {} Hz: a channel → the server task's write on loopback → the client task reads and parses; lost {lost}",
+            plan.count, plan.rate_hz
+        ),
+        plan.count,
+        lost,
+    ))
+}

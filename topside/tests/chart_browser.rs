@@ -198,14 +198,26 @@ async fn the_chart_is_drawn_under_the_fleet_and_the_selected_vehicle_is_plotted(
 
     let b = Browser::start().await;
     b.go(&format!("http://{}/", top.local_addr())).await;
-    b.until(
-        "both vehicles on the chart, the chart's tiles loaded, the overlay and the scale bar",
-        "topside.marks.length === 2 && topside.fleet.vehicles.every((v) => !v.stale) \
-         && document.querySelectorAll('.chart-tiles img.leaflet-tile-loaded').length > 0 \
-         && document.querySelectorAll('path.chart-geojson').length === 1 \
-         && /^\\d+ k?m$/.test(document.querySelector('.leaflet-control-scale-line').textContent)",
-    )
-    .await;
+    for (what, expr) in [
+        (
+            "both vehicles on the chart, fresh",
+            "topside.marks.length === 2 && topside.fleet.vehicles.every((v) => !v.stale)",
+        ),
+        (
+            "the chart's tiles loaded",
+            "document.querySelectorAll('.chart-tiles img.leaflet-tile-loaded').length > 0",
+        ),
+        (
+            "the overlay",
+            "document.querySelectorAll('path.chart-geojson').length === 1",
+        ),
+        (
+            "the scale bar in metres",
+            "/^\\d+ k?m$/.test(document.querySelector('.leaflet-control-scale-line').textContent)",
+        ),
+    ] {
+        until(&b, what, expr).await;
+    }
     // Fitted to the fleet on load: both marks inside the view.
     b.until(
         "the view fitted to the fleet",
@@ -215,7 +227,7 @@ async fn the_chart_is_drawn_under_the_fleet_and_the_selected_vehicle_is_plotted(
 
     // Look at zoom Z, one of the chart's own, and wait for its tiles.
     b.js(&format!(
-        "topside.map.setView([{}, {}], {Z}, {{animate: false}}); return true",
+        "topside.follow = false; topside.map.setView([{}, {}], {Z}, {{animate: false}}); return true",
         origin.lat, origin.lon
     ))
     .await;
@@ -336,11 +348,18 @@ async fn the_chart_is_drawn_under_the_fleet_and_the_selected_vehicle_is_plotted(
             .forEach((e) => e.style.visibility = ''); return true")
         .await;
 
-    // Zoom with the control; then "fit the fleet" follows the fleet again.
+    // "Fit the fleet" follows it again; the zoom control zooms and stops following; fit again.
+    b.click("#fit").await;
+    b.until(
+        "following the fleet",
+        "topside.follow && topside.marks.every((m) => topside.map.getBounds().contains([m.lat, m.lon]))",
+    )
+    .await;
+    let z0 = b.js("return topside.map.getZoom()").await;
     b.click(".leaflet-control-zoom-in").await;
     b.until(
-        "zoomed in by the control",
-        &format!("topside.map.getZoom() === {}", Z + 1),
+        "zoomed in by the control, which stops following the fleet",
+        &format!("!topside.follow && topside.map.getZoom() > {z0}"),
     )
     .await;
     b.click("#fit").await;
@@ -380,7 +399,11 @@ async fn the_chart_is_drawn_under_the_fleet_and_the_selected_vehicle_is_plotted(
         )
         .unwrap();
     };
-    b.click(r#"#rows tr[data-vehicle="auv1"]"#).await;
+    // Selected by its mark on the chart (made once and kept, unlike the table's rows, which are
+    // rebuilt each second and can go stale under a click).
+    b.click(r#".vmark[data-vehicle="auv1"]"#).await;
+    b.until("auv1 selected", "topside.selected === 'auv1'")
+        .await;
     let plotted = "topside.plots.lastDraw && topside.plots.lastDraw.heading.actual >= 3 \
          && topside.plots.lastDraw.heading.desired >= 1 && topside.plots.lastDraw.speed.desired >= 1 \
          && topside.plots.lastDraw.speed.actual >= 3 && topside.plots.lastDraw.band.includes('INTERFACE_COMMAND')";
@@ -435,6 +458,32 @@ async fn the_chart_is_drawn_under_the_fleet_and_the_selected_vehicle_is_plotted(
         v.silence().await;
     }
     sim.shutdown().await;
+}
+
+/// The map's state, when a wait fails.
+const MAP_STATE: &str = "return JSON.stringify({zoom: topside.map.getZoom(), center: topside.map.getCenter(),
+  size: topside.map.getSize(), follow: topside.follow, chart: topside.chart, marks: topside.marks,
+  tiles: [...document.querySelectorAll('.leaflet-tile-pane img')].map((i) => [i.src, i.className, i.complete, i.naturalWidth]).slice(0, 20)})";
+
+/// Waits (bounded) until `expr` holds; on a timeout, says what the map showed.
+async fn until(b: &Browser, what: &str, expr: &str) {
+    let deadline = std::time::Instant::now() + Duration::from_secs(30);
+    loop {
+        let v = b
+            .js(&format!(
+                "try {{ return !!({expr}); }} catch (e) {{ return false; }}"
+            ))
+            .await;
+        if v == json!(true) {
+            return;
+        }
+        assert!(
+            std::time::Instant::now() < deadline,
+            "timed out waiting for {what}; the map: {}",
+            b.js(MAP_STATE).await
+        );
+        tokio::time::sleep(Duration::from_millis(100)).await;
+    }
 }
 
 /// Counts the plot canvas's pixels of the actual line's, the desired line's and the COMMAND

@@ -152,8 +152,7 @@ pub fn ros_namespace(ns: &str) -> Result<String, String> {
     let body = ns.strip_prefix('/').unwrap_or(ns);
     if body.is_empty() {
         return Err(
-            "empty (the root namespace is not allowed: topics would clash across vehicles)"
-                .into(),
+            "empty (the root namespace is not allowed: topics would clash across vehicles)".into(),
         );
     }
     for t in body.split('/') {

@@ -8,7 +8,7 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Duration;
 
-use tokio::io::{AsyncRead, AsyncReadExt, AsyncWrite};
+use tokio::io::{AsyncRead, AsyncReadExt, AsyncWrite, AsyncWriteExt};
 use tokio::net::TcpStream;
 use tokio::sync::mpsc;
 
@@ -85,6 +85,29 @@ pub fn spawn(
     io: IoSender,
     stats: Arc<LinkStats>,
 ) -> tokio::task::JoinHandle<()> {
+    spawn_with(cfg, io, stats, false)
+}
+
+/// As [`spawn`], but a serial or TCP connection's writer writes at once from the caller's thread
+/// when nothing is queued (`LineWriter::writes_at_once`), as the TCP line link does: the way a
+/// driver with a setpoint lane (`crate::setpoint_lane`) writes a course from the publisher's
+/// thread. Only the drivers that take the lane use it (Iver3, DUNE): with it, ArduPilot's chaos
+/// run at seed 103 let target frames reach the vehicle out of COMMAND, which it does not with the
+/// queued writer — a cause not yet found, so the others keep the queued writer.
+pub fn spawn_direct(
+    cfg: ByteLinkConfig,
+    io: IoSender,
+    stats: Arc<LinkStats>,
+) -> tokio::task::JoinHandle<()> {
+    spawn_with(cfg, io, stats, true)
+}
+
+fn spawn_with(
+    cfg: ByteLinkConfig,
+    io: IoSender,
+    stats: Arc<LinkStats>,
+    direct: bool,
+) -> tokio::task::JoinHandle<()> {
     tokio::spawn(async move {
         let mut delay = cfg.backoff_initial;
         let what = cfg.transport.describe();
@@ -101,7 +124,7 @@ pub fn spawn(
                             );
                         }
                         add(&stats.opens, 1);
-                        Some(run(port, &cfg, &io, &stats).await)
+                        Some(run(port, &cfg, &io, &stats, direct).await)
                     }
                     Err(e) => {
                         add(&stats.open_failures, 1);
@@ -130,7 +153,7 @@ pub fn spawn(
                             delay = cfg.backoff_initial;
                             add(&stats.opens, 1);
                             let _ = stream.set_nodelay(true);
-                            Some(run(stream, &cfg, &io, &stats).await)
+                            Some(run(stream, &cfg, &io, &stats, direct).await)
                         }
                         Err(e) => {
                             add(&stats.open_failures, 1);
@@ -247,20 +270,44 @@ fn log_open_failure(
     }
 }
 
-async fn run<S>(stream: S, cfg: &ByteLinkConfig, io: &IoSender, stats: &Arc<LinkStats>) -> String
+async fn run<S>(
+    stream: S,
+    cfg: &ByteLinkConfig,
+    io: &IoSender,
+    stats: &Arc<LinkStats>,
+    direct: bool,
+) -> String
 where
     S: AsyncRead + AsyncWrite + Send + 'static,
 {
-    let (mut rd, wr) = tokio::io::split(stream);
-    // A write goes to the device from the caller's thread when nothing is queued (the setpoint
-    // lane's way to a serial vehicle), else to the writer task, in order.
+    let (mut rd, mut wr) = tokio::io::split(stream);
     let wstats = stats.clone();
-    let (w, drain, _closed_with_this) =
-        super::direct_writer(wr, move |n| add(&wstats.bytes_out, n as u64));
-    if !io.send(DriverIoEvent::Connected(w)) {
-        return "driver gone".into();
-    }
-    let mut writer = tokio::spawn(drain);
+    let mut _closed_with_this = None;
+    let mut writer = if direct {
+        // A write goes to the device from the caller's thread when nothing is queued (the
+        // setpoint lane's way to a serial vehicle), else to the writer task, in order.
+        let (w, drain, guard) = super::direct_writer(wr, move |n| add(&wstats.bytes_out, n as u64));
+        _closed_with_this = Some(guard);
+        if !io.send(DriverIoEvent::Connected(w)) {
+            return "driver gone".into();
+        }
+        tokio::spawn(drain)
+    } else {
+        let (tx, mut rx) = mpsc::channel::<Vec<u8>>(WRITE_QUEUE);
+        if !io.send(DriverIoEvent::Connected(LineWriter::from_sender(tx))) {
+            return "driver gone".into();
+        }
+        tokio::spawn(async move {
+            while let Some(b) = rx.recv().await {
+                if let Err(e) = wr.write_all(&b).await {
+                    return format!("write failed: {e}");
+                }
+                add(&wstats.bytes_out, b.len() as u64);
+            }
+            let _ = wr.shutdown().await;
+            "closed by driver".to_string()
+        })
+    };
     let mut deframer = Deframer::new(cfg.framing);
     let mut buf = vec![0u8; 4096];
     let reason = loop {

@@ -141,8 +141,9 @@ pub struct LinkConfig {
 /// On a TCP line link a write goes to the socket at once, from the caller's thread, when nothing
 /// is queued before it (one non-blocking `write(2)` under a short lock); what the socket does not
 /// take at once is queued for the connection's writer task, and every later write queues behind
-/// it, so bytes leave in the order they were handed over. The byte links' serial ports and TCP
-/// streams write the same way ([`direct_writer`]); without one (UDP, tests) every write is queued.
+/// it, so bytes leave in the order they were handed over. A byte link started with
+/// `byte::spawn_direct` (the drivers that take the setpoint lane) writes the same way
+/// ([`direct_writer`]); the others (and UDP, and tests) queue every write.
 #[derive(Clone, Debug)]
 pub struct LineWriter {
     tx: mpsc::Sender<Vec<u8>>,

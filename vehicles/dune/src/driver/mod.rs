@@ -407,7 +407,7 @@ impl Driver for DuneDriver {
     }
 
     fn start(&mut self, ctx: DriverContext) {
-        self.link_task.set(byte::spawn(
+        self.link_task.set(byte::spawn_direct(
             self.settings.link.clone(),
             ctx.io,
             self.link_stats.clone(),

@@ -469,7 +469,7 @@ impl Driver for Iver3Driver {
 
     fn start(&mut self, ctx: DriverContext) {
         self.clock = Some(ctx.clock);
-        self.link_task.set(byte::spawn(
+        self.link_task.set(byte::spawn_direct(
             self.settings.link.clone(),
             ctx.io,
             self.link_stats.clone(),

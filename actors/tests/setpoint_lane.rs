@@ -13,26 +13,14 @@ use std::sync::mpsc;
 use std::time::Duration;
 
 use common::frontseat::{Frontseat, drive_until_command, states};
+use common::lane::{self, course};
 use frontseat_actors::bus::Bus;
 use frontseat_actors::bus::test_util::UntypedBus as _;
 use frontseat_actors::groups;
 use frontseat_actors::interface::{InterfaceService, Snapshot};
-use frontseat_actors::proto::goby::middleware::frontseat::protobuf::{
-    CommandRequest, DesiredCourse,
-};
 use frontseat_config::InterfaceConfig;
 
 const DEADLINE: Duration = Duration::from_secs(10);
-
-/// (Every depth here is inside the default envelope's 300 m.)
-fn course(depth: f64, speed: f64) -> DesiredCourse {
-    DesiredCourse {
-        heading: Some(90.0),
-        speed: Some(speed),
-        depth: Some(depth),
-        ..Default::default()
-    }
-}
 
 /// The DEPTH a CMD line carries.
 fn depth_of(line: &str) -> f64 {
@@ -66,13 +54,9 @@ async fn in_command() -> (Frontseat, Bus, InterfaceService, Snapshot) {
 
 /// The next `n` CMD lines the frontseat reads, each within the deadline.
 fn read_cmds(fs: &Frontseat, n: usize) -> Vec<String> {
-    (0..n)
-        .map(|i| {
-            fs.cmds
-                .recv_timeout(DEADLINE)
-                .unwrap_or_else(|_| panic!("CMD line {i} of {n} never reached the vehicle"))
-                .0
-        })
+    lane::recv_n(&fs.cmds, n, DEADLINE, "CMD line")
+        .into_iter()
+        .map(|(line, _)| line)
         .collect()
 }
 
@@ -83,43 +67,9 @@ async fn courses_reach_the_vehicle_in_publish_order_whichever_path_each_takes() 
     // From a plain thread, back to back: courses (the lane's), every 10th a command_request
     // carrying its course (the actors' path), every 7th a course over the speed limit (refused).
     const N: u32 = 300;
-    let publisher = {
-        let bus = bus.clone();
-        std::thread::spawn(move || {
-            let mut expected = Vec::new();
-            let mut refused = 0u64;
-            for i in 1..=N {
-                let depth = f64::from(i);
-                if i % 7 == 0 {
-                    bus.publish(
-                        &groups::GOBY_MIDDLEWARE_FRONTSEAT_DESIRED_COURSE,
-                        course(depth, 1e6),
-                    );
-                    refused += 1;
-                    continue;
-                }
-                if i % 10 == 0 {
-                    bus.publish(
-                        &groups::GOBY_MIDDLEWARE_FRONTSEAT_COMMAND_REQUEST,
-                        CommandRequest {
-                            desired_course: Some(course(depth, 1.0)),
-                            ..Default::default()
-                        },
-                    );
-                } else {
-                    bus.publish(
-                        &groups::GOBY_MIDDLEWARE_FRONTSEAT_DESIRED_COURSE,
-                        course(depth, 1.0),
-                    );
-                }
-                expected.push(depth);
-            }
-            (expected, refused)
-        })
-    };
-    let (expected, refused) = tokio::task::spawn_blocking(move || publisher.join().unwrap())
-        .await
-        .unwrap();
+    let lane::Mix {
+        expected, refused, ..
+    } = lane::publish_mix(&bus, N, false).await;
     let lines = tokio::task::spawn_blocking({
         let n = expected.len();
         move || (read_cmds(&fs, n), fs)

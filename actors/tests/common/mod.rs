@@ -1,3 +1,4 @@
 //! What the vehicle-side tests share.
 
 pub mod frontseat;
+pub mod lane;

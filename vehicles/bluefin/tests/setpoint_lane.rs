@@ -10,22 +10,21 @@
 //! them in publish order, a refused one never; every command_request that asked gets exactly one
 //! answer.
 
-use std::collections::HashMap;
+#[path = "../../../actors/tests/common/lane.rs"]
+mod lane;
+
 use std::io::{BufRead, BufReader, Write};
 use std::net::{TcpListener, TcpStream};
-use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::{Arc, Mutex, mpsc};
-use std::time::{Duration, Instant};
+use std::sync::mpsc;
+use std::time::Duration;
 
 use frontseat_actors::bus::Bus;
 use frontseat_actors::bus::test_util::UntypedBus as _;
 use frontseat_actors::groups;
 use frontseat_actors::interface::{InterfaceService, Snapshot};
-use frontseat_actors::proto::goby::middleware::frontseat::protobuf::{
-    CommandRequest, DesiredCourse, HelmState, HelmStateReport, InterfaceState,
-};
 use frontseat_bluefin::{HuxleyHandle, HuxleyOptions, HuxleyServer, HuxleyServerOptions};
 use frontseat_config::InterfaceConfig;
+use lane::course;
 
 const DEADLINE: Duration = Duration::from_secs(20);
 
@@ -67,22 +66,13 @@ fn relay(huxley: std::net::SocketAddr, rmb: mpsc::Sender<f64>) -> u16 {
     port
 }
 
-fn course(depth: f64, speed: f64) -> DesiredCourse {
-    DesiredCourse {
-        heading: Some(90.0),
-        speed: Some(speed),
-        depth: Some(depth),
-        ..Default::default()
-    }
-}
-
 struct Rig {
     hux: HuxleyHandle,
     rmb: mpsc::Receiver<f64>,
     bus: Bus,
     service: InterfaceService,
     before: Snapshot,
-    helm: Arc<AtomicBool>,
+    helm: lane::Helm,
 }
 
 impl Rig {
@@ -111,49 +101,7 @@ impl Rig {
         cfg.driver.bluefin.huxley_tcp_port = port;
         // A loaded machine must not turn a slow $BFACK into a resend the order check would see.
         cfg.driver.bluefin.nmea_resend_interval = 30;
-        let bus = Bus::new();
-        let (state_tx, states) = mpsc::channel();
-        let state_tx = Mutex::new(state_tx);
-        let _status = bus.subscribe(
-            &groups::GOBY_MIDDLEWARE_FRONTSEAT_STATUS,
-            "test-status",
-            1024,
-            move |env| {
-                let _ = state_tx.lock().unwrap().send(env.msg.state());
-                Ok(())
-            },
-        );
-        let service = InterfaceService::start(&cfg, &bus, frontseat_drivers::BUILT_IN)
-            .await
-            .expect("the interface starts");
-        let helm = Arc::new(AtomicBool::new(true));
-        {
-            let (bus, helm) = (bus.clone(), helm.clone());
-            std::thread::spawn(move || {
-                while helm.load(Ordering::Acquire) {
-                    bus.publish(
-                        &groups::GOBY_MIDDLEWARE_FRONTSEAT_HELM_STATE,
-                        HelmStateReport {
-                            state: HelmState::HelmDrive as i32,
-                        },
-                    );
-                    std::thread::sleep(Duration::from_millis(100));
-                }
-            });
-        }
-        tokio::task::spawn_blocking(move || {
-            let until = Instant::now() + DEADLINE;
-            loop {
-                let left = until.saturating_duration_since(Instant::now());
-                match states.recv_timeout(left) {
-                    Ok(InterfaceState::InterfaceCommand) => return,
-                    Ok(_) => {}
-                    Err(e) => panic!("the interface never reached COMMAND: {e}"),
-                }
-            }
-        })
-        .await
-        .unwrap();
+        let (bus, service, helm) = lane::in_command(&cfg, DEADLINE).await;
         let before = service.snapshot(DEADLINE).await.expect("a snapshot");
         Self {
             hux,
@@ -166,17 +114,11 @@ impl Rig {
     }
 
     fn read_rmb(&self, n: usize) -> Vec<f64> {
-        (0..n)
-            .map(|i| {
-                self.rmb
-                    .recv_timeout(DEADLINE)
-                    .unwrap_or_else(|_| panic!("$BPRMB {i} of {n} never reached the Huxley"))
-            })
-            .collect()
+        lane::recv_n(&self.rmb, n, DEADLINE, "$BPRMB")
     }
 
     async fn end(self) -> HuxleyHandle {
-        self.helm.store(false, Ordering::Release);
+        self.helm.stop();
         let _ = self.service.shutdown(Duration::from_secs(3)).await;
         self.hux
     }
@@ -230,45 +172,11 @@ async fn setpoints_reach_the_huxley_in_publish_order_whichever_path_each_takes()
     // Back to back from a plain thread: courses, every 10th a command_request asking for an
     // answer, every 7th a course over the speed limit (refused, never written).
     const N: u32 = 100;
-    let publisher = {
-        let bus = rig.bus.clone();
-        std::thread::spawn(move || {
-            let (mut expected, mut asked, mut refused) = (Vec::new(), Vec::new(), 0u64);
-            for i in 1..=N {
-                let depth = f64::from(i);
-                if i % 7 == 0 {
-                    bus.publish(
-                        &groups::GOBY_MIDDLEWARE_FRONTSEAT_DESIRED_COURSE,
-                        course(depth, 1e6),
-                    );
-                    refused += 1;
-                    continue;
-                }
-                if i % 10 == 0 {
-                    bus.publish(
-                        &groups::GOBY_MIDDLEWARE_FRONTSEAT_COMMAND_REQUEST,
-                        CommandRequest {
-                            desired_course: Some(course(depth, 1.0)),
-                            response_requested: Some(true),
-                            request_id: Some(i as i32),
-                            ..Default::default()
-                        },
-                    );
-                    asked.push(i as i32);
-                } else {
-                    bus.publish(
-                        &groups::GOBY_MIDDLEWARE_FRONTSEAT_DESIRED_COURSE,
-                        course(depth, 1.0),
-                    );
-                }
-                expected.push(depth);
-            }
-            (expected, asked, refused)
-        })
-    };
-    let (expected, asked, refused) = tokio::task::spawn_blocking(move || publisher.join().unwrap())
-        .await
-        .unwrap();
+    let lane::Mix {
+        expected,
+        asked,
+        refused,
+    } = lane::publish_mix(&rig.bus, N, true).await;
     let n = expected.len();
     let (read, rig) = tokio::task::spawn_blocking(move || (rig.read_rmb(n), rig))
         .await
@@ -277,28 +185,7 @@ async fn setpoints_reach_the_huxley_in_publish_order_whichever_path_each_takes()
         read, expected,
         "every setpoint that passed reached the Huxley once, in publish order, none refused, none resent"
     );
-    let mut answers: HashMap<i32, u32> = HashMap::new();
-    let until = tokio::time::Instant::now() + DEADLINE;
-    while answers.len() < asked.len() {
-        let env = tokio::time::timeout_at(until, responses.recv())
-            .await
-            .expect("every asked command_request answered in time")
-            .expect("bus alive");
-        let id = env.msg.request_id.expect("an answer names its request");
-        assert_eq!(env.msg.request_successful, Some(true), "{:?}", env.msg);
-        *answers.entry(id).or_default() += 1;
-    }
-    let after = rig.service.snapshot(DEADLINE).await.expect("a snapshot");
-    while let Ok(env) = responses.try_recv() {
-        *answers.entry(env.msg.request_id.unwrap_or(-1)).or_default() += 1;
-    }
-    let mut got: Vec<i32> = answers.keys().copied().collect();
-    got.sort_unstable();
-    assert_eq!(got, asked, "answers only to what asked");
-    assert!(
-        answers.values().all(|&c| c == 1),
-        "exactly one answer each: {answers:?}"
-    );
+    let after = lane::one_answer_each(&mut responses, &asked, &rig.service, DEADLINE).await;
     assert_eq!(
         after.setpoints_refused - rig.before.setpoints_refused,
         refused

@@ -9,16 +9,16 @@
 //! actors for a command_request — the vehicle's References follow the publish order (a re-send
 //! never brings an older course back after a newer one); a refused course never reaches it.
 
-use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::{Arc, Mutex, mpsc};
+#[path = "../../../actors/tests/common/lane.rs"]
+mod lane;
+
+use std::sync::mpsc;
 use std::time::{Duration, Instant};
 
-use frontseat_actors::bus::Bus;
 use frontseat_actors::bus::test_util::UntypedBus as _;
 use frontseat_actors::groups;
-use frontseat_actors::interface::InterfaceService;
 use frontseat_actors::proto::goby::middleware::frontseat::protobuf::{
-    CommandRequest, DesiredCourse, HelmState, HelmStateReport, InterfaceState,
+    CommandRequest, DesiredCourse,
 };
 use frontseat_config::InterfaceConfig;
 use frontseat_dune::emulator::{DuneOptions, DuneSession};
@@ -107,48 +107,7 @@ async fn courses_take_the_lane_in_publish_order_and_a_refused_one_never_steers()
     cfg.driver.dune.address = addr.ip().to_string();
     cfg.driver.dune.port = addr.port();
     cfg.driver.dune.reconnect_initial_ms = 20;
-    let bus = Bus::new();
-    let (state_tx, states) = mpsc::channel();
-    let state_tx = Mutex::new(state_tx);
-    let _status = bus.subscribe(
-        &groups::GOBY_MIDDLEWARE_FRONTSEAT_STATUS,
-        "test-status",
-        1024,
-        move |env| {
-            let _ = state_tx.lock().unwrap().send(env.msg.state());
-            Ok(())
-        },
-    );
-    let service = InterfaceService::start(&cfg, &bus, frontseat_drivers::BUILT_IN)
-        .await
-        .expect("the interface starts");
-    let helm = Arc::new(AtomicBool::new(true));
-    {
-        let (bus, helm) = (bus.clone(), helm.clone());
-        std::thread::spawn(move || {
-            while helm.load(Ordering::Acquire) {
-                bus.publish(
-                    &groups::GOBY_MIDDLEWARE_FRONTSEAT_HELM_STATE,
-                    HelmStateReport {
-                        state: HelmState::HelmDrive as i32,
-                    },
-                );
-                std::thread::sleep(Duration::from_millis(100));
-            }
-        });
-    }
-    tokio::task::spawn_blocking(move || {
-        let until = Instant::now() + DEADLINE;
-        loop {
-            match states.recv_timeout(until.saturating_duration_since(Instant::now())) {
-                Ok(InterfaceState::InterfaceCommand) => return,
-                Ok(_) => {}
-                Err(e) => panic!("the interface never reached COMMAND: {e}"),
-            }
-        }
-    })
-    .await
-    .unwrap();
+    let (bus, service, helm) = lane::in_command(&cfg, DEADLINE).await;
     // Our plan runs once the driver started it in COMMAND and the vehicle took it.
     let until = tokio::time::Instant::now() + DEADLINE;
     while !emu.session().inner.maneuver_running() {
@@ -265,6 +224,6 @@ async fn courses_take_the_lane_in_publish_order_and_a_refused_one_never_steers()
     assert!(near(*burst.last().unwrap(), 280.0), "{burst:?}");
     let after = service.snapshot(DEADLINE).await.expect("a snapshot");
     assert_eq!(after.setpoints_refused - mid.setpoints_refused, 1);
-    helm.store(false, Ordering::Release);
+    helm.stop();
     let _ = service.shutdown(Duration::from_secs(3)).await;
 }

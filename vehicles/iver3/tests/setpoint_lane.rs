@@ -8,23 +8,22 @@
 //! or a refused course — the UVC reads them in the order they were published; a refused course
 //! never reaches it; every command_request that asked for an answer gets exactly one.
 
-use std::collections::HashMap;
+#[path = "../../../actors/tests/common/lane.rs"]
+mod lane;
+
 use std::net::SocketAddr;
 use std::sync::mpsc;
-use std::sync::{Arc, Mutex};
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 use frontseat_actors::bus::Bus;
 use frontseat_actors::bus::test_util::UntypedBus as _;
 use frontseat_actors::groups;
 use frontseat_actors::interface::{InterfaceService, Snapshot};
-use frontseat_actors::proto::goby::middleware::frontseat::protobuf::{
-    CommandRequest, DesiredCourse, HelmState, HelmStateReport, InterfaceState,
-};
 use frontseat_config::InterfaceConfig;
 use frontseat_iver3::codec::Sentence;
 use frontseat_iver3::{IverOptions, IverSession};
 use frontseat_sim::emulator::{Emulator, Endpoint, Session};
+use lane::course;
 
 const DEADLINE: Duration = Duration::from_secs(20);
 
@@ -60,22 +59,13 @@ impl Session for Recording {
     }
 }
 
-fn course(depth: f64, speed: f64) -> DesiredCourse {
-    DesiredCourse {
-        heading: Some(90.0),
-        speed: Some(speed),
-        depth: Some(depth),
-        ..Default::default()
-    }
-}
-
 struct Rig {
     _emu: Emulator<Recording>,
     oms: mpsc::Receiver<f64>,
     bus: Bus,
     service: InterfaceService,
     before: Snapshot,
-    helm: Arc<std::sync::atomic::AtomicBool>,
+    helm: lane::Helm,
 }
 
 impl Rig {
@@ -113,51 +103,8 @@ impl Rig {
             }
             _ => panic!("the emulator has no endpoint"),
         }
-        let bus = Bus::new();
-        let (state_tx, states) = mpsc::channel();
-        let state_tx = Mutex::new(state_tx);
-        let _status = bus.subscribe(
-            &groups::GOBY_MIDDLEWARE_FRONTSEAT_STATUS,
-            "test-status",
-            1024,
-            move |env| {
-                let _ = state_tx.lock().unwrap().send(env.msg.state());
-                Ok(())
-            },
-        );
-        let service = InterfaceService::start(&cfg, &bus, frontseat_drivers::BUILT_IN)
-            .await
-            .expect("the interface starts");
         // A helm that keeps saying it drives, as pHelmIvP does.
-        let helm = Arc::new(std::sync::atomic::AtomicBool::new(true));
-        {
-            let (bus, helm) = (bus.clone(), helm.clone());
-            std::thread::spawn(move || {
-                while helm.load(std::sync::atomic::Ordering::Acquire) {
-                    bus.publish(
-                        &groups::GOBY_MIDDLEWARE_FRONTSEAT_HELM_STATE,
-                        HelmStateReport {
-                            state: HelmState::HelmDrive as i32,
-                        },
-                    );
-                    std::thread::sleep(Duration::from_millis(100));
-                }
-            });
-        }
-        let states = tokio::task::spawn_blocking(move || {
-            let until = Instant::now() + DEADLINE;
-            loop {
-                let left = until.saturating_duration_since(Instant::now());
-                match states.recv_timeout(left) {
-                    Ok(InterfaceState::InterfaceCommand) => return Ok(states),
-                    Ok(_) => {}
-                    Err(e) => return Err(e),
-                }
-            }
-        })
-        .await
-        .unwrap();
-        let _states = states.expect("the interface reached COMMAND");
+        let (bus, service, helm) = lane::in_command(&cfg, DEADLINE).await;
         let before = service.snapshot(DEADLINE).await.expect("a snapshot");
         Self {
             _emu: emu,
@@ -171,17 +118,11 @@ impl Rig {
 
     /// The next `n` `$OMS` depths the UVC reads, each within the deadline.
     fn read_oms(&self, n: usize) -> Vec<f64> {
-        (0..n)
-            .map(|i| {
-                self.oms
-                    .recv_timeout(DEADLINE)
-                    .unwrap_or_else(|_| panic!("$OMS {i} of {n} never reached the UVC"))
-            })
-            .collect()
+        lane::recv_n(&self.oms, n, DEADLINE, "$OMS")
     }
 
     async fn end(self) {
-        self.helm.store(false, std::sync::atomic::Ordering::Release);
+        self.helm.stop();
         let _ = self.service.shutdown(Duration::from_secs(3)).await;
     }
 }
@@ -235,48 +176,11 @@ async fn setpoints_reach_the_uvc_in_publish_order_whichever_path_each_takes() {
     // (refused: it goes the actors' way and never reaches the UVC). Fewer than the driver's 64
     // awaiting an `$ACK`: past that the oldest is answered as overflowed, whichever path.
     const N: u32 = 60;
-    let publisher = {
-        let bus = rig.bus.clone();
-        std::thread::spawn(move || {
-            let mut expected = Vec::new();
-            let mut asked = Vec::new();
-            let mut refused = 0u64;
-            for i in 1..=N {
-                let depth = f64::from(i);
-                if i % 7 == 0 {
-                    bus.publish(
-                        &groups::GOBY_MIDDLEWARE_FRONTSEAT_DESIRED_COURSE,
-                        course(depth, 1e6),
-                    );
-                    refused += 1;
-                    continue;
-                }
-                if i % 10 == 0 {
-                    let id = i as i32;
-                    bus.publish(
-                        &groups::GOBY_MIDDLEWARE_FRONTSEAT_COMMAND_REQUEST,
-                        CommandRequest {
-                            desired_course: Some(course(depth, 1.0)),
-                            response_requested: Some(true),
-                            request_id: Some(id),
-                            ..Default::default()
-                        },
-                    );
-                    asked.push(id);
-                } else {
-                    bus.publish(
-                        &groups::GOBY_MIDDLEWARE_FRONTSEAT_DESIRED_COURSE,
-                        course(depth, 1.0),
-                    );
-                }
-                expected.push(depth);
-            }
-            (expected, asked, refused)
-        })
-    };
-    let (expected, asked, refused) = tokio::task::spawn_blocking(move || publisher.join().unwrap())
-        .await
-        .unwrap();
+    let lane::Mix {
+        expected,
+        asked,
+        refused,
+    } = lane::publish_mix(&rig.bus, N, true).await;
     let n = expected.len();
     let (read, rig) = tokio::task::spawn_blocking(move || (rig.read_oms(n), rig))
         .await
@@ -287,31 +191,7 @@ async fn setpoints_reach_the_uvc_in_publish_order_whichever_path_each_takes() {
     );
 
     // One answer per command_request that asked (the UVC acks every $OMS), and no more.
-    let mut answers: HashMap<i32, u32> = HashMap::new();
-    let until = tokio::time::Instant::now() + DEADLINE;
-    while answers.len() < asked.len() {
-        let env = tokio::time::timeout_at(until, responses.recv())
-            .await
-            .expect("every asked command_request answered in time")
-            .expect("bus alive");
-        let id = env.msg.request_id.expect("an answer names its request");
-        assert_eq!(env.msg.request_successful, Some(true), "{:?}", env.msg);
-        *answers.entry(id).or_default() += 1;
-    }
-    let after = rig.service.snapshot(DEADLINE).await.expect("a snapshot");
-    // Late duplicates would have come with the others' answers; none may.
-    while let Ok(env) = responses.try_recv() {
-        *answers.entry(env.msg.request_id.unwrap_or(-1)).or_default() += 1;
-    }
-    let mut want: Vec<i32> = asked.clone();
-    want.sort_unstable();
-    let mut got: Vec<i32> = answers.keys().copied().collect();
-    got.sort_unstable();
-    assert_eq!(got, want, "answers only to what asked");
-    assert!(
-        answers.values().all(|&c| c == 1),
-        "exactly one answer each: {answers:?}"
-    );
+    let after = lane::one_answer_each(&mut responses, &asked, &rig.service, DEADLINE).await;
 
     assert_eq!(
         after.setpoints_refused - rig.before.setpoints_refused,

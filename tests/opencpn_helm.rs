@@ -12,7 +12,7 @@ use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
 use common::ais::{angle_diff, type18};
-use common::procs::{Kill, free_port, scratch, wait_for_tcp};
+use common::procs::{Kill, frontseat_sim, scratch};
 use tokio::net::UdpSocket;
 
 /// `$` + body + checksum, as OpenCPN's writers do.
@@ -101,16 +101,7 @@ impl Run {
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn an_opencpn_route_steers_the_vehicle_and_times_out() {
     let dir = scratch("opencpn_helm", "route");
-    let sim_port = free_port();
-    let _sim = Kill(
-        Command::new(env!("CARGO_BIN_EXE_frontseat"))
-            .args(["sim", "--port", &sim_port.to_string()])
-            .stdout(Stdio::null())
-            .stderr(Stdio::null())
-            .spawn()
-            .unwrap(),
-    );
-    wait_for_tcp(sim_port).await;
+    let (_sim, sim_port) = frontseat_sim(Stdio::null()).await;
     let ais = UdpSocket::bind("127.0.0.1:0").await.unwrap();
     let helm_port = {
         let s = std::net::UdpSocket::bind("127.0.0.1:0").unwrap();
@@ -167,6 +158,11 @@ timeout_s = 2.0
         |_| true,
     )
     .await;
+
+    // The captured sentences go once, so the helm must be listening first: a datagram sent
+    // before its socket is bound is lost (the AIS report can come first).
+    run.until_log("OpenCPN helm: listening", Duration::from_secs(30))
+        .await;
 
     // Leg 1, built in RMB's and APB's field order (arrival V), with garbage and a wrong
     // checksum in the same datagrams; the captured sentences once (their arrival flags are A).
@@ -272,16 +268,7 @@ async fn cmd_tap(
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn every_new_apb_reaches_the_vehicle_as_a_cmd_line() {
     let dir = scratch("opencpn_helm", "latency");
-    let sim_port = free_port();
-    let _sim = Kill(
-        Command::new(env!("CARGO_BIN_EXE_frontseat"))
-            .args(["sim", "--port", &sim_port.to_string()])
-            .stdout(Stdio::null())
-            .stderr(Stdio::null())
-            .spawn()
-            .unwrap(),
-    );
-    wait_for_tcp(sim_port).await;
+    let (_sim, sim_port) = frontseat_sim(Stdio::null()).await;
     let tap = tokio::net::TcpListener::bind("127.0.0.1:0").await.unwrap();
     let tap_port = tap.local_addr().unwrap().port();
     let (tx, mut cmds) = tokio::sync::mpsc::unbounded_channel();

@@ -21,7 +21,7 @@ use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
 use common::ais::{angle_diff, type18};
-use common::procs::{Kill, free_port, scratch, wait_for_tcp};
+use common::procs::{Kill, frontseat_sim, scratch};
 
 fn installed(bin: &str) -> bool {
     Command::new("sh")
@@ -194,16 +194,7 @@ fn an_active_route_in_opencpn_steers_the_vehicle() {
 
 async fn route_steers() {
     let dir = scratch("opencpn_real", "route");
-    let sim_port = free_port();
-    let _sim = Kill(
-        Command::new(env!("CARGO_BIN_EXE_frontseat"))
-            .args(["sim", "--port", &sim_port.to_string()])
-            .stdout(Stdio::null())
-            .stderr(Stdio::null())
-            .spawn()
-            .unwrap(),
-    );
-    wait_for_tcp(sim_port).await;
+    let (_sim, sim_port) = frontseat_sim(Stdio::null()).await;
     let udp_port = || {
         std::net::UdpSocket::bind("127.0.0.1:0")
             .unwrap()

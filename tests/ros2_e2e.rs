@@ -10,7 +10,7 @@
 
 mod common;
 
-use common::procs::{Kill, free_port, scratch, wait_for_tcp};
+use common::procs::{Kill, free_port, frontseat_interface, frontseat_sim, scratch, wait_for_tcp};
 
 use std::io::{BufRead, BufReader};
 use std::path::PathBuf;
@@ -26,7 +26,6 @@ use frontseat_helm_side::zenoh;
 use prost::Message;
 use serde_json::Value;
 
-const BIN: &str = env!("CARGO_BIN_EXE_frontseat");
 const LONG: Duration = Duration::from_secs(90);
 
 fn root() -> PathBuf {
@@ -36,23 +35,7 @@ fn root() -> PathBuf {
 /// Whether python3 can import cyclonedds; false (reported SKIPPED) only when
 /// FRONTSEAT_REQUIRE_PYTHON_HELM is unset.
 fn cyclonedds_can_run(test: &str) -> bool {
-    let ok = Command::new("python3")
-        .args(["-c", "import cyclonedds.domain"])
-        .stdout(Stdio::null())
-        .stderr(Stdio::null())
-        .status()
-        .is_ok_and(|s| s.success());
-    if ok {
-        return true;
-    }
-    assert!(
-        std::env::var_os("FRONTSEAT_REQUIRE_PYTHON_HELM").is_none(),
-        "FRONTSEAT_REQUIRE_PYTHON_HELM is set but python3 cannot import cyclonedds"
-    );
-    println!(
-        "SKIPPED {test}: python3 cannot import cyclonedds (pip install -r tests/python/requirements.txt)"
-    );
-    false
+    common::python::can_import(test, "cyclonedds.domain", "tests/python/requirements.txt")
 }
 
 /// A DDS domain of this test process and test: 7400 + 250·domain must not meet another run's.
@@ -134,16 +117,8 @@ struct Stack {
 impl Stack {
     async fn start(name: &str, platform: &str, domain: u16, warp: f64) -> Stack {
         let dir = scratch("ros2", name);
-        let sim_port = free_port();
-        let sim = Kill(
-            Command::new(BIN)
-                .args(["sim", "--port", &sim_port.to_string()])
-                .stdout(Stdio::null())
-                .stderr(std::fs::File::create(dir.join("sim.log")).unwrap())
-                .spawn()
-                .unwrap(),
-        );
-        wait_for_tcp(sim_port).await;
+        let (sim, sim_port) =
+            frontseat_sim(std::fs::File::create(dir.join("sim.log")).unwrap()).await;
         let zport = free_port();
         let cfg = format!(
             r#"name = "{platform}"
@@ -162,19 +137,7 @@ enabled = true
 domain_id = {domain}
 "#
         );
-        let path = dir.join("interface.toml");
-        std::fs::write(&path, cfg).unwrap();
-        let interface = Kill(
-            Command::new(BIN)
-                .arg("interface")
-                .arg("-c")
-                .arg(&path)
-                .env("RUST_LOG", "info")
-                .stdout(Stdio::null())
-                .stderr(std::fs::File::create(dir.join("interface.log")).unwrap())
-                .spawn()
-                .unwrap(),
-        );
+        let interface = frontseat_interface(&dir, &cfg);
         wait_for_tcp(zport).await;
         Stack {
             dir,
@@ -573,9 +536,7 @@ async fn ros_graph_discovery_shows_the_node_and_its_topics() {
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_cyclone_helm_dives_the_ardusub_emulator() {
     use frontseat_actors::interface::InterfaceService;
-    use frontseat_actors::proto::frontseat::protobuf::ardupilot::{
-        self, ArdupilotCommand, ardupilot_command::Action,
-    };
+    use frontseat_actors::proto::frontseat::protobuf::ardupilot::ardupilot_command::Action;
     use frontseat_actors::proto::goby::middleware::frontseat::protobuf::InterfaceState;
     use frontseat_ardupilot::sub_emulator::{SubOptions, SubSession};
     use frontseat_config::{ArdupilotVehicle, InterfaceConfig, Ros2Config};
@@ -641,38 +602,8 @@ async fn a_cyclone_helm_dives_the_ardusub_emulator() {
         .until_state(InterfaceState::InterfaceListen, LONG)
         .await;
     // The pilot arms and selects GUIDED through the ArduPilot extension, as ardusub_e2e's does.
-    for (action, first) in [(Action::Arm, 100), (Action::Guided, 200)] {
-        let mut ok = false;
-        for id in first..first + 100 {
-            bus.publish(
-                &groups::FRONTSEAT_ARDUPILOT_ARDUPILOT_COMMAND_REQUEST,
-                ardupilot::CommandRequest {
-                    response_requested: Some(true),
-                    request_id: Some(id),
-                    ardupilot_command: Some(ArdupilotCommand {
-                        action: Some(action as i32),
-                    }),
-                    ..Default::default()
-                },
-            );
-            let r = tokio::time::timeout(LONG, async {
-                loop {
-                    let env = responses.recv().await.expect("bus alive");
-                    if env.msg.request_id == Some(id) {
-                        return env.msg.request_successful();
-                    }
-                }
-            })
-            .await
-            .expect("an answer");
-            if r {
-                ok = true;
-                break;
-            }
-            tokio::time::sleep(Duration::from_millis(50)).await;
-        }
-        assert!(ok, "{action:?} never accepted");
-    }
+    common::until_accepted(&bus, &mut responses, Action::Arm, 100, LONG).await;
+    common::until_accepted(&bus, &mut responses, Action::Guided, 200, LONG).await;
     status
         .until_state(InterfaceState::InterfaceCommand, LONG)
         .await;

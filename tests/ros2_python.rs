@@ -8,14 +8,12 @@
 
 mod common;
 
-use common::procs::{Kill, free_port, scratch, wait_for_tcp};
+use common::procs::{Kill, finish_within, frontseat_interface, frontseat_sim, scratch};
 
-use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
 use std::time::Duration;
 
-const BIN: &str = env!("CARGO_BIN_EXE_frontseat");
 const WARP: f64 = 10.0;
 
 fn root() -> PathBuf {
@@ -25,23 +23,7 @@ fn root() -> PathBuf {
 /// Whether python3 can import cyclonedds; false (reported SKIPPED) only when
 /// FRONTSEAT_REQUIRE_PYTHON_HELM is unset.
 fn cyclonedds_can_run(test: &str) -> bool {
-    let ok = Command::new("python3")
-        .args(["-c", "import cyclonedds.domain"])
-        .stdout(Stdio::null())
-        .stderr(Stdio::null())
-        .status()
-        .is_ok_and(|s| s.success());
-    if ok {
-        return true;
-    }
-    assert!(
-        std::env::var_os("FRONTSEAT_REQUIRE_PYTHON_HELM").is_none(),
-        "FRONTSEAT_REQUIRE_PYTHON_HELM is set but python3 cannot import cyclonedds"
-    );
-    println!(
-        "SKIPPED {test}: python3 cannot import cyclonedds (pip install -r tests/python/requirements.txt)"
-    );
-    false
+    common::python::can_import(test, "cyclonedds.domain", "tests/python/requirements.txt")
 }
 
 fn self_test(ros2_dir: Option<&Path>) -> Output {
@@ -154,16 +136,7 @@ impl Stack {
 
 async fn start_stack(name: &str, platform: &str, domain: u16) -> Stack {
     let dir = scratch("ros2py", name);
-    let sim_port = free_port();
-    let sim = Kill(
-        Command::new(BIN)
-            .args(["sim", "--port", &sim_port.to_string()])
-            .stdout(Stdio::null())
-            .stderr(std::fs::File::create(dir.join("sim.log")).unwrap())
-            .spawn()
-            .unwrap(),
-    );
-    wait_for_tcp(sim_port).await;
+    let (sim, sim_port) = frontseat_sim(std::fs::File::create(dir.join("sim.log")).unwrap()).await;
     let cfg = format!(
         r#"name = "{platform}"
 sim_warp_factor = {WARP}
@@ -178,19 +151,7 @@ enabled = true
 domain_id = {domain}
 "#
     );
-    let cfg_path = dir.join("interface.toml");
-    std::fs::write(&cfg_path, cfg).unwrap();
-    let interface = Kill(
-        Command::new(BIN)
-            .arg("interface")
-            .arg("-c")
-            .arg(&cfg_path)
-            .env("RUST_LOG", "info")
-            .stdout(Stdio::null())
-            .stderr(std::fs::File::create(dir.join("interface.log")).unwrap())
-            .spawn()
-            .unwrap(),
-    );
+    let interface = frontseat_interface(&dir, &cfg);
     Stack {
         dir,
         _sim: sim,
@@ -216,24 +177,9 @@ async fn the_cyclone_dds_helm_flies_the_homework_path_over_ros2_topics() {
             .spawn()
             .unwrap(),
     );
-    let stdout = helm.0.stdout.take().unwrap();
-    let lines = tokio::task::spawn_blocking(move || {
-        BufReader::new(stdout)
-            .lines()
-            .map_while(Result::ok)
-            .collect::<Vec<_>>()
-    });
     // The helm bounds itself (--timeout 90); this bounds the test if it hangs anyway.
-    let lines = tokio::time::timeout(Duration::from_secs(120), lines)
-        .await
-        .expect("the Cyclone DDS helm finished")
-        .unwrap();
-    let status = helm.0.wait().unwrap();
-    let mut err = String::new();
-    if let Some(mut e) = helm.0.stderr.take() {
-        let _ = std::io::Read::read_to_string(&mut e, &mut err);
-    }
-    let out = lines.join("\n");
+    let (status, out, err) =
+        finish_within(&mut helm, Duration::from_secs(120), "the Cyclone DDS helm").await;
     assert!(
         status.success(),
         "cyclone_helm.py failed: {status}\n{out}\n{err}\ninterface log:\n{}",

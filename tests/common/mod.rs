@@ -17,8 +17,12 @@ use std::time::Duration;
 
 use frontseat_actors::bus::{Bus, Envelope};
 use frontseat_actors::groups;
+use frontseat_actors::proto::frontseat::protobuf::ardupilot::{
+    self, ArdupilotCommand, ardupilot_command::Action,
+};
 use frontseat_actors::proto::goby::middleware::frontseat::protobuf::{
-    FrontSeatError, HelmError, HelmState, HelmStateReport, InterfaceState, InterfaceStatus,
+    CommandResponse, FrontSeatError, HelmError, HelmState, HelmStateReport, InterfaceState,
+    InterfaceStatus,
 };
 use frontseat_config::InterfaceConfig;
 use frontseat_sim::{SimHandle, SimOptions, SimServer};
@@ -132,4 +136,44 @@ pub fn helm_heartbeat(bus: &Bus, state: HelmState) -> tokio::task::JoinHandle<()
             tokio::time::sleep(Duration::from_millis(100)).await;
         }
     })
+}
+
+/// The pilot's ArduPilot `action`, as command_requests with ids from `first_id` on, each
+/// answered within `timeout` on `responses` (the COMMAND_RESPONSE group), again every 50 ms until
+/// one is accepted; panics after 100 refusals.
+pub async fn until_accepted(
+    bus: &Bus,
+    responses: &mut UnboundedReceiver<Envelope<CommandResponse>>,
+    action: Action,
+    first_id: i32,
+    timeout: Duration,
+) {
+    for id in first_id..first_id + 100 {
+        bus.publish(
+            &groups::FRONTSEAT_ARDUPILOT_ARDUPILOT_COMMAND_REQUEST,
+            ardupilot::CommandRequest {
+                response_requested: Some(true),
+                request_id: Some(id),
+                ardupilot_command: Some(ArdupilotCommand {
+                    action: Some(action as i32),
+                }),
+                ..Default::default()
+            },
+        );
+        let deadline = tokio::time::Instant::now() + timeout;
+        let accepted = loop {
+            let env = tokio::time::timeout_at(deadline, responses.recv())
+                .await
+                .unwrap_or_else(|_| panic!("no response to {id} in time"))
+                .expect("bus alive");
+            if env.msg.request_id == Some(id) {
+                break env.msg.request_successful();
+            }
+        };
+        if accepted {
+            return;
+        }
+        tokio::time::sleep(Duration::from_millis(50)).await;
+    }
+    panic!("{action:?} never accepted");
 }

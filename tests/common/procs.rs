@@ -1,8 +1,10 @@
 //! Child processes of the real binaries for end-to-end tests: a guard that kills on drop, a free
-//! loopback port, a scratch directory, and waiting (with a deadline) for a port to listen.
+//! loopback port, a scratch directory, waiting (with a deadline) for a port to listen, starting
+//! `frontseat sim` and `frontseat interface`, and collecting a child's output within a bound.
 
-use std::path::PathBuf;
-use std::process::Child;
+use std::io::{BufRead, BufReader, Read};
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, ExitStatus, Stdio};
 use std::time::Duration;
 
 /// Kills its child on drop, so a failing assertion never leaves a process behind.
@@ -43,4 +45,64 @@ pub async fn wait_for_tcp(port: u16) {
         );
         tokio::time::sleep(Duration::from_millis(20)).await;
     }
+}
+
+/// `frontseat sim` (the basic simulator) on a free port, once it listens; its stderr goes to
+/// `stderr`. Returns the guard and the port.
+pub async fn frontseat_sim(stderr: impl Into<Stdio>) -> (Kill, u16) {
+    let port = free_port();
+    let sim = Kill(
+        Command::new(env!("CARGO_BIN_EXE_frontseat"))
+            .args(["sim", "--port", &port.to_string()])
+            .stdout(Stdio::null())
+            .stderr(stderr)
+            .spawn()
+            .unwrap(),
+    );
+    wait_for_tcp(port).await;
+    (sim, port)
+}
+
+/// `frontseat interface` on `cfg`, written to `<dir>/interface.toml`, logging (RUST_LOG=info) to
+/// `<dir>/interface.log`.
+pub fn frontseat_interface(dir: &Path, cfg: &str) -> Kill {
+    let path = dir.join("interface.toml");
+    std::fs::write(&path, cfg).unwrap();
+    Kill(
+        Command::new(env!("CARGO_BIN_EXE_frontseat"))
+            .arg("interface")
+            .arg("-c")
+            .arg(&path)
+            .env("RUST_LOG", "info")
+            .stdout(Stdio::null())
+            .stderr(std::fs::File::create(dir.join("interface.log")).unwrap())
+            .spawn()
+            .unwrap(),
+    )
+}
+
+/// Waits for a child spawned with piped stdout and stderr to finish, its stdout read within
+/// `bound` (else panics naming `what`): its exit status, stdout lines joined, and stderr.
+pub async fn finish_within(
+    child: &mut Kill,
+    bound: Duration,
+    what: &str,
+) -> (ExitStatus, String, String) {
+    let stdout = child.0.stdout.take().unwrap();
+    let lines = tokio::task::spawn_blocking(move || {
+        BufReader::new(stdout)
+            .lines()
+            .map_while(Result::ok)
+            .collect::<Vec<_>>()
+    });
+    let lines = tokio::time::timeout(bound, lines)
+        .await
+        .unwrap_or_else(|_| panic!("{what} did not finish within {bound:?}"))
+        .unwrap();
+    let status = child.0.wait().unwrap();
+    let mut err = String::new();
+    if let Some(mut e) = child.0.stderr.take() {
+        let _ = e.read_to_string(&mut err);
+    }
+    (status, lines.join("\n"), err)
 }

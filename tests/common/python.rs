@@ -27,28 +27,32 @@ pub struct Backseat<'a> {
     pub bound: Duration,
 }
 
+/// Whether python3 can import `module`. False (and `test` reported SKIPPED, naming the
+/// `requirements` file that installs it) only when `FRONTSEAT_REQUIRE_PYTHON_HELM` is unset (a
+/// machine with only the Rust toolchain); `.ci/run` installs the packages and sets the
+/// variable, so there a missing package fails, never skips.
+pub fn can_import(test: &str, module: &str, requirements: &str) -> bool {
+    let importable = Command::new("python3")
+        .args(["-c", &format!("import {module}")])
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .status()
+        .is_ok_and(|s| s.success());
+    if !importable {
+        assert!(
+            std::env::var_os("FRONTSEAT_REQUIRE_PYTHON_HELM").is_none(),
+            "FRONTSEAT_REQUIRE_PYTHON_HELM is set but python3 cannot import {module}"
+        );
+        println!("SKIPPED {test}: python3 cannot import {module} (pip install -r {requirements})");
+    }
+    importable
+}
+
 impl Backseat<'_> {
     /// Runs the script and returns its stdout once it printed `PASS` and exited 0. `None` when
-    /// python3 cannot import the package and `FRONTSEAT_REQUIRE_PYTHON_HELM` is unset (a machine
-    /// with only the Rust toolchain): reported as SKIPPED. `.ci/run` installs the package and
-    /// sets the variable, so there a missing package fails, never skips.
+    /// [`can_import`] says the package is missing (reported as SKIPPED).
     pub fn run(&self) -> Option<String> {
-        let importable = Command::new("python3")
-            .args(["-c", &format!("import {}", self.import)])
-            .stdout(Stdio::null())
-            .stderr(Stdio::null())
-            .status()
-            .is_ok_and(|s| s.success());
-        if !importable {
-            assert!(
-                std::env::var_os("FRONTSEAT_REQUIRE_PYTHON_HELM").is_none(),
-                "FRONTSEAT_REQUIRE_PYTHON_HELM is set but python3 cannot import {}",
-                self.import
-            );
-            println!(
-                "SKIPPED {}: python3 cannot import {} (pip install -r {})",
-                self.test, self.import, self.requirements
-            );
+        if !can_import(self.test, self.import, self.requirements) {
             return None;
         }
         let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));

@@ -16,9 +16,7 @@ use frontseat_actors::bus::{Bus, Envelope, Subscription};
 use frontseat_actors::groups;
 use frontseat_actors::interface::InterfaceService;
 use frontseat_actors::nav_gate::NavField;
-use frontseat_actors::proto::frontseat::protobuf::ardupilot::{
-    self, ArdupilotCommand, ardupilot_command::Action,
-};
+use frontseat_actors::proto::frontseat::protobuf::ardupilot::ardupilot_command::Action;
 use frontseat_actors::proto::goby::middleware::frontseat::protobuf::{
     CommandRequest, CommandResponse, DesiredCourse, HelmState, InterfaceState,
 };
@@ -75,32 +73,6 @@ async fn response(
     }
 }
 
-async fn until_accepted(
-    bus: &Bus,
-    rx: &mut UnboundedReceiver<Envelope<CommandResponse>>,
-    action: Action,
-    first_id: i32,
-) {
-    for id in first_id..first_id + 100 {
-        bus.publish(
-            &groups::FRONTSEAT_ARDUPILOT_ARDUPILOT_COMMAND_REQUEST,
-            ardupilot::CommandRequest {
-                response_requested: Some(true),
-                request_id: Some(id),
-                ardupilot_command: Some(ArdupilotCommand {
-                    action: Some(action as i32),
-                }),
-                ..Default::default()
-            },
-        );
-        if response(rx, id).await.request_successful() {
-            return;
-        }
-        tokio::time::sleep(Duration::from_millis(50)).await;
-    }
-    panic!("{action:?} never accepted");
-}
-
 async fn wait_for(what: &str, mut cond: impl FnMut() -> bool) {
     tokio::time::timeout(LONG, async {
         while !cond() {
@@ -153,8 +125,8 @@ async fn in_command() -> Flying {
         .until_state(InterfaceState::InterfaceListen, LONG)
         .await;
     assert!(!emu.session().armed(), "the interface never arms by itself");
-    until_accepted(&bus, &mut responses, Action::Arm, 100).await;
-    until_accepted(&bus, &mut responses, Action::Guided, 200).await;
+    until_accepted(&bus, &mut responses, Action::Arm, 100, LONG).await;
+    until_accepted(&bus, &mut responses, Action::Guided, 200, LONG).await;
     status
         .until_state(InterfaceState::InterfaceCommand, LONG)
         .await;

@@ -13,9 +13,7 @@ use common::*;
 use frontseat_actors::bus::Bus;
 use frontseat_actors::groups;
 use frontseat_actors::interface::InterfaceService;
-use frontseat_actors::proto::frontseat::protobuf::ardupilot::{
-    self, ArdupilotCommand, ardupilot_command::Action,
-};
+use frontseat_actors::proto::frontseat::protobuf::ardupilot::ardupilot_command::Action;
 use frontseat_actors::proto::goby::middleware::frontseat::protobuf::InterfaceState;
 use frontseat_ardupilot::modes::sub;
 use frontseat_ardupilot::sub_emulator::{SubOptions, SubSession};
@@ -98,38 +96,8 @@ async fn phelmivp_desired_depth_dives_the_sub_and_comes_back_as_nav_depth() {
         "t",
         10_000,
     );
-    for (action, base) in [(Action::Arm, 100), (Action::Guided, 200)] {
-        let mut ok = false;
-        for id in base..base + 100 {
-            bus.publish(
-                &groups::FRONTSEAT_ARDUPILOT_ARDUPILOT_COMMAND_REQUEST,
-                ardupilot::CommandRequest {
-                    response_requested: Some(true),
-                    request_id: Some(id),
-                    ardupilot_command: Some(ArdupilotCommand {
-                        action: Some(action as i32),
-                    }),
-                    ..Default::default()
-                },
-            );
-            let deadline = Instant::now() + LONG;
-            let answer = loop {
-                let env = timeout_at(deadline, responses.recv())
-                    .await
-                    .expect("an answer")
-                    .expect("bus alive");
-                if env.msg.request_id == Some(id) {
-                    break env.msg.request_successful();
-                }
-            };
-            if answer {
-                ok = true;
-                break;
-            }
-            tokio::time::sleep(Duration::from_millis(50)).await;
-        }
-        assert!(ok, "{action:?} accepted");
-    }
+    until_accepted(&bus, &mut responses, Action::Arm, 100, LONG).await;
+    until_accepted(&bus, &mut responses, Action::Guided, 200, LONG).await;
     status
         .until_state(InterfaceState::InterfaceCommand, LONG)
         .await;

@@ -10,7 +10,7 @@
 
 mod common;
 
-use common::procs::{Kill, free_port, scratch, wait_for_tcp};
+use common::procs::{Kill, free_port, frontseat_sim, scratch};
 use frontseat_actors::bus::test_util::UntypedBus as _;
 
 use std::path::Path;
@@ -90,16 +90,7 @@ async fn goby3s_example_config_and_unit_environment_fly_through_gobyds_hold() {
     )
     .await
     .unwrap();
-    let sim_port = free_port();
-    let _sim = Kill(
-        Command::new(BIN)
-            .args(["sim", "--port", &sim_port.to_string()])
-            .stdout(Stdio::null())
-            .stderr(std::fs::File::create(dir.join("sim.log")).unwrap())
-            .spawn()
-            .unwrap(),
-    );
-    wait_for_tcp(sim_port).await;
+    let (_sim, sim_port) = frontseat_sim(std::fs::File::create(dir.join("sim.log")).unwrap()).await;
     let broker = Broker::bind("127.0.0.1:0").await.unwrap();
     let moos_port = broker.local_addr().port();
 

@@ -9,7 +9,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
-use common::procs::{Kill, free_port, scratch, wait_for_tcp};
+use common::procs::{Kill, free_port, frontseat_sim, scratch, wait_for_tcp};
 use frontseat_record::{Recording, info};
 
 const NODE_STATUS: &str = "goby::middleware::frontseat::node_status";
@@ -295,16 +295,7 @@ async fn sigkill_of_an_interface_recording_by_its_config_leaves_readable_files()
     let dir = scratch("record", "interface");
     let logs = dir.join("logs");
     let _ = std::fs::remove_dir_all(&logs);
-    let sim_port = free_port();
-    let _sim = Kill(
-        frontseat()
-            .args(["sim", "--port", &sim_port.to_string()])
-            .stdout(Stdio::null())
-            .stderr(Stdio::null())
-            .spawn()
-            .unwrap(),
-    );
-    wait_for_tcp(sim_port).await;
+    let (_sim, sim_port) = frontseat_sim(Stdio::null()).await;
     let cfg = format!(
         r#"name = "rec-auv"
 require_helm = false
@@ -395,16 +386,7 @@ async fn an_interface_killed_and_restarted_keeps_its_first_recording_intact() {
     std::fs::create_dir_all(&rec_dir).unwrap();
     let first = rec_dir.join("run.mcap");
     let second = rec_dir.join("run.1.mcap");
-    let sim_port = free_port();
-    let _sim = Kill(
-        frontseat()
-            .args(["sim", "--port", &sim_port.to_string()])
-            .stdout(Stdio::null())
-            .stderr(Stdio::null())
-            .spawn()
-            .unwrap(),
-    );
-    wait_for_tcp(sim_port).await;
+    let (_sim, sim_port) = frontseat_sim(Stdio::null()).await;
     let cfg = format!(
         r#"name = "crash-auv"
 require_helm = false

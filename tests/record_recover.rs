@@ -14,7 +14,7 @@ use std::process::{Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
 use common::mcap_python::{make_reader, python_reader};
-use common::procs::{Kill, free_port, scratch, wait_for_tcp};
+use common::procs::{Kill, frontseat_sim, scratch};
 use frontseat_record::crafted::message_digest;
 use frontseat_record::{Recording, info};
 
@@ -57,16 +57,7 @@ async fn log_recover_finishes_a_sigkilled_interface_recording_for_make_reader() 
     let dir = scratch("record", "recover");
     let logs = dir.join("logs");
     let _ = std::fs::remove_dir_all(&logs);
-    let sim_port = free_port();
-    let _sim = Kill(
-        frontseat()
-            .args(["sim", "--port", &sim_port.to_string()])
-            .stdout(Stdio::null())
-            .stderr(Stdio::null())
-            .spawn()
-            .unwrap(),
-    );
-    wait_for_tcp(sim_port).await;
+    let (_sim, sim_port) = frontseat_sim(Stdio::null()).await;
     let cfg = format!(
         r#"name = "cut-auv"
 require_helm = false

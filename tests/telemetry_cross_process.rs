@@ -8,7 +8,7 @@
 mod common;
 
 use common::otlp::{RxSpan, ancestry, spans_until, start_receiver};
-use common::procs::{Kill, free_port, scratch, wait_for_tcp};
+use common::procs::{Kill, free_port, frontseat_sim, scratch, wait_for_tcp};
 
 use std::collections::HashMap;
 use std::path::PathBuf;
@@ -52,16 +52,7 @@ impl Stack {
 /// sim + interface; the interface exports to `endpoint` with the batch settings in `bsp`.
 async fn start_stack(name: &str, platform: &str, endpoint: &str, bsp: &[(&str, &str)]) -> Stack {
     let dir = scratch("otel", name);
-    let sim_port = free_port();
-    let sim = Kill(
-        Command::new(BIN)
-            .args(["sim", "--port", &sim_port.to_string()])
-            .stdout(Stdio::null())
-            .stderr(std::fs::File::create(dir.join("sim.log")).unwrap())
-            .spawn()
-            .unwrap(),
-    );
-    wait_for_tcp(sim_port).await;
+    let (sim, sim_port) = frontseat_sim(std::fs::File::create(dir.join("sim.log")).unwrap()).await;
     let zport = free_port();
     let cfg = format!(
         r#"name = "{platform}"

@@ -5,7 +5,9 @@
 
 mod common;
 
-use common::procs::{Kill, free_port, scratch, wait_for_tcp};
+use common::procs::{
+    Kill, finish_within, free_port, frontseat_interface, frontseat_sim, scratch, wait_for_tcp,
+};
 
 use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
@@ -22,7 +24,6 @@ use prost::Message;
 
 const WARP: f64 = 10.0;
 const LONG: Duration = Duration::from_secs(60);
-const BIN: &str = env!("CARGO_BIN_EXE_frontseat");
 
 /// A running sim + interface pair; `zenoh` is the interface's Zenoh listen port.
 struct Stack {
@@ -34,16 +35,7 @@ struct Stack {
 
 async fn start_stack(name: &str, platform: &str) -> Stack {
     let dir = scratch("zenoh", name);
-    let sim_port = free_port();
-    let sim = Kill(
-        Command::new(BIN)
-            .args(["sim", "--port", &sim_port.to_string()])
-            .stdout(Stdio::null())
-            .stderr(std::fs::File::create(dir.join("sim.log")).unwrap())
-            .spawn()
-            .unwrap(),
-    );
-    wait_for_tcp(sim_port).await;
+    let (sim, sim_port) = frontseat_sim(std::fs::File::create(dir.join("sim.log")).unwrap()).await;
     let zport = free_port();
     let cfg = format!(
         r#"name = "{platform}"
@@ -59,19 +51,7 @@ enabled = true
 listen = ["tcp/127.0.0.1:{zport}"]
 "#
     );
-    let cfg_path = dir.join("interface.toml");
-    std::fs::write(&cfg_path, cfg).unwrap();
-    let interface = Kill(
-        Command::new(BIN)
-            .arg("interface")
-            .arg("-c")
-            .arg(&cfg_path)
-            .env("RUST_LOG", "info")
-            .stdout(Stdio::null())
-            .stderr(std::fs::File::create(dir.join("interface.log")).unwrap())
-            .spawn()
-            .unwrap(),
-    );
+    let interface = frontseat_interface(&dir, &cfg);
     wait_for_tcp(zport).await;
     Stack {
         zenoh: zport,
@@ -383,24 +363,9 @@ async fn python_helm_completes_its_triangle() {
         "pyauv",
         &["--t1", "60", "--t2", "60", "--timeout", "90"],
     );
-    let stdout = helm.0.stdout.take().unwrap();
-    let lines = tokio::task::spawn_blocking(move || {
-        BufReader::new(stdout)
-            .lines()
-            .map_while(Result::ok)
-            .collect::<Vec<_>>()
-    });
     // The helm bounds itself (--timeout 90); this bounds the test if it hangs anyway.
-    let lines = tokio::time::timeout(Duration::from_secs(120), lines)
-        .await
-        .expect("python helm finished")
-        .unwrap();
-    let status = helm.0.wait().unwrap();
-    let mut err = String::new();
-    if let Some(mut e) = helm.0.stderr.take() {
-        let _ = std::io::Read::read_to_string(&mut e, &mut err);
-    }
-    let out = lines.join("\n");
+    let (status, out, err) =
+        finish_within(&mut helm, Duration::from_secs(120), "python helm").await;
     assert!(
         status.success(),
         "python helm failed: {status}\n{out}\n{err}\ninterface log:\n{}",

@@ -11,7 +11,7 @@ use std::sync::{Arc, Mutex, mpsc};
 use std::time::{Duration, Instant};
 
 use frontseat_actors::bus::test_util::UntypedBus as _;
-use frontseat_actors::bus::{Bus, Envelope};
+use frontseat_actors::bus::{Bus, Envelope, Subscription};
 use frontseat_actors::groups;
 use frontseat_actors::interface::{InterfaceService, Snapshot};
 use frontseat_actors::proto::goby::middleware::frontseat::protobuf::{
@@ -153,6 +153,33 @@ pub async fn publish_mix(bus: &Bus, n: u32, ask: bool) -> Mix {
     tokio::task::spawn_blocking(move || publisher.join().unwrap())
         .await
         .unwrap()
+}
+
+/// The COMMAND_RESPONSE group as a channel, for [`one_answer_each`].
+pub fn responses(
+    bus: &Bus,
+) -> (
+    Subscription,
+    tokio::sync::mpsc::UnboundedReceiver<Envelope<CommandResponse>>,
+) {
+    bus.subscribe_channel(
+        &groups::GOBY_MIDDLEWARE_FRONTSEAT_COMMAND_RESPONSE,
+        "test-responses",
+        10_000,
+    )
+}
+
+/// Asserts the envelope refused `refused` courses between `before` and `after`, and that the
+/// lane took some of the `passed` that passed (printing how they split); returns how many.
+pub fn took_the_lane(before: &Snapshot, after: &Snapshot, passed: usize, refused: u64) -> u64 {
+    assert_eq!(after.setpoints_refused - before.setpoints_refused, refused);
+    let direct = after.setpoints_direct - before.setpoints_direct;
+    println!(
+        "{direct} courses through the lane, {} through the actors",
+        passed as u64 - direct
+    );
+    assert!(direct > 0, "no course went through the lane");
+    direct
 }
 
 /// Asserts every command_request in `asked` got exactly one successful answer on `responses`

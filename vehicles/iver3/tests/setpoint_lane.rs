@@ -166,11 +166,7 @@ async fn over_tcp_a_lone_course_is_written_from_its_publishers_thread() {
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn setpoints_reach_the_uvc_in_publish_order_whichever_path_each_takes() {
     let rig = Rig::in_command(Endpoint::Pty).await;
-    let (_r, mut responses) = rig.bus.subscribe_channel(
-        &groups::GOBY_MIDDLEWARE_FRONTSEAT_COMMAND_RESPONSE,
-        "test-responses",
-        10_000,
-    );
+    let (_r, mut responses) = lane::responses(&rig.bus);
     // Back to back from a plain thread: courses (the lane's), every 10th a command_request
     // asking for an answer (the actors' path), every 7th a course over the speed limit
     // (refused: it goes the actors' way and never reaches the UVC). Fewer than the driver's 64
@@ -193,15 +189,6 @@ async fn setpoints_reach_the_uvc_in_publish_order_whichever_path_each_takes() {
     // One answer per command_request that asked (the UVC acks every $OMS), and no more.
     let after = lane::one_answer_each(&mut responses, &asked, &rig.service, DEADLINE).await;
 
-    assert_eq!(
-        after.setpoints_refused - rig.before.setpoints_refused,
-        refused
-    );
-    let direct = after.setpoints_direct - rig.before.setpoints_direct;
-    println!(
-        "{direct} courses through the lane, {} through the actors",
-        n as u64 - direct
-    );
-    assert!(direct > 0, "no course went through the lane");
+    lane::took_the_lane(&rig.before, &after, n, refused);
     rig.end().await;
 }

@@ -79,26 +79,6 @@ async fn response(
     }
 }
 
-/// Publishes the extension request until it is accepted (navigation may not be ready yet).
-async fn until_accepted(
-    bus: &Bus,
-    rx: &mut UnboundedReceiver<Envelope<CommandResponse>>,
-    action: Action,
-    first_id: i32,
-) {
-    for id in first_id..first_id + 100 {
-        bus.publish(
-            &groups::FRONTSEAT_ARDUPILOT_ARDUPILOT_COMMAND_REQUEST,
-            mode_request(action, id),
-        );
-        if response(rx, id).await.request_successful() {
-            return;
-        }
-        tokio::time::sleep(Duration::from_millis(50)).await;
-    }
-    panic!("{action:?} never accepted");
-}
-
 async fn wait_for(what: &str, mut cond: impl FnMut() -> bool) {
     tokio::time::timeout(LONG, async {
         while !cond() {
@@ -148,8 +128,8 @@ async fn helm_drives_an_ardupilot_boat_through_guided() {
     assert!((ns.msg.global_fix.lat - RoverOptions::default().lat).abs() < 1e-4);
     assert!(ns.msg.local_fix.is_some(), "local grid from the datum");
 
-    until_accepted(&bus, &mut responses, Action::Arm, 100).await;
-    until_accepted(&bus, &mut responses, Action::Guided, 200).await;
+    until_accepted(&bus, &mut responses, Action::Arm, 100, LONG).await;
+    until_accepted(&bus, &mut responses, Action::Guided, 200, LONG).await;
     status
         .until_state(InterfaceState::InterfaceCommand, LONG)
         .await;

@@ -8,11 +8,11 @@
 
 mod common;
 
-use std::process::{Command, Stdio};
+use std::process::Stdio;
 use std::time::{Duration, Instant};
 
 use common::ais::{angle_diff, type18};
-use common::procs::{Kill, frontseat_sim, scratch};
+use common::procs::{frontseat_interface, frontseat_sim, scratch};
 use tokio::net::UdpSocket;
 
 /// `$` + body + checksum, as OpenCPN's writers do.
@@ -131,19 +131,8 @@ timeout_s = 2.0
 "#,
         ais = ais.local_addr().unwrap()
     );
-    let cfg_path = dir.join("interface.toml");
-    std::fs::write(&cfg_path, cfg).unwrap();
+    let _iface = frontseat_interface(&dir, &cfg);
     let log = dir.join("interface.log");
-    let _iface = Kill(
-        Command::new(env!("CARGO_BIN_EXE_frontseat"))
-            .args(["interface", "-c"])
-            .arg(&cfg_path)
-            .env("RUST_LOG", "info")
-            .stdout(Stdio::null())
-            .stderr(std::fs::File::create(&log).unwrap())
-            .spawn()
-            .unwrap(),
-    );
     let run = Run {
         ais,
         to_helm: UdpSocket::bind("127.0.0.1:0").await.unwrap(),
@@ -280,17 +269,7 @@ async fn every_new_apb_reaches_the_vehicle_as_a_cmd_line() {
     let cfg = format!(
         "name = \"auv1\"\nhelm_state_timeout = 2.0\n[driver.basic_simulator]\ntcp_port = {tap_port}\n[interprocess]\nenabled = false\n[opencpn.helm]\nenabled = true\nlisten = \"127.0.0.1:{helm_port}\"\nspeed = 2.0\ntimeout_s = 2.0\n"
     );
-    let cfg_path = dir.join("interface.toml");
-    std::fs::write(&cfg_path, cfg).unwrap();
-    let _iface = Kill(
-        Command::new(env!("CARGO_BIN_EXE_frontseat"))
-            .args(["interface", "-c"])
-            .arg(&cfg_path)
-            .stdout(Stdio::null())
-            .stderr(Stdio::null())
-            .spawn()
-            .unwrap(),
-    );
+    let _iface = frontseat_interface(&dir, &cfg);
     let to = UdpSocket::bind("127.0.0.1:0").await.unwrap();
     let helm: std::net::SocketAddr = format!("127.0.0.1:{helm_port}").parse().unwrap();
     let apb = |b: u32| {

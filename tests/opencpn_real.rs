@@ -21,7 +21,7 @@ use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
 use common::ais::{angle_diff, type18};
-use common::procs::{Kill, frontseat_sim, scratch};
+use common::procs::{Kill, frontseat_interface, frontseat_sim, scratch};
 
 fn installed(bin: &str) -> bool {
     Command::new("sh")
@@ -210,16 +210,7 @@ async fn route_steers() {
          [opencpn.helm]\nenabled = true\nlisten = \"127.0.0.1:{helm_port}\"\nspeed = 1.5\ntimeout_s = 3.0\n",
         ais.local_addr().unwrap()
     );
-    std::fs::write(dir.join("interface.toml"), cfg).unwrap();
-    let _iface = Kill(
-        Command::new(env!("CARGO_BIN_EXE_frontseat"))
-            .args(["interface", "-c"])
-            .arg(dir.join("interface.toml"))
-            .stdout(Stdio::null())
-            .stderr(Stdio::null())
-            .spawn()
-            .unwrap(),
-    );
+    let _iface = frontseat_interface(&dir, &cfg);
     // OpenCPN: a fix input, an autopilot output with the whitelist, and a route saved active.
     let home = dir.join("home");
     let conf = home.join(".opencpn");

@@ -13,9 +13,7 @@ use common::*;
 use frontseat_actors::bus::{Bus, Envelope};
 use frontseat_actors::groups;
 use frontseat_actors::interface::InterfaceService;
-use frontseat_actors::proto::frontseat::protobuf::ardupilot::{
-    self, ArdupilotCommand, ardupilot_command::Action,
-};
+use frontseat_actors::proto::frontseat::protobuf::ardupilot::ardupilot_command::Action;
 use frontseat_actors::proto::goby::middleware::frontseat::protobuf::{
     CommandResponse, DesiredCourse, HelmState, InterfaceState,
 };
@@ -50,17 +48,6 @@ async fn emulator() -> Emulator<RoverSession> {
     )
     .await
     .expect("emulator binds loopback")
-}
-
-fn mode_request(action: Action, id: i32) -> ardupilot::CommandRequest {
-    ardupilot::CommandRequest {
-        response_requested: Some(true),
-        request_id: Some(id),
-        ardupilot_command: Some(ArdupilotCommand {
-            action: Some(action as i32),
-        }),
-        ..Default::default()
-    }
 }
 
 async fn response(

@@ -67,28 +67,17 @@ async fn courses_reach_the_vehicle_in_publish_order_whichever_path_each_takes() 
     // From a plain thread, back to back: courses (the lane's), every 10th a command_request
     // carrying its course (the actors' path), every 7th a course over the speed limit (refused).
     const N: u32 = 300;
-    let lane::Mix {
-        expected, refused, ..
-    } = lane::publish_mix(&bus, N, false).await;
-    let lines = tokio::task::spawn_blocking({
-        let n = expected.len();
-        move || (read_cmds(&fs, n), fs)
+    let (mix, fs) = lane::mix_arrives_in_order(&bus, N, false, fs, |fs, n| {
+        read_cmds(fs, n).iter().map(|l| depth_of(l)).collect()
     })
-    .await
-    .unwrap();
-    let (lines, fs) = lines;
-    let read: Vec<f64> = lines.iter().map(|l| depth_of(l)).collect();
-    assert_eq!(
-        read, expected,
-        "every setpoint that passed reached the vehicle once, in publish order, none refused"
-    );
+    .await;
 
     let after = service.snapshot(DEADLINE).await.expect("a snapshot");
     // The command_requests (every 10th) always take the actors; a course published while one of
     // them (or a refused course) is still on its way there follows it, so the lane took fewer
     // than all — but it took courses, or it never ran.
-    let direct = lane::took_the_lane(&before, &after, expected.len(), refused);
-    let via_actors = expected.len() as u64 - direct;
+    let direct = lane::took_the_lane(&before, &after, mix.expected.len(), mix.refused);
+    let via_actors = mix.expected.len() as u64 - direct;
     assert!(via_actors >= u64::from(N / 10) - u64::from(N / 70));
 
     // Nothing more came: one further course, and it is the next line the vehicle reads.

@@ -138,6 +138,18 @@ pub fn helm_heartbeat(bus: &Bus, state: HelmState) -> tokio::task::JoinHandle<()
     })
 }
 
+/// The pilot's ArduPilot `action` as request `id`, asking for an answer.
+pub fn mode_request(action: Action, id: i32) -> ardupilot::CommandRequest {
+    ardupilot::CommandRequest {
+        response_requested: Some(true),
+        request_id: Some(id),
+        ardupilot_command: Some(ArdupilotCommand {
+            action: Some(action as i32),
+        }),
+        ..Default::default()
+    }
+}
+
 /// The pilot's ArduPilot `action`, as command_requests with ids from `first_id` on, each
 /// answered within `timeout` on `responses` (the COMMAND_RESPONSE group), again every 50 ms until
 /// one is accepted; panics after 100 refusals.
@@ -151,14 +163,7 @@ pub async fn until_accepted(
     for id in first_id..first_id + 100 {
         bus.publish(
             &groups::FRONTSEAT_ARDUPILOT_ARDUPILOT_COMMAND_REQUEST,
-            ardupilot::CommandRequest {
-                response_requested: Some(true),
-                request_id: Some(id),
-                ardupilot_command: Some(ArdupilotCommand {
-                    action: Some(action as i32),
-                }),
-                ..Default::default()
-            },
+            mode_request(action, id),
         );
         let deadline = tokio::time::Instant::now() + timeout;
         let accepted = loop {

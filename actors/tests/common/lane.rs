@@ -155,6 +155,27 @@ pub async fn publish_mix(bus: &Bus, n: u32, ask: bool) -> Mix {
         .unwrap()
 }
 
+/// [`publish_mix`], then what `read` gets of the `n` setpoints that passed (on a blocking thread,
+/// `reader` lent to it and given back) must be their depths, once each, in publish order.
+pub async fn mix_arrives_in_order<R: Send + 'static>(
+    bus: &Bus,
+    n: u32,
+    ask: bool,
+    reader: R,
+    read: fn(&R, usize) -> Vec<f64>,
+) -> (Mix, R) {
+    let mix = publish_mix(bus, n, ask).await;
+    let passed = mix.expected.len();
+    let (got, reader) = tokio::task::spawn_blocking(move || (read(&reader, passed), reader))
+        .await
+        .unwrap();
+    assert_eq!(
+        got, mix.expected,
+        "every setpoint that passed reached the vehicle once, in publish order, none refused, none resent"
+    );
+    (mix, reader)
+}
+
 /// The COMMAND_RESPONSE group as a channel, for [`one_answer_each`].
 pub fn responses(
     bus: &Bus,

@@ -168,21 +168,10 @@ async fn setpoints_reach_the_huxley_in_publish_order_whichever_path_each_takes()
     // Back to back from a plain thread: courses, every 10th a command_request asking for an
     // answer, every 7th a course over the speed limit (refused, never written).
     const N: u32 = 100;
-    let lane::Mix {
-        expected,
-        asked,
-        refused,
-    } = lane::publish_mix(&rig.bus, N, true).await;
-    let n = expected.len();
-    let (read, rig) = tokio::task::spawn_blocking(move || (rig.read_rmb(n), rig))
-        .await
-        .unwrap();
-    assert_eq!(
-        read, expected,
-        "every setpoint that passed reached the Huxley once, in publish order, none refused, none resent"
-    );
-    let after = lane::one_answer_each(&mut responses, &asked, &rig.service, DEADLINE).await;
-    lane::took_the_lane(&rig.before, &after, n, refused);
+    let bus = rig.bus.clone();
+    let (mix, rig) = lane::mix_arrives_in_order(&bus, N, true, rig, Rig::read_rmb).await;
+    let after = lane::one_answer_each(&mut responses, &mix.asked, &rig.service, DEADLINE).await;
+    lane::took_the_lane(&rig.before, &after, mix.expected.len(), mix.refused);
     let hux = rig.end().await;
     hux.shutdown().await;
 }

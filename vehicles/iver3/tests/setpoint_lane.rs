@@ -172,23 +172,10 @@ async fn setpoints_reach_the_uvc_in_publish_order_whichever_path_each_takes() {
     // (refused: it goes the actors' way and never reaches the UVC). Fewer than the driver's 64
     // awaiting an `$ACK`: past that the oldest is answered as overflowed, whichever path.
     const N: u32 = 60;
-    let lane::Mix {
-        expected,
-        asked,
-        refused,
-    } = lane::publish_mix(&rig.bus, N, true).await;
-    let n = expected.len();
-    let (read, rig) = tokio::task::spawn_blocking(move || (rig.read_oms(n), rig))
-        .await
-        .unwrap();
-    assert_eq!(
-        read, expected,
-        "every setpoint that passed reached the UVC once, in publish order, none refused"
-    );
-
+    let bus = rig.bus.clone();
+    let (mix, rig) = lane::mix_arrives_in_order(&bus, N, true, rig, Rig::read_oms).await;
     // One answer per command_request that asked (the UVC acks every $OMS), and no more.
-    let after = lane::one_answer_each(&mut responses, &asked, &rig.service, DEADLINE).await;
-
-    lane::took_the_lane(&rig.before, &after, n, refused);
+    let after = lane::one_answer_each(&mut responses, &mix.asked, &rig.service, DEADLINE).await;
+    lane::took_the_lane(&rig.before, &after, mix.expected.len(), mix.refused);
     rig.end().await;
 }

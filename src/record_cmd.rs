@@ -76,7 +76,8 @@ pub enum LogCommand {
         compression: Compression,
     },
     /// Writes DIR/track.svg (the recorded track on the local grid) and DIR/time.svg (speed,
-    /// heading and depth against time, actual from node_status, commanded from desired_course).
+    /// heading and depth against time, actual from node_status, commanded from desired_course,
+    /// over a band of the interface's state from its status group).
     Plot {
         file: PathBuf,
         #[arg(long, value_name = "DIR", default_value = "plot-out")]

@@ -66,6 +66,7 @@ fn real_interface_yaml_compiles() {
             "ChaosHelm",
             "DemoHelm",
             "FrontSeatTranslation",
+            "OpenCpnHelm",
             "WebCommander"
         ]
     );
@@ -79,6 +80,7 @@ fn real_interface_yaml_compiles() {
     assert_eq!(
         actors,
         [
+            "AisReporter",
             "ArdupilotPilot",
             "BenchHelm",
             "BenchNavWatch",
@@ -100,6 +102,7 @@ fn real_interface_yaml_compiles() {
             "HealthReporter",
             "HealthSupervisionWatch",
             "InterfaceFaults",
+            "OpenCpnHelm",
             "RootSupervisor",
             "Simulator",
             "SystemdInterfaceWatch",

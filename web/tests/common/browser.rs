@@ -169,10 +169,31 @@ impl Browser {
             .to_string()
     }
 
+    /// A page that redraws (the topside rebuilds its table every second) can replace the element
+    /// between the find and the click; WebDriver then answers "stale element reference", and the
+    /// click goes to the element found again (a few times at most).
     pub async fn click(&self, css: &str) {
-        let id = self.find(css).await;
-        self.session("POST", &format!("/element/{id}/click"), json!({}))
+        for _ in 0..5 {
+            let id = self.find(css).await;
+            let path = format!("/session/{}/element/{id}/click", self.session);
+            let r = request(
+                self.addr,
+                "POST",
+                &path,
+                &[("Content-Type", "application/json")],
+                b"{}",
+            )
             .await;
+            if r.status == 200 {
+                return;
+            }
+            let v = r.json();
+            assert_eq!(
+                v["value"]["error"], "stale element reference",
+                "POST {path}: {v}"
+            );
+        }
+        panic!("{css} was replaced between find and click 5 times in a row");
     }
 
     pub async fn type_into(&self, css: &str, text: &str) {

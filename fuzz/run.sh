@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Runs the cargo-fuzz targets under libFuzzer (see fuzz/README.md and FUZZING.md).
 #
-#   fuzz/run.sh ci       [SECONDS]            every target, SECONDS each (default 15): CI's smoke run
+#   fuzz/run.sh ci       [SECONDS]            every target, SECONDS each (default 15), FUZZ_JOBS (2) at
+#                                             once: CI's smoke run
 #   fuzz/run.sh campaign [SECONDS] [TARGET…]  every (or the named) target, one at a time, SECONDS
 #                                             each (default 600), new inputs kept in the work dir
 #   fuzz/run.sh merge    [TARGET…]            adds the campaign's new inputs (≤ 8 KiB) that reach new
@@ -215,8 +216,20 @@ case "$mode" in
     build
     failed=()
     work="$(mktemp -d)"
+    # FUZZ_JOBS targets at once (default 2, one per core of a CI machine): each libFuzzer run is
+    # one process on one core, so two halve the step's time and leave each its own core.
+    jobs="${FUZZ_JOBS:-2}"
+    pids=() names=()
     for t in $(all_targets); do
-      run_one "$t" "$secs" || failed+=("$t")
+      run_one "$t" "$secs" &
+      pids+=("$!") names+=("$t")
+      if [ "${#pids[@]}" -ge "$jobs" ]; then
+        wait "${pids[0]}" || failed+=("${names[0]}")
+        pids=("${pids[@]:1}") names=("${names[@]:1}")
+      fi
+    done
+    for i in "${!pids[@]}"; do
+      wait "${pids[$i]}" || failed+=("${names[$i]}")
     done
     bound || failed+=(corpus-bound)
     if [ "${#failed[@]}" -gt 0 ]; then

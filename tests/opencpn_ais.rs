@@ -16,7 +16,7 @@ use std::io::Write;
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
-use common::procs::{Kill, scratch};
+use common::procs::{Kill, processes_with, scratch};
 use frontseat_actors::proto::goby::middleware::frontseat::protobuf::NodeStatus;
 use frontseat_config::AisVehicleConfig;
 use frontseat_opencpn::feed::{position_of, static_of};
@@ -179,7 +179,7 @@ fn the_demo_fleet_appears_as_ais_targets() {
     sock.set_read_timeout(Some(Duration::from_millis(200)))
         .unwrap();
     let to = sock.local_addr().unwrap().to_string();
-    let _demo = Kill(
+    let mut demo = Kill(
         Command::new(env!("CARGO_BIN_EXE_frontseat"))
             .args([
                 "demo", "--fleet", "3", "--warp", "10", "--ais", &to, "--out",
@@ -233,4 +233,11 @@ fn the_demo_fleet_appears_as_ais_targets() {
         lines.len(),
         seen.len()
     );
+    // Stopped mid-flight by SIGTERM (as a Ctrl-C would), the demo stops its fleet: no vehicle
+    // process (their configs are in the launcher's run dir, named after the demo's pid) is left.
+    let status = demo.term(Duration::from_secs(40));
+    assert!(status.is_some(), "the demo did not end within 40 s of SIGTERM");
+    let marker = format!("frontseat-launch-{}/", demo.0.id());
+    let left = processes_with(&marker);
+    assert!(left.is_empty(), "left running after the demo ended: {left:?}");
 }

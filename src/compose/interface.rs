@@ -198,6 +198,27 @@ pub(super) fn with_every_child(mut config: InterfaceConfig) -> InterfaceConfig {
     config.moos.get_or_insert_with(Default::default);
     config.web.enabled = true;
     config.ros2.enabled = true;
+    // Both OpenCPN children, as a config with [opencpn.ais] and [opencpn.helm] starts them (such
+    // a config is refused with [moos] at --check; the tree only shows where each child sits).
+    config.opencpn = Some(frontseat_config::OpenCpnConfig {
+        ais: frontseat_config::AisConfig {
+            enabled: true,
+            vehicle: vec![frontseat_config::AisVehicleConfig {
+                name: config.name.clone(),
+                mmsi: frontseat_config::opencpn::SIM_MMSI_FIRST,
+                label: None,
+                ship_type: 33,
+                call_sign: None,
+                length_m: 2.0,
+                beam_m: 0.5,
+            }],
+            ..Default::default()
+        },
+        helm: frontseat_config::OpenCpnHelmConfig {
+            enabled: true,
+            ..Default::default()
+        },
+    });
     config
 }
 

@@ -133,6 +133,10 @@ mod tests {
             m.port = closed_port();
         }
         cfg.driver.basic_simulator.tcp_port = closed_port();
+        if let Some(o) = cfg.opencpn.as_mut() {
+            o.ais.udp = vec![format!("127.0.0.1:{}", closed_port())];
+            o.helm.listen = "127.0.0.1:0".into();
+        }
         let bus = Bus::new();
         let current = systemd::InterfaceRef::default();
         let root = SupervisorHandle::start(

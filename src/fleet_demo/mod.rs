@@ -105,6 +105,12 @@ pub async fn run(args: DemoArgs) -> ExitCode {
         names(n).join(", "),
         args.warp
     );
+    // Listening from here on: a Ctrl-C or SIGTERM while the fleet starts or flies stops the
+    // launcher, which stops every vehicle process (they are in process groups of their own, so
+    // a terminal's Ctrl-C does not reach them, and this process dying by the default action
+    // left them running).
+    let signal = crate::shutdown::shutdown_signal();
+    tokio::pin!(signal);
     let (stop_tx, stop_rx) = oneshot::channel::<()>();
     let (up_tx, up_rx) = oneshot::channel();
     let file = launch_file.clone();
@@ -123,6 +129,7 @@ pub async fn run(args: DemoArgs) -> ExitCode {
     let up = tokio::select! {
         r = tokio::time::timeout(UP_BOUND, up_rx) => matches!(r, Ok(Ok(()))),
         _ = &mut launcher => false,
+        _ = &mut signal => return stop_on_signal(stop_tx, launcher).await,
     };
     if !up {
         let _ = stop_tx.send(());
@@ -143,13 +150,16 @@ pub async fn run(args: DemoArgs) -> ExitCode {
         .chain(args.web.then_some(topside_port).iter())
         .map(|p| format!("tcp/127.0.0.1:{p}"))
         .collect();
-    let flown = fly(&args, n, endpoints, &slots).await;
+    let flown = tokio::select! {
+        f = fly(&args, n, endpoints, &slots) => f,
+        _ = &mut signal => return stop_on_signal(stop_tx, launcher).await,
+    };
     if args.web && flown.is_ok() {
         eprintln!(
             "frontseat demo: fleet done; topside on http://{}/ (each vehicle's page on the next ports) — Ctrl-C to stop",
             args.web_listen
         );
-        crate::shutdown::shutdown_signal().await;
+        signal.await;
     }
     let _ = stop_tx.send(());
     let outcome = match tokio::time::timeout(Duration::from_secs(30), launcher).await {
@@ -169,4 +179,20 @@ pub async fn run(args: DemoArgs) -> ExitCode {
         return ExitCode::from(outcome.exit_code().max(1));
     }
     code
+}
+
+/// A signal before the flight ended: the launcher stops every process it started; exit 130.
+async fn stop_on_signal(
+    stop_tx: oneshot::Sender<()>,
+    launcher: tokio::task::JoinHandle<frontseat_launch::Outcome>,
+) -> ExitCode {
+    eprintln!("frontseat demo --fleet: stopping the fleet (signal)");
+    let _ = stop_tx.send(());
+    if tokio::time::timeout(Duration::from_secs(30), launcher)
+        .await
+        .is_err()
+    {
+        eprintln!("frontseat demo --fleet: the launcher did not stop within 30 s");
+    }
+    ExitCode::from(130)
 }

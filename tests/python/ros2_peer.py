@@ -25,6 +25,14 @@ one JSON object per line on stdout (flushed), exits 0; errors go to stderr with 
       discovered endpoint on an `rt/` topic, {"participant": guid, "user_data"} per participant;
       its own participant left out.
 
+  bench --domain D --namespace NS --seconds S
+      Rows C1/C2 of `frontseat bench`. Drives helm_state HELM_DRIVE at 10 Hz; per Odometry
+      sample {"odom_z": z, "ns": t}; on a stdin line "courses N RATE", writes N desired_course
+      (depth i+1, heading 90, speed 1.5) at RATE Hz, each {"course": i, "ns": t} stamped just
+      before the write, then {"courses_done": N}. t is CLOCK_MONOTONIC in ns (time.monotonic_ns,
+      the clock Rust's Instant reads on Linux), so the bench compares it with its own stamps.
+      Ends at S seconds or when stdin closes.
+
 JSON: NaN and infinities are null; a char[N]/byte array is a list of numbers. QoS as rmw sets
 it: subscriptions to odom/fix/node_status sensor data (best effort, keep last 5), the rest
 reliable keep last 10, every endpoint's USER_DATA `typehash=RIHS01_...;`, the participant's
@@ -54,7 +62,7 @@ def emit(obj):
 def parse_args(argv):
     p = argparse.ArgumentParser(description="Cyclone DDS as a ROS 2 peer of the frontseat gateway")
     sub = p.add_subparsers(dest="mode", required=True)
-    for mode in ("listen", "helm", "flood", "graph"):
+    for mode in ("listen", "helm", "flood", "graph", "bench"):
         m = sub.add_parser(mode)
         m.add_argument("--domain", type=int, required=True)
         m.add_argument("--seconds", type=float, required=True)
@@ -305,6 +313,53 @@ def mode_graph(a):
                       "dds_type": e.type_name, "endpoint": kind, "reliable": reliable, "typehash": th})
 
 
+def mode_bench(a):
+    import threading
+
+    peer = Peer(a.domain, "ros2_peer_bench")
+    helm_w = peer.writer(a.namespace, "helm_state", T.HelmStateReport)
+    course_w = peer.writer(a.namespace, "desired_course", T.DesiredCourse)
+    odom_r = peer.reader(a.namespace, "odom", T.CLASSES["nav_msgs/msg/Odometry"], "sensor_data")
+    peer.announce()
+    lock = threading.Lock()
+    done = threading.Event()
+
+    def out(obj):
+        with lock:
+            emit(obj)
+
+    def courses():
+        for line in sys.stdin:
+            words = line.split()
+            if len(words) != 3 or words[0] != "courses":
+                continue
+            n, period = int(words[1]), 1.0 / max(float(words[2]), 1e-3)
+            start = time.monotonic()
+            for i in range(n):
+                wait = start + i * period - time.monotonic()
+                if wait > 0:
+                    time.sleep(wait)
+                t = time.monotonic_ns()
+                course_w.write(T.DesiredCourse(time=time.time(), has_heading=True, heading=90.0,
+                                               has_speed=True, speed=1.5, has_depth=True, depth=float(i + 1)))
+                out({"course": i, "ns": t})
+            out({"courses_done": n})
+        done.set()
+
+    threading.Thread(target=courses, daemon=True).start()
+    inbox = Inbox(peer.dp, [odom_r])
+    until = time.monotonic() + a.seconds
+    next_helm = time.monotonic()
+    out({"ready": True})
+    while time.monotonic() < until and not done.is_set():
+        now = time.monotonic()
+        if now >= next_helm:
+            helm_w.write(T.HelmStateReport(state=T.HELM_DRIVE))
+            next_helm = max(next_helm + 0.1, now)
+        for _, sample in inbox.poll(min(until, next_helm)):
+            out({"odom_z": sample.pose.pose.position.z, "ns": time.monotonic_ns()})
+
+
 def main(argv):
     a = parse_args(argv)
     global T
@@ -312,7 +367,8 @@ def main(argv):
         import frontseat_ros2_types as T  # noqa: N812
 
         T.loopback_only()  # before the first participant: Cyclone reads CYCLONEDDS_URI then
-        {"listen": mode_listen, "helm": mode_helm, "flood": mode_flood, "graph": mode_graph}[a.mode](a)
+        {"listen": mode_listen, "helm": mode_helm, "flood": mode_flood, "graph": mode_graph,
+         "bench": mode_bench}[a.mode](a)
     except KeyboardInterrupt:
         return 130
     except Exception as e:  # noqa: BLE001 (any failure is one line and exit 2)

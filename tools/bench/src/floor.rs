@@ -113,12 +113,12 @@ pub fn floor_of(id: &str) -> Option<&'static str> {
     match id {
         // The last hop is a tokio task (a bus subscriber, a MOOS client, a Zenoh subscriber)
         // woken by data from another thread or process.
-        "P1" | "M1" | "G1" | "Z1" | "A1" | "U1" | "D1" | "B1" => Some("L0"),
+        "P1" | "M1" | "G1" | "Z1" | "A1" | "U1" | "D1" | "B1" | "C1" => Some("L0"),
         // The web page's model reads an SSE stream (`web::run_floor`).
         "W1" => Some("L3"),
         // The scripted frontseat, and the bench's relay in front of the Huxley, read with a
         // blocking read(2) on a plain thread.
-        "P2" | "M2" | "G2" | "Z2" | "B2" => Some("L1"),
+        "P2" | "M2" | "G2" | "Z2" | "B2" | "C2" => Some("L1"),
         // Over a pseudo-terminal both ways.
         "I1" | "I2" | "S1" | "S2" => Some("L2"),
         _ => None,

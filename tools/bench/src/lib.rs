@@ -24,6 +24,7 @@
 #![forbid(unsafe_code)]
 
 mod compare;
+mod dds;
 mod fleet;
 mod floor;
 mod frontseat;
@@ -65,9 +66,10 @@ pub struct BenchOptions {
 }
 
 /// Every row's id, in the order of the table.
-pub const ROW_IDS: [&str; 32] = [
+pub const ROW_IDS: [&str; 35] = [
     "L0", "L1", "L2", "L3", "P1", "P2", "P3", "P4", "P5", "P6", "M1", "M2", "G1", "G2", "Z1", "Z2",
-    "Z3", "T1", "W1", "R1", "R2", "F1", "F2", "B1", "B2", "I1", "I2", "S1", "S2", "A1", "U1", "D1",
+    "Z3", "T1", "C1", "C2", "C3", "W1", "R1", "R2", "F1", "F2", "B1", "B2", "I1", "I2", "S1", "S2",
+    "A1", "U1", "D1",
 ];
 
 /// Which rows a run measures. Rows measured together (P4/P5, M1/M2, G1/G2, Z1–Z3/T1, a vehicle
@@ -122,6 +124,7 @@ struct Plan {
     inproc: inproc::Plan,
     goby3: goby3::Plan,
     xproc: xproc::Plan,
+    dds: dds::Plan,
     web: web::Plan,
     record: record::Plan,
     fleet: fleet::Plan,
@@ -152,6 +155,14 @@ impl Plan {
                 g1_rate_hz: 500.0,
                 g2_count: 5_000,
                 g2_rate_hz: 500.0,
+            },
+            dds: dds::Plan {
+                c1_count: 5_000,
+                c1_rate_hz: 500.0,
+                c2_count: 5_000,
+                c2_rate_hz: 500.0,
+                settle: Duration::from_secs(2),
+                cpu_window: Duration::from_secs(10),
             },
             xproc: xproc::Plan {
                 z1_count: 5_000,
@@ -210,6 +221,14 @@ impl Plan {
                 g1_rate_hz: 1000.0,
                 g2_count: 100,
                 g2_rate_hz: 1000.0,
+            },
+            dds: dds::Plan {
+                c1_count: 200,
+                c1_rate_hz: 500.0,
+                c2_count: 200,
+                c2_rate_hz: 500.0,
+                settle: Duration::from_millis(200),
+                cpu_window: Duration::from_millis(500),
             },
             xproc: xproc::Plan {
                 z1_count: 200,
@@ -378,6 +397,9 @@ pub async fn run(args: BenchOptions) -> ExitCode {
     }
     if sel.any(&["Z1", "Z2", "Z3", "T1"]) {
         rows.extend(xproc::run(&args.exe, plan.xproc).await);
+    }
+    if sel.any(&["C1", "C2", "C3"]) {
+        rows.extend(dds::run(&args.exe, plan.dds).await);
     }
     if sel.wants("W1") {
         rows.push(web::run(plan.web).await);

@@ -140,7 +140,7 @@ pub(super) fn cpu_time(pid: u32) -> Option<Duration> {
 }
 
 /// A `Vm…:` line of /proc/<pid>/status, in KiB.
-fn status_kib(pid: u32, key: &str) -> Option<u64> {
+pub(super) fn status_kib(pid: u32, key: &str) -> Option<u64> {
     let s = std::fs::read_to_string(format!("/proc/{pid}/status")).ok()?;
     let line = s.lines().find(|l| l.starts_with(key))?;
     line.split_whitespace().nth(1)?.parse().ok()

@@ -236,8 +236,14 @@ fn the_demo_fleet_appears_as_ais_targets() {
     // Stopped mid-flight by SIGTERM (as a Ctrl-C would), the demo stops its fleet: no vehicle
     // process (their configs are in the launcher's run dir, named after the demo's pid) is left.
     let status = demo.term(Duration::from_secs(40));
-    assert!(status.is_some(), "the demo did not end within 40 s of SIGTERM");
+    assert!(
+        status.is_some(),
+        "the demo did not end within 40 s of SIGTERM"
+    );
     let marker = format!("frontseat-launch-{}/", demo.0.id());
     let left = processes_with(&marker);
-    assert!(left.is_empty(), "left running after the demo ended: {left:?}");
+    assert!(
+        left.is_empty(),
+        "left running after the demo ended: {left:?}"
+    );
 }

@@ -69,7 +69,8 @@ impl Sentence {
     }
 
     /// Parses one line (terminator already removed; surrounding whitespace ignored). A `*HH`
-    /// checksum is optional, as in Goby3, but when present it must match.
+    /// checksum is optional, as in Goby3, but when present it must match. The size bound
+    /// counts a line with its checksum (one without is counted as if it had one).
     pub fn parse(line: &str) -> Result<Self, CodecError> {
         let line = line.trim();
         if line.is_empty() {
@@ -94,6 +95,12 @@ impl Sentence {
                     return Err(CodecError::BadChecksum { given, computed });
                 }
                 b
+            }
+            // Without a checksum the bound counts the three bytes `format` adds: a sentence we
+            // accept always formats to a line we accept (found by the bluefin_codec fuzzer: a
+            // 1 024-byte line without one formatted to 1 027 bytes and was refused on the way back).
+            _ if line.len() + 3 > MAX_SENTENCE_BYTES => {
+                return Err(CodecError::TooLong(line.len() + 3));
             }
             _ => body,
         };

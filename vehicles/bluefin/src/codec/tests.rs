@@ -112,6 +112,17 @@ fn malformed_lines_are_typed_errors() {
         Sentence::parse(&long),
         Err(CodecError::TooLong(_))
     ));
+    // Without a checksum the bound counts the three bytes `format` adds, so what parses formats
+    // to a line that parses again (the bluefin_codec fuzzer's finding, seed
+    // `fuzz/corpus/regression-too-long-without-checksum`).
+    let at_bound = |n: usize| format!("$BFMSC,{}", "x".repeat(n - "$BFMSC,".len()));
+    assert_eq!(
+        Sentence::parse(&at_bound(MAX_SENTENCE_BYTES - 2)),
+        Err(CodecError::TooLong(MAX_SENTENCE_BYTES + 1))
+    );
+    let fits = Sentence::parse(&at_bound(MAX_SENTENCE_BYTES - 3)).unwrap();
+    assert_eq!(fits.format().len(), MAX_SENTENCE_BYTES);
+    assert_eq!(Sentence::parse(&fits.format()), Ok(fits));
     let wide = format!("$BFMSC{}", ",".repeat(MAX_FIELDS + 1));
     assert_eq!(Sentence::parse(&wide), Err(CodecError::TooManyFields));
 }

@@ -21,7 +21,7 @@ use tokio::io::{AsyncBufReadExt, AsyncWriteExt, BufReader};
 
 use super::frontseat::{ScriptedFrontseat, Stamps};
 use super::inproc::{GRACE, latency_row, match_up};
-use super::procs::{ChildGuard, TempConfig, cpu_time, status_kib};
+use super::procs::{ChildGuard, cpu_percent, interface_child, status_kib};
 use super::report::{Figures, Row};
 
 /// How much each row measures.
@@ -218,21 +218,8 @@ async fn measure(exe: &Path, plan: &Plan, ros2: bool) -> Result<Measured, String
          max_abs_depth_rate = 1e9\n\n{section}",
         fs.port()
     );
-    let path = std::env::temp_dir().join(format!(
-        "frontseat-bench-{}-ros2-{}.toml",
-        std::process::id(),
-        if ros2 { "on" } else { "off" }
-    ));
-    std::fs::write(&path, cfg).map_err(|e| format!("writing {}: {e}", path.display()))?;
-    let _cfg = TempConfig(path.clone());
-    let mut child = ChildGuard::spawn(
-        exe,
-        &[
-            "interface".to_string(),
-            "-c".into(),
-            path.display().to_string(),
-        ],
-    )?;
+    let tag = if ros2 { "ros2-on" } else { "ros2-off" };
+    let (_cfg, mut child) = interface_child(exe, tag, &cfg)?;
     let r = if ros2 {
         with_peer(
             plan,
@@ -270,14 +257,7 @@ async fn steady(
     child.wait_for(needles).await?;
     tokio::time::sleep(plan.settle).await;
     let pid = child.pid();
-    let before = cpu_time(pid);
-    let t0 = Instant::now();
-    tokio::time::sleep(plan.cpu_window).await;
-    let secs = t0.elapsed().as_secs_f64().max(1e-9);
-    let cpu = match (before, cpu_time(pid)) {
-        (Some(a), Some(b)) => 100.0 * b.saturating_sub(a).as_secs_f64() / secs,
-        _ => return Err(format!("cannot read /proc/{pid}/stat of the interface")),
-    };
+    let (cpu, _) = cpu_percent(pid, plan.cpu_window).await?;
     Ok((cpu, status_kib(pid, "VmRSS:").unwrap_or(0)))
 }
 

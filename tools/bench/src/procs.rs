@@ -120,6 +120,45 @@ impl Drop for TempConfig {
     }
 }
 
+/// `frontseat interface -c <config>` as a child, its config (`text`) written to a temporary file
+/// named after this process and `tag`, removed when the returned guard is dropped (after the
+/// child: bind the pair as `(_cfg, child)`).
+pub(super) fn interface_child(
+    exe: &Path,
+    tag: &str,
+    text: &str,
+) -> Result<(TempConfig, ChildGuard), String> {
+    let path =
+        std::env::temp_dir().join(format!("frontseat-bench-{}-{tag}.toml", std::process::id()));
+    std::fs::write(&path, text).map_err(|e| format!("writing {}: {e}", path.display()))?;
+    let cfg = TempConfig(path.clone());
+    let child = ChildGuard::spawn(
+        exe,
+        &[
+            "interface".to_string(),
+            "-c".into(),
+            path.display().to_string(),
+        ],
+    )?;
+    Ok((cfg, child))
+}
+
+/// The CPU `pid` uses while this task sleeps for `window`: % of one core, and the window as it
+/// was measured.
+pub(super) async fn cpu_percent(pid: u32, window: Duration) -> Result<(f64, Duration), String> {
+    let before = cpu_time(pid);
+    let t0 = Instant::now();
+    tokio::time::sleep(window).await;
+    let took = t0.elapsed();
+    match (before, cpu_time(pid)) {
+        (Some(a), Some(b)) => Ok((
+            100.0 * b.saturating_sub(a).as_secs_f64() / took.as_secs_f64().max(1e-9),
+            took,
+        )),
+        _ => Err(format!("cannot read /proc/{pid}/stat of the interface")),
+    }
+}
+
 pub(super) fn free_port() -> Result<u16, String> {
     // The port is free when we let go of it; the simulator binds it a moment later.
     TcpListener::bind((Ipv4Addr::LOCALHOST, 0))

@@ -22,7 +22,7 @@ use serde_json::json;
 
 use super::frontseat::{ScriptedFrontseat, Stamps, seq_of};
 use super::inproc::{GRACE, latency_row, match_up};
-use super::procs::{ChildGuard, TempConfig, cpu_time, free_port};
+use super::procs::{cpu_percent, free_port, interface_child};
 use super::report::{Figures, Latency, Row, fmt_count, fmt_duration};
 use super::sink::{Sink, SinkStats};
 
@@ -127,8 +127,6 @@ async fn measure(exe: &Path, plan: &Plan, sink: Option<&Sink>) -> Result<Measure
         .map_err(|e| format!("scripted frontseat: {e}"))?;
     let zport = free_port()?;
     let tag = if sink.is_some() { "otel" } else { "zenoh" };
-    let path =
-        std::env::temp_dir().join(format!("frontseat-bench-{}-{tag}.toml", std::process::id()));
     let telemetry = sink
         .map(|s| {
             format!(
@@ -159,16 +157,7 @@ async fn measure(exe: &Path, plan: &Plan, sink: Option<&Sink>) -> Result<Measure
          max_abs_depth_rate = 1e9\n{telemetry}",
         fs.port()
     );
-    std::fs::write(&path, cfg).map_err(|e| format!("writing {}: {e}", path.display()))?;
-    let _cfg = TempConfig(path.clone());
-    let mut child = ChildGuard::spawn(
-        exe,
-        &[
-            "interface".to_string(),
-            "-c".into(),
-            path.display().to_string(),
-        ],
-    )?;
+    let (_cfg, mut child) = interface_child(exe, tag, &cfg)?;
     let r = connect_and_measure(plan, &fs, child.pid(), zport, &st, z3_count)
         .await
         .map_err(|e| format!("{e}; the interface logged: {}", child.tail(4)));
@@ -294,16 +283,7 @@ async fn on_session(
 
     // CPU at steady state: only the keep-alive NAV (10 Hz) and the helm heartbeat (10 Hz) flow.
     tokio::time::sleep(plan.settle).await;
-    let before = cpu_time(pid);
-    let t0 = Instant::now();
-    tokio::time::sleep(plan.cpu_window).await;
-    let cpu_window = t0.elapsed();
-    let cpu_percent = match (before, cpu_time(pid)) {
-        (Some(a), Some(b)) => {
-            100.0 * b.saturating_sub(a).as_secs_f64() / cpu_window.as_secs_f64().max(1e-9)
-        }
-        _ => return Err(format!("cannot read /proc/{pid}/stat of the interface")),
-    };
+    let (cpu_percent, cpu_window) = cpu_percent(pid, plan.cpu_window).await?;
 
     let z1 = z1(plan, fs, st).await;
     let z2 = z2(plan, fs, session, st).await;

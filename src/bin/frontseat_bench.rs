@@ -27,6 +27,10 @@ fn main() -> ExitCode {
     if let Ok(spec) = std::env::var(frontseat_bench::PUBLISHER_ENV) {
         return frontseat_bench::publisher_main(&spec);
     }
+    // L4's putting peer (a floor), likewise.
+    if let Ok(spec) = std::env::var(frontseat_bench::L4_PEER_ENV) {
+        return frontseat_bench::l4_peer_main(&spec);
+    }
     let args = Cli::parse().args;
     let exe = match std::env::var_os("FRONTSEAT_EXE") {
         Some(p) => std::path::PathBuf::from(p),

@@ -46,6 +46,7 @@ use std::time::{Duration, Instant};
 use serde_json::json;
 
 pub use fleet::{PUBLISHER_ENV, publisher_main};
+pub use floor::{L4_PEER_ENV, l4_peer_main};
 use report::{Figures, Machine, Row, fmt_count, fmt_duration};
 
 /// What to run and how to print it.
@@ -66,10 +67,10 @@ pub struct BenchOptions {
 }
 
 /// Every row's id, in the order of the table.
-pub const ROW_IDS: [&str; 35] = [
-    "L0", "L1", "L2", "L3", "P1", "P2", "P3", "P4", "P5", "P6", "M1", "M2", "G1", "G2", "Z1", "Z2",
-    "Z3", "T1", "C1", "C2", "C3", "W1", "R1", "R2", "F1", "F2", "B1", "B2", "I1", "I2", "S1", "S2",
-    "A1", "U1", "D1",
+pub const ROW_IDS: [&str; 36] = [
+    "L0", "L1", "L2", "L3", "L4", "P1", "P2", "P3", "P4", "P5", "P6", "M1", "M2", "G1", "G2", "Z1",
+    "Z2", "Z3", "T1", "C1", "C2", "C3", "W1", "R1", "R2", "F1", "F2", "B1", "B2", "I1", "I2", "S1",
+    "S2", "A1", "U1", "D1",
 ];
 
 /// Which rows a run measures. Rows measured together (P4/P5, M1/M2, G1/G2, Z1–Z3/T1, a vehicle
@@ -90,11 +91,15 @@ impl Selection {
             match ROW_IDS.iter().find(|r| **r == id) {
                 Some(r) if !picked.contains(r) => {
                     picked.push(r);
-                    if let Some(f) =
-                        floor::floor_of(r).and_then(|f| ROW_IDS.iter().find(|x| **x == f))
-                        && !picked.contains(f)
-                    {
-                        picked.push(f);
+                    let floors = floor::floor_of(r)
+                        .into_iter()
+                        .chain(floor::path_floor_of(r).unwrap_or_default().iter().copied());
+                    for f in floors {
+                        if let Some(f) = ROW_IDS.iter().find(|x| **x == f)
+                            && !picked.contains(f)
+                        {
+                            picked.push(f);
+                        }
                     }
                 }
                 Some(_) => {}
@@ -375,6 +380,13 @@ pub async fn run(args: BenchOptions) -> ExitCode {
     }
     if sel.wants("L3") {
         rows.push(web::run_floor(plan.web).await);
+    }
+    if sel.wants("L4") {
+        // L4's putting peer is a child: this executable, found next to `frontseat`.
+        let bench_exe = args
+            .exe
+            .with_file_name(format!("frontseat-bench{}", std::env::consts::EXE_SUFFIX));
+        rows.push(floor::run_l4(&bench_exe, plan.xproc.z1_count, plan.xproc.z1_rate_hz).await);
     }
     if sel.any(&["P1", "P2", "P6", "M1", "M2"]) {
         rows.extend(inproc::run(plan.inproc, &sel).await);

@@ -18,9 +18,8 @@ use frontseat_actors::proto::goby::middleware::frontseat::protobuf::{
 
 impl ArdupilotDriver {
     /// A helm's course (the `Driver` entry and a mode command's riding course both come here).
-    /// Every course comes here through the actors: the setpoint lane's design for this driver
-    /// (a steering snapshot of the mode state the driver publishes, the shared MAVLink sequence)
-    /// is in ARCHITECTURE.md "The lane per vehicle family", not yet coded.
+    /// A new course armed in GUIDED may instead have been written by the setpoint lane
+    /// (`lane`), whose course the driver takes in at its next message as if it came here.
     pub(super) fn take_course(
         &mut self,
         req: &CommandRequest,

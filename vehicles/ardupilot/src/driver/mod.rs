@@ -22,10 +22,13 @@
 /// operators filter and grep on it.
 const LOG_TARGET: &str = "frontseat_ardupilot::driver";
 
+use std::sync::Arc;
 use std::time::Duration;
 
 use crate::codec;
-use frontseat_actors::driver::{Driver, DriverContext, DriverExtension, DriverIoEvent, SignalSink};
+use frontseat_actors::driver::{
+    DirectCommand, Driver, DriverContext, DriverExtension, DriverIoEvent, SignalSink,
+};
 use frontseat_actors::drivers::kit::own_extension;
 use frontseat_actors::link::byte;
 use frontseat_actors::proto::frontseat::protobuf::ardupilot::CommandRequest as ArdupilotCommandRequest;
@@ -38,6 +41,7 @@ mod course;
 mod heartbeat;
 mod inbound;
 mod keepalive;
+mod lane;
 mod mode_commands;
 mod navigation;
 mod settings;
@@ -53,9 +57,11 @@ const MAX_RAW_BYTES: usize = 16 * codec::MAX_FRAME;
 
 impl Driver for ArdupilotDriver {
     fn send_extension(&mut self, ext: &DriverExtension, now: Duration, sig: &mut dyn SignalSink) {
+        self.absorb(now);
         if let Some(r) = own_extension::<ArdupilotCommandRequest>(ext, COMMAND, sig, self.name()) {
             self.send_ardupilot_command(&r, now, sig);
         }
+        self.publish_steer(now);
     }
 
     fn name(&self) -> &str {
@@ -77,23 +83,9 @@ impl Driver for ArdupilotDriver {
     }
 
     fn handle_io(&mut self, ev: DriverIoEvent, now: Duration, sig: &mut dyn SignalSink) {
-        match ev {
-            DriverIoEvent::Connected(w) => {
-                tracing::info!(target: LOG_TARGET, address = %self.settings.address, "MAVLink link open");
-                self.writer = Some(w);
-                self.streams_requested = false;
-                // A companion announces itself; SITL's first serial port starts talking on it.
-                self.own_heartbeat(now, sig);
-            }
-            DriverIoEvent::Frame(b) => self.on_frame(b, now, sig),
-            DriverIoEvent::Line(_) => self.bad("text line on a MAVLink link"),
-            DriverIoEvent::BadInput(what) => self.bad(&what),
-            DriverIoEvent::Disconnected(reason) => {
-                tracing::warn!(target: LOG_TARGET, %reason, "MAVLink link lost; reopening");
-                self.writer = None;
-                self.heartbeat_lost(sig);
-            }
-        }
+        self.absorb(now);
+        self.io_event(ev, now, sig);
+        self.publish_steer(now);
     }
 
     fn send_command_to_frontseat(
@@ -102,7 +94,9 @@ impl Driver for ArdupilotDriver {
         now: Duration,
         sig: &mut dyn SignalSink,
     ) {
+        self.absorb(now);
         self.take_course(req, now, sig);
+        self.publish_steer(now);
     }
 
     fn send_data_to_frontseat(
@@ -114,7 +108,62 @@ impl Driver for ArdupilotDriver {
         // No data channel to the autopilot.
     }
 
-    fn send_raw_to_frontseat(&mut self, raw: &Raw, _now: Duration, sig: &mut dyn SignalSink) {
+    fn send_raw_to_frontseat(&mut self, raw: &Raw, now: Duration, sig: &mut dyn SignalSink) {
+        self.absorb(now);
+        self.raw_send(raw, sig);
+        self.publish_steer(now);
+    }
+
+    fn do_loop(&mut self, now: Duration, sig: &mut dyn SignalSink) {
+        self.absorb(now);
+        self.tick(now, sig);
+        self.publish_steer(now);
+    }
+
+    fn direct_command(&self) -> Option<Arc<dyn DirectCommand>> {
+        self.direct()
+    }
+
+    fn frontseat_state(&self) -> FrontSeatState {
+        self.state
+    }
+
+    fn frontseat_providing_data(&self) -> bool {
+        self.nav.providing()
+    }
+
+    fn stop(&mut self) {
+        self.writer = None;
+        self.close_lane();
+    }
+}
+
+/// The driver's work per message, between [`ArdupilotDriver::absorb`] (the lane's course taken
+/// in) and [`ArdupilotDriver::publish_steer`] (the lane's snapshot).
+impl ArdupilotDriver {
+    fn io_event(&mut self, ev: DriverIoEvent, now: Duration, sig: &mut dyn SignalSink) {
+        match ev {
+            DriverIoEvent::Connected(w) => {
+                tracing::info!(target: LOG_TARGET, address = %self.settings.address, "MAVLink link open");
+                self.open_lane(&w);
+                self.writer = Some(w);
+                self.streams_requested = false;
+                // A companion announces itself; SITL's first serial port starts talking on it.
+                self.own_heartbeat(now, sig);
+            }
+            DriverIoEvent::Frame(b) => self.on_frame(b, now, sig),
+            DriverIoEvent::Line(_) => self.bad("text line on a MAVLink link"),
+            DriverIoEvent::BadInput(what) => self.bad(&what),
+            DriverIoEvent::Disconnected(reason) => {
+                tracing::warn!(target: LOG_TARGET, %reason, "MAVLink link lost; reopening");
+                self.writer = None;
+                self.close_lane();
+                self.heartbeat_lost(sig);
+            }
+        }
+    }
+
+    fn raw_send(&mut self, raw: &Raw, sig: &mut dyn SignalSink) {
         let bytes = raw.raw.as_deref().unwrap_or_default();
         if bytes.is_empty() || bytes.len() > MAX_RAW_BYTES {
             return self.bad("raw_send_request is not 1 to 4480 bytes of MAVLink frames");
@@ -129,7 +178,7 @@ impl Driver for ArdupilotDriver {
         self.write_bytes(bytes.to_vec(), sig);
     }
 
-    fn do_loop(&mut self, now: Duration, sig: &mut dyn SignalSink) {
+    fn tick(&mut self, now: Duration, sig: &mut dyn SignalSink) {
         if self.writer.is_some()
             && self
                 .own_heartbeat_at
@@ -155,18 +204,6 @@ impl Driver for ArdupilotDriver {
             self.keepalive(now, sig);
         }
         self.judge_due(now, sig);
-    }
-
-    fn frontseat_state(&self) -> FrontSeatState {
-        self.state
-    }
-
-    fn frontseat_providing_data(&self) -> bool {
-        self.nav.providing()
-    }
-
-    fn stop(&mut self) {
-        self.writer = None;
     }
 }
 

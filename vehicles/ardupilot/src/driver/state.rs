@@ -7,6 +7,8 @@ use std::sync::Arc;
 use std::time::Duration;
 
 use crate::codec::{MavMessage, Sender};
+
+use super::lane::{DirectTarget, Steer};
 use crate::dialect::{
     COMMAND_LONG_DATA, EkfStatusFlags, GpsFixType, LOCAL_POSITION_NED_DATA, MavCmd,
 };
@@ -15,7 +17,9 @@ use crate::modes::Firmware;
 
 use super::settings::Settings;
 use frontseat_actors::driver::SignalSink;
-use frontseat_actors::drivers::kit::{AckQueue, DataWatch, OwnedTask, log_due, send_bytes};
+use frontseat_actors::drivers::kit::{
+    AckQueue, DataWatch, OwnedTask, log_due, raw_binary, send_bytes,
+};
 use frontseat_actors::link::LineWriter;
 use frontseat_actors::link::byte::LinkStats;
 use frontseat_actors::proto::goby::middleware::frontseat::protobuf::FrontSeatState;
@@ -86,7 +90,10 @@ pub struct ArdupilotDriver {
     pub(super) writer: Option<LineWriter>,
     pub(super) link_task: OwnedTask,
     pub link_stats: Arc<LinkStats>,
-    pub(super) tx: Sender,
+    /// The MAVLink framer and the steering snapshot, shared with the lane's [`DirectTarget`].
+    pub(super) steer: Steer,
+    /// While a (non-UDP) link is open: the setpoint lane's way to it.
+    pub(super) direct: Option<Arc<DirectTarget>>,
     /// The autopilot (system, component) spoken to: configured, or the first heard.
     pub(super) vehicle: Option<(u8, u8)>,
     pub(super) beat: Option<Beat>,
@@ -131,7 +138,8 @@ impl ArdupilotDriver {
             writer: None,
             link_task: OwnedTask::default(),
             link_stats: Arc::new(LinkStats::default()),
-            tx,
+            steer: Steer::new(tx),
+            direct: None,
             vehicle,
             beat: None,
             last_heartbeat: None,
@@ -197,9 +205,31 @@ impl ArdupilotDriver {
         }
     }
 
+    /// Frames `msg` and hands it to the link under the framer's lock, which the lane's writes
+    /// take too: sequence numbers enter the link in order.
     pub(super) fn write(&mut self, msg: &MavMessage, sig: &mut dyn SignalSink) -> bool {
-        let frame = self.tx.frame(msg);
-        self.write_bytes(frame, sig)
+        let Some(w) = &self.writer else {
+            self.counters.write_failures += 1;
+            return false;
+        };
+        let sent = {
+            let mut st = self.steer.lock();
+            let frame = st.tx.frame(msg);
+            w.write_bytes(frame.clone()).map(|()| frame)
+        };
+        match sent {
+            Ok(frame) => {
+                sig.raw_to_frontseat(raw_binary(frame));
+                true
+            }
+            Err(e) => {
+                self.counters.write_failures += 1;
+                if let Some(suppressed) = log_due(&mut self.bad_log) {
+                    tracing::warn!(target: super::LOG_TARGET, error = %e, suppressed, "MAVLink frame to the vehicle not sent");
+                }
+                false
+            }
+        }
     }
 
     pub(super) fn write_bytes(&mut self, frame: Vec<u8>, sig: &mut dyn SignalSink) -> bool {

@@ -501,3 +501,54 @@ fn every_sub_fixture_decodes() {
         assert!(codec::decode(&frame(name)).is_ok(), "{name}");
     }
 }
+
+/// The setpoint lane on a Sub: a GUIDED LOCAL_NED target anchored on the latest
+/// LOCAL_POSITION_NED, holding the depth it finds when the course names none; nothing in
+/// ALT_HOLD (three messages: the actors' path) or with a negative depth.
+#[test]
+fn the_lane_writes_the_subs_guided_target_and_nothing_in_alt_hold() {
+    let (mut d, mut rx, mut sink) = driver_with(|_| {});
+    let lane = d.direct_command().expect("a TCP link offers the lane");
+    let bare = |h: f64, depth: Option<f64>| {
+        let mut c = course(h, 0.5, depth, 0);
+        c.response_requested = None;
+        c.request_id = None;
+        c
+    };
+    feed(&mut d, &mut sink, "sub_hb_guided_armed", 0.0);
+    assert!(
+        lane.send_now(&bare(90.0, Some(5.0))).is_none(),
+        "no LOCAL_POSITION_NED to anchor on"
+    );
+    ready_guided(&mut d, &mut sink, 0.0);
+    msgs(&mut rx);
+    assert!(lane.send_now(&bare(90.0, Some(-1.0))).is_none());
+    assert!(lane.send_now(&bare(90.0, None)).is_some());
+    let v = msgs(&mut rx);
+    let [MavMessage::SET_POSITION_TARGET_LOCAL_NED(t)] = &v[..] else {
+        panic!("{v:?}")
+    };
+    assert_eq!((t.x, t.y, t.z), (3.0, 4.0, 5.0), "holds the 5 m it is at");
+    assert!((t.yaw - std::f32::consts::FRAC_PI_2).abs() < 1e-6);
+    // The same course with the depth it held: unchanged, not written.
+    assert!(lane.send_now(&bare(90.0, Some(5.0))).is_none());
+    assert!(lane.send_now(&bare(100.0, Some(7.0))).is_some());
+    let v = msgs(&mut rx);
+    let [MavMessage::SET_POSITION_TARGET_LOCAL_NED(t)] = &v[..] else {
+        panic!("{v:?}")
+    };
+    assert_eq!(t.z, 7.0);
+    // The driver goes on from it: its 5 Hz re-send is the lane's course.
+    for i in 1..=3 {
+        d.do_loop(Duration::from_millis(250 * i), &mut sink);
+    }
+    let v = msgs(&mut rx);
+    assert!(
+        v.iter()
+            .any(|m| matches!(m, MavMessage::SET_POSITION_TARGET_LOCAL_NED(t) if t.z == 7.0)),
+        "{v:?}"
+    );
+    feed(&mut d, &mut sink, "sub_hb_althold_armed", 1.0);
+    assert!(lane.send_now(&bare(120.0, Some(2.0))).is_none());
+    assert_never_arms_or_changes_mode(&msgs(&mut rx));
+}

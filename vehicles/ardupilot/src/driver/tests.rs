@@ -403,3 +403,150 @@ fn every_pymavlink_fixture_decodes() {
         assert!(codec::decode(&frame(name)).is_ok(), "{name}");
     }
 }
+
+/// A course as the setpoint lane hands it: bare, no answer asked.
+fn lane_course(h: f64, s: f64) -> CommandRequest {
+    CommandRequest {
+        desired_course: Some(DesiredCourse {
+            time: 0.0,
+            heading: Some(h),
+            speed: Some(s),
+            ..Default::default()
+        }),
+        ..Default::default()
+    }
+}
+
+/// Every frame the driver (or the lane) handed to the link, with its MAVLink sequence number.
+fn sequenced(rx: &mut Receiver<Vec<u8>>) -> Vec<(u8, MavMessage)> {
+    let mut v = Vec::new();
+    while let Ok(b) = rx.try_recv() {
+        let (h, m) = crate::codec::decode(&b).unwrap();
+        v.push((h.sequence, m));
+    }
+    v
+}
+
+/// ARCHITECTURE.md "The lane per vehicle family": the lane writes a new course's GUIDED target
+/// only armed in GUIDED, never an unchanged one, in the driver's own sequence; the driver takes
+/// its course in and re-sends it at 5 Hz until the helm stops; a mode change the driver has
+/// handled closes the way at once.
+#[test]
+fn the_lane_writes_a_new_course_armed_in_guided_and_the_driver_goes_on_from_it() {
+    let (mut d, mut rx, mut sink) = driver();
+    let lane = d.direct_command().expect("a TCP link offers the lane");
+    assert!(
+        lane.send_now(&lane_course(90.0, 2.0)).is_none(),
+        "no HEARTBEAT yet"
+    );
+    feed(&mut d, &mut sink, "hb_hold_armed", 0.0);
+    assert!(lane.send_now(&lane_course(90.0, 2.0)).is_none(), "HOLD");
+    feed(&mut d, &mut sink, "hb_manual_disarmed", 0.0);
+    assert!(lane.send_now(&lane_course(90.0, 2.0)).is_none(), "disarmed");
+    ready(&mut d, &mut sink, 0.0);
+    let before = sequenced(&mut rx);
+    let last_seq = before.last().map(|(s, _)| *s).unwrap();
+
+    let raw = lane
+        .send_now(&lane_course(90.0, 2.0))
+        .expect("armed in GUIDED");
+    let v = sequenced(&mut rx);
+    let [(seq, MavMessage::SET_POSITION_TARGET_GLOBAL_INT(t))] = &v[..] else {
+        panic!("{v:?}")
+    };
+    assert_eq!(*seq, last_seq.wrapping_add(1), "the driver's own sequence");
+    assert_eq!(t.type_mask.bits(), 0x09C7);
+    assert_eq!((t.vx, t.target_system, t.target_component), (2.0, 1, 1));
+    assert!((t.yaw - std::f32::consts::FRAC_PI_2).abs() < 1e-6);
+    let (_, m) = crate::codec::decode(raw.raw.as_deref().unwrap()).unwrap();
+    assert!(matches!(m, MavMessage::SET_POSITION_TARGET_GLOBAL_INT(_)));
+    // The same course again: not written (the driver's path renews it).
+    assert!(lane.send_now(&lane_course(90.0, 2.0)).is_none());
+    assert!(sequenced(&mut rx).is_empty());
+    // The driver's next message takes the course in: the helm's renewal through the actors is
+    // unchanged (no frame), and the re-sends go on at 5 Hz with the lane's heading and the
+    // sequence unbroken.
+    let mut c = lane_course(90.0, 2.0);
+    c.response_requested = None;
+    d.send_command_to_frontseat(&c, Duration::from_millis(50), &mut sink);
+    assert!(
+        sequenced(&mut rx).is_empty(),
+        "an unchanged course is not written"
+    );
+    assert_eq!(d.counters.targets_sent, 1);
+    let mut seqs = vec![*seq];
+    for i in 1..=10 {
+        let now = Duration::from_millis(50 + 100 * i);
+        d.do_loop(now, &mut sink);
+        for (s, m) in sequenced(&mut rx) {
+            seqs.push(s);
+            if let MavMessage::SET_POSITION_TARGET_GLOBAL_INT(t) = m {
+                assert!((t.yaw - std::f32::consts::FRAC_PI_2).abs() < 1e-6);
+            }
+        }
+    }
+    assert!(d.counters.targets_sent >= 5, "{:?}", d.counters);
+    assert!(
+        seqs.windows(2).all(|w| w[1] == w[0].wrapping_add(1)),
+        "{seqs:?}"
+    );
+    // The helm stops renewing: after course_timeout the re-sends stop, as on the actors' path.
+    for i in 11..=50 {
+        let now = Duration::from_millis(50 + 100 * i);
+        if i % 10 == 0 {
+            feed(&mut d, &mut sink, "hb_guided_armed", now.as_secs_f64());
+        }
+        d.do_loop(now, &mut sink);
+        let late = sequenced(&mut rx)
+            .into_iter()
+            .filter(|(_, m)| matches!(m, MavMessage::SET_POSITION_TARGET_GLOBAL_INT(_)))
+            .count();
+        if i > 40 {
+            assert_eq!(late, 0, "re-sent after the helm stopped");
+        }
+    }
+    // A mode change the driver has handled closes the way before the lane is asked again.
+    let t = 5.5;
+    feed(&mut d, &mut sink, "hb_hold_failsafe", t);
+    assert!(lane.send_now(&lane_course(180.0, 1.0)).is_none());
+    assert!(
+        sequenced(&mut rx)
+            .iter()
+            .all(|(_, m)| !matches!(m, MavMessage::SET_POSITION_TARGET_GLOBAL_INT(_)))
+    );
+    // The link lost: no lane; a UDP link never offers one.
+    d.handle_io(
+        frontseat_actors::driver::DriverIoEvent::Disconnected("test".into()),
+        Duration::from_secs(6),
+        &mut sink,
+    );
+    assert!(d.direct_command().is_none());
+    assert!(lane.send_now(&lane_course(270.0, 1.0)).is_none());
+    let (udp, _rx, _sink) =
+        driver_with(|c| c.driver.ardupilot.address = "udpin:127.0.0.1:0".into());
+    assert!(udp.direct_command().is_none());
+}
+
+/// A course the driver would refuse, or a queue that cannot take the frame now, is not the
+/// lane's: it goes the actors' way.
+#[test]
+fn the_lane_refuses_what_it_cannot_write_at_once() {
+    let (mut d, mut rx, mut sink) = driver();
+    let lane = d.direct_command().unwrap();
+    ready(&mut d, &mut sink, 0.0);
+    assert!(lane.send_now(&lane_course(f64::NAN, 1.0)).is_none());
+    assert!(lane.send_now(&lane_course(90.0, -1.0)).is_none());
+    assert!(lane.send_now(&CommandRequest::default()).is_none());
+    // Fill the link's queue: the lane refuses instead of waiting.
+    let mut n = 0;
+    while lane
+        .send_now(&lane_course(f64::from(n % 300), 1.0))
+        .is_some()
+    {
+        n += 1;
+        assert!(n < 100_000);
+    }
+    assert!(n > 0);
+    drop(rx.try_recv());
+    assert!(lane.send_now(&lane_course(301.0, 1.0)).is_some());
+}

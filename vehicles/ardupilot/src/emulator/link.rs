@@ -44,6 +44,8 @@ pub(crate) struct Faults {
     pub(crate) silent: bool,
     /// A mode the vehicle switches to by itself at the next step after boot.
     pub(crate) own_mode: Option<u32>,
+    /// Armed and put in GUIDED at the next step after boot (`operator_arms_guided`).
+    pub(crate) arm_guided: bool,
     pub(crate) counters: FaultCounters,
 }
 

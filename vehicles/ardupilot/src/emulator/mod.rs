@@ -165,6 +165,14 @@ impl<F: FirmwarePart> ArdupilotSession<F> {
         self.ap.faults.own_mode = Some(mode);
     }
 
+    /// Hook (tests, the bench): at its next step after boot the vehicle is armed and in GUIDED,
+    /// as an operator at the ground station would leave it, for a backseat tested or measured
+    /// without playing that operator. Call it once the firmware would take GUIDED (Rover:
+    /// [`RoverSession::ekf_ready`]; Sub: [`SubSession::position_ok`]).
+    pub fn operator_arms_guided(&mut self) {
+        self.ap.faults.arm_guided = true;
+    }
+
     /// Fault hook: the vehicle sends nothing (no HEARTBEAT, stream, ACK or STATUSTEXT) while
     /// `silent`, and goes on hearing and acting on what it is sent.
     pub fn go_silent(&mut self, silent: bool) {
@@ -348,6 +356,10 @@ impl<F: FirmwarePart> ArdupilotSession<F> {
         {
             self.ap.faults.counters.own_mode_changes += 1;
             self.set_mode(mode, out);
+        }
+        if !self.ap.initialising() && std::mem::take(&mut self.ap.faults.arm_guided) {
+            self.arm(out);
+            self.set_mode(F::FIRMWARE.guided(), out);
         }
         F::drive(self, dt, out);
         for id in self.ap.due() {

@@ -13,6 +13,7 @@
 #![forbid(unsafe_code)]
 
 pub mod goby3;
+pub mod hops;
 pub mod outlet;
 pub mod plan;
 pub mod session;
@@ -241,6 +242,7 @@ pub(crate) fn subscribe_exports(
                 echoed();
                 return Ok(());
             }
+            crate::hops::hop("export.delivered", env.group);
             tx.send((i, env)).map_err(|_| Undeliverable)
         })
         .ok_or_else(|| GatewayError::NotInterprocess(r.group.to_string()))?;

@@ -684,8 +684,12 @@ async fn serve_inner(shared: &Arc<Shared>, stream: TcpStream, conn: u64) -> Resu
     inc(&shared.counters.clients_welcomed);
     info!(client = %name, "client connected");
 
+    // For the bench's hop stamps (`crate::hops`), made once per connection.
+    let to = String::from_utf8_lossy(name.as_bytes()).into_owned();
+    let from = to.clone();
     let writer = tokio::spawn(async move {
         while let Some(pkt) = rx.recv().await {
+            crate::hops::hop("moos.broker.write", &to);
             if wr.write_all(&pkt).await.is_err() {
                 break;
             }
@@ -696,6 +700,7 @@ async fn serve_inner(shared: &Arc<Shared>, stream: TcpStream, conn: u64) -> Resu
     let result = loop {
         match read_packet(shared, &mut rd, &mut buf, &dec).await {
             Ok(msgs) => {
+                crate::hops::hop("moos.broker.read", &from);
                 inc(&shared.counters.packets_received);
                 shared.on_packet(&name, msgs);
             }

@@ -21,7 +21,7 @@ use tokio::time::{Instant, sleep, sleep_until, timeout};
 use tracing::{debug, info, warn};
 
 use crate::codec::{
-    BANNER, DataType, Fields, MESSAGE_MIN_LEN, MoosMessage, MsgType, PACKET_HEADER_LEN,
+    BANNER, DataType, Fields, MESSAGE_MIN_LEN, MoosMessage, MoosValue, MsgType, PACKET_HEADER_LEN,
     PacketDecoder, TIMING_KEY, Welcome, begin_packet, encode_fields, finish_packet,
     handshake_message, parse_handshake_reply, timing_message,
 };
@@ -363,6 +363,53 @@ impl MoosClient {
         Ok(())
     }
 
+    /// Post values of any type so that they leave in the same packet, as one application
+    /// iteration does (libMOOS's writer thread sends whatever is queued when it wakes): encoded
+    /// and queued under one lock, with one wake of the writer, where one notify each would wake
+    /// it (and often send a packet) per value. Stamped with one MOOS time (`None` = now). A bad
+    /// key or a value too large for a packet refuses the whole batch before any of it is queued.
+    pub fn notify_values(&self, values: &[(&str, MoosValue<'_>)], time: Option<f64>) -> Result<()> {
+        let sh = self.shared();
+        let name = sh.cfg.name.as_str();
+        let time = time.unwrap_or_else(|| sh.now());
+        let mut fields = Vec::with_capacity(values.len());
+        for (key, v) in values {
+            check_key(key)?;
+            let f = match *v {
+                MoosValue::Double(d) => Fields::notify_double(name, key, d, time),
+                MoosValue::Binary(b) => Fields::notify_binary(name, key, b, time),
+                MoosValue::String(s) => Fields::notify_string(name, key, s, time),
+                MoosValue::None => Fields::notify_string(name, key, &[], time),
+            };
+            let len = f.encoded_len();
+            if len + HEADROOM > sh.cfg.max_packet {
+                return Err(MoosError::MessageTooLarge {
+                    len,
+                    max: sh.cfg.max_packet - HEADROOM,
+                });
+            }
+            fields.push(f);
+        }
+        let mut st = sh.lock();
+        if st.closed {
+            return Err(MoosError::Shutdown);
+        }
+        for f in fields {
+            let b = st.encode(f)?;
+            if st.outbox.len() >= sh.cfg.queue_limit {
+                st.outbox.pop_front();
+                inc(&sh.counters.dropped_queue_full);
+            }
+            st.outbox.push_back(b);
+        }
+        let connected = st.connected;
+        drop(st);
+        if connected {
+            sh.wake.notify_one();
+        }
+        Ok(())
+    }
+
     /// Post a string.
     pub fn notify_string(&self, key: &str, value: &str, time: Option<f64>) -> Result<()> {
         self.notify(key, DataType::String, -1.0, value.as_bytes(), time)
@@ -678,7 +725,7 @@ async fn read_loop(
         buf.reserve(need.max(8192));
         match rd.read_buf(&mut buf).await {
             Ok(0) => return "connection closed by DB".to_owned(),
-            Ok(_) => {}
+            Ok(_) => crate::hops::hop("moos.client.read", &shared.cfg.name),
             Err(e) => return format!("read failed: {e}"),
         }
     }
@@ -763,6 +810,7 @@ async fn write_loop(
             warn!(error = %e, "cannot frame packet");
             continue;
         }
+        crate::hops::hop("moos.client.write", &cfg.name);
         if let Err(e) = wr.write_all(&buf).await {
             return format!("write failed: {e}");
         }

@@ -7,6 +7,7 @@ pub mod broker;
 pub mod client;
 pub mod codec;
 pub mod error;
+pub mod hops;
 pub mod time;
 
 pub use broker::{Broker, BrokerConfig, BrokerCounters, BrokerHandle};

@@ -8,6 +8,7 @@ use bytes::BytesMut;
 use frontseat_moos::codec::{self, BANNER, MoosMessage, MsgType, PacketDecoder};
 use frontseat_moos::{
     Broker, BrokerConfig, BrokerHandle, DataType, MoosClient, MoosClientConfig, MoosEvent,
+    MoosValue,
 };
 use tokio::io::{AsyncReadExt, AsyncWriteExt};
 use tokio::net::{TcpListener, TcpStream};
@@ -180,6 +181,68 @@ async fn mail_by_packet_reports_each_packet_as_one_event() {
         ]
     );
     assert_eq!(sub.counters().mail_received, 4);
+    sub.shutdown().await;
+    publ.shutdown().await;
+    b.shutdown().await;
+}
+
+/// The translation's NAV_* posts: values of mixed types posted as one batch arrive as one
+/// packet, in order, each with its type (issue 49: one packet per node_status, not one per post).
+#[tokio::test]
+async fn notify_values_leave_in_one_packet_in_order() {
+    let b = broker().await;
+    let (sub, mut srx) = MoosClient::start(MoosClientConfig {
+        mail_by_packet: true,
+        ..cfg("vsub", &b)
+    })
+    .unwrap();
+    for k in ["V_X", "V_TIME", "V_BLOB", "V_SYNC"] {
+        sub.register(k, 0.0).unwrap();
+    }
+    wait_connected(&mut srx).await;
+    sub.notify_double("V_SYNC", 1.0, None).unwrap();
+    loop {
+        match next_event(&mut srx).await {
+            MoosEvent::Packet(ms) if ms.iter().any(|m| m.key == "V_SYNC") => break,
+            _ => {}
+        }
+    }
+    let (publ, mut prx) = MoosClient::start(cfg("vpub", &b)).unwrap();
+    wait_connected(&mut prx).await;
+    publ.notify_values(
+        &[
+            ("V_X", MoosValue::Double(12.5)),
+            ("V_TIME", MoosValue::String(b"Timestamp=1.5")),
+            ("V_BLOB", MoosValue::Binary(&[0, 1, 2])),
+        ],
+        None,
+    )
+    .unwrap();
+    let packet = match next_event(&mut srx).await {
+        MoosEvent::Packet(ms) => ms,
+        other => panic!("expected one Packet event, got {other:?}"),
+    };
+    let keys: Vec<String> = packet
+        .iter()
+        .map(|m| m.key.to_string_lossy().into_owned())
+        .collect();
+    assert_eq!(keys, ["V_X", "V_TIME", "V_BLOB"]);
+    assert_eq!(packet[0].as_double(), Some(12.5));
+    assert_eq!(&packet[1].string_val[..], b"Timestamp=1.5");
+    assert_eq!(packet[1].data_type, DataType::String);
+    assert_eq!(&packet[2].string_val[..], &[0u8, 1, 2][..]);
+    assert_eq!(packet[2].data_type, DataType::Binary);
+    // A bad key refuses the whole batch before any of it is queued.
+    assert!(
+        publ.notify_values(
+            &[
+                ("V_X", MoosValue::Double(1.0)),
+                ("", MoosValue::Double(2.0))
+            ],
+            None
+        )
+        .is_err()
+    );
     sub.shutdown().await;
     publ.shutdown().await;
     b.shutdown().await;

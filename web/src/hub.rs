@@ -99,7 +99,8 @@ fn unix_ms(t: SystemTime) -> f64 {
 }
 
 impl HubState {
-    fn event(&mut self, env: &EncodedEnvelope) -> (Arc<str>, Option<Json>) {
+    /// The event of one message, as JSON (its decoded message, if any, under "msg").
+    fn event(&mut self, env: &EncodedEnvelope) -> Json {
         self.seq += 1;
         let published = SystemTime::now()
             .checked_sub(env.published_at.elapsed())
@@ -114,31 +115,29 @@ impl HubState {
             "origin": match env.meta.origin { Origin::Local => "local", Origin::Web => "web", Origin::Replayed => "replayed", Origin::Imported | Origin::Goby3 => "imported" },
             "bytes": env.bytes.len(),
         });
-        let msg = match decoded {
-            Ok(m) => {
-                ev["msg"] = m.clone();
-                Some(m)
-            }
+        match decoded {
+            // Moved in, not cloned: the track reads it from the event (W1's path, issue 49).
+            Ok(m) => ev["msg"] = m,
             Err(e) => {
                 self.args
                     .counters
                     .decode_errors
                     .fetch_add(1, Ordering::Relaxed);
                 ev["error"] = json!(e.to_string());
-                None
             }
-        };
-        (Arc::from(ev.to_string()), msg)
+        }
+        ev
     }
 
     fn record(&mut self, env: Box<EncodedEnvelope>) {
         self.args.counters.messages.fetch_add(1, Ordering::Relaxed);
-        let (text, msg) = self.event(&env);
+        let ev = self.event(&env);
         if env.group == groups::GOBY_MIDDLEWARE_FRONTSEAT_NODE_STATUS.name()
-            && let Some(m) = &msg
+            && let Some(m) = ev.get("msg")
         {
             self.track_point(m);
         }
+        let text: Arc<str> = Arc::from(ev.to_string());
         if let Some(g) = self.groups.get_mut(env.group) {
             g.count += 1;
             g.latest = Some(text.clone());
@@ -151,6 +150,7 @@ impl HubState {
     }
 
     fn fan_out(&mut self, text: Arc<str>) {
+        crate::hops::hop("web.fanout", "");
         let counters = &self.args.counters;
         self.clients.retain(|c| match c.tx.try_send(text.clone()) {
             Ok(()) => true,
@@ -274,6 +274,7 @@ impl Actor for Hub {
                 SUBSCRIBER,
                 args.queue_capacity,
                 move |env| {
+                    crate::hops::hop("web.delivered", env.group);
                     me.cast(HubMsg::Bus(Box::new(env)))
                         .map_err(|_| Undeliverable)
                 },
@@ -323,7 +324,10 @@ impl Actor for Hub {
         st: &mut HubState,
     ) -> Result<(), ActorProcessingErr> {
         match msg {
-            HubMsg::Bus(env) => st.record(env),
+            HubMsg::Bus(env) => {
+                crate::hops::hop("web.hub", env.group);
+                st.record(env)
+            }
             HubMsg::Join(reply) => {
                 let _ = reply.send(st.join());
             }

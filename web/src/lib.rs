@@ -11,6 +11,7 @@
 
 pub mod auth;
 pub mod conn;
+pub mod hops;
 pub mod hub;
 pub mod reflect;
 pub mod server;

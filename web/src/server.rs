@@ -210,6 +210,7 @@ fn event_stream(
         tokio::select! {
             ev = s.events.recv() => {
                 let ev = ev?;
+                crate::hops::hop("web.sse", "");
                 Some((Ok(Event::default().data(&*ev)), s))
             }
             _ = s.tick.tick() => {

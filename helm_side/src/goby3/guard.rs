@@ -268,6 +268,7 @@ async fn metered_copy(
             Ok(0) | Err(_) => return Ok(()),
             Ok(n) => n,
         };
+        crate::hops::hop("goby3.guard.in", "");
         meter.feed(&buf[..n])?;
         if to.write_all(&buf[..n]).await.is_err() {
             return Ok(());

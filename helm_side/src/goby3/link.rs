@@ -235,6 +235,7 @@ impl Link {
                 }
                 m = session.sub.recv() => match m {
                     Ok(m) => {
+                        crate::hops::hop("goby3.recv", "");
                         let parts: Vec<&[u8]> = m.iter().map(|b| b.as_ref()).collect();
                         importer.handle_parts(&parts);
                     }
@@ -242,6 +243,7 @@ impl Link {
                 },
                 o = out.recv() => {
                     let Some((i, env)) = o else { return LinkError::Stopped };
+                    crate::hops::hop("goby3.send", env.group);
                     let Some(bytes) = exporter.encode(i, &env) else { continue };
                     match session.publ.send(ZmqMessage::from(bytes)).await {
                         Ok(()) => { c.exported.fetch_add(1, Ordering::Relaxed); }

@@ -233,6 +233,7 @@ async fn proxy_loop(mut xsub: XSubSocket, mut xpub: XPubSocket, counters: Arc<St
             m = xsub.recv() => match m {
                 Ok(m) => {
                     counters.forwarded.fetch_add(1, Ordering::Relaxed);
+                    crate::hops::hop("goby3.standin", "");
                     let _ = xpub.send(m).await;
                 }
                 Err(_) => tokio::time::sleep(std::time::Duration::from_millis(10)).await,

@@ -213,6 +213,7 @@ impl Importer {
             }
             return;
         };
+        crate::hops::hop("goby3.import", group);
         let meta = PublishMeta {
             trace: None,
             origin: Origin::Goby3,

@@ -7,7 +7,7 @@
 use std::time::Duration;
 
 use frontseat_config::MoosConfig;
-use frontseat_moos::{DataType, MoosClient, MoosError, MoosEvent, MoosMessage};
+use frontseat_moos::{DataType, MoosClient, MoosError, MoosEvent, MoosMessage, MoosValue};
 
 use tokio::sync::{mpsc, watch};
 use tokio::time::Instant;
@@ -141,7 +141,10 @@ pub async fn spawn_with_faults(
         bus,
         "FrontSeatTranslation",
         INBOX_CAPACITY,
-        move |m| tx.send(m).map_err(|_| Undeliverable),
+        move |m| {
+            crate::hops::hop("translation.delivered", "");
+            tx.send(m).map_err(|_| Undeliverable)
+        },
     );
     let now = Instant::now();
     let health = Health::new(now, cfg.desired_timeout_s);
@@ -225,6 +228,7 @@ impl Task {
                 }
                 m = inbox.recv() => match m {
                     Some(FrontSeatTranslationInbox::NodeStatus(env)) => {
+                        crate::hops::hop("translation.nav_woke", "");
                         let span = tracing::trace_span!(
                             target: "frontseat_actors",
                             "moos.notify_nav",
@@ -241,7 +245,10 @@ impl Task {
                     None => break,
                 },
                 ev = events.recv() => match ev {
-                    Some(ev) => self.on_event(ev),
+                    Some(ev) => {
+                        crate::hops::hop("translation.mail_woke", "");
+                        self.on_event(ev)
+                    }
                     None => {
                         tracing::warn!(target: super::LOG_TARGET, "MOOS client ended; FrontSeatTranslation stops");
                         break;
@@ -263,17 +270,21 @@ impl Task {
     }
 
     fn post_node_status(&mut self, ns: &NodeStatus) {
-        for (key, value) in nav_posts(ns) {
-            let r = match &value {
-                NavValue::Double(v) => self.moos.notify_double(key, *v, None),
-                NavValue::Text(s) => self.moos.notify_string(key, s, None),
-            };
-            match r {
-                Ok(()) => self.counters.nav_notifies += 1,
-                Err(e) => {
-                    self.counters.notify_failures += 1;
-                    tracing::warn!(target: super::LOG_TARGET, key, error = %e, "cannot post to MOOS");
-                }
+        let posts = nav_posts(ns);
+        let values: Vec<(&str, MoosValue<'_>)> = posts
+            .iter()
+            .map(|(key, value)| match value {
+                NavValue::Double(v) => (*key, MoosValue::Double(*v)),
+                NavValue::Text(s) => (*key, MoosValue::String(s.as_bytes())),
+            })
+            .collect();
+        // One batch: the posts of one node_status leave in one packet, with one wake of the
+        // client's writer (issue 49: one per post cost M1 a wake-up and a packet each).
+        match self.moos.notify_values(&values, None) {
+            Ok(()) => self.counters.nav_notifies += values.len() as u64,
+            Err(e) => {
+                self.counters.notify_failures += values.len() as u64;
+                tracing::warn!(target: super::LOG_TARGET, posts = values.len(), error = %e, "cannot post to MOOS");
             }
         }
         self.counters.node_status_posted += 1;
@@ -391,6 +402,7 @@ impl Task {
                 after_nav_trace_id = self.last_nav_trace.as_str(),
             )
             .entered();
+            crate::hops::hop("translation.course", "");
             self.ports.publish_desired_course(course);
             self.counters.desired_course_published += 1;
             self.counters_tx.send_replace(self.counters);

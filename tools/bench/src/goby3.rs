@@ -15,6 +15,7 @@ use frontseat_helm_side::goby3::standin::{StandinGobyd, StandinTransport};
 use frontseat_helm_side::goby3::{self, Goby3Handle, Goby3Settings};
 
 use super::frontseat::{ScriptedFrontseat, Stamps};
+use super::hops::{self, Hop, hop};
 use super::inproc::{
     course_row, helm_drive, nav_burst_row, reached_command, stamp_node_status, status_channel,
 };
@@ -139,9 +140,39 @@ async fn run_inner(plan: Plan) -> Result<Vec<Row>, String> {
     result
 }
 
+const NODE_STATUS: Option<&str> = Some("goby::middleware::frontseat::node_status");
+const DESIRED_COURSE: Option<&str> = Some("goby::middleware::frontseat::desired_course");
+
+/// G1's hops: the interface's bus delivers node_status to its gateway (on the publisher's
+/// thread), the gateway's link task sends it to its PUB socket, gobyd's proxy forwards it, the
+/// helm side's length guard reads it from gobyd, its SUB socket hands it to the link task, which
+/// publishes it on the helm side's bus.
+const G1_HOPS: [Hop; 6] = [
+    hop("the interface's gateway", "export.delivered", NODE_STATUS),
+    hop("its link task sends", "goby3.send", NODE_STATUS),
+    hop("gobyd's proxy forwards", "goby3.standin", None),
+    hop("the helm's guard reads", "goby3.guard.in", None),
+    hop("the helm's link task receives", "goby3.recv", None),
+    hop("published on the helm's bus", "goby3.import", NODE_STATUS),
+];
+/// G2's hops, the other way; the last segment is the interface's own (P2's path).
+const G2_HOPS: [Hop; 6] = [
+    hop("the helm's gateway", "export.delivered", DESIRED_COURSE),
+    hop("its link task sends", "goby3.send", DESIRED_COURSE),
+    hop("gobyd's proxy forwards", "goby3.standin", None),
+    hop("the interface's guard reads", "goby3.guard.in", None),
+    hop("the interface's link task receives", "goby3.recv", None),
+    hop(
+        "published on the interface's bus",
+        "goby3.import",
+        DESIRED_COURSE,
+    ),
+];
+
 async fn g1(plan: &Plan, fs: &ScriptedFrontseat, written: &Stamps, got: &Stamps) -> Row {
     let how = "; interface + Goby3 gateway → stand-in gobyd (TCP, loopback) → a second Goby3 gateway's bus";
-    nav_burst_row(
+    hops::clear();
+    let mut row = nav_burst_row(
         "G1",
         G1,
         fs,
@@ -151,12 +182,22 @@ async fn g1(plan: &Plan, fs: &ScriptedFrontseat, written: &Stamps, got: &Stamps)
         plan.g1_rate_hz,
         how,
     )
-    .await
+    .await;
+    let b = hops::breakdown(
+        plan.g1_count,
+        |i| written.get(i),
+        |i| got.get(i),
+        &G1_HOPS,
+        "the bench's subscriber (end)",
+    );
+    hops::add_to(&mut row, b);
+    row
 }
 
 async fn g2(plan: &Plan, bus: &Bus, fs: &ScriptedFrontseat, sent: &Stamps, read: &Stamps) -> Row {
     let how = ", published on the helm side's bus → its Goby3 gateway → gobyd → the interface";
-    course_row(
+    hops::clear();
+    let mut row = course_row(
         "G2",
         G2,
         bus,
@@ -167,5 +208,14 @@ async fn g2(plan: &Plan, bus: &Bus, fs: &ScriptedFrontseat, sent: &Stamps, read:
         plan.g2_rate_hz,
         how,
     )
-    .await
+    .await;
+    let b = hops::breakdown(
+        plan.g2_count,
+        |i| sent.get(i),
+        |i| read.get(i),
+        &G2_HOPS,
+        "CMD read at the frontseat (end)",
+    );
+    hops::add_to(&mut row, b);
+    row
 }

@@ -20,6 +20,7 @@ use serde_json::json;
 use tokio::sync::mpsc::UnboundedReceiver;
 
 use super::frontseat::{ScriptedFrontseat, Stamps, seq_of};
+use super::hops::{self, Hop, hop};
 use super::report::{Figures, Hist, Row, fmt_count};
 
 /// How much each row measures.
@@ -50,6 +51,56 @@ const M1: &str =
     "NAV line written → NAV_DEPTH mail at a MOOS client (FrontSeatTranslation, MOOSDB)";
 const M2: &str =
     "DESIRED_* posted by a MOOS client → CMD line read at the frontseat (through MOOSDB)";
+
+/// M1's hops: the interface publishes node_status (its bus delivers to the translation on the
+/// publisher's thread), the translation's task posts NAV_* through its MOOS client's writer
+/// task, the MOOSDB's reader and the helm's connection writer, the helm's client's reader.
+const M1_HOPS: [Hop; 6] = [
+    hop(
+        "node_status delivered to the translation",
+        "translation.delivered",
+        None,
+    ),
+    hop("the translation's task", "translation.nav_woke", None),
+    hop(
+        "its MOOS client writes",
+        "moos.client.write",
+        Some("iFrontSeat"),
+    ),
+    hop("the MOOSDB reads", "moos.broker.read", Some("iFrontSeat")),
+    hop(
+        "the MOOSDB writes to the helm",
+        "moos.broker.write",
+        Some("bench-helm"),
+    ),
+    hop(
+        "the helm's client reads",
+        "moos.client.read",
+        Some("bench-helm"),
+    ),
+];
+/// M2's hops, the other way; the course is published when DESIRED_SPEED (the third post) is
+/// in, so a triple split over packets puts the wait for the rest in the last MOOS segments.
+const M2_HOPS: [Hop; 6] = [
+    hop(
+        "the helm's client writes",
+        "moos.client.write",
+        Some("bench-helm"),
+    ),
+    hop("the MOOSDB reads", "moos.broker.read", Some("bench-helm")),
+    hop(
+        "the MOOSDB writes to the translation",
+        "moos.broker.write",
+        Some("iFrontSeat"),
+    ),
+    hop(
+        "the translation's client reads",
+        "moos.client.read",
+        Some("iFrontSeat"),
+    ),
+    hop("the translation's task", "translation.mail_woke", None),
+    hop("desired_course published", "translation.course", None),
+];
 
 /// Time for the last deliveries of a burst to arrive before counting them lost.
 pub(super) const GRACE: Duration = Duration::from_millis(300);
@@ -595,6 +646,7 @@ async fn moos_measure(
             .map_err(|_| "MOOS client events ended".to_string())?;
 
         // M1: the same NAV stream as P1, now also translated to NAV_* and posted to the DB.
+        hops::clear();
         let report = fs
             .burst(first, plan.m1_count, plan.m1_rate_hz, false)
             .await
@@ -606,7 +658,17 @@ async fn moos_measure(
             fmt_count(n as f64),
             plan.m1_rate_hz
         );
-        let m1 = latency_row("M1", M1, &h, detail, report.written, lost);
+        let mut m1 = latency_row("M1", M1, &h, detail, report.written, lost);
+        hops::add_to(
+            &mut m1,
+            hops::breakdown(
+                plan.m1_count,
+                |i| nav_written.get(first + i),
+                |i| mail_at.get(first + i),
+                &M1_HOPS,
+                "the helm's client's event (end)",
+            ),
+        );
 
         // M2: DESIRED_HEADING, DESIRED_DEPTH (the sequence), then DESIRED_SPEED, which makes the
         // translation publish the desired_course.
@@ -614,6 +676,7 @@ async fn moos_measure(
         let start = tokio::time::Instant::now();
         let period = Duration::from_secs_f64(1.0 / plan.m2_rate_hz);
         let before = fs.cmds_read();
+        hops::clear();
         for i in 0..plan.m2_count {
             tokio::time::sleep_until(start + period.mul_f64(i as f64)).await;
             cmd_sent.set(off + i, Instant::now());
@@ -637,7 +700,17 @@ async fn moos_measure(
             fmt_count(n as f64),
             plan.m2_rate_hz
         );
-        let m2 = latency_row("M2", M2, &h, detail, n, lost);
+        let mut m2 = latency_row("M2", M2, &h, detail, n, lost);
+        hops::add_to(
+            &mut m2,
+            hops::breakdown(
+                plan.m2_count,
+                |i| cmd_sent.get(off + i),
+                |i| cmd_read.get(off + i),
+                &M2_HOPS,
+                "CMD read at the frontseat (end)",
+            ),
+        );
         Ok(vec![m1, m2])
     }
     .await;

@@ -29,6 +29,7 @@ mod fleet;
 mod floor;
 mod frontseat;
 mod goby3;
+mod hops;
 mod inproc;
 mod procs;
 mod record;
@@ -355,6 +356,13 @@ pub async fn run(args: BenchOptions) -> ExitCode {
     };
     let machine = Machine::detect();
     let started = Instant::now();
+    // M1, M2, G1, G2 and W1 broken down by hop (`hops`), when the environment asks.
+    if hops::install_if_asked() {
+        eprintln!(
+            "frontseat bench: {} set: M1, M2, G1, G2 and W1 are broken down by hop",
+            hops::HOPS_ENV
+        );
+    }
     eprintln!(
         "frontseat bench{}: {} build on {} ({} cores); this takes {}",
         if args.quick { " --quick" } else { "" },

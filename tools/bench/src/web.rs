@@ -29,6 +29,17 @@ pub struct Plan {
     pub rate_hz: f64,
 }
 
+/// W1's hops: the bus delivers to the hub's subscription (on the publisher's thread), which
+/// casts it to the hub actor; the hub makes the event's JSON and hands it to each tab's queue;
+/// the tab's event stream takes it and hyper writes it.
+const W1_HOPS: [super::hops::Hop; 4] = [
+    super::hops::hop("delivered to the hub", "web.delivered", NODE_STATUS),
+    super::hops::hop("the hub actor", "web.hub", NODE_STATUS),
+    super::hops::hop("its JSON made, to the tab's queue", "web.fanout", None),
+    super::hops::hop("the tab's event stream", "web.sse", None),
+];
+const NODE_STATUS: Option<&str> = Some("goby::middleware::frontseat::node_status");
+
 pub async fn run(plan: Plan) -> Row {
     match run_inner(plan).await {
         Ok(r) => r,
@@ -85,6 +96,8 @@ async fn run_inner(plan: Plan) -> Result<Row, String> {
     }
     let period = Duration::from_secs_f64(1.0 / plan.rate_hz);
     let mut sent = HashMap::with_capacity(plan.count);
+    let mut parsed = HashMap::with_capacity(plan.count);
+    super::hops::clear();
     let mut tick = tokio::time::interval(period);
     tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
     for i in 0..plan.count as u64 {
@@ -115,6 +128,7 @@ async fn run_inner(plan: Plan) -> Result<Row, String> {
             Ok(Some((seq, at))) => {
                 if let Some(t0) = sent.get(&seq) {
                     h.record(at.saturating_duration_since(*t0));
+                    parsed.insert(seq, at);
                     got += 1;
                 }
             }
@@ -140,6 +154,14 @@ async fn run_inner(plan: Plan) -> Result<Row, String> {
         lost,
     );
     row.extra = json!({"written": plan.count, "lost": lost, "dropped": dropped});
+    let b = super::hops::breakdown(
+        plan.count,
+        |i| sent.get(&(i as u64)).copied(),
+        |i| parsed.get(&(i as u64)).copied(),
+        &W1_HOPS,
+        "the client has parsed it (end)",
+    );
+    super::hops::add_to(&mut row, b);
     Ok(row)
 }
 

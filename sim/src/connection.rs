@@ -412,12 +412,18 @@ impl Session {
             );
         }
         let mut navs = 0;
+        let mut integrated = 0;
+        let mut in_window = 0;
+        let mut window_navs = 0;
         for n in due.first..=due.last {
             let Some(run) = self.run.as_mut() else { break };
+            let counted = shared.window.holds(run.started + run.schedule.deadline(n));
+            in_window += u64::from(counted);
             let dt = 1.0 / run.params.freq;
             if n > 0 {
                 run.vehicle.step(dt);
             }
+            integrated += 1;
             run.sim_time = n as f64 * dt;
             if run.end_tick.is_some_and(|end| n >= end) {
                 tracing::info!(
@@ -440,15 +446,22 @@ impl Session {
                 for f in fired {
                     if self.apply_fault(f) == Flow::Close {
                         Counters::add(&self.shared.counters.nav_lines, navs);
+                        Counters::add(&self.shared.counters.integrated_ticks, integrated);
+                        Counters::add(&self.shared.counters.window_ticks, in_window);
+                        Counters::add(&self.shared.counters.window_navs, window_navs);
                         return Flow::Close;
                     }
                 }
             }
             if n >= due.report_from && self.report(n, now) {
                 navs += 1;
+                window_navs += u64::from(counted);
             }
         }
         Counters::add(&self.shared.counters.nav_lines, navs);
+        Counters::add(&self.shared.counters.integrated_ticks, integrated);
+        Counters::add(&self.shared.counters.window_ticks, in_window);
+        Counters::add(&self.shared.counters.window_navs, window_navs);
         Flow::Continue
     }
 

@@ -134,6 +134,16 @@ pub struct SimStats {
     pub start_errors: u64,
     /// Reported ticks more than [`schedule::LATE_AFTER`] after their deadline.
     pub late_ticks: u64,
+    /// Ticks whose step ran: reported, skipped as stale, or with NAV stopped by a fault. Over a
+    /// window in which every vehicle runs, this against vehicles·FREQ·WARP·window is the share
+    /// of ticks the simulator kept; `nav_lines` of them were reported.
+    pub integrated_ticks: u64,
+    /// Integrated ticks whose deadline lies in the window of [`SimHandle::count_ticks_due_in`],
+    /// counted whenever they are integrated: against what was due in the window, the share kept.
+    pub window_ticks: u64,
+    /// Of [`window_ticks`](Self::window_ticks), those reported with a NAV line (the others
+    /// were skipped as stale or had their NAV stopped by a fault).
+    pub window_navs: u64,
     /// Ticks integrated but not reported because they were stale (see [`schedule`]).
     pub skipped_ticks: u64,
     /// Ticks given up by re-anchoring after a suspension.
@@ -148,6 +158,9 @@ pub struct SimStats {
     pub start_timeouts: u64,
     /// Connections without a START closed to make room for a new one (`max_pending`).
     pub evicted: u64,
+    /// Vehicles running now: connections that sent a valid START and are still open (not a
+    /// counter: it goes down when one closes).
+    pub running: u64,
 }
 
 /// Everything that can go wrong in this crate.

@@ -10,7 +10,7 @@
 use std::collections::VecDeque;
 use std::net::SocketAddr;
 use std::sync::Arc;
-use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Duration;
 
 use tokio::net::TcpListener;
@@ -18,7 +18,7 @@ use tokio::sync::{broadcast, mpsc, oneshot, watch};
 use tokio::task::JoinSet;
 
 use crate::connection::{Connection, StartMark};
-use crate::shared::{Counters, Shared};
+use crate::shared::{Counters, Shared, TickWindow};
 use crate::{Fault, SimError, SimOptions, SimStats, Truth};
 
 /// Truth messages buffered for slow subscribers before they see `Lagged`.
@@ -43,6 +43,8 @@ impl SimServer {
             truth,
             vehicles: Default::default(),
             detached: Default::default(),
+            running: Arc::default(),
+            window: TickWindow::new(tokio::time::Instant::now()),
         });
         let (stop_tx, stop_rx) = watch::channel(false);
         let (done_tx, done_rx) = watch::channel(None);
@@ -141,6 +143,9 @@ impl SimHandle {
             cmd_errors: g(&c.cmd_errors),
             start_errors: g(&c.start_errors),
             late_ticks: g(&c.late_ticks),
+            integrated_ticks: g(&c.integrated_ticks),
+            window_ticks: g(&c.window_ticks),
+            window_navs: g(&c.window_navs),
             skipped_ticks: g(&c.skipped_ticks),
             dropped_ticks: g(&c.dropped_ticks),
             worst_lateness: Duration::from_nanos(g(&c.worst_lateness_ns)),
@@ -148,7 +153,23 @@ impl SimHandle {
             vehicle_panics: g(&c.vehicle_panics),
             start_timeouts: g(&c.start_timeouts),
             evicted: g(&c.evicted),
+            running: self.shared.running.load(Ordering::Relaxed) as u64,
         }
+    }
+
+    /// Start over the worst tick lateness of [`stats`](Self::stats) (a benchmark measuring a
+    /// window leaves the start-up's out).
+    pub fn reset_worst_lateness(&self) {
+        self.shared
+            .counters
+            .worst_lateness_ns
+            .store(0, Ordering::Relaxed);
+    }
+
+    /// From now on count in [`SimStats::window_ticks`] every integrated tick whose deadline lies
+    /// in `from..to` (replacing an earlier window; the count goes on from where it is).
+    pub fn count_ticks_due_in(&self, from: tokio::time::Instant, to: tokio::time::Instant) {
+        self.shared.window.set(from, to);
     }
 
     /// Resolves when the server has stopped: `None` after [`shutdown`](Self::shutdown), `Some`
@@ -190,7 +211,7 @@ async fn accept_loop(listener: TcpListener, shared: Arc<Shared>, mut stop: watch
     // keeps the descriptors bounded and always lets the newest client in.
     let mut pending: VecDeque<Pending> = VecDeque::new();
     let max_pending = shared.opts.max_pending.max(1);
-    let running = Arc::new(AtomicUsize::new(0));
+    let running = shared.running.clone();
     let stop_for_tasks = stop.clone();
     loop {
         tokio::select! {

@@ -3,8 +3,8 @@
 //! (kept for `resume_grace` so a reconnecting client gets the same vehicle back).
 
 use std::collections::HashMap;
-use std::sync::Mutex;
-use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
+use std::sync::{Arc, Mutex};
 
 use tokio::sync::{broadcast, mpsc};
 use tokio::time::Instant;
@@ -23,6 +23,12 @@ pub(crate) struct Counters {
     pub cmd_errors: AtomicU64,
     pub start_errors: AtomicU64,
     pub late_ticks: AtomicU64,
+    /// Every tick whose step ran (reported, skipped as stale, or with its NAV stopped).
+    pub integrated_ticks: AtomicU64,
+    /// Integrated ticks whose deadline lies in the counting window (see [`TickWindow`]).
+    pub window_ticks: AtomicU64,
+    /// Of those, the ones reported with a NAV line.
+    pub window_navs: AtomicU64,
     pub skipped_ticks: AtomicU64,
     pub dropped_ticks: AtomicU64,
     pub worst_lateness_ns: AtomicU64,
@@ -40,6 +46,47 @@ impl Counters {
     }
 }
 
+/// A span of wall time set by whoever measures (a benchmark): ticks whose *deadline* lies in it
+/// are counted when integrated, however late, so the count over a window can be compared with
+/// what was due in it without the window's edges catching some vehicles' backlog.
+pub(crate) struct TickWindow {
+    /// Nanoseconds after `epoch`; `from` > `to` when no window is set.
+    epoch: Instant,
+    from_ns: AtomicU64,
+    to_ns: AtomicU64,
+}
+
+impl TickWindow {
+    pub fn new(epoch: Instant) -> Self {
+        Self {
+            epoch,
+            from_ns: AtomicU64::new(u64::MAX),
+            to_ns: AtomicU64::new(0),
+        }
+    }
+
+    fn ns(&self, t: Instant) -> u64 {
+        u64::try_from(t.saturating_duration_since(self.epoch).as_nanos()).unwrap_or(u64::MAX)
+    }
+
+    pub fn set(&self, from: Instant, to: Instant) {
+        // Closed first, so that a tick never sees the new start with the old end.
+        self.from_ns.store(u64::MAX, Ordering::Relaxed);
+        self.to_ns.store(self.ns(to), Ordering::Relaxed);
+        self.from_ns.store(self.ns(from), Ordering::Relaxed);
+    }
+
+    /// Whether a tick due at `deadline` falls in the window: `from <= deadline < to`.
+    pub fn holds(&self, deadline: Instant) -> bool {
+        let from = self.from_ns.load(Ordering::Relaxed);
+        if from == u64::MAX {
+            return false;
+        }
+        let d = self.ns(deadline);
+        d >= from && d < self.to_ns.load(Ordering::Relaxed)
+    }
+}
+
 /// What every connection task shares with the server.
 pub(crate) struct Shared {
     pub opts: SimOptions,
@@ -48,6 +95,10 @@ pub(crate) struct Shared {
     pub vehicles: Mutex<HashMap<u64, mpsc::Sender<Fault>>>,
     /// Runs whose connection dropped, newest last; see [`Shared::take_detached`].
     pub detached: Mutex<Vec<Detached>>,
+    /// Connections that have sent their first valid START and are still open (what
+    /// `max_vehicles` limits).
+    pub running: Arc<AtomicUsize>,
+    pub window: TickWindow,
 }
 
 /// A vehicle whose connection dropped while it was running.

@@ -349,3 +349,51 @@ async fn connections_over_max_vehicles_are_told_and_closed() {
     assert_eq!(h.stats().refused, 1);
     h.shutdown().await;
 }
+
+/// The tick accounting a benchmark reads: every due tick is integrated (a stall skips reporting
+/// stale ones, never their integration), and the ticks of a window are counted by deadline,
+/// integrated and reported apart, however late they are processed.
+#[tokio::test(start_paused = true)]
+async fn ticks_are_counted_integrated_and_reported_apart_by_deadline() {
+    let h = sim(SimOptions::default()).await;
+    let mut c = Client::connect(&h).await;
+    c.send(&format!("START,{POS},FREQ:10,WARP:1")).await;
+    assert_eq!(c.must_line().await, "CTRL,STATE:PAYLOAD");
+    c.nav().await;
+    assert_eq!(h.stats().running, 1);
+    let t0 = tokio::time::Instant::now();
+    // Ticks 5..=14 are due in this window (deadlines 0.5 s .. 1.4 s).
+    h.count_ticks_due_in(t0 + ms(450), t0 + ms(1450));
+    // The process "stalls" for 2 s: ticks 1..=20 come due at once, only tick 20 is reported.
+    tokio::time::advance(Duration::from_secs(2)).await;
+    c.nav().await;
+    let s = h.stats();
+    assert_eq!(
+        (s.integrated_ticks, s.nav_lines, s.skipped_ticks),
+        (21, 2, 19)
+    );
+    assert_eq!((s.window_ticks, s.window_navs), (10, 0));
+    // On time: ticks 21..=30 due in the next window, all integrated and reported.
+    let t1 = t0 + Duration::from_secs(2);
+    h.count_ticks_due_in(t1 + ms(50), t1 + ms(1050));
+    for _ in 0..11 {
+        c.nav().await;
+    }
+    let s = h.stats();
+    assert_eq!((s.integrated_ticks, s.nav_lines), (32, 13));
+    assert_eq!((s.window_ticks, s.window_navs), (20, 10));
+    drop(c);
+    // A closed connection no longer runs.
+    tokio::time::timeout(Duration::from_secs(5), async {
+        while h.stats().running > 0 {
+            tokio::time::sleep(ms(10)).await;
+        }
+    })
+    .await
+    .expect("the vehicle's connection closed");
+    h.shutdown().await;
+}
+
+fn ms(v: u64) -> Duration {
+    Duration::from_millis(v)
+}

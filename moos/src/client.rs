@@ -15,6 +15,7 @@ use std::time::Duration;
 use bytes::{BufMut, Bytes, BytesMut};
 use tokio::io::{AsyncReadExt, AsyncWriteExt};
 use tokio::net::TcpStream;
+use tokio::net::tcp::{OwnedReadHalf, OwnedWriteHalf};
 use tokio::sync::{Notify, mpsc, watch};
 use tokio::task::JoinHandle;
 use tokio::time::{Instant, sleep, sleep_until, timeout};
@@ -193,6 +194,13 @@ struct State {
     connected: bool,
     closed: bool,
     welcome: Option<Welcome>,
+    /// The connection's write half, for posts written straight from the posting thread.
+    direct: Option<Arc<OwnedWriteHalf>>,
+    /// The writer task is waiting for work (set and cleared under this lock, so a post may
+    /// write directly only while the writer is not writing).
+    writer_idle: bool,
+    /// The rest of a packet a post began to write directly: the writer sends it before anything.
+    partial: Option<Bytes>,
 }
 
 struct Shared {
@@ -210,6 +218,60 @@ impl Shared {
 
     fn now(&self) -> f64 {
         moos_time(self.cfg.time_warp)
+    }
+
+    /// After a post was queued: while the writer task waits for work and the connection takes
+    /// the packet now, writes what is queued as one packet from the posting thread (a
+    /// non-blocking write under the state lock), which spares the post a wake-up of the writer
+    /// (issue 49); anything else — disconnected, registrations waiting, the writer busy, a
+    /// socket that takes only part — is left to the writer, woken, which sends the rest first.
+    fn send_queued(&self, mut st: MutexGuard<'_, State>) {
+        if !st.connected || st.outbox.is_empty() {
+            return;
+        }
+        let wr = match &st.direct {
+            Some(wr) if st.writer_idle && st.ctrl.is_empty() && st.partial.is_none() => wr.clone(),
+            _ => {
+                drop(st);
+                self.wake.notify_one();
+                return;
+            }
+        };
+        let mut batch = VecDeque::new();
+        let mut used = 0;
+        take_within(
+            &mut st.outbox,
+            &mut batch,
+            &mut used,
+            self.cfg.max_packet - HEADROOM,
+        );
+        let mut buf = BytesMut::with_capacity(used + PACKET_HEADER_LEN);
+        let start = begin_packet(&mut buf);
+        let n = batch.len();
+        for b in batch {
+            buf.put_slice(&b);
+        }
+        if let Err(e) = finish_packet(&mut buf, start, n) {
+            warn!(error = %e, "cannot frame packet");
+            return;
+        }
+        crate::hops::hop("moos.client.write", &self.cfg.name);
+        // An error other than WouldBlock is the writer's to meet (it ends the session).
+        let written = wr.try_write(&buf).unwrap_or(0);
+        inc(&self.counters.packets_sent);
+        self.counters
+            .messages_sent
+            .fetch_add(n as u64, Ordering::Relaxed);
+        let more = !st.outbox.is_empty();
+        if written < buf.len() {
+            st.partial = Some(buf.freeze().slice(written..));
+            st.writer_idle = false;
+        }
+        let wake = more || st.partial.is_some();
+        drop(st);
+        if wake {
+            self.wake.notify_one();
+        }
     }
 }
 
@@ -269,6 +331,9 @@ impl MoosClient {
                 connected: false,
                 closed: false,
                 welcome: None,
+                direct: None,
+                writer_idle: false,
+                partial: None,
             }),
             cfg,
             wake: Notify::new(),
@@ -355,11 +420,7 @@ impl MoosClient {
             }
             st.outbox.push_back(b);
         }
-        let connected = st.connected;
-        drop(st);
-        if connected {
-            sh.wake.notify_one();
-        }
+        sh.send_queued(st);
         Ok(())
     }
 
@@ -402,11 +463,7 @@ impl MoosClient {
             }
             st.outbox.push_back(b);
         }
-        let connected = st.connected;
-        drop(st);
-        if connected {
-            sh.wake.notify_one();
-        }
+        sh.send_queued(st);
         Ok(())
     }
 
@@ -455,11 +512,7 @@ impl MoosClient {
             debug!(key, "moos send queue full: dropped the oldest notification");
         }
         st.outbox.push_back(b);
-        let connected = st.connected;
-        drop(st);
-        if connected {
-            sh.wake.notify_one();
-        }
+        sh.send_queued(st);
         Ok(())
     }
 
@@ -649,6 +702,10 @@ fn on_disconnected(shared: &Shared) {
     let mut st = shared.lock();
     st.connected = false;
     st.ctrl.clear();
+    // What a post began to write belonged to the lost connection.
+    st.direct = None;
+    st.partial = None;
+    st.writer_idle = false;
     drop(st);
     shared.connected.store(false, Ordering::Release);
     inc(&shared.counters.disconnects);
@@ -657,21 +714,41 @@ fn on_disconnected(shared: &Shared) {
 /// One connected session; returns why it ended.
 async fn session(
     shared: &Shared,
-    mut stream: TcpStream,
+    stream: TcpStream,
     rbuf: BytesMut,
     events: &mpsc::Sender<MoosEvent>,
     stop: &mut watch::Receiver<bool>,
 ) -> String {
-    let (rd, wr) = stream.split();
+    let (rd, wr) = stream.into_split();
+    let wr = Arc::new(wr);
+    {
+        let mut st = shared.lock();
+        st.direct = Some(wr.clone());
+        st.writer_idle = false;
+        st.partial = None;
+    }
     tokio::select! {
         r = read_loop(shared, rd, rbuf, events) => r,
-        w = write_loop(shared, wr, stop) => w,
+        w = write_loop(shared, &wr, stop) => w,
     }
+}
+
+/// `write_all` on a write half shared with the posting threads' direct writes.
+async fn write_shared(wr: &OwnedWriteHalf, mut buf: &[u8]) -> std::io::Result<()> {
+    while !buf.is_empty() {
+        match wr.try_write(buf) {
+            Ok(0) => return Err(std::io::ErrorKind::WriteZero.into()),
+            Ok(n) => buf = &buf[n..],
+            Err(e) if e.kind() == std::io::ErrorKind::WouldBlock => wr.writable().await?,
+            Err(e) => return Err(e),
+        }
+    }
+    Ok(())
 }
 
 async fn read_loop(
     shared: &Shared,
-    mut rd: tokio::net::tcp::ReadHalf<'_>,
+    mut rd: OwnedReadHalf,
     mut buf: BytesMut,
     events: &mpsc::Sender<MoosEvent>,
 ) -> String {
@@ -751,7 +828,7 @@ fn take_within(
 
 async fn write_loop(
     shared: &Shared,
-    mut wr: tokio::net::tcp::WriteHalf<'_>,
+    wr: &OwnedWriteHalf,
     stop: &mut watch::Receiver<bool>,
 ) -> String {
     let cfg = &shared.cfg;
@@ -762,19 +839,35 @@ async fn write_loop(
     let mut batch: VecDeque<Bytes> = VecDeque::new();
     loop {
         let stopping = *stop.borrow();
-        let more_waiting = {
+        let (more_waiting, partial) = {
             let mut st = shared.lock();
+            st.writer_idle = false;
+            let partial = st.partial.take();
             let mut used = 0;
             take_within(&mut st.ctrl, &mut batch, &mut used, budget);
             take_within(&mut st.outbox, &mut batch, &mut used, budget);
-            !st.ctrl.is_empty() || !st.outbox.is_empty()
+            (!st.ctrl.is_empty() || !st.outbox.is_empty(), partial)
         };
+        // The rest of a packet a post began: before anything else, or the stream breaks.
+        if let Some(p) = partial
+            && let Err(e) = write_shared(wr, &p).await
+        {
+            return format!("write failed: {e}");
+        }
         let timing_due = last_timing.is_none_or(|t| t.elapsed() >= cfg.heartbeat);
         if batch.is_empty() && !timing_due {
             if stopping {
                 return "shut down".to_owned();
             }
             let next = last_timing.map_or_else(Instant::now, |t| t + cfg.heartbeat);
+            {
+                // Waiting from here: a post may now write directly (see `send_queued`).
+                let mut st = shared.lock();
+                if !(st.outbox.is_empty() && st.ctrl.is_empty() && st.partial.is_none()) {
+                    continue;
+                }
+                st.writer_idle = true;
+            }
             tokio::select! {
                 _ = shared.wake.notified() => {}
                 _ = sleep_until(next) => {}
@@ -811,7 +904,7 @@ async fn write_loop(
             continue;
         }
         crate::hops::hop("moos.client.write", &cfg.name);
-        if let Err(e) = wr.write_all(&buf).await {
+        if let Err(e) = write_shared(wr, &buf).await {
             return format!("write failed: {e}");
         }
         inc(&c.packets_sent);

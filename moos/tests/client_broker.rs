@@ -521,6 +521,66 @@ async fn idle_client_sends_timing_plus_null_poll_every_heartbeat() {
     }
 }
 
+/// A DB that stops reading while the client posts far more than the socket holds: posts written
+/// straight from the posting thread stop part-way through a packet, the writer task sends the
+/// rest first, and every post reaches the DB whole and in order once it reads again (issue 49's
+/// direct writes).
+#[tokio::test]
+async fn posts_past_a_full_socket_arrive_whole_and_in_order() {
+    const POSTS: usize = 6000;
+    let l = TcpListener::bind("127.0.0.1:0").await.unwrap();
+    let (c, _rx) = MoosClient::start(MoosClientConfig {
+        server: l.local_addr().unwrap().to_string(),
+        queue_limit: POSTS * 2,
+        ..MoosClientConfig::new("filler")
+    })
+    .unwrap();
+    let (mut s, _) = timeout(WAIT, l.accept()).await.unwrap().unwrap();
+    let mut banner = [0u8; 32];
+    s.read_exact(&mut banner).await.unwrap();
+    let mut buf = BytesMut::new();
+    read_packet(&mut s, &mut buf).await.unwrap();
+    let mut w = MoosMessage::new(MsgType::Welcome, DataType::Double, "");
+    w.string_val = bytes::Bytes::from_static(b"asynchronous");
+    let mut out = BytesMut::new();
+    codec::encode_packet([&w], &mut out).unwrap();
+    s.write_all(&out).await.unwrap();
+    // The first packet (TIMING) proves the session is up and the writer has gone idle.
+    read_packet(&mut s, &mut buf).await.unwrap();
+    timeout(WAIT, async {
+        while !c.is_connected() {
+            tokio::time::sleep(Duration::from_millis(5)).await;
+        }
+    })
+    .await
+    .unwrap();
+    // 24 MiB, more than loopback's socket buffers on both sides: the DB reads nothing meanwhile.
+    let mut value = vec![0u8; 4096];
+    for i in 0..POSTS {
+        value[..8].copy_from_slice(&(i as u64).to_le_bytes());
+        c.notify_binary("FILL", &value, None).unwrap();
+        if i % 500 == 0 {
+            tokio::task::yield_now().await;
+        }
+    }
+    let mut next = 0usize;
+    while next < POSTS {
+        let packet = read_packet(&mut s, &mut buf)
+            .await
+            .expect("the client closed the connection");
+        for m in packet.into_iter().filter(|m| m.msg_type == MsgType::Notify) {
+            assert_eq!(m.key, "FILL");
+            assert_eq!(m.string_val.len(), 4096);
+            let mut seq = [0u8; 8];
+            seq.copy_from_slice(&m.string_val[..8]);
+            assert_eq!(u64::from_le_bytes(seq), next as u64, "out of order or lost");
+            next += 1;
+        }
+    }
+    assert_eq!(c.counters().dropped_queue_full, 0);
+    c.shutdown().await;
+}
+
 /// A DB that sends garbage after the WELCOME: typed error, counted, connection dropped, retried.
 #[tokio::test]
 async fn malformed_packet_from_db_closes_and_reconnects() {

@@ -680,10 +680,17 @@ async fn moos_measure(
         for i in 0..plan.m2_count {
             tokio::time::sleep_until(start + period.mul_f64(i as f64)).await;
             cmd_sent.set(off + i, Instant::now());
-            let posted = helm
-                .notify_double("DESIRED_HEADING", 90.0, None)
-                .and_then(|()| helm.notify_double("DESIRED_DEPTH", (off + i + 1) as f64, None))
-                .and_then(|()| helm.notify_double("DESIRED_SPEED", 1.5, None));
+            // One helm iteration's posts together, as pHelmIvP's (libMOOS sends what its
+            // Iterate posted in one packet); one post each would be three packets now that
+            // our client writes a post from the posting thread when its writer is idle.
+            let posted = helm.notify_doubles(
+                &[
+                    ("DESIRED_HEADING", 90.0),
+                    ("DESIRED_DEPTH", (off + i + 1) as f64),
+                    ("DESIRED_SPEED", 1.5),
+                ],
+                None,
+            );
             if let Err(e) = posted {
                 return Err(format!("MOOS notify: {e}"));
             }

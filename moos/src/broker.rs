@@ -7,7 +7,7 @@
 //! and trusting `source` for subscriptions. Not implemented: synchronous clients, SERVER_REQUEST,
 //! the DB_* status variables.
 
-use std::collections::HashMap;
+use std::collections::{HashMap, VecDeque};
 use std::net::SocketAddr;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex, MutexGuard, PoisonError};
@@ -15,8 +15,9 @@ use std::time::Duration;
 
 use bytes::{Bytes, BytesMut};
 use tokio::io::{AsyncReadExt, AsyncWriteExt};
+use tokio::net::tcp::OwnedWriteHalf;
 use tokio::net::{TcpListener, TcpSocket, TcpStream, lookup_host};
-use tokio::sync::{mpsc, watch};
+use tokio::sync::{Notify, watch};
 use tokio::task::{JoinHandle, JoinSet};
 use tokio::time::timeout;
 use tracing::{debug, info, warn};
@@ -186,7 +187,90 @@ fn glob(pat: &[u8], s: &[u8]) -> bool {
 
 struct ClientSlot {
     conn: u64,
-    tx: mpsc::Sender<Bytes>,
+    out: Arc<Outbound>,
+}
+
+/// What goes to one client: its connection's write half, a bounded queue and its writer task's
+/// state. A packet is written straight from the thread that routes it (a non-blocking write)
+/// while the writer task waits for work, which spares every forwarded packet a wake-up of the
+/// writer (issue 49); otherwise, or for the rest of a packet the socket took only part of, the
+/// writer task sends it, in order.
+struct Outbound {
+    wr: OwnedWriteHalf,
+    st: Mutex<OutState>,
+    wake: Notify,
+    limit: usize,
+    /// The client's name, for the bench's hop stamps (`crate::hops`).
+    name: String,
+}
+
+struct OutState {
+    queue: VecDeque<Bytes>,
+    /// The writer task waits for work (set and cleared under this lock, so a packet is written
+    /// directly only while the writer is not writing).
+    writer_idle: bool,
+}
+
+impl Outbound {
+    fn lock(&self) -> MutexGuard<'_, OutState> {
+        self.st.lock().unwrap_or_else(PoisonError::into_inner)
+    }
+
+    /// Sends `pkt` now or queues it; false when the queue is full and it was dropped.
+    fn push(&self, pkt: Bytes) -> bool {
+        let mut st = self.lock();
+        if st.writer_idle && st.queue.is_empty() {
+            crate::hops::hop("moos.broker.write", &self.name);
+            // An error other than WouldBlock is the writer's to meet (it ends the connection).
+            let n = self.wr.try_write(&pkt).unwrap_or(0);
+            if n == pkt.len() {
+                return true;
+            }
+            st.queue.push_back(pkt.slice(n..));
+            st.writer_idle = false;
+        } else if st.queue.len() >= self.limit {
+            return false;
+        } else {
+            st.queue.push_back(pkt);
+        }
+        drop(st);
+        self.wake.notify_one();
+        true
+    }
+
+    /// The writer task: sends what is queued, in order, until the connection fails.
+    async fn run(self: Arc<Self>) {
+        loop {
+            let next = {
+                let mut st = self.lock();
+                let next = st.queue.pop_front();
+                st.writer_idle = next.is_none();
+                next
+            };
+            match next {
+                Some(pkt) => {
+                    crate::hops::hop("moos.broker.write", &self.name);
+                    if write_shared(&self.wr, &pkt).await.is_err() {
+                        return;
+                    }
+                }
+                None => self.wake.notified().await,
+            }
+        }
+    }
+}
+
+/// `write_all` on a write half shared with direct writes.
+async fn write_shared(wr: &OwnedWriteHalf, mut buf: &[u8]) -> std::io::Result<()> {
+    while !buf.is_empty() {
+        match wr.try_write(buf) {
+            Ok(0) => return Err(std::io::ErrorKind::WriteZero.into()),
+            Ok(n) => buf = &buf[n..],
+            Err(e) if e.kind() == std::io::ErrorKind::WouldBlock => wr.writable().await?,
+            Err(e) => return Err(e),
+        }
+    }
+    Ok(())
 }
 
 #[derive(Default)]
@@ -238,7 +322,7 @@ impl Shared {
             if n == 0 || finish_packet(&mut buf, start, n).is_err() {
                 continue;
             }
-            if slot.tx.try_send(buf.freeze()).is_err() {
+            if !slot.out.push(buf.freeze()) {
                 inc(&self.counters.dropped_packets);
                 warn!(client = %client, "client send queue full; packet dropped");
             }
@@ -652,12 +736,28 @@ async fn serve_inner(shared: &Arc<Shared>, stream: TcpStream, conn: u64) -> Resu
             .await?;
         return Err(MoosError::UnexpectedHandshake("synchronous client".into()));
     }
-    let (tx, mut rx) = mpsc::channel::<Bytes>(cfg.client_queue);
+    // Not idle until the writer task runs: what is routed here before the WELCOME waits.
+    let out = Arc::new(Outbound {
+        wr,
+        st: Mutex::new(OutState {
+            queue: VecDeque::new(),
+            writer_idle: false,
+        }),
+        wake: Notify::new(),
+        limit: cfg.client_queue,
+        name: String::from_utf8_lossy(name.as_bytes()).into_owned(),
+    });
     let duplicate = {
         let mut db = shared.lock();
         let duplicate = db.clients.contains_key(&name);
         if !duplicate {
-            db.clients.insert(name.clone(), ClientSlot { conn, tx });
+            db.clients.insert(
+                name.clone(),
+                ClientSlot {
+                    conn,
+                    out: out.clone(),
+                },
+            );
         }
         duplicate
     };
@@ -665,7 +765,7 @@ async fn serve_inner(shared: &Arc<Shared>, stream: TcpStream, conn: u64) -> Resu
         inc(&shared.counters.clients_refused);
         let text = format!("A client of this name (\"{name}\") already exists");
         warn!("{text}");
-        wr.write_all(&poison(&text)).await?;
+        write_shared(&out.wr, &poison(&text)).await?;
         return Err(MoosError::Poisoned(text));
     }
     let now = shared.now();
@@ -677,24 +777,15 @@ async fn serve_inner(shared: &Arc<Shared>, stream: TcpStream, conn: u64) -> Resu
     w.string_val = Bytes::from_static(ASYNC_KEY.as_bytes());
     let mut wb = BytesMut::new();
     crate::codec::encode_packet([&w], &mut wb)?;
-    if let Err(e) = wr.write_all(&wb).await {
+    if let Err(e) = write_shared(&out.wr, &wb).await {
         shared.on_disconnect(&name, conn);
         return Err(e.into());
     }
     inc(&shared.counters.clients_welcomed);
     info!(client = %name, "client connected");
 
-    // For the bench's hop stamps (`crate::hops`), made once per connection.
-    let to = String::from_utf8_lossy(name.as_bytes()).into_owned();
-    let from = to.clone();
-    let writer = tokio::spawn(async move {
-        while let Some(pkt) = rx.recv().await {
-            crate::hops::hop("moos.broker.write", &to);
-            if wr.write_all(&pkt).await.is_err() {
-                break;
-            }
-        }
-    });
+    let from = out.name.clone();
+    let writer = tokio::spawn(out.clone().run());
     // Abort the writer however this function ends (including being dropped on shutdown).
     let _writer_guard = AbortOnDrop(writer);
     let result = loop {

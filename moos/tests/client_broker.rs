@@ -581,6 +581,86 @@ async fn posts_past_a_full_socket_arrive_whole_and_in_order() {
     c.shutdown().await;
 }
 
+/// A subscriber that stops reading while another client posts far more than the sockets hold:
+/// the broker's packets written straight from the routing thread stop part-way, its writer task
+/// sends the rest first, a full queue drops whole packets (counted), and what arrives is whole
+/// and in order (issue 49's direct writes in the broker).
+#[tokio::test]
+async fn broker_to_a_stalled_client_sends_whole_packets_in_order() {
+    const POSTS: u64 = 6000;
+    let b = Broker::bind_with(
+        "127.0.0.1:0",
+        BrokerConfig {
+            client_queue: 16,
+            ..BrokerConfig::default()
+        },
+    )
+    .await
+    .unwrap();
+    // Its event channel full, the subscriber's client stops reading from the broker.
+    let (sub, mut srx) = MoosClient::start(MoosClientConfig {
+        event_capacity: 1,
+        ..cfg("stalled", &b)
+    })
+    .unwrap();
+    wait_connected(&mut srx).await;
+    sync(&sub, &mut srx, "STALL_SYNC").await;
+    sub.register("FILL", 0.0).unwrap();
+    let (publ, mut prx) = MoosClient::start(MoosClientConfig {
+        queue_limit: POSTS as usize * 2,
+        ..cfg("filler", &b)
+    })
+    .unwrap();
+    wait_connected(&mut prx).await;
+    sync(&publ, &mut prx, "FILL_SYNC").await;
+    let mut value = vec![0u8; 4096];
+    for i in 0..POSTS {
+        value[..8].copy_from_slice(&i.to_le_bytes());
+        publ.notify_binary("FILL", &value, None).unwrap();
+        if i % 500 == 0 {
+            tokio::task::yield_now().await;
+        }
+    }
+    // Until the broker has taken every post in (or dropped it for the stalled client).
+    timeout(Duration::from_secs(30), async {
+        while b.counters().notifies < POSTS {
+            tokio::time::sleep(Duration::from_millis(10)).await;
+        }
+    })
+    .await
+    .expect("the broker did not take the posts in");
+    let mut last = None;
+    let mut got = 0u64;
+    loop {
+        let ev = match timeout(Duration::from_millis(500), srx.recv()).await {
+            Ok(Some(ev)) => ev,
+            _ => break,
+        };
+        if let MoosEvent::Disconnected(why) = &ev {
+            panic!("the stream broke: {why}");
+        }
+        if let MoosEvent::Mail(m) = ev
+            && m.key == "FILL"
+        {
+            assert_eq!(m.string_val.len(), 4096);
+            let mut seq = [0u8; 8];
+            seq.copy_from_slice(&m.string_val[..8]);
+            let seq = u64::from_le_bytes(seq);
+            assert!(last.is_none_or(|l| seq > l), "{seq} after {last:?}");
+            last = Some(seq);
+            got += 1;
+        }
+    }
+    assert!(got > 0, "nothing arrived");
+    assert!(
+        b.counters().dropped_packets > 0,
+        "the stall never filled the queue: the test measured nothing"
+    );
+    sub.shutdown().await;
+    publ.shutdown().await;
+    b.shutdown().await;
+}
+
 /// A DB that sends garbage after the WELCOME: typed error, counted, connection dropped, retried.
 #[tokio::test]
 async fn malformed_packet_from_db_closes_and_reconnects() {

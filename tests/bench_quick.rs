@@ -4,10 +4,10 @@
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
-const ROWS: [&str; 35] = [
+const ROWS: [&str; 38] = [
     "L0", "L1", "L2", "L3", "P1", "P2", "P3", "P4", "P5", "P6", "M1", "M2", "G1", "G2", "Z1", "Z2",
     "Z3", "T1", "C1", "C2", "C3", "W1", "R1", "R2", "F1", "F2", "B1", "B2", "I1", "I2", "S1", "S2",
-    "A1", "U1", "D1",
+    "A1", "A2", "U1", "U2", "D1", "D2",
 ];
 
 /// One bench at a time: two at once on a 2-core machine starve each other's children (the
@@ -64,7 +64,7 @@ fn quick_bench_prints_every_row_and_exits_0() {
     }
     let mut latency_rows = vec![
         "L0", "L1", "L2", "L3", "P1", "P2", "P5", "M1", "M2", "G1", "G2", "Z1", "Z2", "W1", "B1",
-        "B2", "I1", "I2", "S1", "S2", "A1", "U1", "D1",
+        "B2", "I1", "I2", "S1", "S2", "A1", "A2", "U1", "U2", "D1", "D2",
     ];
     // The ROS 2 rows need python3 with cyclonedds; without them (and not required) they say so.
     if std::env::var_os("FRONTSEAT_REQUIRE_PYTHON_HELM").is_some() {

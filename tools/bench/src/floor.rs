@@ -123,9 +123,9 @@ pub async fn run(count: usize, rate_hz: f64) -> Row {
 /// is not a data-path latency).
 pub fn floor_of(id: &str) -> Option<&'static str> {
     match id {
-        // The last hop is a tokio task (a bus subscriber, a MOOS client, a Zenoh subscriber)
-        // woken by data from another thread or process.
-        "P1" | "M1" | "G1" | "A1" | "U1" | "D1" | "B1" | "C1" => Some("L0"),
+        // The last hop is a tokio task (a bus subscriber, a MOOS client, a Zenoh subscriber, the
+        // ArduPilot and DUNE emulators' TCP reader) woken by data from another thread or process.
+        "P1" | "M1" | "G1" | "A1" | "U1" | "D1" | "B1" | "C1" | "A2" | "U2" | "D2" => Some("L0"),
         // A Zenoh subscriber in this process woken by a put in another (`run_l4`): Z1's last
         // hop, and F1's (the topside's subscriber, before its fleet model).
         "Z1" | "F1" => Some("L4"),

@@ -68,10 +68,10 @@ pub struct BenchOptions {
 }
 
 /// Every row's id, in the order of the table.
-pub const ROW_IDS: [&str; 36] = [
+pub const ROW_IDS: [&str; 39] = [
     "L0", "L1", "L2", "L3", "L4", "P1", "P2", "P3", "P4", "P5", "P6", "M1", "M2", "G1", "G2", "Z1",
     "Z2", "Z3", "T1", "C1", "C2", "C3", "W1", "R1", "R2", "F1", "F2", "B1", "B2", "I1", "I2", "S1",
-    "S2", "A1", "U1", "D1",
+    "S2", "A1", "A2", "U1", "U2", "D1", "D2",
 ];
 
 /// Which rows a run measures. Rows measured together (P4/P5, M1/M2, G1/G2, Z1–Z3/T1, a vehicle
@@ -434,7 +434,9 @@ pub async fn run(args: BenchOptions) -> ExitCode {
             .with_file_name(format!("frontseat-bench{}", std::env::consts::EXE_SUFFIX));
         rows.extend(fleet::run(plan.fleet, &bench_exe, sel.wants("F1"), sel.wants("F2")).await);
     }
-    if sel.any(&["B1", "B2", "I1", "I2", "S1", "S2", "A1", "U1", "D1"]) {
+    if sel.any(&[
+        "B1", "B2", "I1", "I2", "S1", "S2", "A1", "A2", "U1", "U2", "D1", "D2",
+    ]) {
         rows.extend(vehicles::run(plan.vehicles, &sel).await);
     }
     rows.retain(|r| sel.wants(r.id));

@@ -8,8 +8,11 @@
 //! is stamped when the emulator has it ready to write (right before the write, as P1 stamps
 //! before write(2)), a command when the bytes carrying it were read. A node_status is matched
 //! to the newest navigation write before it (a second node_status from the same write, as the
-//! Iver3's `$C` after `$OSI`, is not counted twice); a command to its course by its heading,
-//! so a driver's re-send of an older course is never taken for the new one.
+//! Iver3's `$C` after `$OSI`, is not counted twice); a command to its course by its heading
+//! (DUNE's by its speed: a Reference carries a point, not a heading; each course has its own
+//! speed too), so a driver's re-send of an older course is never taken for the new one. The
+//! ArduPilots are left armed in GUIDED by the emulator's operator hook (as a ground station's
+//! operator would), which the bench calls once the firmware takes GUIDED.
 
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
@@ -52,12 +55,19 @@ pub const B2: &str =
     "Bluefin: desired_course published → $BPRMB read on the Huxley's side (TCP, a blocking reader)";
 pub const D1: &str =
     "DUNE: EstimatedState written by the emulated vehicle (TCP) → node_status at a bus subscriber";
+pub const A2: &str = "ArduPilot Rover: desired_course published → SET_POSITION_TARGET_GLOBAL_INT read by the emulated autopilot (TCP), armed in GUIDED";
+pub const U2: &str = "ArduSub: desired_course published → SET_POSITION_TARGET_LOCAL_NED read by the emulated autopilot (TCP), armed in GUIDED";
+pub const D2: &str = "DUNE: desired_course published → IMC Reference read by the emulated vehicle (TCP), our FollowReference plan running";
 
 /// What the bench reads off a family's emulator: whether bytes it wrote carry navigation, and
 /// how many commands it has read with the heading of the last.
 trait Probe<S>: Send + 'static {
     fn carries_nav(&mut self, out: &[u8]) -> bool;
+    /// Commands read so far, and the key of the last: its heading (DUNE: its speed).
     fn commands(&self, s: &S) -> (u64, Option<f64>);
+    /// Before each step of the emulator: what the bench does to the vehicle (the ArduPilots:
+    /// armed in GUIDED once the firmware takes it).
+    fn prepare(&mut self, _s: &mut S) {}
 }
 
 /// Instants the emulator wrote navigation at, and read commands at (with their heading).
@@ -99,6 +109,7 @@ impl<S: Session, P: Probe<S>> Session for Timed<S, P> {
         self.after(&out[n0..]);
     }
     fn step(&mut self, dt: f64, out: &mut Vec<u8>) {
+        self.probe.prepare(&mut self.inner);
         let n0 = out.len();
         self.inner.step(dt, out);
         self.after(&out[n0..]);
@@ -135,8 +146,9 @@ impl Probe<frontseat_waveglider_sv2::Sv2Session> for Sv2Probe {
     }
 }
 
-/// MAVLink frames carrying GLOBAL_POSITION_INT (the driver's node_status comes from it).
-struct MavNav(frontseat_ardupilot::codec::Deframer);
+/// MAVLink frames carrying GLOBAL_POSITION_INT (the driver's node_status comes from it); and
+/// whether the operator hook was called.
+struct MavNav(frontseat_ardupilot::codec::Deframer, bool);
 
 const GLOBAL_POSITION_INT: u32 = 33;
 
@@ -158,8 +170,18 @@ impl Probe<frontseat_ardupilot::emulator::RoverSession> for MavNav {
         MavNav::carries_nav(self, out)
     }
     fn commands(&self, s: &frontseat_ardupilot::emulator::RoverSession) -> (u64, Option<f64>) {
-        let _ = s;
-        (0, None)
+        use frontseat_ardupilot::infer::Target;
+        let heading = match s.stats.last_target {
+            Some(Target::Course { heading, .. }) => Some(heading),
+            _ => None,
+        };
+        (s.stats.targets_followed, heading)
+    }
+    fn prepare(&mut self, s: &mut frontseat_ardupilot::emulator::RoverSession) {
+        if !self.1 && s.ekf_ready() {
+            self.1 = true;
+            s.operator_arms_guided();
+        }
     }
 }
 
@@ -168,8 +190,18 @@ impl Probe<frontseat_ardupilot::sub_emulator::SubSession> for MavNav {
         MavNav::carries_nav(self, out)
     }
     fn commands(&self, s: &frontseat_ardupilot::sub_emulator::SubSession) -> (u64, Option<f64>) {
-        let _ = s;
-        (0, None)
+        use frontseat_ardupilot::infer::SubTarget;
+        let yaw = match s.stats.last_target {
+            Some(SubTarget::PosVel { yaw, .. } | SubTarget::Vel { yaw, .. }) => yaw,
+            _ => None,
+        };
+        (s.stats.targets_followed, yaw)
+    }
+    fn prepare(&mut self, s: &mut frontseat_ardupilot::sub_emulator::SubSession) {
+        if !self.1 && s.position_ok() {
+            self.1 = true;
+            s.operator_arms_guided();
+        }
     }
 }
 
@@ -188,9 +220,9 @@ impl Probe<frontseat_dune::emulator::DuneSession> for ImcNav {
         });
         nav
     }
+    /// A Reference's speed is the vehicle's speed setpoint once read (each course has its own).
     fn commands(&self, s: &frontseat_dune::emulator::DuneSession) -> (u64, Option<f64>) {
-        let _ = s;
-        (0, None)
+        (s.stats.references, Some(s.vehicle().setpoint().speed))
     }
 }
 
@@ -198,6 +230,8 @@ impl Probe<frontseat_dune::emulator::DuneSession> for ImcNav {
 struct Family {
     nav: (&'static str, &'static str),
     cmd: Option<(&'static str, &'static str)>,
+    /// Commands are matched to their course by speed, not heading (DUNE).
+    by_speed: bool,
 }
 
 /// Runs the vehicle-family rows `sel` wants, one family after the other.
@@ -207,6 +241,7 @@ pub async fn run(plan: Plan, sel: &super::Selection) -> Vec<Row> {
         let fam = Family {
             nav: ("I1", I1),
             cmd: Some(("I2", I2)),
+            by_speed: false,
         };
         let session = Timed {
             inner: frontseat_iver3::IverSession::new(frontseat_iver3::IverOptions {
@@ -230,6 +265,7 @@ pub async fn run(plan: Plan, sel: &super::Selection) -> Vec<Row> {
         let fam = Family {
             nav: ("S1", S1),
             cmd: Some(("S2", S2)),
+            by_speed: false,
         };
         let session = Timed {
             inner: frontseat_waveglider_sv2::Sv2Session::new(
@@ -248,14 +284,16 @@ pub async fn run(plan: Plan, sel: &super::Selection) -> Vec<Row> {
         );
     }
     let tcp = Endpoint::Tcp(([127, 0, 0, 1], 0).into());
-    if sel.wants("A1") {
+    if sel.any(&["A1", "A2"]) {
         let fam = Family {
             nav: ("A1", A1),
-            cmd: None,
+            // Only when asked for: the command row waits for COMMAND (armed in GUIDED).
+            cmd: sel.wants("A2").then_some(("A2", A2)),
+            by_speed: false,
         };
         let session = Timed {
             inner: frontseat_ardupilot::emulator::RoverSession::new(Default::default()),
-            probe: MavNav(frontseat_ardupilot::codec::Deframer::new()),
+            probe: MavNav(frontseat_ardupilot::codec::Deframer::new(), false),
             seen: Arc::default(),
         };
         rows.extend(
@@ -267,30 +305,35 @@ pub async fn run(plan: Plan, sel: &super::Selection) -> Vec<Row> {
             .await,
         );
     }
-    if sel.wants("U1") {
+    if sel.any(&["U1", "U2"]) {
         let fam = Family {
             nav: ("U1", U1),
-            cmd: None,
+            cmd: sel.wants("U2").then_some(("U2", U2)),
+            by_speed: false,
         };
         let session = Timed {
             inner: frontseat_ardupilot::sub_emulator::SubSession::new(Default::default()),
-            probe: MavNav(frontseat_ardupilot::codec::Deframer::new()),
+            probe: MavNav(frontseat_ardupilot::codec::Deframer::new(), false),
             seen: Arc::default(),
         };
         rows.extend(
             family(plan, &fam, session, tcp.clone(), |cfg, at| {
                 cfg.driver.name = "ardupilot".into();
                 cfg.driver.ardupilot.vehicle = frontseat_config::ArdupilotVehicle::Sub;
+                // A BlueROV2 without RC disarms on its pilot-input failsafe (FS_PILOT_INPUT) unless
+                // the backseat feeds neutral MANUAL_CONTROL, as a deployment does.
+                cfg.driver.ardupilot.pilot_input_keepalive = true;
                 cfg.driver.ardupilot.address = format!("tcpout:{at}");
                 cfg.driver.ardupilot.reconnect_initial_ms = 20;
             })
             .await,
         );
     }
-    if sel.wants("D1") {
+    if sel.any(&["D1", "D2"]) {
         let fam = Family {
             nav: ("D1", D1),
-            cmd: None,
+            cmd: sel.wants("D2").then_some(("D2", D2)),
+            by_speed: true,
         };
         let session = Timed {
             inner: frontseat_dune::emulator::DuneSession::new(Default::default()),
@@ -323,6 +366,7 @@ async fn bluefin(plan: Plan) -> Vec<Row> {
     let fam = Family {
         nav: ("B1", B1),
         cmd: Some(("B2", B2)),
+        by_speed: false,
     };
     let base = InterfaceConfig::default();
     let hux = match frontseat_bluefin::HuxleyServer::bind(
@@ -567,7 +611,7 @@ async fn measure(
                 .snapshot(Duration::from_secs(2))
                 .await
                 .map_or(0, |s| s.setpoints_direct);
-            let mut row = cmd_row(cmd, plan, &bus, seen).await;
+            let mut row = cmd_row(cmd, fam.by_speed, plan, &bus, seen).await;
             let lane = service
                 .snapshot(Duration::from_secs(2))
                 .await
@@ -637,6 +681,7 @@ fn nav_row(
 /// `plan.cmd_wait`) for the emulator to read a command with its heading.
 async fn cmd_row(
     (id, what): (&'static str, &'static str),
+    by_speed: bool,
     plan: Plan,
     bus: &Bus,
     seen: &Arc<Mutex<Seen>>,
@@ -649,12 +694,19 @@ async fn cmd_row(
     for i in 0..plan.cmd_count {
         tokio::time::sleep_until(start + period.mul_f64(i as f64)).await;
         let heading = 10.0 + (i % 340) as f64;
+        // Its own speed too (DUNE's key): 1.0 to 2.0 m/s, inside every envelope and vehicle.
+        let speed = 1.0 + (i % 500) as f64 * 0.002;
+        let (key, tolerance) = if by_speed {
+            (speed, 1e-4)
+        } else {
+            (heading, 0.05)
+        };
         seen.lock().unwrap_or_else(|p| p.into_inner()).cmds.clear();
         let sent = Instant::now();
         helm.publish_desired_course(DesiredCourse {
             time: 0.0,
             heading: Some(heading),
-            speed: Some(1.0),
+            speed: Some(speed),
             depth: Some(1.0),
             ..Default::default()
         });
@@ -665,7 +717,7 @@ async fn cmd_row(
                 .unwrap_or_else(|p| p.into_inner())
                 .cmds
                 .iter()
-                .find(|(_, hd)| hd.is_some_and(|hd| (hd - heading).abs() < 0.05))
+                .find(|(_, k)| k.is_some_and(|k| (k - key).abs() < tolerance))
                 .map(|(t, _)| *t);
             if let Some(t) = hit {
                 break Some(t);
@@ -681,7 +733,7 @@ async fn cmd_row(
         }
     }
     let detail = format!(
-        "{} desired_course at {:.0} Hz, one at a time, each a new heading; lost {lost} (no command within {:?})",
+        "{} desired_course at {:.0} Hz, one at a time, each a new heading and speed; lost {lost} (no command within {:?})",
         plan.cmd_count, plan.cmd_rate_hz, plan.cmd_wait
     );
     match h.latency() {

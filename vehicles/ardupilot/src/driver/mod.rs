@@ -46,6 +46,7 @@ mod mode_commands;
 mod navigation;
 mod settings;
 mod state;
+mod steer;
 mod sub_course;
 
 pub use mode_commands::COMMAND;

@@ -8,7 +8,7 @@ use std::time::Duration;
 
 use crate::codec::{MavMessage, Sender};
 
-use super::lane::{DirectTarget, Steer};
+use super::steer::{DirectTarget, Steer};
 use crate::dialect::{
     COMMAND_LONG_DATA, EkfStatusFlags, GpsFixType, LOCAL_POSITION_NED_DATA, MavCmd,
 };

@@ -1,6 +1,7 @@
-//! The setpoint lane for ArduPilot Rover (ARCHITECTURE.md "The lane per vehicle family"): the real
-//! interface with the real ArduPilot driver over loopback TCP to the Rover emulator, left armed
-//! in GUIDED by its operator hook, courses published from plain threads as a helm's task would.
+//! The setpoint lane for ArduPilot Rover and ArduSub (ARCHITECTURE.md "The lane per vehicle
+//! family"): the real interface with the real ArduPilot driver over loopback TCP to the Rover's
+//! (the Sub's) emulator, left armed in GUIDED by its operator hook, courses published from plain
+//! threads as a helm's task would.
 //! The emulator is wrapped to send the heading of every GUIDED target it follows, in order, and
 //! to count every target frame it reads in any mode.
 //!
@@ -22,45 +23,109 @@ use frontseat_actors::groups;
 use frontseat_actors::proto::goby::middleware::frontseat::protobuf::{
     CommandRequest, DesiredCourse, InterfaceState,
 };
-use frontseat_ardupilot::emulator::{RoverOptions, RoverSession};
-use frontseat_ardupilot::infer::Target;
-use frontseat_ardupilot::modes::rover;
-use frontseat_config::InterfaceConfig;
+use frontseat_ardupilot::emulator::{RoverOptions, RoverSession, SubOptions, SubSession};
+use frontseat_ardupilot::infer::{SubTarget, Target};
+use frontseat_ardupilot::modes::{rover, sub};
+use frontseat_config::{ArdupilotVehicle, InterfaceConfig};
 use frontseat_sim::emulator::{Emulator, Endpoint, Session};
 
 const DEADLINE: Duration = Duration::from_secs(20);
 
-/// The emulated Rover, sending the heading of every target it follows and counting every target
-/// frame it reads (followed, ignored outside GUIDED, refused).
-struct Recording {
-    inner: RoverSession,
+/// What the test reads off either firmware's emulator.
+trait Autopilot: Session {
+    /// Every target frame read: followed, or dropped (outside GUIDED, refused).
+    fn targets(&self) -> u64;
+    fn followed(&self) -> u64;
+    /// The heading (yaw) of the last target followed.
+    fn last_heading(&self) -> Option<f64>;
+    /// The firmware would take GUIDED now.
+    fn ready(&self) -> bool;
+    fn arm_guided(&mut self);
+    /// A pilot's switch out of GUIDED (Rover HOLD, Sub POSHOLD).
+    fn leave_guided(&mut self);
+    fn in_guided(&self) -> bool;
+}
+
+impl Autopilot for RoverSession {
+    fn targets(&self) -> u64 {
+        let s = &self.stats;
+        s.targets_followed + s.targets_ignored + s.targets_refused
+    }
+    fn followed(&self) -> u64 {
+        self.stats.targets_followed
+    }
+    fn last_heading(&self) -> Option<f64> {
+        match self.stats.last_target {
+            Some(Target::Course { heading, .. }) => Some(heading),
+            _ => None,
+        }
+    }
+    fn ready(&self) -> bool {
+        self.ekf_ready()
+    }
+    fn arm_guided(&mut self) {
+        self.operator_arms_guided();
+    }
+    fn leave_guided(&mut self) {
+        self.change_mode(rover::HOLD);
+    }
+    fn in_guided(&self) -> bool {
+        self.mode() == rover::GUIDED
+    }
+}
+
+impl Autopilot for SubSession {
+    fn targets(&self) -> u64 {
+        let s = &self.stats;
+        s.targets_followed + s.targets_dropped + s.attitude_targets
+    }
+    fn followed(&self) -> u64 {
+        self.stats.targets_followed
+    }
+    fn last_heading(&self) -> Option<f64> {
+        match self.stats.last_target {
+            Some(SubTarget::PosVel { yaw, .. } | SubTarget::Vel { yaw, .. }) => yaw,
+            _ => None,
+        }
+    }
+    fn ready(&self) -> bool {
+        self.position_ok()
+    }
+    fn arm_guided(&mut self) {
+        self.operator_arms_guided();
+    }
+    fn leave_guided(&mut self) {
+        self.change_mode(sub::POSHOLD);
+    }
+    fn in_guided(&self) -> bool {
+        self.mode() == sub::GUIDED
+    }
+}
+
+/// The emulated autopilot, sending the heading of every target it follows and counting every
+/// target frame it reads.
+struct Recording<A> {
+    inner: A,
     headings: mpsc::Sender<f64>,
     frames: Arc<Mutex<u64>>,
     asked: bool,
 }
 
-impl Recording {
-    fn targets(&self) -> u64 {
-        let s = &self.inner.stats;
-        s.targets_followed + s.targets_ignored + s.targets_refused
-    }
-}
-
-impl Session for Recording {
+impl<A: Autopilot> Session for Recording<A> {
     fn on_bytes(&mut self, bytes: &[u8], out: &mut Vec<u8>) {
-        let (before, followed) = (self.targets(), self.inner.stats.targets_followed);
+        let (before, followed) = (self.inner.targets(), self.inner.followed());
         self.inner.on_bytes(bytes, out);
-        *self.frames.lock().unwrap() += self.targets() - before;
-        if self.inner.stats.targets_followed > followed
-            && let Some(Target::Course { heading, .. }) = self.inner.stats.last_target
+        *self.frames.lock().unwrap() += self.inner.targets() - before;
+        if self.inner.followed() > followed
+            && let Some(heading) = self.inner.last_heading()
         {
             let _ = self.headings.send(heading);
         }
     }
     fn step(&mut self, dt: f64, out: &mut Vec<u8>) {
-        if !self.asked && self.inner.ekf_ready() {
+        if !self.asked && self.inner.ready() {
             self.asked = true;
-            self.inner.operator_arms_guided();
+            self.inner.arm_guided();
         }
         self.inner.step(dt, out);
     }
@@ -73,6 +138,7 @@ fn course(heading: f64, speed: f64) -> DesiredCourse {
     DesiredCourse {
         heading: Some(heading),
         speed: Some(speed),
+        depth: Some(2.0),
         ..Default::default()
     }
 }
@@ -84,16 +150,34 @@ fn near(b: f64, h: f64) -> bool {
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-async fn courses_take_the_lane_in_order_armed_in_guided_and_none_outside_command() {
+async fn rover_courses_take_the_lane_in_order_armed_in_guided_and_none_outside_command() {
+    let rover = RoverSession::new(RoverOptions {
+        init_s: 0.2,
+        ekf_ready_s: 0.5,
+        ..Default::default()
+    });
+    lane_in_order_and_none_outside_command(rover, ArdupilotVehicle::Rover).await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn sub_courses_take_the_lane_in_order_armed_in_guided_and_none_outside_command() {
+    let sub = SubSession::new(SubOptions {
+        init_s: 0.2,
+        ekf_ready_s: 0.5,
+        ..Default::default()
+    });
+    lane_in_order_and_none_outside_command(sub, ArdupilotVehicle::Sub).await;
+}
+
+async fn lane_in_order_and_none_outside_command<A: Autopilot>(
+    vehicle: A,
+    firmware: ArdupilotVehicle,
+) {
     let (tx, headings) = mpsc::channel();
     let frames = Arc::new(Mutex::new(0));
     let emu = Emulator::start(
         Recording {
-            inner: RoverSession::new(RoverOptions {
-                init_s: 0.2,
-                ekf_ready_s: 0.5,
-                ..Default::default()
-            }),
+            inner: vehicle,
             headings: tx,
             frames: frames.clone(),
             asked: false,
@@ -109,8 +193,11 @@ async fn courses_take_the_lane_in_order_armed_in_guided_and_none_outside_command
         ..Default::default()
     };
     cfg.driver.name = "ardupilot".into();
+    cfg.driver.ardupilot.vehicle = firmware;
     cfg.driver.ardupilot.address = format!("tcpout:{addr}");
     cfg.driver.ardupilot.reconnect_initial_ms = 20;
+    // A BlueROV2 without RC disarms on its pilot-input failsafe unless fed neutral input.
+    cfg.driver.ardupilot.pilot_input_keepalive = true;
     let (bus, service, helm) = lane::in_command(&cfg, DEADLINE).await;
     let before = service.snapshot(DEADLINE).await.expect("a snapshot");
 
@@ -223,9 +310,9 @@ async fn courses_take_the_lane_in_order_armed_in_guided_and_none_outside_command
         "no course of the burst took the lane"
     );
 
-    // The pilot's switch to HOLD: the driver hears it, the interface leaves COMMAND; from then on
-    // the helm's new courses reach the vehicle by neither path.
-    emu.session().inner.change_mode(rover::HOLD);
+    // The pilot's switch out of GUIDED: the driver hears it, the interface leaves COMMAND; from
+    // then on the helm's new courses reach the vehicle by neither path.
+    emu.session().inner.leave_guided();
     let until = tokio::time::Instant::now() + DEADLINE;
     loop {
         let s = service.snapshot(DEADLINE).await.expect("a snapshot");
@@ -265,7 +352,7 @@ async fn courses_take_the_lane_in_order_armed_in_guided_and_none_outside_command
         frames_out,
         "a target reached the vehicle out of COMMAND"
     );
-    assert_eq!(emu.session().inner.mode(), rover::HOLD);
+    assert!(!emu.session().inner.in_guided());
     helm.stop();
     let _ = service.shutdown(Duration::from_secs(3)).await;
 }

@@ -4,10 +4,10 @@
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
-const ROWS: [&str; 38] = [
-    "L0", "L1", "L2", "L3", "P1", "P2", "P3", "P4", "P5", "P6", "M1", "M2", "G1", "G2", "Z1", "Z2",
-    "Z3", "T1", "C1", "C2", "C3", "W1", "R1", "R2", "F1", "F2", "B1", "B2", "I1", "I2", "S1", "S2",
-    "A1", "A2", "U1", "U2", "D1", "D2",
+const ROWS: [&str; 39] = [
+    "L0", "L1", "L2", "L3", "L4", "P1", "P2", "P3", "P4", "P5", "P6", "M1", "M2", "G1", "G2", "Z1",
+    "Z2", "Z3", "T1", "C1", "C2", "C3", "W1", "R1", "R2", "F1", "F2", "B1", "B2", "I1", "I2", "S1",
+    "S2", "A1", "A2", "U1", "U2", "D1", "D2",
 ];
 
 /// One bench at a time: two at once on a 2-core machine starve each other's children (the
@@ -63,8 +63,8 @@ fn quick_bench_prints_every_row_and_exits_0() {
         assert!(row.chars().any(|c| c.is_ascii_digit()), "{row}");
     }
     let mut latency_rows = vec![
-        "L0", "L1", "L2", "L3", "P1", "P2", "P5", "M1", "M2", "G1", "G2", "Z1", "Z2", "W1", "B1",
-        "B2", "I1", "I2", "S1", "S2", "A1", "A2", "U1", "U2", "D1", "D2",
+        "L0", "L1", "L2", "L3", "L4", "P1", "P2", "P5", "M1", "M2", "G1", "G2", "Z1", "Z2", "W1",
+        "B1", "B2", "I1", "I2", "S1", "S2", "A1", "A2", "U1", "U2", "D1", "D2",
     ];
     // The ROS 2 rows need python3 with cyclonedds; without them (and not required) they say so.
     if std::env::var_os("FRONTSEAT_REQUIRE_PYTHON_HELM").is_some() {
@@ -87,8 +87,10 @@ fn quick_bench_prints_every_row_and_exits_0() {
         // a blocking reader's for the rows ending at the scripted frontseat, a pseudo-terminal's
         // for the serial vehicles, L0's for the rest.
         let floor = match id {
-            "L0" | "L1" | "L2" | "L3" | "P5" => None,
+            "L0" | "L1" | "L2" | "L3" | "L4" | "P5" => None,
             "W1" => Some("L3"),
+            // A Zenoh subscriber woken by a put in another process.
+            "Z1" => Some("L4"),
             "P2" | "M2" | "G2" | "Z2" | "B2" | "C2" => Some("L1"),
             "I1" | "I2" | "S1" | "S2" => Some("L2"),
             _ => Some("L0"),
@@ -143,7 +145,7 @@ fn rows_picks_rows_and_refuses_unknown_ones() {
     let (ok, stdout, stderr) = run_bench(&["--quick", "--rows", "P1,X9"]);
     assert!(!ok, "an unknown row must fail: {stdout}");
     assert!(stderr.contains("unknown row `X9`"), "{stderr}");
-    assert!(stderr.contains("L0, L1, L2, L3, P1"), "{stderr}");
+    assert!(stderr.contains("L0, L1, L2, L3, L4, P1"), "{stderr}");
 }
 
 #[test]

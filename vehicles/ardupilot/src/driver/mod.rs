@@ -15,8 +15,10 @@
 //! One state (`state`) and the modules that act on it, each owning one part: `settings` (the
 //! config, the framing), `inbound` (frame → the part that owns the message), `heartbeat`
 //! (state inference), `navigation` (NodeStatus), `keepalive` (what goes out unasked),
-//! `course` and `sub_course` (the helm's course: Rover, Sub), `mode_commands` (the
-//! extension), `acks` (verdicts). This file is the runtime's `Driver` trait over them.
+//! `course` and `sub_course` (the helm's course: Rover, Sub), `lane` (the setpoint lane's course
+//! taken in before each message, its snapshot published after; what the lane shares and writes
+//! with: `steer`), `mode_commands` (the extension), `acks` (verdicts). This file is the runtime's
+//! `Driver` trait over them.
 
 /// Log lines keep the target this module had as one file, whatever part now writes them:
 /// operators filter and grep on it.

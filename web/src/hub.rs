@@ -9,13 +9,18 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::{SystemTime, UNIX_EPOCH};
 
-use frontseat_actors::bus::{Bus, Layer, Origin, Subscription, Undeliverable};
+use frontseat_actors::bus::{Bus, BusMessage, Layer, Origin, Subscription, Undeliverable};
 use frontseat_actors::generated::{EncodedEnvelope, groups, subscribe_encoded};
+use frontseat_actors::proto::goby::middleware::frontseat::protobuf::NodeStatus;
 use ractor::{Actor, ActorProcessingErr, ActorRef, RpcReplyPort};
 use serde_json::{Value as Json, json};
 use tokio::sync::mpsc;
 
 use crate::reflect;
+
+fn decode<T: BusMessage>(bytes: &[u8]) -> Option<T> {
+    T::decode(bytes).ok()
+}
 
 /// Name of the hub's subscriptions in bus statistics.
 pub const SUBSCRIBER: &str = "WebScope";
@@ -99,14 +104,15 @@ fn unix_ms(t: SystemTime) -> f64 {
 }
 
 impl HubState {
-    /// The event of one message, as JSON (its decoded message, if any, under "msg").
-    fn event(&mut self, env: &EncodedEnvelope) -> Json {
+    /// The event of one message, as JSON text (its decoded message, if any, under "msg"),
+    /// written once: the head's fields, then the message's JSON as the reflection writes it.
+    fn event(&mut self, env: &EncodedEnvelope) -> String {
         self.seq += 1;
         let published = SystemTime::now()
             .checked_sub(env.published_at.elapsed())
             .unwrap_or_else(SystemTime::now);
-        let decoded = reflect::to_json(env.type_name, &env.bytes);
-        let mut ev = json!({
+        let decoded = reflect::to_json_text(env.type_name, &env.bytes);
+        let head = json!({
             "kind": "msg",
             "seq": self.seq,
             "group": env.group,
@@ -115,29 +121,36 @@ impl HubState {
             "origin": match env.meta.origin { Origin::Local => "local", Origin::Web => "web", Origin::Replayed => "replayed", Origin::Imported | Origin::Goby3 => "imported" },
             "bytes": env.bytes.len(),
         });
+        // A JSON object's text ends with its '}': the last field goes in before it.
+        let mut ev = head.to_string();
+        ev.pop();
         match decoded {
-            // Moved in, not cloned: the track reads it from the event (W1's path, issue 49).
-            Ok(m) => ev["msg"] = m,
+            Ok(m) => {
+                ev.push_str(",\"msg\":");
+                ev.push_str(&m);
+            }
             Err(e) => {
                 self.args
                     .counters
                     .decode_errors
                     .fetch_add(1, Ordering::Relaxed);
-                ev["error"] = json!(e.to_string());
+                ev.push_str(",\"error\":");
+                ev.push_str(&Json::String(e.to_string()).to_string());
             }
         }
+        ev.push('}');
         ev
     }
 
     fn record(&mut self, env: Box<EncodedEnvelope>) {
         self.args.counters.messages.fetch_add(1, Ordering::Relaxed);
-        let ev = self.event(&env);
+        let text: Arc<str> = Arc::from(self.event(&env));
         if env.group == groups::GOBY_MIDDLEWARE_FRONTSEAT_NODE_STATUS.name()
-            && let Some(m) = ev.get("msg")
+            && let Some(ns) = decode::<NodeStatus>(&env.bytes)
+            && let Some(l) = &ns.local_fix
         {
-            self.track_point(m);
+            self.track_point(l.x, l.y);
         }
-        let text: Arc<str> = Arc::from(ev.to_string());
         if let Some(g) = self.groups.get_mut(env.group) {
             g.count += 1;
             g.latest = Some(text.clone());
@@ -163,11 +176,7 @@ impl HubState {
         });
     }
 
-    fn track_point(&mut self, ns: &Json) {
-        let (Some(x), Some(y)) = (ns["local_fix"]["x"].as_f64(), ns["local_fix"]["y"].as_f64())
-        else {
-            return;
-        };
+    fn track_point(&mut self, x: f64, y: f64) {
         if let Some(&(lx, ly)) = self.track.back()
             && (x - lx).hypot(y - ly) < TRACK_STEP_M
         {

@@ -53,6 +53,18 @@ pub fn to_json(type_name: &str, bytes: &[u8]) -> Result<Json, WebError> {
         .map_err(|e| WebError::Decode(e.to_string()))
 }
 
+/// [`to_json`] written straight to JSON text, without the `Json` value in between: the hub's
+/// events are text, so building the value only to print it cost every event a second pass
+/// (W1's path, issue 49).
+pub fn to_json_text(type_name: &str, bytes: &[u8]) -> Result<String, WebError> {
+    let desc = descriptor(type_name)?;
+    let msg = DynamicMessage::decode(desc, bytes).map_err(|e| WebError::Decode(e.to_string()))?;
+    let mut out = Vec::with_capacity(256);
+    msg.serialize_with_options(&mut serde_json::Serializer::new(&mut out), &json_options())
+        .map_err(|e| WebError::Decode(e.to_string()))?;
+    String::from_utf8(out).map_err(|e| WebError::Decode(e.to_string()))
+}
+
 /// The commander's JSON → protobuf bytes of `type_name`: unknown fields and missing required
 /// fields are refused, like a malformed message from any other helm would be.
 pub fn from_json(type_name: &str, value: &Json) -> Result<Vec<u8>, WebError> {

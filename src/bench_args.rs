@@ -16,8 +16,8 @@ pub struct BenchArgs {
     /// L2 (a pseudo-terminal line → a task wakes) and L3 (an SSE event → the client parses it)
     /// run with the rows whose last hop they are;
     /// every latency row gives its ratio over its own floor. Vehicle families, each through its
-    /// emulator: B1/B2 Bluefin (TCP), I1/I2 Iver3, S1/S2 Wave Glider SV2 (pty), A1 ArduPilot
-    /// Rover, U1 ArduSub, D1 DUNE (TCP); <F>1 navigation → node_status, <F>2 desired_course →
+    /// emulator: B1/B2 Bluefin (TCP), I1/I2 Iver3, S1/S2 Wave Glider SV2 (pty), A1/A2 ArduPilot
+    /// Rover, U1/U2 ArduSub, D1/D2 DUNE (TCP); <F>1 navigation → node_status, <F>2 desired_course →
     /// the command read at the vehicle. Rows that share a setup run together (M1/M2, P4/P5, Z1–Z3/T1, a family's two);
     /// the table shows only the rows asked for.
     #[arg(long, value_delimiter = ',', value_name = "ROWS")]

@@ -9,9 +9,8 @@
 //! The FrontSeatInterface and the DriverActor keep everything else, and every setpoint the lane
 //! does not take goes their way as before: a course the envelope refuses (the interface counts,
 //! logs and answers it), one outside command (refused there), a driver without a
-//! [`DirectCommand`] (today the basic simulator's, the Iver3's, the Bluefin's and DUNE's have
-//! one; ArduPilot's is designed, and why the SV2 cannot: ARCHITECTURE.md "The lane per vehicle
-//! family"), and every
+//! [`DirectCommand`] (every built-in driver has one but the SV2's, whose C&C pulls its commands:
+//! ARCHITECTURE.md "The lane per vehicle family"), and every
 //! command_request, vehicle extension and raw send. While any of those is still on its way
 //! through the actors (its delivery, or the interface's re-publication of it, not yet dropped:
 //! see [`crate::bus::Held`]) the lane takes no course either, so no course overtakes one

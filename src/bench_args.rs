@@ -12,9 +12,10 @@ pub struct BenchArgs {
     #[arg(long)]
     pub json: bool,
     /// Only these rows, comma-separated (e.g. `--rows P1,P2,M1,M2` for an A/B of two builds).
-    /// Floors: L0 (loopback line → a task wakes) always runs; L1 (→ a thread blocked in read(2))
-    /// L2 (a pseudo-terminal line → a task wakes) and L3 (an SSE event → the client parses it)
-    /// run with the rows whose last hop they are;
+    /// Floors: L0 (loopback line → a task wakes) always runs; L1 (→ a thread blocked in read(2)),
+    /// L2 (a pseudo-terminal line → a task wakes), L3 (an SSE event → the client parses it) and
+    /// L4 (a Zenoh put in another process → a subscriber here) run with the rows they are floors
+    /// of;
     /// every latency row gives its ratio over its own floor. Vehicle families, each through its
     /// emulator: B1/B2 Bluefin (TCP), I1/I2 Iver3, S1/S2 Wave Glider SV2 (pty), A1/A2 ArduPilot
     /// Rover, U1/U2 ArduSub, D1/D2 DUNE (TCP); <F>1 navigation → node_status, <F>2 desired_course →

@@ -2,6 +2,10 @@
 //! last navigation, its track (bounded), its interface's state and errors, its helm's last
 //! commanded course, when it was last heard, and so whether it is stale. Vehicles are never
 //! removed; the number of vehicles and of track points is bounded.
+//!
+//! Every track point carries a fleet-wide sequence number, so that a page polling the fleet asks
+//! only for the points it has not seen (`snapshot(.., Some(after))`): with 1 000 vehicles of
+//! thousands of points each, sending every track every second was megabytes a poll.
 
 use std::collections::{BTreeMap, VecDeque};
 use std::time::Duration;
@@ -16,10 +20,18 @@ use tokio::time::Instant;
 /// A track point is kept when the vehicle moved at least this far from the last one. Unit: m.
 const TRACK_STEP_M: f64 = 1.0;
 
+/// One point of a track: x and y on the vehicle's local grid (m) and its fleet-wide number.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TrackPoint {
+    pub x: f64,
+    pub y: f64,
+    pub seq: u64,
+}
+
 #[derive(Debug, Clone, Default)]
 pub struct Vehicle {
     pub nav: Option<Nav>,
-    pub track: VecDeque<(f64, f64)>,
+    pub track: VecDeque<TrackPoint>,
     pub status: Option<InterfaceStatus>,
     pub course: Option<(f64, f64)>,
     pub last_heard: Option<Instant>,
@@ -48,6 +60,8 @@ pub enum Refused {
 #[derive(Debug)]
 pub struct Fleet {
     vehicles: BTreeMap<String, Vehicle>,
+    /// The newest track point's number (0: none yet).
+    track_seq: u64,
     max_vehicles: usize,
     track_points: usize,
     stale_after: Duration,
@@ -61,6 +75,7 @@ impl Fleet {
     pub fn new(max_vehicles: usize, track_points: usize, stale_after: Duration) -> Self {
         Self {
             vehicles: BTreeMap::new(),
+            track_seq: 0,
             max_vehicles: max_vehicles.max(1),
             track_points: track_points.max(2),
             stale_after,
@@ -68,10 +83,17 @@ impl Fleet {
     }
 
     fn vehicle(&mut self, platform: &str) -> Result<&mut Vehicle, Refused> {
-        if !self.vehicles.contains_key(platform) && self.vehicles.len() >= self.max_vehicles {
-            return Err(Refused::TooManyVehicles);
+        // Looked up before inserting: the name is copied once per vehicle, not per sample.
+        if !self.vehicles.contains_key(platform) {
+            if self.vehicles.len() >= self.max_vehicles {
+                return Err(Refused::TooManyVehicles);
+            }
+            self.vehicles
+                .insert(platform.to_string(), Vehicle::default());
         }
-        Ok(self.vehicles.entry(platform.to_string()).or_default())
+        self.vehicles
+            .get_mut(platform)
+            .ok_or(Refused::TooManyVehicles)
     }
 
     pub fn len(&self) -> usize {
@@ -111,6 +133,7 @@ impl Fleet {
             (None, None)
         };
         let cap = self.track_points;
+        let seq = self.track_seq + 1;
         let v = self.vehicle(platform)?;
         v.nav = Some(Nav {
             x: l.x,
@@ -123,15 +146,22 @@ impl Fleet {
         let moved = v
             .track
             .back()
-            .is_none_or(|(px, py)| (l.x - px).hypot(l.y - py) >= TRACK_STEP_M);
+            .is_none_or(|p| (l.x - p.x).hypot(l.y - p.y) >= TRACK_STEP_M);
         if moved {
             if v.track.len() >= cap {
                 v.track.pop_front();
             }
-            v.track.push_back((l.x, l.y));
+            v.track.push_back(TrackPoint {
+                x: l.x,
+                y: l.y,
+                seq,
+            });
         }
         v.last_heard = Some(now);
         v.node_status_count += 1;
+        if moved {
+            self.track_seq = seq;
+        }
         Ok(())
     }
 
@@ -161,14 +191,80 @@ impl Fleet {
         Ok(())
     }
 
-    /// The page's view of the fleet at `now`.
-    pub fn snapshot(&self, now: Instant, links: &BTreeMap<String, String>) -> Value {
-        let vehicles: Vec<Value> = self
+    /// The page's view of the fleet at `now`. Without `tracks_after`, every vehicle's whole track
+    /// as `[x, y]` points; with it, only the points numbered after it, as `[x, y, number]`, and
+    /// each vehicle's `track_from` (its oldest point kept: a page drops what is older). The
+    /// newest number is `track_seq`.
+    pub fn snapshot(
+        &self,
+        now: Instant,
+        links: &BTreeMap<String, String>,
+        tracks_after: Option<u64>,
+    ) -> Value {
+        self.view(now, tracks_after).json(links)
+    }
+
+    /// What [`snapshot`](Self::snapshot) shows, copied out (only the track points asked for),
+    /// so that the caller renders it after letting go of the lock the Zenoh callbacks take.
+    pub fn view(&self, now: Instant, tracks_after: Option<u64>) -> View {
+        let vehicles = self
             .vehicles
             .iter()
             .map(|(name, v)| {
                 let age = v.last_heard.map(|t| now.saturating_duration_since(t));
-                let stale = age.is_none_or(|a| a > self.stale_after);
+                // Numbers grow along a track: the new points are its tail.
+                let from = tracks_after.map_or(0, |a| v.track.partition_point(|p| p.seq <= a));
+                VehicleView {
+                    name: name.clone(),
+                    stale: age.is_none_or(|a| a > self.stale_after),
+                    age_s: age.map(|a| a.as_secs_f64()),
+                    nav: v.nav,
+                    course: v.course,
+                    status: v.status,
+                    track: v.track.range(from..).copied().collect(),
+                    track_from: v.track.front().map(|p| p.seq),
+                    node_status_count: v.node_status_count,
+                }
+            })
+            .collect();
+        View {
+            vehicles,
+            stale_after_s: self.stale_after.as_secs_f64(),
+            track_seq: self.track_seq,
+            numbered: tracks_after.is_some(),
+        }
+    }
+}
+
+/// A copy of the fleet for the page (see [`Fleet::view`]).
+#[derive(Debug, Clone)]
+pub struct View {
+    vehicles: Vec<VehicleView>,
+    stale_after_s: f64,
+    track_seq: u64,
+    /// Track points with their numbers (a page asked for the new ones only).
+    numbered: bool,
+}
+
+#[derive(Debug, Clone)]
+struct VehicleView {
+    name: String,
+    stale: bool,
+    age_s: Option<f64>,
+    nav: Option<Nav>,
+    course: Option<(f64, f64)>,
+    status: Option<InterfaceStatus>,
+    track: Vec<TrackPoint>,
+    track_from: Option<u64>,
+    node_status_count: u64,
+}
+
+impl View {
+    pub fn json(&self, links: &BTreeMap<String, String>) -> Value {
+        let vehicles: Vec<Value> = self
+            .vehicles
+            .iter()
+            .map(|v| {
                 let status = v.status.as_ref().map(|s| {
                     json!({
                         "state": state_words(s.state()),
@@ -178,23 +274,33 @@ impl Fleet {
                         "frontseat_error": s.frontseat_error.map(|_| s.frontseat_error().as_str_name()),
                     })
                 });
+                let track: Vec<Value> = if self.numbered {
+                    v.track.iter().map(|p| json!([p.x, p.y, p.seq])).collect()
+                } else {
+                    v.track.iter().map(|p| json!([p.x, p.y])).collect()
+                };
                 json!({
-                    "name": name,
-                    "stale": stale,
-                    "age_s": age.map(|a| a.as_secs_f64()),
+                    "name": v.name,
+                    "stale": v.stale,
+                    "age_s": v.age_s,
                     "nav": v.nav.map(|n| json!({
                         "x": n.x, "y": n.y, "lat": n.lat, "lon": n.lon,
                         "heading": n.heading, "speed": n.speed,
                     })),
                     "course": v.course.map(|(h, s)| json!({"heading": h, "speed": s})),
                     "status": status,
-                    "track": v.track.iter().map(|(x, y)| [*x, *y]).collect::<Vec<_>>(),
+                    "track": track,
+                    "track_from": v.track_from,
                     "node_status_count": v.node_status_count,
-                    "page": links.get(name),
+                    "page": links.get(&v.name),
                 })
             })
             .collect();
-        json!({ "vehicles": vehicles, "stale_after_s": self.stale_after.as_secs_f64() })
+        json!({
+            "vehicles": vehicles,
+            "stale_after_s": self.stale_after_s,
+            "track_seq": self.track_seq,
+        })
     }
 }
 
@@ -221,9 +327,9 @@ mod tests {
         let mut f = Fleet::new(10, 100, Duration::from_secs(5));
         f.on_node_status("auv1", &ns(1.0, 2.0), t0).unwrap();
         let links = BTreeMap::new();
-        let fresh = f.snapshot(t0 + Duration::from_secs(1), &links);
+        let fresh = f.snapshot(t0 + Duration::from_secs(1), &links, None);
         assert_eq!(fresh["vehicles"][0]["stale"], false);
-        let later = f.snapshot(t0 + Duration::from_secs(6), &links);
+        let later = f.snapshot(t0 + Duration::from_secs(6), &links, None);
         assert_eq!(later["vehicles"][0]["stale"], true);
         assert_eq!(later["vehicles"][0]["nav"]["x"], 1.0);
     }
@@ -242,7 +348,8 @@ mod tests {
             f.on_node_status("a", &ns(i as f64 * 2.0, 0.0), t0).unwrap();
         }
         assert_eq!(f.get("a").unwrap().track.len(), 3);
-        assert_eq!(f.get("a").unwrap().track.back(), Some(&(18.0, 0.0)));
+        let last = f.get("a").unwrap().track.back().copied().unwrap();
+        assert_eq!((last.x, last.y), (18.0, 0.0));
     }
 
     #[test]
@@ -278,8 +385,40 @@ mod tests {
             },
         )
         .unwrap();
-        let snap = f.snapshot(t0, &BTreeMap::new());
+        let snap = f.snapshot(t0, &BTreeMap::new(), None);
         assert_eq!(snap["vehicles"][0]["status"]["state"], "running:command");
         assert_eq!(snap["vehicles"][0]["course"]["heading"], 90.0);
+    }
+
+    #[test]
+    fn a_page_gets_only_the_track_points_it_has_not_seen() {
+        let t0 = Instant::now();
+        let mut f = Fleet::new(2, 3, Duration::from_secs(5));
+        let links = BTreeMap::new();
+        // a: points 1, 3, 5, 6 (the first dropped by the bound of 3); b: points 2, 4.
+        f.on_node_status("a", &ns(0.0, 0.0), t0).unwrap();
+        f.on_node_status("b", &ns(0.0, 0.0), t0).unwrap();
+        f.on_node_status("a", &ns(2.0, 0.0), t0).unwrap();
+        // Not a metre: no point, no number taken.
+        f.on_node_status("a", &ns(2.5, 0.0), t0).unwrap();
+        f.on_node_status("b", &ns(2.0, 0.0), t0).unwrap();
+        f.on_node_status("a", &ns(4.0, 0.0), t0).unwrap();
+        f.on_node_status("a", &ns(6.0, 0.0), t0).unwrap();
+        let full = f.snapshot(t0, &links, None);
+        assert_eq!(full["track_seq"], 6);
+        assert_eq!(
+            full["vehicles"][0]["track"],
+            json!([[2.0, 0.0], [4.0, 0.0], [6.0, 0.0]])
+        );
+        assert_eq!(full["vehicles"][0]["track_from"], 3);
+        let since = f.snapshot(t0, &links, Some(4));
+        assert_eq!(
+            since["vehicles"][0]["track"],
+            json!([[4.0, 0.0, 5], [6.0, 0.0, 6]])
+        );
+        assert_eq!(since["vehicles"][1]["track"], json!([]));
+        assert_eq!(since["vehicles"][1]["track_from"], 2);
+        let none_new = f.snapshot(t0, &links, Some(6));
+        assert_eq!(none_new["vehicles"][0]["track"], json!([]));
     }
 }

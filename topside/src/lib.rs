@@ -210,6 +210,8 @@ struct Sink {
     record: Option<RecordTo>,
     /// The live Foxglove server's channel for this group (`[foxglove]`).
     live: Option<live::LiveTo>,
+    /// Keys heard for the first time, for the topside to declare (see [`declare_heard_keys`]).
+    declare: tokio::sync::mpsc::Sender<String>,
 }
 
 impl Sink {
@@ -233,6 +235,10 @@ impl Sink {
             .lock()
             .unwrap_or_else(|p| p.into_inner())
             .on_sample(platform, info, payload, now);
+        if let Ok(true) = scoped {
+            // Full: the key stays undeclared, which costs time per sample, never a sample.
+            let _ = self.declare.try_send(key.to_string());
+        }
         let Some(kind) = kind else {
             // The fleet's own groups count their refusals below; the others here.
             if scoped.is_err() {
@@ -293,12 +299,43 @@ impl Sink {
     }
 }
 
+/// Keys waiting to be declared; more are not declared (each platform's groups, once).
+const DECLARE_QUEUE: usize = 4096;
+
+/// Declares each key the topside hears for the first time (`<platform>/<group>`) on its own
+/// session. A put whose key no one declared is routed from scratch: Zenoh matches its key
+/// against every subscription, in the router and again in the session, for every sample (with
+/// 1 000 vehicles at 10 Hz, the larger part of the topside's CPU). A key declared here gets a
+/// resource of its own, whose route is computed once and kept until the subscriptions change.
+/// Bounded: a key is sent here only once per platform and group the scope took in, and the
+/// scope is bounded by `max_vehicles`.
+async fn declare_heard_keys(
+    session: frontseat_helm_side::zenoh::Session,
+    mut keys: tokio::sync::mpsc::Receiver<String>,
+    count: Arc<AtomicU64>,
+) {
+    let mut declared = Vec::new();
+    while let Some(key) = keys.recv().await {
+        match session.declare_keyexpr(key).await {
+            Ok(k) => {
+                declared.push(k);
+                count.fetch_add(1, Ordering::Relaxed);
+            }
+            // Only slower, never wrong: the samples of this key go on being taken in.
+            Err(e) => tracing::debug!(error = %e, "topside: cannot declare a heard key"),
+        }
+    }
+}
+
 /// The running topside.
 pub struct Topside {
     addr: SocketAddr,
     session: frontseat_helm_side::zenoh::Session,
     _subs: Vec<frontseat_helm_side::zenoh::pubsub::Subscriber<()>>,
     server: tokio::task::JoinHandle<()>,
+    declarer: tokio::task::JoinHandle<()>,
+    /// Keys [`declare_heard_keys`] declared.
+    declared: Arc<AtomicU64>,
     pub counters: Arc<Counters>,
     /// The recorder this topside started itself (not one handed in by [`run`]).
     recorder: Option<Recorder>,
@@ -360,6 +397,13 @@ impl Topside {
         let scope = Arc::new(Mutex::new(Scope::new(cfg.max_vehicles)));
         let counters = Arc::new(Counters::default());
         let live = live::start(cfg)?;
+        let (declare, heard_keys) = tokio::sync::mpsc::channel(DECLARE_QUEUE);
+        let declared = Arc::new(AtomicU64::new(0));
+        let declarer = tokio::spawn(declare_heard_keys(
+            session.clone(),
+            heard_keys,
+            declared.clone(),
+        ));
         let mut subs = Vec::new();
         // One subscription per interprocess group (the scope shows them all), so the group is
         // known from the subscription and only the platform is read from the key.
@@ -387,6 +431,7 @@ impl Topside {
                     .and(record.as_ref())
                     .and_then(|i| RecordTo::new(i, info.name)),
                 live: kind.and(live.as_ref()).and_then(|l| l.to(info.name)),
+                declare: declare.clone(),
             };
             let sub = session
                 .declare_subscriber(key.clone())
@@ -442,10 +487,17 @@ impl Topside {
             session,
             _subs: subs,
             server,
+            declarer,
+            declared,
             counters,
             recorder: None,
             live,
         })
+    }
+
+    /// How many of the keys heard so far the topside has declared (one per platform and group).
+    pub fn declared_keys(&self) -> u64 {
+        self.declared.load(Ordering::Relaxed)
     }
 
     /// The address `[foxglove]`'s live server is bound to, when enabled.
@@ -482,6 +534,7 @@ impl Service for Topside {
     fn stop(self: Box<Self>, within: Duration) -> BoxFuture<'static, ()> {
         Box::pin(async move {
             self.server.abort();
+            self.declarer.abort();
             let _ = tokio::time::timeout(within, self.session.close()).await;
             // After the session: no callback feeds the recorder any more; closing the file
             // (its summary) blocks, so off the async threads.
@@ -604,10 +657,17 @@ struct TokenQuery {
     token: Option<String>,
 }
 
+/// `/api/fleet`'s query: the token, and the newest track point the page already has.
+#[derive(Deserialize)]
+struct FleetQuery {
+    token: Option<String>,
+    tracks_after: Option<u64>,
+}
+
 async fn fleet_json(
     State(st): State<AppState>,
     headers: HeaderMap,
-    Query(q): Query<TokenQuery>,
+    Query(q): Query<FleetQuery>,
 ) -> Response {
     if let Err(r) = st.access.check_read(&headers, q.token.as_deref()) {
         return (
@@ -617,11 +677,14 @@ async fn fleet_json(
             .into_response();
     }
     let now = tokio::time::Instant::now();
-    let mut snap = st
+    // Copied under the lock, rendered outside it: with 1 000 vehicles the JSON takes long
+    // enough that the Zenoh callbacks waiting on the lock would show it in their latency.
+    let view = st
         .fleet
         .lock()
         .unwrap_or_else(|p| p.into_inner())
-        .snapshot(now, &st.links);
+        .view(now, q.tracks_after);
+    let mut snap = view.json(&st.links);
     snap["counters"] = st.counters.json();
     let mut r = axum::Json(snap).into_response();
     r.headers_mut()

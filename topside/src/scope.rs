@@ -58,17 +58,25 @@ impl Scope {
     }
 
     /// Takes one sample of `info`'s group for `platform` (the payload already size-checked).
+    /// True when this is the first sample of that group of that platform.
     pub fn on_sample(
         &mut self,
         platform: &str,
         info: &'static GroupInfo,
         payload: &[u8],
         now: Instant,
-    ) -> Result<(), Refused> {
-        if !self.vehicles.contains_key(platform) && self.vehicles.len() >= self.max_vehicles {
-            return Err(Refused::TooManyVehicles);
+    ) -> Result<bool, Refused> {
+        // Looked up before inserting: the name is copied once per vehicle, not per sample.
+        if !self.vehicles.contains_key(platform) {
+            if self.vehicles.len() >= self.max_vehicles {
+                return Err(Refused::TooManyVehicles);
+            }
+            self.vehicles.insert(platform.to_string(), BTreeMap::new());
         }
-        let groups = self.vehicles.entry(platform.to_string()).or_default();
+        let Some(groups) = self.vehicles.get_mut(platform) else {
+            return Err(Refused::TooManyVehicles);
+        };
+        let first = !groups.contains_key(info.name);
         let l = groups.entry(info.name).or_insert_with(|| Latest {
             info,
             bytes: None,
@@ -90,7 +98,7 @@ impl Scope {
             l.arrivals.pop_front();
         }
         l.arrivals.push_back(now);
-        Ok(())
+        Ok(first)
     }
 
     /// The groups heard of `platform`, by name; None for a platform never heard.
@@ -241,13 +249,16 @@ mod tests {
         let t0 = Instant::now();
         let mut s = Scope::new(1);
         let raw = info(groups::GOBY_MIDDLEWARE_FRONTSEAT_RAW_IN.name());
-        s.on_sample("a", raw, b"", t0).unwrap();
+        // The first sample of a platform's group says so (the topside then declares its key).
+        assert_eq!(s.on_sample("a", raw, b"", t0), Ok(true));
         assert_eq!(
             s.on_sample("b", raw, b"", t0),
             Err(Refused::TooManyVehicles)
         );
-        s.on_sample("a", raw, &vec![0u8; MAX_KEPT_BYTES + 1], t0)
-            .unwrap();
+        assert_eq!(
+            s.on_sample("a", raw, &vec![0u8; MAX_KEPT_BYTES + 1], t0),
+            Ok(false)
+        );
         let v = render("a", s.rows("a", t0).unwrap());
         assert!(v["groups"][0]["error"].as_str().unwrap().contains("larger"));
         assert!(v["groups"][0].get("msg").is_none());

@@ -152,14 +152,23 @@ async fn publish(port: u16, n: usize, window: Duration) -> Result<(), String> {
         publishers[i].put(encode(&ns)).wait()
     };
     // Warm up until the bench has heard vehicle 0 (the session must connect first).
-    let warm = tokio::time::timeout(Duration::from_secs(30), async {
-        loop {
-            let _ = publish(0, None);
+    // Every vehicle now and then (the topside must hear each once before the window: its first
+    // sample of a key is when the topside declares it), vehicle 0 often.
+    let warm = tokio::time::timeout(Duration::from_secs(60), async {
+        for round in 0u64.. {
+            if round % 25 == 0 {
+                for i in 0..n {
+                    let _ = publish(i, None);
+                }
+            } else {
+                let _ = publish(0, None);
+            }
             tokio::select! {
                 r = &mut go => return r.is_ok(),
                 _ = tokio::time::sleep(Duration::from_millis(20)) => {}
             }
         }
+        false
     })
     .await;
     if warm != Ok(true) {
@@ -316,6 +325,23 @@ async fn f1(bench_exe: &Path, n: usize, window: Duration) -> Result<Row, String>
         top.shutdown().await;
         return Err("the topside never heard the publisher".into());
     }
+    // Then until it has heard every vehicle and declared its key: the window measures the fleet
+    // in flight, and how long a whole fleet took to appear is said apart.
+    let appearing = std::time::Instant::now();
+    let all = tokio::time::timeout(Duration::from_secs(30), async {
+        while top.declared_keys() < n as u64 {
+            tokio::time::sleep(Duration::from_millis(20)).await;
+        }
+    })
+    .await;
+    let appeared = appearing.elapsed();
+    if all.is_err() {
+        let declared = top.declared_keys();
+        top.shutdown().await;
+        return Err(format!(
+            "the topside declared {declared} of {n} vehicles' keys within 30 s"
+        ));
+    }
     *hist.lock().unwrap_or_else(|p| p.into_inner()) = (Hist::new(), 0);
     let me = std::process::id();
     let child = publisher.child.id();
@@ -364,9 +390,10 @@ async fn f1(bench_exe: &Path, n: usize, window: Duration) -> Result<Row, String>
         &format!("{F1} (N = {n})"),
         &h,
         format!(
-            "{n} platforms × 10 Hz for {secs:.1} s: sent {sent}, put errors {errors}, taken in {received}; topside {}, {rss}; the publishers (a child process) {}",
+            "{n} platforms × 10 Hz for {secs:.1} s: sent {sent}, put errors {errors}, taken in {received}; topside {}, {rss}; the publishers (a child process) {}; before the window, every vehicle heard and its key declared within {:.2} s",
             pct(topside_cpu),
             pct(publisher_cpu),
+            appeared.as_secs_f64(),
         ),
         sent as usize,
         sent.saturating_sub(received) as usize,
@@ -376,6 +403,7 @@ async fn f1(bench_exe: &Path, n: usize, window: Duration) -> Result<Row, String>
         m.insert("topside_cpu_percent".into(), json!(topside_cpu));
         m.insert("publishers_cpu_percent".into(), json!(publisher_cpu));
         m.insert("topside_rss_kib".into(), json!(rss1));
+        m.insert("appeared_s".into(), json!(appeared.as_secs_f64()));
     }
     Ok(row)
 }

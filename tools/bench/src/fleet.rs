@@ -3,8 +3,9 @@
 //! [`PUBLISHER_ENV`]), reaching the topside's fleet model in this process (latency from the put,
 //! stamped in NodeStatus.time, to the model taking it in; CPU and RSS of this process, which
 //! runs the topside and nothing else meanwhile, and the child's CPU apart). F2 — the simulator
-//! with 1000 vehicles at 10 Hz (frontseat_sim::capacity_bench: CPU, tick lateness). F1 also runs
-//! at F2's fleet size, so the topside is measured with the fleet the simulator flies.
+//! with 1000 vehicles at 10 Hz (frontseat_sim::capacity_bench: CPU, tick lateness). The full
+//! run also measures F1 at F2's fleet size, so the topside is measured with the fleet the
+//! simulator flies.
 
 use std::io::{BufRead, BufReader, Write};
 use std::path::Path;
@@ -276,11 +277,12 @@ pub async fn run(plan: Plan, bench_exe: &Path, want_f1: bool, want_f2: bool) -> 
     rows
 }
 
-/// F1's fleet sizes: the plan's, and F2's own when it is larger, so that the topside is measured
-/// with the fleet the simulator is (1 000 in the full run, 100 in `--quick`).
+/// F1's fleet sizes: the plan's, and F2's own when the plan measures several sizes and F2's is
+/// larger, so that a run that measures how the topside scales goes on to the fleet the
+/// simulator flies (1 000). `--quick` measures one size (one row per id) and stays at it.
 fn f1_fleets(plan: &Plan) -> Vec<usize> {
     let mut fleets = plan.f1_fleets.to_vec();
-    if fleets.iter().all(|&n| n < plan.f2_vehicles) {
+    if fleets.len() > 1 && fleets.iter().all(|&n| n < plan.f2_vehicles) {
         fleets.push(plan.f2_vehicles);
     }
     fleets

@@ -7,9 +7,9 @@
 //! run also measures F1 at F2's fleet size, so the topside is measured with the fleet the
 //! simulator flies.
 
-use std::io::{BufRead, BufReader, Write};
+use std::io::{BufRead, Write};
 use std::path::Path;
-use std::process::{Child, Command, ExitCode, Stdio};
+use std::process::ExitCode;
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, SystemTime, UNIX_EPOCH};
 
@@ -203,64 +203,6 @@ async fn publish(port: u16, n: usize, window: Duration) -> Result<(), String> {
     Ok(())
 }
 
-/// The publishing child, killed when dropped; its stdout lines arrive on `lines`.
-struct Publisher {
-    child: Child,
-    lines: tokio::sync::mpsc::UnboundedReceiver<String>,
-}
-
-impl Drop for Publisher {
-    fn drop(&mut self) {
-        let _ = self.child.kill();
-        let _ = self.child.wait();
-    }
-}
-
-impl Publisher {
-    fn spawn(bench_exe: &Path, port: u16, n: usize, window: Duration) -> Result<Self, String> {
-        let mut child = Command::new(bench_exe)
-            .env(PUBLISHER_ENV, format!("{port} {n} {}", window.as_millis()))
-            .env_remove("OTEL_EXPORTER_OTLP_ENDPOINT")
-            .stdin(Stdio::piped())
-            .stdout(Stdio::piped())
-            .stderr(Stdio::inherit())
-            .spawn()
-            .map_err(|e| format!("spawning the F1 publisher {}: {e}", bench_exe.display()))?;
-        let (tx, lines) = tokio::sync::mpsc::unbounded_channel();
-        if let Some(out) = child.stdout.take() {
-            std::thread::spawn(move || {
-                for line in BufReader::new(out).lines() {
-                    let Ok(line) = line else { return };
-                    if tx.send(line).is_err() {
-                        return;
-                    }
-                }
-            });
-        }
-        Ok(Self { child, lines })
-    }
-
-    async fn line(&mut self, within: Duration) -> Result<String, String> {
-        match tokio::time::timeout(within, self.lines.recv()).await {
-            Ok(Some(l)) => Ok(l),
-            Ok(None) => Err("the F1 publisher ended early".into()),
-            Err(_) => Err(format!("the F1 publisher said nothing within {within:?}")),
-        }
-    }
-
-    fn go(&mut self) -> Result<(), String> {
-        let stdin = self
-            .child
-            .stdin
-            .as_mut()
-            .ok_or("the F1 publisher has no stdin")?;
-        stdin
-            .write_all(b"go\n")
-            .and_then(|()| stdin.flush())
-            .map_err(|e| format!("the F1 publisher: {e}"))
-    }
-}
-
 pub async fn run(plan: Plan, bench_exe: &Path, want_f1: bool, want_f2: bool) -> Vec<Row> {
     let mut rows = Vec::new();
     if want_f1 {
@@ -290,7 +232,12 @@ fn f1_fleets(plan: &Plan) -> Vec<usize> {
 
 async fn f1(bench_exe: &Path, n: usize, window: Duration) -> Result<Row, String> {
     let port = super::procs::free_port()?;
-    let mut publisher = Publisher::spawn(bench_exe, port, n, window)?;
+    let mut publisher = super::procs::RoleChild::spawn(
+        bench_exe,
+        PUBLISHER_ENV,
+        format!("{port} {n} {}", window.as_millis()),
+        "the F1 publisher",
+    )?;
     let said = publisher.line(Duration::from_secs(10)).await?;
     if said != "listening" {
         return Err(format!("the F1 publisher said {said:?}"));
@@ -346,7 +293,7 @@ async fn f1(bench_exe: &Path, n: usize, window: Duration) -> Result<Row, String>
     }
     *hist.lock().unwrap_or_else(|p| p.into_inner()) = (Hist::new(), 0);
     let me = std::process::id();
-    let child = publisher.child.id();
+    let child = publisher.pid();
     let (cpu0, child0) = (super::procs::cpu_time(me), super::procs::cpu_time(child));
     let rss0 = rss_kib();
     let t0 = std::time::Instant::now();

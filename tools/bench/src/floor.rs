@@ -576,65 +576,6 @@ async fn l4_put(port: u16, count: usize, rate_hz: f64) -> Result<(), String> {
     Ok(())
 }
 
-/// L4's child, killed when dropped; its stdout lines arrive on `lines`.
-struct Peer {
-    child: std::process::Child,
-    lines: tokio::sync::mpsc::UnboundedReceiver<String>,
-}
-
-impl Drop for Peer {
-    fn drop(&mut self) {
-        let _ = self.child.kill();
-        let _ = self.child.wait();
-    }
-}
-
-impl Peer {
-    fn spawn(bench_exe: &Path, spec: String) -> Result<Self, String> {
-        use std::process::{Command, Stdio};
-        let mut child = Command::new(bench_exe)
-            .env(L4_PEER_ENV, spec)
-            .env_remove("OTEL_EXPORTER_OTLP_ENDPOINT")
-            .stdin(Stdio::piped())
-            .stdout(Stdio::piped())
-            .stderr(Stdio::inherit())
-            .spawn()
-            .map_err(|e| format!("spawning the L4 peer {}: {e}", bench_exe.display()))?;
-        let (tx, lines) = tokio::sync::mpsc::unbounded_channel();
-        if let Some(out) = child.stdout.take() {
-            std::thread::spawn(move || {
-                for line in std::io::BufReader::new(out).lines() {
-                    let Ok(line) = line else { return };
-                    if tx.send(line).is_err() {
-                        return;
-                    }
-                }
-            });
-        }
-        Ok(Self { child, lines })
-    }
-
-    async fn line(&mut self, within: Duration) -> Result<String, String> {
-        match tokio::time::timeout(within, self.lines.recv()).await {
-            Ok(Some(l)) => Ok(l),
-            Ok(None) => Err("the L4 peer ended early".into()),
-            Err(_) => Err(format!("the L4 peer said nothing within {within:?}")),
-        }
-    }
-
-    fn go(&mut self) -> Result<(), String> {
-        let stdin = self
-            .child
-            .stdin
-            .as_mut()
-            .ok_or("the L4 peer has no stdin")?;
-        stdin
-            .write_all(b"go\n")
-            .and_then(|()| stdin.flush())
-            .map_err(|e| format!("the L4 peer: {e}"))
-    }
-}
-
 /// Measures L4: `count` node_status put at `rate_hz` by a child process whose Zenoh session is
 /// configured as the interface's gateway (peer, listening on loopback), taken by a Zenoh client
 /// session here (as Z1's) whose subscriber callback stamps it: Z1's last hop with nothing in
@@ -648,7 +589,12 @@ pub async fn run_l4(bench_exe: &Path, count: usize, rate_hz: f64) -> Row {
 
 async fn l4(bench_exe: &Path, count: usize, rate_hz: f64) -> Result<Row, String> {
     let port = super::procs::free_port()?;
-    let mut peer = Peer::spawn(bench_exe, format!("{port} {count} {rate_hz}"))?;
+    let mut peer = super::procs::RoleChild::spawn(
+        bench_exe,
+        L4_PEER_ENV,
+        format!("{port} {count} {rate_hz}"),
+        "the L4 peer",
+    )?;
     let said = peer.line(Duration::from_secs(20)).await?;
     if said != "listening" {
         return Err(format!("the L4 peer said {said:?}"));

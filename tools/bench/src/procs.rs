@@ -302,3 +302,75 @@ async fn run_inner(
     drop(sim);
     Ok(vec![p4, p5])
 }
+
+/// The bench's own executable as a helper in another process (the role chosen by `env` =
+/// `spec`): killed when dropped; it says what it is ready for, waits for `go` on its stdin, and
+/// its stdout lines arrive on [`RoleChild::line`]. L4's Zenoh peer and F1's publishers.
+pub(super) struct RoleChild {
+    child: Child,
+    lines: UnboundedReceiver<String>,
+    role: &'static str,
+}
+
+impl Drop for RoleChild {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+impl RoleChild {
+    pub(super) fn spawn(
+        bench_exe: &Path,
+        env: &str,
+        spec: String,
+        role: &'static str,
+    ) -> Result<Self, String> {
+        let mut child = Command::new(bench_exe)
+            .env(env, spec)
+            .env_remove("OTEL_EXPORTER_OTLP_ENDPOINT")
+            .stdin(Stdio::piped())
+            .stdout(Stdio::piped())
+            .stderr(Stdio::inherit())
+            .spawn()
+            .map_err(|e| format!("spawning {role} {}: {e}", bench_exe.display()))?;
+        let (tx, lines) = unbounded_channel();
+        if let Some(out) = child.stdout.take() {
+            std::thread::spawn(move || {
+                for line in BufReader::new(out).lines() {
+                    let Ok(line) = line else { return };
+                    if tx.send(line).is_err() {
+                        return;
+                    }
+                }
+            });
+        }
+        Ok(Self { child, lines, role })
+    }
+
+    pub(super) async fn line(&mut self, within: Duration) -> Result<String, String> {
+        match tokio::time::timeout(within, self.lines.recv()).await {
+            Ok(Some(l)) => Ok(l),
+            Ok(None) => Err(format!("{} ended early", self.role)),
+            Err(_) => Err(format!("{} said nothing within {within:?}", self.role)),
+        }
+    }
+
+    pub(super) fn go(&mut self) -> Result<(), String> {
+        use std::io::Write as _;
+        let role = self.role;
+        let stdin = self
+            .child
+            .stdin
+            .as_mut()
+            .ok_or_else(|| format!("{role} has no stdin"))?;
+        stdin
+            .write_all(b"go\n")
+            .and_then(|()| stdin.flush())
+            .map_err(|e| format!("{role}: {e}"))
+    }
+
+    pub(super) fn pid(&self) -> u32 {
+        self.child.id()
+    }
+}

@@ -27,6 +27,7 @@ use crate::codec::{
     banner_ok, begin_packet, finish_packet,
 };
 use crate::error::{MoosError, Result};
+use crate::sock::write_shared;
 use crate::time::moos_time;
 
 /// Broker configuration.
@@ -258,19 +259,6 @@ impl Outbound {
             }
         }
     }
-}
-
-/// `write_all` on a write half shared with direct writes.
-async fn write_shared(wr: &OwnedWriteHalf, mut buf: &[u8]) -> std::io::Result<()> {
-    while !buf.is_empty() {
-        match wr.try_write(buf) {
-            Ok(0) => return Err(std::io::ErrorKind::WriteZero.into()),
-            Ok(n) => buf = &buf[n..],
-            Err(e) if e.kind() == std::io::ErrorKind::WouldBlock => wr.writable().await?,
-            Err(e) => return Err(e),
-        }
-    }
-    Ok(())
 }
 
 #[derive(Default)]

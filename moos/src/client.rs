@@ -27,6 +27,7 @@ use crate::codec::{
     handshake_message, parse_handshake_reply, timing_message,
 };
 use crate::error::{MoosError, Result};
+use crate::sock::write_shared;
 use crate::time::moos_time;
 
 /// Room kept in every packet for a TIMING message and a NULL held-mail poll.
@@ -400,28 +401,11 @@ impl MoosClient {
     /// does (pHelmIvP posts its DESIRED_* of one iteration together): queued under one lock, so
     /// the writer takes them together. Stamped with one MOOS time (`None` = now).
     pub fn notify_doubles(&self, values: &[(&str, f64)], time: Option<f64>) -> Result<()> {
-        let sh = self.shared();
-        let name = sh.cfg.name.as_str();
-        let time = time.unwrap_or_else(|| sh.now());
-        let mut fields = Vec::with_capacity(values.len());
-        for (key, v) in values {
-            check_key(key)?;
-            fields.push(Fields::notify_double(name, key, *v, time));
-        }
-        let mut st = sh.lock();
-        if st.closed {
-            return Err(MoosError::Shutdown);
-        }
-        for f in fields {
-            let b = st.encode(f)?;
-            if st.outbox.len() >= sh.cfg.queue_limit {
-                st.outbox.pop_front();
-                inc(&sh.counters.dropped_queue_full);
-            }
-            st.outbox.push_back(b);
-        }
-        sh.send_queued(st);
-        Ok(())
+        let values: Vec<(&str, MoosValue<'_>)> = values
+            .iter()
+            .map(|&(key, v)| (key, MoosValue::Double(v)))
+            .collect();
+        self.notify_values(&values, time)
     }
 
     /// Post values of any type so that they leave in the same packet, as one application
@@ -460,6 +444,7 @@ impl MoosClient {
             if st.outbox.len() >= sh.cfg.queue_limit {
                 st.outbox.pop_front();
                 inc(&sh.counters.dropped_queue_full);
+                debug!("moos send queue full: dropped the oldest notification");
             }
             st.outbox.push_back(b);
         }
@@ -485,35 +470,12 @@ impl MoosClient {
         bytes: &[u8],
         time: Option<f64>,
     ) -> Result<()> {
-        check_key(key)?;
-        let sh = self.shared();
-        let name = sh.cfg.name.as_str();
-        let time = time.unwrap_or_else(|| sh.now());
-        let f = match data_type {
-            DataType::Double => Fields::notify_double(name, key, double_val, time),
-            DataType::Binary => Fields::notify_binary(name, key, bytes, time),
-            _ => Fields::notify_string(name, key, bytes, time),
+        let value = match data_type {
+            DataType::Double => MoosValue::Double(double_val),
+            DataType::Binary => MoosValue::Binary(bytes),
+            _ => MoosValue::String(bytes),
         };
-        let len = f.encoded_len();
-        if len + HEADROOM > sh.cfg.max_packet {
-            return Err(MoosError::MessageTooLarge {
-                len,
-                max: sh.cfg.max_packet - HEADROOM,
-            });
-        }
-        let mut st = sh.lock();
-        if st.closed {
-            return Err(MoosError::Shutdown);
-        }
-        let b = st.encode(f)?;
-        if st.outbox.len() >= sh.cfg.queue_limit {
-            st.outbox.pop_front();
-            inc(&sh.counters.dropped_queue_full);
-            debug!(key, "moos send queue full: dropped the oldest notification");
-        }
-        st.outbox.push_back(b);
-        sh.send_queued(st);
-        Ok(())
+        self.notify_values(&[(key, value)], time)
     }
 
     /// Subscribe to `key`, receiving at most one update per `interval` seconds (0 = every write).
@@ -731,19 +693,6 @@ async fn session(
         r = read_loop(shared, rd, rbuf, events) => r,
         w = write_loop(shared, &wr, stop) => w,
     }
-}
-
-/// `write_all` on a write half shared with the posting threads' direct writes.
-async fn write_shared(wr: &OwnedWriteHalf, mut buf: &[u8]) -> std::io::Result<()> {
-    while !buf.is_empty() {
-        match wr.try_write(buf) {
-            Ok(0) => return Err(std::io::ErrorKind::WriteZero.into()),
-            Ok(n) => buf = &buf[n..],
-            Err(e) if e.kind() == std::io::ErrorKind::WouldBlock => wr.writable().await?,
-            Err(e) => return Err(e),
-        }
-    }
-    Ok(())
 }
 
 async fn read_loop(

@@ -8,6 +8,7 @@ pub mod client;
 pub mod codec;
 pub mod error;
 pub mod hops;
+mod sock;
 pub mod time;
 
 pub use broker::{Broker, BrokerConfig, BrokerCounters, BrokerHandle};

@@ -7,7 +7,7 @@
 //! run also measures F1 at F2's fleet size, so the topside is measured with the fleet the
 //! simulator flies.
 
-use std::io::{BufRead, Write};
+use std::io::Write;
 use std::path::Path;
 use std::process::ExitCode;
 use std::sync::{Arc, Mutex};
@@ -19,9 +19,7 @@ use frontseat_actors::proto::goby::middleware::frontseat::protobuf::{
     CartesianCoordinate, NodeStatus,
 };
 use frontseat_helm_side::key_for;
-use frontseat_helm_side::zenoh::{
-    self, Wait as _, bytes::Encoding, qos::CongestionControl, sample::Locality,
-};
+use frontseat_helm_side::zenoh::Wait as _;
 use frontseat_topside::{Topside, TopsideConfig};
 use serde_json::json;
 
@@ -76,67 +74,24 @@ pub fn publisher_main(spec: &str) -> ExitCode {
         eprintln!("{PUBLISHER_ENV}: expected `<port> <vehicles> <window_ms>`, got {spec:?}");
         return ExitCode::from(2);
     };
-    let rt = match tokio::runtime::Builder::new_multi_thread()
-        .enable_all()
-        .build()
-    {
-        Ok(rt) => rt,
-        Err(e) => {
-            eprintln!("cannot start the async runtime: {e}");
-            return ExitCode::from(1);
-        }
-    };
-    match rt.block_on(publish(
-        port as u16,
-        n as usize,
-        Duration::from_millis(window_ms),
-    )) {
-        Ok(()) => ExitCode::SUCCESS,
-        Err(e) => {
-            eprintln!("F1 publisher: {e}");
-            ExitCode::from(1)
-        }
-    }
+    super::procs::role_main(
+        "F1 publisher",
+        publish(port as u16, n as usize, Duration::from_millis(window_ms)),
+    )
 }
 
 async fn publish(port: u16, n: usize, window: Duration) -> Result<(), String> {
-    let ip = frontseat_config::InterprocessConfig {
-        enabled: true,
-        listen: vec![format!("tcp/127.0.0.1:{port}")],
-        ..Default::default()
-    };
-    let zcfg = frontseat_helm_side::zenoh_config(&ip, frontseat_helm_side::DEFAULT_MAX_PAYLOAD)
-        .map_err(|e| e.to_string())?;
-    let vehicles = zenoh::open(zcfg).await.map_err(|e| e.to_string())?;
-    let (go_tx, mut go) = tokio::sync::oneshot::channel::<()>();
-    std::thread::spawn(move || {
-        let mut line = String::new();
-        if std::io::stdin().lock().read_line(&mut line).is_ok() && line.trim() == "go" {
-            let _ = go_tx.send(());
-        }
-    });
-    println!("listening");
-    let _ = std::io::stdout().flush();
-    // One declared publisher per vehicle, with the options the interface's gateway declares its
-    // exports with (helm_side's `start_on`): a fleet's node_status reaches the topside as each
-    // vehicle's gateway sends it, its key declared once rather than spelled out in every put.
-    let type_name = groups::GOBY_MIDDLEWARE_FRONTSEAT_NODE_STATUS.type_name();
+    let vehicles = super::procs::gateway_session(port).await?;
+    let go = super::procs::listening();
+    // One declared publisher per vehicle, as each vehicle's gateway declares its export: a
+    // fleet's node_status reaches the topside as each vehicle's gateway sends it.
     let mut publishers = Vec::with_capacity(n);
     for i in 0..n {
         let key = key_for(
             &format!("v{i}"),
             groups::GOBY_MIDDLEWARE_FRONTSEAT_NODE_STATUS.name(),
         );
-        let p = vehicles
-            .declare_publisher(key)
-            .encoding(Encoding::from(frontseat_helm_side::wire::encoding_for(
-                type_name,
-            )))
-            .congestion_control(CongestionControl::Block)
-            .allowed_destination(Locality::Remote)
-            .await
-            .map_err(|e| e.to_string())?;
-        publishers.push(p);
+        publishers.push(super::procs::node_status_publisher(&vehicles, key).await?);
     }
     // Round `k` of vehicle `i`; a warm-up put (`None`) has y = -1, which the bench leaves out
     // (one still in flight when the window opens would otherwise count as taken in).
@@ -164,10 +119,12 @@ async fn publish(port: u16, n: usize, window: Duration) -> Result<(), String> {
             } else {
                 let _ = publish(0, None);
             }
-            tokio::select! {
-                r = &mut go => return r.is_ok(),
-                _ = tokio::time::sleep(Duration::from_millis(20)) => {}
+            match go.try_recv() {
+                Ok(()) => return true,
+                Err(std::sync::mpsc::TryRecvError::Disconnected) => return false,
+                Err(std::sync::mpsc::TryRecvError::Empty) => {}
             }
+            tokio::time::sleep(Duration::from_millis(20)).await;
         }
         false
     })

@@ -11,7 +11,7 @@
 //! ratio over its own floor ([`floor_of`]): only the ratios compare between runs, and a row is
 //! never compared with a cheaper wake-up than its own last hop has.
 
-use std::io::{BufRead as _, Write as _};
+use std::io::Write as _;
 use std::net::{Ipv4Addr, TcpStream};
 use std::path::Path;
 use std::process::ExitCode;
@@ -474,58 +474,14 @@ pub fn l4_peer_main(spec: &str) -> ExitCode {
         eprintln!("{L4_PEER_ENV}: expected `<port> <count> <rate_hz>`, got {spec:?}");
         return ExitCode::from(2);
     };
-    let rt = match tokio::runtime::Builder::new_multi_thread()
-        .enable_all()
-        .build()
-    {
-        Ok(rt) => rt,
-        Err(e) => {
-            eprintln!("cannot start the async runtime: {e}");
-            return ExitCode::from(1);
-        }
-    };
-    match rt.block_on(l4_put(port as u16, count as usize, rate_hz)) {
-        Ok(()) => ExitCode::SUCCESS,
-        Err(e) => {
-            eprintln!("L4 peer: {e}");
-            ExitCode::from(1)
-        }
-    }
+    super::procs::role_main("L4 peer", l4_put(port as u16, count as usize, rate_hz))
 }
 
 async fn l4_put(port: u16, count: usize, rate_hz: f64) -> Result<(), String> {
-    use frontseat_helm_side::zenoh::{
-        Wait as _, bytes::Encoding, qos::CongestionControl, sample::Locality,
-    };
-    let ip = frontseat_config::InterprocessConfig {
-        enabled: true,
-        listen: vec![format!("tcp/127.0.0.1:{port}")],
-        ..Default::default()
-    };
-    let zcfg = frontseat_helm_side::zenoh_config(&ip, frontseat_helm_side::DEFAULT_MAX_PAYLOAD)
-        .map_err(|e| e.to_string())?;
-    let session = frontseat_helm_side::zenoh::open(zcfg)
-        .await
-        .map_err(|e| e.to_string())?;
-    let type_name = frontseat_actors::groups::GOBY_MIDDLEWARE_FRONTSEAT_NODE_STATUS.type_name();
-    let publisher = session
-        .declare_publisher(l4_key())
-        .encoding(Encoding::from(frontseat_helm_side::wire::encoding_for(
-            type_name,
-        )))
-        .congestion_control(CongestionControl::Block)
-        .allowed_destination(Locality::Remote)
-        .await
-        .map_err(|e| e.to_string())?;
-    let (go_tx, go_rx) = std::sync::mpsc::channel::<()>();
-    std::thread::spawn(move || {
-        let mut line = String::new();
-        if std::io::stdin().lock().read_line(&mut line).is_ok() && line.trim() == "go" {
-            let _ = go_tx.send(());
-        }
-    });
-    println!("listening");
-    let _ = std::io::stdout().flush();
+    use frontseat_helm_side::zenoh::Wait as _;
+    let session = super::procs::gateway_session(port).await?;
+    let publisher = super::procs::node_status_publisher(&session, l4_key()).await?;
+    let go_rx = super::procs::listening();
     let putting = tokio::task::spawn_blocking(move || -> Result<(usize, usize), String> {
         // Warm up until the bench has heard one (its session must connect and subscribe first).
         let deadline = Instant::now() + Duration::from_secs(30);

@@ -374,3 +374,80 @@ impl RoleChild {
         self.child.id()
     }
 }
+
+/// The child side of a [`RoleChild`]: runs `body` on a runtime of its own; its error goes to
+/// stderr, where the bench's own stderr shows it.
+pub fn role_main(
+    role: &str,
+    body: impl std::future::Future<Output = Result<(), String>>,
+) -> std::process::ExitCode {
+    let rt = match tokio::runtime::Builder::new_multi_thread()
+        .enable_all()
+        .build()
+    {
+        Ok(rt) => rt,
+        Err(e) => {
+            eprintln!("cannot start the async runtime: {e}");
+            return std::process::ExitCode::from(1);
+        }
+    };
+    match rt.block_on(body) {
+        Ok(()) => std::process::ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("{role}: {e}");
+            std::process::ExitCode::from(1)
+        }
+    }
+}
+
+/// The child side: says `listening` on stdout; the parent's `go` (a line on stdin) arrives on
+/// the receiver (which closes when stdin says anything else or ends).
+pub(super) fn listening() -> std::sync::mpsc::Receiver<()> {
+    use std::io::Write as _;
+    let (go_tx, go) = std::sync::mpsc::channel();
+    std::thread::spawn(move || {
+        let mut line = String::new();
+        if std::io::stdin().lock().read_line(&mut line).is_ok() && line.trim() == "go" {
+            let _ = go_tx.send(());
+        }
+    });
+    println!("listening");
+    let _ = std::io::stdout().flush();
+    go
+}
+
+/// A Zenoh session opened as the interface's gateway opens its own: a peer listening on
+/// 127.0.0.1:`port`, with the gateway's payload bound.
+pub(super) async fn gateway_session(
+    port: u16,
+) -> Result<frontseat_helm_side::zenoh::Session, String> {
+    let ip = frontseat_config::InterprocessConfig {
+        enabled: true,
+        listen: vec![format!("tcp/127.0.0.1:{port}")],
+        ..Default::default()
+    };
+    let zcfg = frontseat_helm_side::zenoh_config(&ip, frontseat_helm_side::DEFAULT_MAX_PAYLOAD)
+        .map_err(|e| e.to_string())?;
+    frontseat_helm_side::zenoh::open(zcfg)
+        .await
+        .map_err(|e| e.to_string())
+}
+
+/// A node_status publisher on `key`, declared with the options the gateway declares its exports
+/// with (helm_side's `start_on`).
+pub(super) async fn node_status_publisher(
+    session: &frontseat_helm_side::zenoh::Session,
+    key: String,
+) -> Result<frontseat_helm_side::zenoh::pubsub::Publisher<'static>, String> {
+    use frontseat_helm_side::zenoh::{bytes::Encoding, qos::CongestionControl, sample::Locality};
+    let type_name = frontseat_actors::groups::GOBY_MIDDLEWARE_FRONTSEAT_NODE_STATUS.type_name();
+    session
+        .declare_publisher(key)
+        .encoding(Encoding::from(frontseat_helm_side::wire::encoding_for(
+            type_name,
+        )))
+        .congestion_control(CongestionControl::Block)
+        .allowed_destination(Locality::Remote)
+        .await
+        .map_err(|e| e.to_string())
+}
